@@ -1,0 +1,55 @@
+// linelight prelude: prepended to every method kernel (built-in or --kernel FILE).
+// It holds what the published listings take for granted: PI, the scene, the global
+// `Minv` and `D(w)` of Listing 1.10, and the basis of Listing 1.3.
+// Names starting with `ll_` are reserved for the harness.
+
+const PI: f32 = 3.14159265358979323846;
+
+// One configuration in the shading frame (origin = shading point, normal = +z).
+// std430, 96 bytes: must match `GpuScene` in src/scene.rs.
+struct Scene {
+    p1: vec3<f32>,
+    radius: f32,          // 0 when the configuration has no radius
+    p2: vec3<f32>,
+    rect_width: f32,      // 0 when the configuration has no rectangle
+    rect_normal: vec3<f32>,
+    flags: u32,           // FLAG_* below
+    minv: mat3x3<f32>,    // M⁻¹, ω_o = minv * ω; the identity for the diffuse material
+}
+
+const FLAG_LTC: u32 = 1u;
+const FLAG_RADIUS: u32 = 2u;
+const FLAG_RECT: u32 = 4u;
+
+// The listings' global `mat3 Minv;`, set by the harness entry point before `method`.
+var<private> Minv: mat3x3<f32>;
+
+// Listing 1.10: LTC evaluation (with Minv = I it is the diffuse distribution).
+fn D(w: vec3<f32>) -> f32 {
+    let wo = Minv * w;
+    let lo = length(wo);
+    let res = 1.0 / PI * max(0.0, wo.z / lo) * abs(determinant(Minv)) / (lo * lo * lo);
+    return res;
+}
+
+// Listing 1.3: orthonormal basis from a unit vector [Frisvad 12].
+fn buildOrthonormalBasis(n: vec3<f32>, b1: ptr<function, vec3<f32>>, b2: ptr<function, vec3<f32>>) {
+    if (n.z < -0.9999999) {
+        *b1 = vec3<f32>(0.0, -1.0, 0.0);
+        *b2 = vec3<f32>(-1.0, 0.0, 0.0);
+        return;
+    }
+    let a = 1.0 / (1.0 + n.z);
+    let b = -n.x * n.y * a;
+    *b1 = vec3<f32>(1.0 - n.x * n.x * a, b, -n.x);
+    *b2 = vec3<f32>(b, 1.0 - n.y * n.y * a, -n.y);
+}
+
+// GLSL's inverse(mat3), which WGSL lacks: adjugate over determinant.
+fn inverse3(m: mat3x3<f32>) -> mat3x3<f32> {
+    let c0 = cross(m[1], m[2]);
+    let c1 = cross(m[2], m[0]);
+    let c2 = cross(m[0], m[1]);
+    let det = dot(m[0], c0);
+    return transpose(mat3x3<f32>(c0, c1, c2)) * (1.0 / det);
+}

@@ -1,0 +1,333 @@
+//! A case file (`cases/*.toml`): the distributions, seed, materials, methods, bin axes,
+//! comparisons and tolerances of one sweep (DESIGN §5). Unknown keys are errors.
+
+use crate::target::Target;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// A one-dimensional distribution of a dimensionless parameter.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(tag = "dist", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Dist {
+    Fixed { value: f64 },
+    Uniform { min: f64, max: f64 },
+    LogUniform { min: f64, max: f64 },
+}
+
+impl Dist {
+    fn check(&self, name: &str) -> Result<(), String> {
+        match *self {
+            Dist::Fixed { value } if !value.is_finite() => Err(format!("{name}: value must be finite")),
+            Dist::Uniform { min, max } if !(min.is_finite() && max.is_finite() && min <= max) => {
+                Err(format!("{name}: need finite min <= max, got [{min}, {max}]"))
+            }
+            Dist::LogUniform { min, max } if !(min > 0.0 && max.is_finite() && min <= max) => {
+                Err(format!("{name}: log_uniform needs 0 < min <= max, got [{min}, {max}]"))
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Where the segment is, in units of its distance d to the shading point.
+/// The foot point p_o (closest point of the infinite line) is at distance `distance`,
+/// `elevation` degrees above the horizon, `azimuth` degrees around the normal; the
+/// tangent makes angle `tilt_angle` (degrees) with the horizontal direction in the plane
+/// perpendicular to p_o; the segment has length `length`·d and its midpoint sits at
+/// abscissa `center`·d from p_o along the tangent.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Geometry {
+    #[serde(default = "one")]
+    pub distance: Dist,
+    pub elevation: Dist,
+    #[serde(default = "full_turn")]
+    pub azimuth: Dist,
+    pub tilt_angle: Dist,
+    pub length: Dist,
+    pub center: Dist,
+    /// Tube radius over d (targets cylinder, caps, tube).
+    #[serde(default)]
+    pub radius: Option<Dist>,
+    /// Rectangle width over d, and the angle (degrees) of its normal about the tangent.
+    #[serde(default)]
+    pub rect_width: Option<Dist>,
+    #[serde(default)]
+    pub rect_angle: Option<Dist>,
+}
+
+fn one() -> Dist {
+    Dist::Fixed { value: 1.0 }
+}
+fn full_turn() -> Dist {
+    Dist::Uniform { min: 0.0, max: 360.0 }
+}
+
+/// A material family to sample. LTC lobes are drawn as
+/// `M⁻¹ = [[aspect/alpha, 0, -aspect/alpha·tan(peak)], [0, 1/alpha, 0], [shear, 0, 1]]`
+/// (the isotropic-GGX sparsity, lobe peak `peak` degrees off the normal); `ltc_full`
+/// then rotates it about the normal by `rotation` degrees (an anisotropic lobe turned
+/// against the light, as in seed 004), which fills every entry.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialFamily {
+    pub name: String,
+    pub kind: MaterialKind,
+    pub count: usize,
+    #[serde(default)]
+    pub alpha: Option<Dist>,
+    #[serde(default)]
+    pub aspect: Option<Dist>,
+    #[serde(default)]
+    pub peak: Option<Dist>,
+    #[serde(default)]
+    pub shear: Option<Dist>,
+    #[serde(default)]
+    pub rotation: Option<Dist>,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum MaterialKind {
+    Diffuse,
+    LtcSparse,
+    LtcFull,
+}
+
+/// One bin axis: a derived parameter of each configuration and the bin edges.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BinAxis {
+    pub axis: String,
+    pub edges: Vec<f64>,
+}
+
+/// Thresholds a method must meet for the verdict, on each material's whole sample
+/// (relative error of the f32 result; `nan` counts NaN and ±inf together).
+#[derive(Clone, Debug, Default, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tolerance {
+    pub median: Option<f64>,
+    pub p99: Option<f64>,
+    pub max: Option<f64>,
+    #[serde(default)]
+    pub nan: Option<u64>,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Case {
+    pub name: String,
+    pub title: String,
+    pub seed: u64,
+    /// Hand-written reasoning shown at the top of the report, above the measured findings.
+    #[serde(default)]
+    pub notes: String,
+    pub methods: Vec<String>,
+    pub geometry: Geometry,
+    pub materials: Vec<MaterialFamily>,
+    #[serde(default)]
+    pub bins: Vec<BinAxis>,
+    /// Pairs of methods whose results are compared configuration by configuration.
+    #[serde(default)]
+    pub compare: Vec<[String; 2]>,
+    #[serde(default)]
+    pub tolerances: BTreeMap<String, Tolerance>,
+    /// Absolute floor of the relative error's denominator, per target, in units where d = 1.
+    #[serde(default)]
+    pub error_floor: BTreeMap<String, f64>,
+}
+
+/// Derived parameters a bin axis can name.
+pub const AXES: &[&str] = &[
+    "length",
+    "center",
+    "elevation",
+    "tilt",
+    "alpha",
+    "reach_o",
+    "radius",
+    "width",
+];
+
+impl Case {
+    pub fn load(path: &Path) -> anyhow::Result<Case> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| anyhow::anyhow!("cannot read case file {}: {e}", path.display()))?;
+        Case::parse(&path.display().to_string(), &text)
+    }
+
+    pub fn parse(path: &str, text: &str) -> anyhow::Result<Case> {
+        let case: Case = toml::from_str(text).map_err(|e| {
+            // toml's message carries the line, column and a caret under the offending key.
+            anyhow::anyhow!("{path}: malformed case file:\n{e}")
+        })?;
+        case.check().map_err(|e| anyhow::anyhow!("{path}: {e}"))?;
+        Ok(case)
+    }
+
+    fn check(&self) -> Result<(), String> {
+        let g = &self.geometry;
+        for (name, d) in [
+            ("geometry.distance", &g.distance),
+            ("geometry.elevation", &g.elevation),
+            ("geometry.azimuth", &g.azimuth),
+            ("geometry.tilt_angle", &g.tilt_angle),
+            ("geometry.length", &g.length),
+            ("geometry.center", &g.center),
+        ] {
+            d.check(name)?;
+        }
+        for (name, d) in [
+            ("geometry.radius", &g.radius),
+            ("geometry.rect_width", &g.rect_width),
+            ("geometry.rect_angle", &g.rect_angle),
+        ] {
+            if let Some(d) = d {
+                d.check(name)?;
+            }
+        }
+        if self.materials.is_empty() {
+            return Err("no [[materials]]".into());
+        }
+        for m in &self.materials {
+            let name = format!("materials `{}`", m.name);
+            if m.count == 0 {
+                return Err(format!("{name}: count must be > 0"));
+            }
+            let lobe = [
+                ("alpha", &m.alpha),
+                ("aspect", &m.aspect),
+                ("peak", &m.peak),
+                ("shear", &m.shear),
+            ];
+            match m.kind {
+                MaterialKind::Diffuse => {
+                    if lobe.iter().any(|(_, d)| d.is_some()) || m.rotation.is_some() {
+                        return Err(format!("{name}: a diffuse material takes no lobe parameters"));
+                    }
+                }
+                MaterialKind::LtcSparse | MaterialKind::LtcFull => {
+                    let alpha = m
+                        .alpha
+                        .as_ref()
+                        .ok_or_else(|| format!("{name}: an LTC material needs `alpha`"))?;
+                    let (Dist::Fixed { value: lowest }
+                    | Dist::Uniform { min: lowest, .. }
+                    | Dist::LogUniform { min: lowest, .. }) = *alpha;
+                    if lowest <= 0.0 {
+                        return Err(format!("{name}: alpha must be > 0"));
+                    }
+                    for (key, d) in lobe {
+                        if let Some(d) = d {
+                            d.check(&format!("{name}.{key}"))?;
+                        }
+                    }
+                    if m.kind == MaterialKind::LtcSparse && m.rotation.is_some() {
+                        return Err(format!("{name}: `rotation` makes M⁻¹ full: use kind = \"ltc_full\""));
+                    }
+                }
+            }
+        }
+        let mut names: Vec<_> = self.materials.iter().map(|m| &m.name).collect();
+        names.sort();
+        names.dedup();
+        if names.len() != self.materials.len() {
+            return Err("material names must be unique".into());
+        }
+        if self.methods.is_empty() {
+            return Err("no methods".into());
+        }
+        for b in &self.bins {
+            if !AXES.contains(&b.axis.as_str()) {
+                return Err(format!("unknown bin axis `{}` (one of {})", b.axis, AXES.join(", ")));
+            }
+            if b.edges.len() < 2 || b.edges.windows(2).any(|w| !(w[0] < w[1])) {
+                return Err(format!(
+                    "bins `{}`: edges must be at least two increasing numbers",
+                    b.axis
+                ));
+            }
+        }
+        for pair in &self.compare {
+            for m in pair {
+                if !self.methods.contains(m) {
+                    return Err(format!("compare names `{m}`, which is not in `methods`"));
+                }
+            }
+        }
+        for m in self.tolerances.keys() {
+            if !self.methods.contains(m) {
+                return Err(format!("tolerances name `{m}`, which is not in `methods`"));
+            }
+        }
+        for t in self.error_floor.keys() {
+            if Target::from_name(t).is_none() {
+                return Err(format!("error_floor names unknown target `{t}`"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The relative-error floor for a target (DESIGN §4); documented in the report.
+    pub fn floor(&self, target: Target) -> f64 {
+        self.error_floor.get(target.name()).copied().unwrap_or(1e-6)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = r#"
+name = "t"
+title = "t"
+seed = 1
+methods = ["line.ltc2023"]
+[geometry]
+elevation = { dist = "uniform", min = 0.0, max = 90.0 }
+tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
+length = { dist = "log_uniform", min = 0.1, max = 10.0 }
+center = { dist = "fixed", value = 0.0 }
+[[materials]]
+name = "diffuse"
+kind = "diffuse"
+count = 10
+"#;
+
+    #[test]
+    fn minimal_case_parses() {
+        let c = Case::parse("t.toml", MINIMAL).unwrap();
+        assert_eq!(c.geometry.distance, Dist::Fixed { value: 1.0 });
+        assert_eq!(c.materials[0].kind, MaterialKind::Diffuse);
+    }
+
+    #[test]
+    fn unknown_field_is_an_error_with_its_line() {
+        let bad = MINIMAL.replace("count = 10", "count = 10\nroughness = 0.5");
+        let e = Case::parse("t.toml", &bad).unwrap_err().to_string();
+        assert!(
+            e.contains("t.toml") && e.contains("roughness") && e.contains("line 15"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn malformed_and_inconsistent_cases_are_rejected() {
+        let e = Case::parse("t.toml", "name = \"x\"\nseed = ").unwrap_err().to_string();
+        assert!(e.contains("malformed") && e.contains("line 2"), "{e}");
+        let bad = MINIMAL.replace("min = 0.1, max = 10.0", "min = 0.0, max = 10.0");
+        assert!(Case::parse("t.toml", &bad)
+            .unwrap_err()
+            .to_string()
+            .contains("geometry.length"));
+        let bad = MINIMAL.replace("kind = \"diffuse\"", "kind = \"ltc_sparse\"");
+        assert!(Case::parse("t.toml", &bad).unwrap_err().to_string().contains("alpha"));
+        let bad = format!("{MINIMAL}\n[[bins]]\naxis = \"nope\"\nedges = [0, 1]\n");
+        assert!(Case::parse("t.toml", &bad)
+            .unwrap_err()
+            .to_string()
+            .contains("unknown bin axis"));
+    }
+}

@@ -1,0 +1,249 @@
+//! The one device every method runs on: Vulkan only, headless, lavapipe by default so
+//! results do not depend on whichever GPU the machine happens to have.
+
+use naga::valid::Capabilities;
+use std::fmt;
+
+/// What the user is told to install when lavapipe is missing.
+const INSTALL_HINT: &str = "linelight runs its kernels on Mesa's lavapipe (a CPU Vulkan driver); \
+on Debian/Ubuntu install it with `apt-get install mesa-vulkan-drivers`";
+
+/// Requested when the adapter has them: timestamps to time dispatches, and the shader
+/// types and operations a kernel may `enable`.
+const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY
+    .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS)
+    .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES)
+    .union(wgpu::Features::SHADER_F16)
+    .union(wgpu::Features::SHADER_F64)
+    .union(wgpu::Features::SHADER_I16)
+    .union(wgpu::Features::SHADER_INT64)
+    .union(wgpu::Features::SUBGROUP)
+    .union(wgpu::Features::SUBGROUP_BARRIER);
+
+/// An adapter as the user sees it in messages and reports.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct AdapterSummary {
+    pub name: String,
+    pub backend: String,
+    pub device_type: String,
+    pub driver: String,
+    pub driver_info: String,
+}
+
+impl From<wgpu::AdapterInfo> for AdapterSummary {
+    fn from(info: wgpu::AdapterInfo) -> Self {
+        AdapterSummary {
+            name: info.name,
+            backend: format!("{:?}", info.backend),
+            device_type: format!("{:?}", info.device_type),
+            driver: info.driver,
+            driver_info: info.driver_info,
+        }
+    }
+}
+
+impl fmt::Display for AdapterSummary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} — {}, {}, driver {} {}",
+            self.name, self.backend, self.device_type, self.driver, self.driver_info
+        )
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    /// No adapter matched; `found` lists the Vulkan adapters that exist.
+    #[error("{}", no_adapter_message(requested.as_deref(), found))]
+    NoAdapter {
+        requested: Option<String>,
+        found: Vec<AdapterSummary>,
+    },
+    #[error("cannot open a device on {adapter}: {message}")]
+    Device { adapter: String, message: String },
+    #[error("GPU run of {method} failed: {message}")]
+    Run { method: String, message: String },
+}
+
+fn no_adapter_message(requested: Option<&str>, found: &[AdapterSummary]) -> String {
+    let mut m = match (requested, found.is_empty()) {
+        (_, true) => format!("no Vulkan adapter found: {INSTALL_HINT}"),
+        (None, false) => format!(
+            "no lavapipe (llvmpipe) Vulkan adapter found: {INSTALL_HINT}, or pick one of these adapters by name:"
+        ),
+        (Some(name), false) => format!("no Vulkan adapter's name contains `{name}`; the adapters found are:"),
+    };
+    for a in found {
+        m.push_str(&format!("\n  {a}"));
+    }
+    m
+}
+
+fn instance() -> wgpu::Instance {
+    wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::VULKAN,
+        // Not the build's default: debug builds would load the Vulkan validation layers,
+        // which print to stdout. WGPU_VALIDATION=1 and friends still turn them on.
+        flags: wgpu::InstanceFlags::empty().with_env(),
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    })
+}
+
+/// The Vulkan adapters on this machine.
+pub fn list_adapters() -> Vec<AdapterSummary> {
+    pollster::block_on(instance().enumerate_adapters(wgpu::Backends::VULKAN))
+        .iter()
+        .map(|a| a.get_info().into())
+        .collect()
+}
+
+fn is_lavapipe(info: &wgpu::AdapterInfo) -> bool {
+    info.name.contains("llvmpipe") && info.device_type == wgpu::DeviceType::Cpu
+}
+
+/// The device, its queue and what every method pipeline shares.
+pub struct Gpu {
+    pub adapter: AdapterSummary,
+    pub(crate) device: wgpu::Device,
+    pub(crate) queue: wgpu::Queue,
+    pub(crate) pipeline_layout: wgpu::PipelineLayout,
+    pub(crate) bind_group_layout: wgpu::BindGroupLayout,
+    pub(crate) capabilities: Capabilities,
+}
+
+impl Gpu {
+    /// Opens lavapipe, or with `Some(name)` the first Vulkan adapter whose name contains
+    /// `name` (case-insensitive).
+    pub fn new(adapter: Option<&str>) -> Result<Gpu, GpuError> {
+        let adapters = pollster::block_on(instance().enumerate_adapters(wgpu::Backends::VULKAN));
+        let chosen = adapters.iter().find(|a| {
+            let info = a.get_info();
+            match adapter {
+                None => is_lavapipe(&info),
+                Some(name) => info.name.to_lowercase().contains(&name.to_lowercase()),
+            }
+        });
+        let Some(chosen) = chosen else {
+            return Err(GpuError::NoAdapter {
+                requested: adapter.map(str::to_string),
+                found: adapters.iter().map(|a| a.get_info().into()).collect(),
+            });
+        };
+        let summary = AdapterSummary::from(chosen.get_info());
+        let features = chosen.features() & OPTIONAL_FEATURES;
+        let (device, queue) = pollster::block_on(chosen.request_device(&wgpu::DeviceDescriptor {
+            label: Some("linelight"),
+            required_features: features,
+            // The adapter's own limits: large storage buffers mean fewer, larger chunks.
+            required_limits: chosen.limits(),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device {
+            adapter: summary.to_string(),
+            message: e.to_string(),
+        })?;
+
+        let (bind_group_layout, pipeline_layout) =
+            scoped(&device, || layouts(&device)).map_err(|e| GpuError::Device {
+                adapter: summary.to_string(),
+                message: e.to_string(),
+            })?;
+        Ok(Gpu {
+            adapter: summary,
+            capabilities: naga_capabilities(device.features()),
+            device,
+            queue,
+            pipeline_layout,
+            bind_group_layout,
+        })
+    }
+
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+
+    pub fn queue(&self) -> &wgpu::Queue {
+        &self.queue
+    }
+
+    /// Whether the device writes timestamp queries (`device().features()` tells whether
+    /// also inside encoders and passes).
+    pub fn has_timestamps(&self) -> bool {
+        self.device.features().contains(wgpu::Features::TIMESTAMP_QUERY)
+    }
+
+    /// The naga capabilities kernels are validated with: those of the device's features.
+    pub fn capabilities(&self) -> Capabilities {
+        self.capabilities
+    }
+}
+
+/// The one bind group layout every method pipeline shares: it matches the bindings of
+/// the entry point in compose.rs.
+fn layouts(device: &wgpu::Device) -> (wgpu::BindGroupLayout, wgpu::PipelineLayout) {
+    let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("linelight chunk"),
+        entries: &[
+            storage(0, true),
+            storage(1, false),
+            wgpu::BindGroupLayoutEntry {
+                binding: 2,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            },
+        ],
+    });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("linelight method"),
+        bind_group_layouts: &[Some(&bind_group_layout)],
+        immediate_size: 0,
+    });
+    (bind_group_layout, pipeline_layout)
+}
+
+/// Runs `f` inside validation and out-of-memory error scopes, so wgpu's errors come back
+/// as values instead of the default handler's panic.
+pub(crate) fn scoped<T>(device: &wgpu::Device, f: impl FnOnce() -> T) -> Result<T, wgpu::Error> {
+    let memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+    let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let value = f();
+    let validation = pollster::block_on(validation.pop());
+    let memory = pollster::block_on(memory.pop());
+    match validation.or(memory) {
+        Some(e) => Err(e),
+        None => Ok(value),
+    }
+}
+
+/// The shader capabilities the requested features grant (as wgpu maps them), so naga
+/// accepts exactly what wgpu will.
+fn naga_capabilities(features: wgpu::Features) -> Capabilities {
+    let mut caps = Capabilities::default();
+    for (feature, cap) in [
+        (wgpu::Features::SHADER_F16, Capabilities::SHADER_FLOAT16),
+        (wgpu::Features::SHADER_F64, Capabilities::FLOAT64),
+        (wgpu::Features::SHADER_I16, Capabilities::SHADER_INT16),
+        (wgpu::Features::SHADER_INT64, Capabilities::SHADER_INT64),
+        (wgpu::Features::SUBGROUP, Capabilities::SUBGROUP),
+        (wgpu::Features::SUBGROUP_BARRIER, Capabilities::SUBGROUP_BARRIER),
+    ] {
+        caps.set(cap, features.contains(feature));
+    }
+    caps
+}

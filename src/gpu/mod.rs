@@ -1,0 +1,23 @@
+//! Running method kernels on the GPU (DESIGN §6): one device, one pipeline per method,
+//! configurations in chunks with one readback each.
+//!
+//! - `driver_env`: keeps Mesa's stderr noise away from the user.
+//! - `device`: picks the adapter (lavapipe by default) and opens the device.
+//! - `compose`: prelude + kernel + entry point, validated by naga.
+//! - `diagnostic`: kernel errors mapped back to the file and line that caused them.
+//! - `runner`: pipelines with their override params, chunked runs.
+
+mod compose;
+mod device;
+mod diagnostic;
+mod driver_env;
+mod runner;
+
+#[cfg(test)]
+mod tests;
+
+pub use compose::{compose, compose_with, Composed, ENTRY_POINT};
+pub use device::{list_adapters, AdapterSummary, Gpu, GpuError};
+pub use diagnostic::{KernelError, ENTRY_PATH};
+pub use driver_env::quiet_driver_environment;
+pub use runner::{MethodPipeline, RunOutput, DEFAULT_CHUNK};

@@ -1,0 +1,238 @@
+//! Method pipelines and chunked runs: one pipeline per method, configurations uploaded
+//! and read back a chunk at a time through buffers reused across chunks.
+
+use super::compose::{compose_with, ENTRY_NAME, WORKGROUP_SIZE};
+use super::device::{scoped, Gpu, GpuError};
+use super::diagnostic::KernelError;
+use crate::kernel::KernelFile;
+use crate::scene::GpuScene;
+use std::time::{Duration, Instant};
+
+/// Configurations per chunk when the caller passes 0.
+pub const DEFAULT_CHUNK: usize = 65536;
+
+const SCENE_BYTES: u64 = std::mem::size_of::<GpuScene>() as u64;
+const RESULT_BYTES: u64 = std::mem::size_of::<f32>() as u64;
+
+/// A method kernel compiled for the device, with its params fixed.
+pub struct MethodPipeline {
+    /// The kernel's id, for messages.
+    pub id: String,
+    /// The params it was compiled with, in header order.
+    pub params: Vec<(String, u32)>,
+    pipeline: wgpu::ComputePipeline,
+}
+
+/// A run's raw results, one `f32` per configuration (NaN and infinities kept), and the
+/// wall-clock time of upload, dispatch and readback.
+#[derive(Clone, Debug)]
+pub struct RunOutput {
+    pub values: Vec<f32>,
+    pub wall: Duration,
+}
+
+impl Gpu {
+    /// Compiles `kernel` with `param_values` for its header params, in order; params not
+    /// given keep the header's defaults.
+    pub fn pipeline(&self, kernel: &KernelFile, param_values: &[u32]) -> Result<MethodPipeline, KernelError> {
+        if param_values.len() > kernel.params.len() {
+            let names: Vec<_> = kernel.params.iter().map(|(n, _)| n.as_str()).collect();
+            return Err(KernelError::plain(
+                &kernel.path,
+                format!(
+                    "{} takes {} param(s) ({}), {} given",
+                    kernel.id,
+                    names.len(),
+                    if names.is_empty() {
+                        "none".to_string()
+                    } else {
+                        names.join(", ")
+                    },
+                    param_values.len()
+                ),
+            ));
+        }
+        let composed = compose_with(kernel, self.capabilities)?;
+        let params: Vec<(String, u32)> = kernel
+            .params
+            .iter()
+            .enumerate()
+            .map(|(i, (name, default))| (name.clone(), param_values.get(i).copied().unwrap_or(*default)))
+            .collect();
+        let constants: Vec<(&str, f64)> = params.iter().map(|(n, v)| (n.as_str(), f64::from(*v))).collect();
+
+        let pipeline = scoped(&self.device, || {
+            let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(&kernel.path),
+                source: wgpu::ShaderSource::Wgsl(composed.source.as_str().into()),
+            });
+            self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(&kernel.id),
+                layout: Some(&self.pipeline_layout),
+                module: &module,
+                entry_point: Some(ENTRY_NAME),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    ..Default::default()
+                },
+                cache: None,
+            })
+        })
+        .map_err(|e| {
+            let set: Vec<_> = params.iter().map(|(n, v)| format!("{n}={v}")).collect();
+            let with = if set.is_empty() {
+                String::new()
+            } else {
+                format!(" with {}", set.join(" "))
+            };
+            KernelError::plain(&kernel.path, format!("wgpu rejected the kernel{with}: {e}"))
+        })?;
+        Ok(MethodPipeline {
+            id: kernel.id.clone(),
+            params,
+            pipeline,
+        })
+    }
+
+    /// Evaluates the method on every scene, `chunk` configurations per dispatch (0: the
+    /// default), calling `progress` with the number done after each chunk.
+    pub fn run(
+        &self,
+        pipeline: &MethodPipeline,
+        scenes: &[GpuScene],
+        chunk: usize,
+        progress: &mut dyn FnMut(usize),
+    ) -> Result<RunOutput, GpuError> {
+        let start = Instant::now();
+        if scenes.is_empty() {
+            return Ok(RunOutput {
+                values: Vec::new(),
+                wall: start.elapsed(),
+            });
+        }
+        let fail = |message: String| GpuError::Run {
+            method: pipeline.id.clone(),
+            message,
+        };
+        let chunk = if chunk == 0 { DEFAULT_CHUNK } else { chunk }
+            .min(self.max_chunk())
+            .min(scenes.len());
+        let buffers = scoped(&self.device, || ChunkBuffers::new(self, chunk)).map_err(|e| fail(e.to_string()))?;
+
+        let mut values = Vec::with_capacity(scenes.len());
+        for part in scenes.chunks(chunk) {
+            self.run_chunk(pipeline, &buffers, part, &mut values).map_err(fail)?;
+            progress(values.len());
+        }
+        Ok(RunOutput {
+            values,
+            wall: start.elapsed(),
+        })
+    }
+
+    fn run_chunk(
+        &self,
+        pipeline: &MethodPipeline,
+        buffers: &ChunkBuffers,
+        scenes: &[GpuScene],
+        values: &mut Vec<f32>,
+    ) -> Result<(), String> {
+        let count = scenes.len() as u32;
+        let result_bytes = u64::from(count) * RESULT_BYTES;
+        scoped(&self.device, || {
+            self.queue
+                .write_buffer(&buffers.scenes, 0, bytemuck::cast_slice(scenes));
+            self.queue.write_buffer(&buffers.count, 0, bytemuck::bytes_of(&count));
+            let mut encoder = self.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&pipeline.pipeline);
+                pass.set_bind_group(0, &buffers.bind_group, &[]);
+                pass.dispatch_workgroups(count.div_ceil(WORKGROUP_SIZE), 1, 1);
+            }
+            encoder.copy_buffer_to_buffer(&buffers.results, 0, &buffers.readback, 0, result_bytes);
+            self.queue.submit([encoder.finish()]);
+        })
+        .map_err(|e| e.to_string())?;
+
+        let slice = buffers.readback.slice(..result_bytes);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| e.to_string())?;
+        rx.recv()
+            .map_err(|_| "the readback was never mapped".to_string())?
+            .map_err(|e| format!("cannot map the results: {e}"))?;
+        {
+            let view = slice.get_mapped_range().map_err(|e| e.to_string())?;
+            values.extend_from_slice(bytemuck::cast_slice(&view));
+        }
+        buffers.readback.unmap();
+        Ok(())
+    }
+
+    /// The largest chunk one dispatch and one binding can hold on this device.
+    fn max_chunk(&self) -> usize {
+        let limits = self.device.limits();
+        let by_dispatch = u64::from(limits.max_compute_workgroups_per_dimension) * u64::from(WORKGROUP_SIZE);
+        let by_binding = limits.max_storage_buffer_binding_size / SCENE_BYTES;
+        let by_buffer = limits.max_buffer_size / SCENE_BYTES;
+        by_dispatch.min(by_binding).min(by_buffer).max(1) as usize
+    }
+}
+
+/// The buffers of one chunk, reused for every chunk of a run.
+struct ChunkBuffers {
+    scenes: wgpu::Buffer,
+    results: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    count: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+}
+
+impl ChunkBuffers {
+    fn new(gpu: &Gpu, chunk: usize) -> ChunkBuffers {
+        let buffer = |label, size, usage| {
+            gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        use wgpu::BufferUsages as U;
+        let chunk = chunk as u64;
+        let scenes = buffer("ll_scenes", chunk * SCENE_BYTES, U::STORAGE | U::COPY_DST);
+        let results = buffer("ll_results", chunk * RESULT_BYTES, U::STORAGE | U::COPY_SRC);
+        let readback = buffer("ll_readback", chunk * RESULT_BYTES, U::MAP_READ | U::COPY_DST);
+        let count = buffer("ll_count", std::mem::size_of::<u32>() as u64, U::UNIFORM | U::COPY_DST);
+        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("linelight chunk"),
+            layout: &gpu.bind_group_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: scenes.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: results.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: count.as_entire_binding(),
+                },
+            ],
+        });
+        ChunkBuffers {
+            scenes,
+            results,
+            readback,
+            count,
+            bind_group,
+        }
+    }
+}

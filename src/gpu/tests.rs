@@ -1,0 +1,301 @@
+//! These run on lavapipe: without it they fail, they do not skip.
+
+use super::compose::compose_parts;
+use super::*;
+use crate::kernel::{KernelFile, PRELUDE_PATH};
+use crate::scene::GpuScene;
+use naga::valid::Capabilities;
+use std::sync::OnceLock;
+
+fn gpu() -> &'static Gpu {
+    static GPU: OnceLock<Gpu> = OnceLock::new();
+    GPU.get_or_init(|| {
+        quiet_driver_environment();
+        Gpu::new(None).unwrap_or_else(|e| panic!("{e}"))
+    })
+}
+
+fn kernel(path: &str, header: &str, body: &str) -> KernelFile {
+    KernelFile::parse(path, &format!("//! id: test.k\n//! target: line\n{header}{body}")).unwrap()
+}
+
+fn scene(p1x: f32, p2x: f32) -> GpuScene {
+    GpuScene {
+        p1: [p1x, 0.0, 1.0],
+        p2: [p2x, 0.0, 1.0],
+        ..Default::default()
+    }
+}
+
+#[test]
+fn gpu_trivial_kernel_across_chunks() {
+    // Reads the scene's M⁻¹ and the prelude's global `Minv` the entry point sets from it,
+    // at transposed entries so a row/column mix-up shows.
+    let k = kernel(
+        "trivial.wgsl",
+        "",
+        "fn method(scene: Scene) -> f32 { return scene.p1.x + 2.0 * scene.minv[0][1] + 4.0 * Minv[1][0]; }\n",
+    );
+    let g = gpu();
+    let pipeline = g.pipeline(&k, &[]).unwrap();
+    let scenes: Vec<GpuScene> = (0..300)
+        .map(|i| {
+            let mut s = scene(i as f32, 1.0);
+            s.minv_cols[0][1] = 0.25 * i as f32;
+            s.minv_cols[1][0] = 1000.0 + i as f32;
+            s
+        })
+        .collect();
+    let mut done = Vec::new();
+    let out = g.run(&pipeline, &scenes, 128, &mut |n| done.push(n)).unwrap();
+    assert_eq!(done, vec![128, 256, 300]);
+    let expected: Vec<f32> = (0..300).map(|i| i as f32 * 1.5 + 4.0 * (1000.0 + i as f32)).collect();
+    assert_eq!(out.values, expected);
+}
+
+#[test]
+fn gpu_nan_and_infinity_are_kept() {
+    let k = kernel(
+        "div.wgsl",
+        "",
+        "fn method(scene: Scene) -> f32 { return scene.p1.x / scene.p2.x; }\n",
+    );
+    let g = gpu();
+    let scenes = [scene(1.0, 0.0), scene(-1.0, 0.0), scene(0.0, 0.0), scene(1.0, 2.0)];
+    let out = g.run(&g.pipeline(&k, &[]).unwrap(), &scenes, 0, &mut |_| {}).unwrap();
+    assert_eq!(out.values[0], f32::INFINITY);
+    assert_eq!(out.values[1], f32::NEG_INFINITY);
+    assert!(out.values[2].is_nan(), "{:?}", out.values);
+    assert_eq!(out.values[3], 0.5);
+}
+
+#[test]
+fn gpu_override_param_changes_output() {
+    let k = kernel(
+        "param.wgsl",
+        "//! params: SCALE=2 OFFSET=1\n",
+        "override SCALE: u32 = 7u;\noverride OFFSET: u32;\n\
+         fn method(scene: Scene) -> f32 { return f32(SCALE) * scene.p1.x + f32(OFFSET); }\n",
+    );
+    let g = gpu();
+    let scenes = [scene(1.0, 2.0), scene(3.0, 2.0)];
+    let run = |params: &[u32]| {
+        g.run(&g.pipeline(&k, params).unwrap(), &scenes, 0, &mut |_| {})
+            .unwrap()
+            .values
+    };
+    assert_eq!(run(&[]), vec![3.0, 7.0]);
+    assert_eq!(run(&[5]), vec![6.0, 16.0]);
+    assert_eq!(run(&[5, 10]), vec![15.0, 25.0]);
+    let e = g.pipeline(&k, &[1, 2, 3]).err().unwrap().to_string();
+    assert!(e.contains("param.wgsl") && e.contains("SCALE, OFFSET"), "{e}");
+}
+
+#[test]
+fn gpu_header_param_without_override_is_reported() {
+    let k = kernel(
+        "noparam.wgsl",
+        "//! params: SAMPLES=4\n",
+        "fn method(scene: Scene) -> f32 { return 0.0; }\n",
+    );
+    let e = compose(&k).unwrap_err();
+    assert_eq!((e.path.as_str(), e.location.map(|l| l.0)), ("noparam.wgsl", Some(3)));
+    assert!(e.to_string().contains("override SAMPLES"), "{e}");
+}
+
+#[test]
+fn gpu_kernel_error_names_its_file_and_line() {
+    let k = kernel(
+        "user/bad.wgsl",
+        "",
+        "// a comment\n// another\n\nfn method(scene: Scene) -> f32 {\n    return scene.p1.x + undefined_thing;\n}\n",
+    );
+    let e = compose(&k).unwrap_err();
+    let text = e.to_string();
+    assert!(text.contains("user/bad.wgsl:7:"), "{text}");
+    assert!(
+        text.contains("no definition in scope for identifier: `undefined_thing`"),
+        "{text}"
+    );
+    assert!(text.contains("return scene.p1.x + undefined_thing;"), "{text}");
+    assert!(text.contains('^'), "{text}");
+    assert_eq!(e.location, Some((7, 25)));
+    // The same error through the device path.
+    assert_eq!(gpu().pipeline(&k, &[]).err().unwrap().to_string(), text);
+}
+
+#[test]
+fn gpu_validation_error_names_its_file_and_line() {
+    let k = kernel(
+        "ret.wgsl",
+        "",
+        "fn method(scene: Scene) -> f32 {\n    return scene.flags;\n}\n",
+    );
+    let e = compose(&k).unwrap_err();
+    assert_eq!(e.path, "ret.wgsl", "{e}");
+    assert!(e.to_string().contains("ret.wgsl:4:"), "{e}");
+}
+
+#[test]
+fn gpu_unclosed_kernel_is_blamed_on_the_kernel() {
+    let k = kernel("open.wgsl", "", "fn method(scene: Scene) -> f32 {\n    return 1.0;\n");
+    let e = compose(&k).unwrap_err();
+    assert_eq!(e.path, "open.wgsl", "{e}");
+}
+
+#[test]
+fn gpu_prelude_error_is_attributed_to_the_prelude() {
+    let prelude = format!(
+        "{}\nfn broken() -> f32 {{\n    return nope;\n}}\n",
+        crate::kernel::PRELUDE
+    );
+    let line = prelude.lines().position(|l| l.contains("nope")).unwrap() + 1;
+    let k = kernel("fine.wgsl", "", "fn method(scene: Scene) -> f32 { return 1.0; }\n");
+    let e = compose_parts(&prelude, &k, Capabilities::default()).unwrap_err();
+    assert_eq!(e.path, PRELUDE_PATH);
+    assert!(e.to_string().contains(&format!("{PRELUDE_PATH}:{line}:12")), "{e}");
+}
+
+#[test]
+fn gpu_redefinition_points_at_both_files() {
+    let k = kernel(
+        "dup.wgsl",
+        "",
+        "const PI: f32 = 3.0;\nfn method(scene: Scene) -> f32 { return PI; }\n",
+    );
+    let e = compose(&k).unwrap_err().to_string();
+    assert!(
+        e.contains("dup.wgsl:3:") && e.contains(&format!("{PRELUDE_PATH}:6:")),
+        "{e}"
+    );
+}
+
+#[test]
+fn gpu_missing_or_wrong_method_is_reported() {
+    let k = kernel("none.wgsl", "", "fn evaluate(scene: Scene) -> f32 { return 1.0; }\n");
+    let e = compose(&k).unwrap_err().to_string();
+    assert!(
+        e.starts_with("none.wgsl: ") && e.contains("fn method(scene: Scene) -> f32"),
+        "{e}"
+    );
+
+    let k = kernel(
+        "sig.wgsl",
+        "",
+        "\nfn method(p: vec3<f32>) -> f32 {\n    return p.x;\n}\n",
+    );
+    let e = compose(&k).unwrap_err();
+    assert_eq!(e.location.map(|l| l.0), Some(4), "{e}");
+    assert!(e.to_string().contains("found `fn method(vec3<f32>) -> f32`"), "{e}");
+}
+
+#[test]
+fn gpu_reserved_names_are_rejected() {
+    let k = kernel(
+        "ll.wgsl",
+        "",
+        "fn ll_main() {}\nfn method(scene: Scene) -> f32 { return 1.0; }\n",
+    );
+    let e = compose(&k).unwrap_err();
+    assert_eq!((e.path.as_str(), e.location.map(|l| l.0)), ("ll.wgsl", Some(3)), "{e}");
+}
+
+#[test]
+fn gpu_unknown_adapter_lists_the_adapters_found() {
+    gpu();
+    let e = Gpu::new(Some("no-such-adapter-xyz")).err().unwrap().to_string();
+    assert!(e.contains("`no-such-adapter-xyz`") && e.contains("llvmpipe"), "{e}");
+    assert!(list_adapters().iter().any(|a| a.name.contains("llvmpipe")));
+    assert!(
+        gpu().adapter.to_string().contains(" — Vulkan, Cpu, driver llvmpipe"),
+        "{}",
+        gpu().adapter
+    );
+}
+
+#[test]
+fn gpu_no_adapter_message_names_the_package() {
+    let e = GpuError::NoAdapter {
+        requested: None,
+        found: Vec::new(),
+    }
+    .to_string();
+    assert!(e.contains("apt-get install mesa-vulkan-drivers"), "{e}");
+}
+
+/// Opening the device prints nothing on stderr, even with `XDG_RUNTIME_DIR` unset: the
+/// test re-runs itself as a child process and reads the child's stderr.
+#[test]
+fn gpu_driver_is_quiet() {
+    if std::env::var_os("LINELIGHT_QUIET_CHILD").is_some() {
+        quiet_driver_environment();
+        Gpu::new(None).unwrap();
+        return;
+    }
+    let out = std::process::Command::new(std::env::current_exe().unwrap())
+        .args(["--exact", "gpu::tests::gpu_driver_is_quiet", "--test-threads=1"])
+        .env("LINELIGHT_QUIET_CHILD", "1")
+        .env_remove("XDG_RUNTIME_DIR")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stdout));
+    assert_eq!(String::from_utf8_lossy(&out.stderr), "");
+}
+
+#[test]
+fn gpu_kernel_directives_are_hoisted_and_keep_line_numbers() {
+    let k = kernel(
+        "dir.wgsl",
+        "",
+        "diagnostic(off, derivative_uniformity);\n\nfn method(scene: Scene) -> f32 {\n    return nope;\n}\n",
+    );
+    let e = compose(&k).unwrap_err();
+    assert_eq!((e.path.as_str(), e.location), ("dir.wgsl", Some((6, 12))), "{e}");
+
+    let g = gpu();
+    assert!(
+        g.device().features().contains(wgpu::Features::SHADER_F16),
+        "lavapipe offers f16"
+    );
+    let k = kernel(
+        "half.wgsl",
+        "",
+        "enable f16;\nfn method(scene: Scene) -> f32 { return f32(f16(scene.p1.x) * 2.0h); }\n",
+    );
+    let out = g
+        .run(&g.pipeline(&k, &[]).unwrap(), &[scene(1.5, 0.0)], 0, &mut |_| {})
+        .unwrap();
+    assert_eq!(out.values, vec![3.0]);
+}
+
+#[test]
+fn gpu_pipeline_errors_from_wgpu_are_values() {
+    let k = kernel(
+        "div0.wgsl",
+        "//! params: DIV=1\n",
+        "override DIV: u32 = 1u;\noverride Q: u32 = 10u / DIV;\n\
+         fn method(scene: Scene) -> f32 { return f32(Q); }\n",
+    );
+    let g = gpu();
+    let ok = g
+        .run(&g.pipeline(&k, &[2]).unwrap(), &[scene(0.0, 1.0)], 0, &mut |_| {})
+        .unwrap();
+    assert_eq!(ok.values, vec![5.0]);
+    let e = g.pipeline(&k, &[0]).err().unwrap();
+    assert_eq!(e.path, "div0.wgsl");
+    assert!(
+        e.to_string()
+            .starts_with("div0.wgsl: wgpu rejected the kernel with DIV=0: "),
+        "{e}"
+    );
+    assert!(e.to_string().contains("Division by zero"), "{e}");
+}
+
+#[test]
+fn gpu_builtin_kernels_compose_and_compile() {
+    let g = gpu();
+    for k in crate::kernel::builtin_kernels() {
+        compose(&k).unwrap_or_else(|e| panic!("{e}"));
+        g.pipeline(&k, &[]).unwrap_or_else(|e| panic!("{e}"));
+    }
+}

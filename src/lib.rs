@@ -1,0 +1,21 @@
+//! linelight: a headless compute-shader validation harness for line-light shading formulas.
+//!
+//! case file → sampler → configs → { GPU methods (f32), CPU references (f64) }
+//! → errors → bins → reports → verdict.
+
+// `!(a < b)` is how this crate says "not less, or NaN": the NaN-aware reading is the point.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod analysis;
+pub mod case;
+pub mod eval;
+pub mod gpu;
+pub mod kernel;
+pub mod methods;
+pub mod reference;
+pub mod report;
+pub mod sampler;
+pub mod scene;
+pub mod stats;
+pub mod sweep;
+pub mod target;

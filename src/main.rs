@@ -1,0 +1,234 @@
+//! The `linelight` command line: sweep, eval, adapters, check.
+
+use clap::{Parser, Subcommand};
+use linelight::analysis::analyse;
+use linelight::case::Case;
+use linelight::gpu::{self, Gpu};
+use linelight::report::{self, write_atomic, ReportInput};
+use linelight::{eval, methods, sweep};
+use rayon::prelude::*;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "linelight",
+    version,
+    about = "Validates real-time line-light shading formulas on the GPU against f64 references"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(clap::Args)]
+struct GpuArgs {
+    /// Adapter to use: any part of its name (default: lavapipe / llvmpipe).
+    #[arg(long)]
+    adapter: Option<String>,
+    /// Extra method kernel(s) to make available, validated like the built-ins.
+    #[arg(long = "kernel", value_name = "FILE")]
+    kernels: Vec<PathBuf>,
+    /// Configurations per GPU dispatch and readback.
+    #[arg(long, default_value_t = 65536)]
+    chunk: usize,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a case file: sample, evaluate, compare with references, write reports, give a verdict.
+    Sweep {
+        /// Case file (TOML), e.g. cases/line_fwt.toml.
+        case: PathBuf,
+        /// Reports go to OUT/<case name>/.
+        #[arg(long, default_value = "reports")]
+        out: PathBuf,
+        /// Also write every configuration's values (JSONL) to this file.
+        #[arg(long)]
+        raw: Option<PathBuf>,
+        /// Override every material's count (quick runs; the committed reports use the case's).
+        #[arg(long)]
+        count: Option<usize>,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
+    /// Evaluate explicit configurations (JSONL in, JSONL out; DESIGN §3).
+    Eval {
+        #[arg(long)]
+        input: PathBuf,
+        #[arg(long)]
+        output: PathBuf,
+        /// Comma-separated method ids (`id` or `id@N`); default: every built-in and --kernel method.
+        #[arg(long, value_delimiter = ',')]
+        methods: Vec<String>,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
+    /// List the Vulkan adapters wgpu can see.
+    Adapters,
+    /// Compose and validate kernel files with naga (no GPU needed).
+    Check {
+        #[arg(required = true)]
+        kernels: Vec<PathBuf>,
+    },
+}
+
+fn main() -> ExitCode {
+    gpu::quiet_driver_environment();
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(code) => code,
+        Err(e) => {
+            // Kernel diagnostics arrive formatted by naga, already starting with `error`.
+            let message = format!("{e:#}");
+            if message.starts_with("error") {
+                eprintln!("{message}");
+            } else {
+                eprintln!("error: {message}");
+            }
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn open_gpu(args: &GpuArgs) -> anyhow::Result<Gpu> {
+    let gpu = Gpu::new(args.adapter.as_deref())?;
+    eprintln!("adapter: {}", gpu.adapter);
+    Ok(gpu)
+}
+
+fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    match cli.command {
+        Command::Sweep {
+            case,
+            out,
+            raw,
+            count,
+            gpu,
+        } => {
+            let case_path = case.display().to_string();
+            let setup = sweep::prepare(Case::load(&case)?, &gpu.kernels, count)?;
+            let device = open_gpu(&gpu)?;
+            eprintln!(
+                "case {}: {} configurations, {} methods",
+                setup.case.name,
+                setup.samples.len(),
+                setup.methods.len()
+            );
+            let measured = sweep::measure(&setup, &device, gpu.chunk)?;
+            let analysis = analyse(&setup.case, &setup.samples, &measured.references, &measured.runs);
+            let dir = out.join(&setup.case.name);
+            let input = ReportInput {
+                case_path: &case_path,
+                case: &setup.case,
+                setup: &setup,
+                measured: &measured,
+                analysis: &analysis,
+            };
+            for path in report::write_reports(&dir, &input)? {
+                eprintln!("wrote {}", path.display());
+            }
+            if let Some(raw) = raw {
+                let rows: Vec<_> = setup
+                    .samples
+                    .par_iter()
+                    .enumerate()
+                    .map(|(i, s)| {
+                        let f32s: Vec<f32> = measured.runs.iter().map(|r| r.f32[i]).collect();
+                        let f64s: Vec<Option<f64>> = measured.runs.iter().map(|r| r.f64[i]).collect();
+                        let mut row =
+                            eval::result_row(&s.config, &measured.references[i], &setup.methods, &f32s, &f64s);
+                        row["material"] = setup.case.materials[s.material].name.clone().into();
+                        row["axes"] = serde_json::to_value(&s.axes).expect("axes serialise");
+                        row["config"] = serde_json::to_value(&s.config).expect("config serialises");
+                        row
+                    })
+                    .collect();
+                write_atomic(&raw, &eval::to_jsonl(&rows))?;
+                eprintln!("wrote {}", raw.display());
+            }
+            let failed = analysis.checks.iter().filter(|c| !c.pass).count();
+            println!(
+                "verdict: {} ({} of {} checks pass); report: {}",
+                if analysis.pass { "PASS" } else { "FAIL" },
+                analysis.checks.len() - failed,
+                analysis.checks.len(),
+                dir.join("report.md").display()
+            );
+            Ok(if analysis.pass {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            })
+        }
+        Command::Eval {
+            input,
+            output,
+            methods: specs,
+            gpu,
+        } => {
+            let configs = eval::read_configs(&input)?;
+            let kernels = methods::kernel_set(&gpu.kernels)?;
+            let specs = if specs.is_empty() {
+                kernels.iter().map(|k| k.id.clone()).collect()
+            } else {
+                specs
+            };
+            let methods = specs
+                .iter()
+                .map(|s| methods::resolve(s, &kernels))
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            let device = open_gpu(&gpu)?;
+            let pipelines = methods
+                .iter()
+                .map(|m| device.pipeline(&m.kernel, &m.params))
+                .collect::<Result<Vec<_>, _>>()?;
+            let scenes: Vec<_> = configs.iter().map(linelight::scene::GpuScene::from).collect();
+            let mut f32s = Vec::new();
+            for p in &pipelines {
+                f32s.push(device.run(p, &scenes, gpu.chunk, &mut |_| {})?.values);
+            }
+            let rows: Vec<_> = configs
+                .par_iter()
+                .enumerate()
+                .map(|(i, c)| {
+                    let refs = eval::targets_of(c)
+                        .into_iter()
+                        .filter_map(|t| linelight::reference::reference(c, t).map(|e| (t, e)))
+                        .collect();
+                    let v32: Vec<f32> = f32s.iter().map(|v| v[i]).collect();
+                    let v64: Vec<Option<f64>> = methods.iter().map(|m| m.eval_f64(c)).collect();
+                    eval::result_row(c, &refs, &methods, &v32, &v64)
+                })
+                .collect();
+            write_atomic(&output, &eval::to_jsonl(&rows))?;
+            eprintln!("wrote {} results to {}", rows.len(), output.display());
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Adapters => {
+            let adapters = gpu::list_adapters();
+            if adapters.is_empty() {
+                println!("no Vulkan adapter found (on Debian/Ubuntu: apt-get install mesa-vulkan-drivers)");
+            }
+            for a in adapters {
+                println!("{a}");
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Check { kernels } => {
+            let mut bad = 0;
+            for path in &kernels {
+                let result = linelight::kernel::KernelFile::read(path)
+                    .and_then(|k| gpu::compose(&k).map(|_| k).map_err(anyhow::Error::from));
+                match result {
+                    Ok(k) => println!("{}: ok ({} → {})", path.display(), k.id, k.target),
+                    Err(e) => {
+                        eprintln!("{e}");
+                        bad += 1;
+                    }
+                }
+            }
+            Ok(if bad == 0 { ExitCode::SUCCESS } else { ExitCode::from(2) })
+        }
+    }
+}

@@ -1,0 +1,500 @@
+//! Integrals along a straight line seen from the origin, in angles, and the `line` targets.
+//!
+//! A line `p(s) = foot + s·dir` (foot ⟂ dir, d = ‖foot‖) is cut at its foot point into two
+//! halves. On each, χ is the angle between ω_p and the half's far direction ±dir, so that
+//! `s = ±d·cot χ`, `‖p‖ = d/sin χ`, `ds/‖p‖² = dχ/d`, and
+//!
+//! `∫ D(ω_p)/‖p‖³ ds = (1/d²) ∫ D(sin χ·n ± cos χ·dir) sin χ dχ`,   n = foot/d,
+//!
+//! a bounded integrand however close the line passes (a peak of width d in s is an interval
+//! of O(1) in χ). Measuring χ from the far direction rather than from the foot keeps the
+//! angles relatively accurate when the line nearly passes through the origin, and the span
+//! of a short, distant segment is computed directly rather than as a difference of angles.
+//! Both halves are one integration variable x = ±χ (the sign is the side), so one adaptive
+//! run controls the error of their sum.
+
+use super::lobe::Lobe;
+use super::quadrature::{integrate, Quad};
+use super::{estimate, mul, reject, Estimate};
+use crate::scene::{dot, length, sub, Vec3};
+use std::f64::consts::PI;
+
+/// `foot + s·dir`, `s ∈ [s0, s0 + len]`, with `foot ⟂ dir` and `dir` unit.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Chord {
+    pub foot: Vec3,
+    pub dir: Vec3,
+    pub s0: f64,
+    pub len: f64,
+}
+
+/// One side of the foot point: χ ∈ [far, far + span]; `side` = +1 towards +dir.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Half {
+    pub side: f64,
+    pub far: f64,
+    pub span: f64,
+}
+
+/// The halves of the interval `s ∈ [s0, s0 + len]` of a line at distance `d > 0`.
+pub(crate) fn halves(d: f64, s0: f64, len: f64) -> Vec<Half> {
+    let s1 = s0 + len;
+    // (side, distance of the near end from the foot, extent)
+    let mut sides = Vec::with_capacity(2);
+    if s1 > 0.0 {
+        sides.push(if s0 >= 0.0 { (1.0, s0, len) } else { (1.0, 0.0, s1) });
+    }
+    if s0 < 0.0 {
+        sides.push(if s1 <= 0.0 { (-1.0, -s1, len) } else { (-1.0, 0.0, -s0) });
+    }
+    sides
+        .into_iter()
+        .map(|(side, near, ext)| Half {
+            side,
+            far: d.atan2(near + ext),
+            // atan(d/near) − atan(d/(near + ext)) without cancellation.
+            span: (d * ext).atan2(d * d + near * (near + ext)),
+        })
+        .collect()
+}
+
+/// Panels `(start, len)` in x = side·χ: each half cut at the angles `cuts(half)` (those
+/// outside it are ignored), keeping the pieces whose midpoint passes `keep(x)`.
+pub(crate) fn split_halves(
+    halves: &[Half],
+    cuts: impl Fn(&Half) -> Vec<f64>,
+    keep: impl Fn(f64) -> bool,
+) -> Vec<(f64, f64)> {
+    let mut panels = Vec::new();
+    for h in halves {
+        let offsets = cuts(h).into_iter().map(|c| c - h.far).collect();
+        for (lo, len) in split(0.0, h.span, offsets) {
+            if keep(h.side * (h.far + lo + 0.5 * len)) {
+                let start = if h.side > 0.0 { h.far + lo } else { -(h.far + lo + len) };
+                panels.push((start, len));
+            }
+        }
+    }
+    panels
+}
+
+/// The zeros of `a + b·cos x + c·sin x` in (−π, π].
+pub(crate) fn trig_zeros(a: f64, b: f64, c: f64) -> Vec<f64> {
+    let rho = b.hypot(c);
+    if !(rho >= a.abs() && rho > 0.0) {
+        return Vec::new();
+    }
+    let (centre, offset) = (c.atan2(b), (-a / rho).acos());
+    let wrap = |x: f64| {
+        if x > PI {
+            x - 2.0 * PI
+        } else if x <= -PI {
+            x + 2.0 * PI
+        } else {
+            x
+        }
+    };
+    vec![wrap(centre - offset), wrap(centre + offset)]
+}
+
+/// Panels `(start, len)` covering [a, b], cut at the `cuts` inside it.
+pub(crate) fn split(a: f64, b: f64, mut cuts: Vec<f64>) -> Vec<(f64, f64)> {
+    cuts.retain(|&c| c > a && c < b);
+    cuts.extend([a, b]);
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup();
+    cuts.windows(2).map(|w| (w[0], w[1] - w[0])).collect()
+}
+
+/// Below this angular width a peak gets graded cuts (wider ones are cheap to resolve).
+const GRADE_BELOW: f64 = 0.1;
+
+/// Cuts at `centre` and `centre ± width·4^k` (up to π away), so that the panels around a
+/// peak of that width grow geometrically and each is resolved by a few rules.
+pub(crate) fn graded(centre: f64, width: f64, cuts: &mut Vec<f64>) {
+    cuts.push(centre);
+    if !(width < GRADE_BELOW) {
+        return;
+    }
+    let mut t = width;
+    while t < PI {
+        cuts.extend([centre - t, centre + t]);
+        t *= 4.0;
+    }
+}
+
+/// `∫ D(ω(χ)) sin χ dχ` over the chord's directions, `= d²·∫ D(ω_p)/‖p‖³ ds`, with D
+/// replaced by `D·[ω.z > 0]` if `upper`. Zero when the chord passes through the origin.
+pub(crate) fn integrate_chord(lobe: &Lobe, chord: &Chord, upper: bool, rtol: f64, max_panels: usize) -> Quad {
+    let d = length(chord.foot);
+    if !(d > 0.0) {
+        return Quad::default();
+    }
+    let (n, dir) = (mul(chord.foot, 1.0 / d), chord.dir);
+    let circle = lobe.circle(n, dir);
+    let support = lobe.support();
+    let (sn, sd) = (dot(support, n), dot(support, dir));
+    let above = |s: f64, c: f64| !upper || s * n[2] + c * dir[2] > 0.0;
+    let halves = halves(d, chord.s0, chord.len);
+    let panels = split_halves(
+        &halves,
+        |h| {
+            // The kink of D and, for `upper`, the horizon, where the integrand jumps.
+            let mut cuts = trig_zeros(0.0, h.side * sd, sn);
+            if upper {
+                cuts.extend(trig_zeros(0.0, h.side * dir[2], n[2]));
+            }
+            // The peak is at χ* or at its antipode χ* + π (χ* ∈ (−π/2, π/2]).
+            if let Some((centre, width)) = lobe.circle(n, mul(dir, h.side)).peak() {
+                graded(centre, width, &mut cuts);
+                graded(centre + PI, width, &mut cuts);
+            }
+            cuts
+        },
+        |x| {
+            let (s, c) = x.abs().sin_cos();
+            let c = c * x.signum();
+            s * sn + c * sd > 0.0 && above(s, c)
+        },
+    );
+    integrate(
+        |x| {
+            let (s, c) = x.abs().sin_cos();
+            let c = c * x.signum();
+            Quad::exact(if above(s, c) { circle.eval(s, c) * s } else { 0.0 })
+        },
+        &panels,
+        rtol,
+        max_panels,
+    )
+}
+
+const LINE_RTOL: f64 = 1e-13;
+const LINE_MAX_PANELS: usize = 400;
+
+/// Targets `line` and `line_upper`: `∫₀ᴸ D(ω_p)·2‖ω_p × ω_t‖/‖p‖² dl`, where
+/// `‖ω_p × ω_t‖ = d/‖p‖`, so the integral is `(2/d)·integrate_chord`.
+pub(crate) fn line(lobe: &Lobe, p1: Vec3, p2: Vec3, upper: bool) -> Estimate {
+    let e = sub(p2, p1);
+    let len = length(e);
+    let dir = mul(e, 1.0 / len);
+    let foot = reject(p1, dir);
+    let d = length(foot);
+    let far = length(p1).max(length(p2));
+    if d == 0.0 {
+        // Every ω_p is the same and ‖ω_p × ω_t‖ = 0. The foot carries a rounding error of a
+        // few ε·‖p‖ (see `estimate`), so the true d is below foot_error and
+        // I ≤ 2·foot_error·D(ω_p)·∫ds/s³ ≤ foot_error·D(ω_p)/s_near².
+        let foot_error = 4.0 * f64::EPSILON * far;
+        let near = if length(p1) < length(p2) { p1 } else { p2 };
+        let r = length(near);
+        let bound = foot_error * lobe.eval(mul(near, 1.0 / r)) / (r * r);
+        return Estimate {
+            value: 0.0,
+            error: bound,
+        };
+    }
+    let chord = Chord {
+        foot,
+        dir,
+        s0: dot(p1, dir),
+        len,
+    };
+    let q = integrate_chord(lobe, &chord, upper, LINE_RTOL, LINE_MAX_PANELS).scale(2.0 / d);
+    estimate(q, lobe, far, d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::reference::distribution;
+    use crate::reference::testing::*;
+    use crate::scene::{cross, Material};
+    use rand::Rng;
+
+    fn diffuse() -> Lobe {
+        Lobe::new(&Material::Diffuse)
+    }
+
+    fn rel(a: f64, b: f64) -> f64 {
+        (a - b).abs() / b.abs()
+    }
+
+    /// Diffuse `line` from an antiderivative derived by hand: with u the signed distance
+    /// from the foot, D = p.z/(π‖p‖) and ‖ω_p × ω_t‖ = d/‖p‖, so
+    /// I = (2d/π)∫ (c + t·u)/(d² + u²)² du over the part with c + t·u > 0 (c = foot.z,
+    /// t = ω_t.z), and ∫ (c + t u)/(d²+u²)² du = c·[u/(2d²(d²+u²)) + atan(u/d)/(2d³)] − t/(2(d²+u²)).
+    fn diffuse_closed_form(p1: Vec3, p2: Vec3) -> f64 {
+        let e = sub(p2, p1);
+        let len = length(e);
+        let dir = mul(e, 1.0 / len);
+        let foot = reject(p1, dir);
+        let (d, c, t) = (length(foot), foot[2], dir[2]);
+        let (mut a, mut b) = (dot(p1, dir), dot(p1, dir) + len);
+        if t != 0.0 {
+            let root = -c / t;
+            if t > 0.0 {
+                a = a.max(root);
+            } else {
+                b = b.min(root);
+            }
+        } else if c <= 0.0 {
+            return 0.0;
+        }
+        if a >= b {
+            return 0.0;
+        }
+        let f = |u: f64| {
+            let q = d * d + u * u;
+            c * (u / (2.0 * d * d * q) + (u / d).atan() / (2.0 * d * d * d)) - t / (2.0 * q)
+        };
+        2.0 * d / PI * (f(b) - f(a))
+    }
+
+    #[test]
+    fn diffuse_parallel_segment_matches_closed_form() {
+        for (h, a) in [(1.0f64, 1.0f64), (0.3, 5.0), (2.0, 0.01), (1e-3, 10.0)] {
+            let exact = 2.0 / PI * (a / (h * h + a * a) + (a / h).atan() / h);
+            for upper in [false, true] {
+                let est = line(&diffuse(), [-a, 0.0, h], [a, 0.0, h], upper);
+                assert!(rel(est.value, exact) < 1e-12, "h={h} a={a}: {est:?} vs {exact}");
+                assert!(est.error >= (est.value - exact).abs(), "{est:?} vs {exact}");
+            }
+        }
+    }
+
+    #[test]
+    fn diffuse_random_segments_match_closed_form() {
+        let mut rng = rng(1);
+        for _ in 0..200 {
+            let (p1, p2) = (point(&mut rng, 2.0), point(&mut rng, 2.0));
+            let exact = diffuse_closed_form(p1, p2);
+            let est = line(&diffuse(), p1, p2, false);
+            let tol = 1e-12 * exact.abs().max(1e-3);
+            assert!((est.value - exact).abs() < tol, "{p1:?} {p2:?}: {est:?} vs {exact}");
+        }
+    }
+
+    #[test]
+    fn nearly_through_origin_and_short_distant_segments() {
+        // A vertical segment at distance d from the z axis: I = (d/π)(1/(d²+z1²) − 1/(d²+z2²)).
+        let exact = |d: f64, z1: f64, z2: f64| d / PI * (z2 - z1) * (z2 + z1) / ((d * d + z1 * z1) * (d * d + z2 * z2));
+        for d in [1.0, 1e-3, 1e-6, 1e-9, 1e-12] {
+            let est = line(&diffuse(), [d, 0.0, 1.0], [d, 0.0, 2.0], true);
+            assert!(rel(est.value, exact(d, 1.0, 2.0)) < 1e-12, "d={d}: {est:?}");
+        }
+        for len in [1e-2, 1e-5, 1e-8] {
+            let est = line(&diffuse(), [1.0, 0.0, 30.0], [1.0, 0.0, 30.0 + len], false);
+            assert!(
+                rel(est.value, exact(1.0, 30.0, 30.0 + len)) < 1e-12,
+                "len={len}: {est:?}"
+            );
+        }
+        // Exactly through the origin (outside the segment): ‖ω_p × ω_t‖ = 0.
+        let est = line(&diffuse(), [0.0, 0.0, 1.0], [0.0, 0.0, 2.0], false);
+        assert_eq!(est.value, 0.0);
+        assert!(est.error < 1e-15);
+    }
+
+    #[test]
+    fn scaled_ltc_is_diffuse_and_rotated_ltc_rotates_the_segment() {
+        let mut rng = rng(2);
+        for _ in 0..50 {
+            let (p1, p2) = (point(&mut rng, 2.0), point(&mut rng, 2.0));
+            let base = line(&diffuse(), p1, p2, false).value;
+            let s = rng.random_range(0.1..10.0);
+            let scaled = Lobe::new(&Material::Ltc {
+                minv: [[s, 0.0, 0.0], [0.0, s, 0.0], [0.0, 0.0, s]],
+            });
+            let v = line(&scaled, p1, p2, false).value;
+            assert!((v - base).abs() < 1e-12 * base.max(1e-3), "{v} {base}");
+            // D_ltc(ω) = D_diffuse(Rω) and the line integral is rotation invariant.
+            let r = rotation(&mut rng);
+            let rotated = line(&Lobe::new(&Material::Ltc { minv: r }), p1, p2, false).value;
+            let moved = line(&diffuse(), mat_vec(&r, p1), mat_vec(&r, p2), false).value;
+            assert!(
+                (rotated - moved).abs() < 1e-12 * moved.abs().max(1e-3),
+                "{rotated} {moved}"
+            );
+            // A rotation about z leaves the diffuse lobe as it is.
+            let (c, s) = rng.random_range(0.0..6.0f64).sin_cos();
+            let about_z = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]];
+            let spun = line(&Lobe::new(&Material::Ltc { minv: about_z }), p1, p2, false).value;
+            assert!((spun - base).abs() < 1e-12 * base.abs().max(1e-3), "{spun} {base}");
+        }
+    }
+
+    #[test]
+    fn upper_equals_line_for_diffuse_and_cuts_the_leak() {
+        let mut rng = rng(3);
+        for _ in 0..50 {
+            let (p1, p2) = (point(&mut rng, 2.0), point(&mut rng, 2.0));
+            let (a, b) = (line(&diffuse(), p1, p2, false), line(&diffuse(), p1, p2, true));
+            assert_eq!(a.value, b.value);
+        }
+        // ω_o.z = 0.8x + z: the lobe reaches below the horizon towards +x.
+        let leaky = Lobe::new(&Material::Ltc {
+            minv: [[2.0, 0.0, -0.5], [0.0, 2.0, 0.0], [0.8, 0.0, 1.0]],
+        });
+        let (p1, p2) = ([1.0, 0.2, -0.5], [1.0, -0.1, 1.0]);
+        let (all, upper) = (line(&leaky, p1, p2, false), line(&leaky, p1, p2, true));
+        assert!(upper.value > 0.0 && upper.value < all.value * 0.99, "{upper:?} {all:?}");
+        // Entirely below the horizon: only the leak.
+        let below = ([1.0, 0.2, -0.5], [2.0, -0.1, -0.2]);
+        assert!(line(&leaky, below.0, below.1, false).value > 0.0);
+        assert_eq!(line(&leaky, below.0, below.1, true).value, 0.0);
+    }
+
+    #[test]
+    fn scales_as_one_over_s() {
+        let lobe = Lobe::new(&Material::Ltc {
+            minv: [[8.0, 0.3, -1.0], [0.2, 6.0, 0.1], [-0.3, 0.1, 1.0]],
+        });
+        let (p1, p2) = ([0.3, -0.2, 1.0], [0.9, 0.4, 1.6]);
+        let base = line(&lobe, p1, p2, false).value;
+        assert!(base > 0.01, "{base}");
+        for s in [1e-3, 0.5, 7.0, 1e4] {
+            let v = line(&lobe, mul(p1, s), mul(p2, s), false).value;
+            assert!(rel(v * s, base) < 1e-12, "s={s}: {v}");
+        }
+    }
+
+    /// The target by brute force in θ = atan((l − l0)/d) (one angle across the foot, unlike
+    /// the halves of `line`), kinks located by bisection, `distribution` for D.
+    fn brute_line(material: &Material, p1: Vec3, p2: Vec3, upper: bool, panels: usize) -> f64 {
+        let e = sub(p2, p1);
+        let len = length(e);
+        let t = mul(e, 1.0 / len);
+        let c = cross(p1, t);
+        let d = length(c);
+        let n = cross(t, c).map(|x| x / d);
+        let l0 = dot(p1, t);
+        let omega = |th: f64| [0, 1, 2].map(|k| th.cos() * n[k] + th.sin() * t[k]);
+        let f = |th: f64| {
+            let w = omega(th);
+            let dd = if upper && w[2] <= 0.0 {
+                0.0
+            } else {
+                distribution(material, w)
+            };
+            2.0 / d * dd * th.cos()
+        };
+        let (a, b) = ((l0 / d).atan(), ((l0 + len) / d).atan());
+        let minv = material.minv();
+        let mut cuts = sign_changes(|th| dot(minv[2], omega(th)), a, b, 4000);
+        cuts.extend(sign_changes(|th| omega(th)[2], a, b, 4000));
+        brute(f, a, b, &cuts, panels)
+    }
+
+    #[test]
+    fn error_estimate_is_honest() {
+        let mut rng = rng(5);
+        for i in 0..24 {
+            let material = match i % 3 {
+                0 => Material::Diffuse,
+                1 => sparse_ltc(&mut rng),
+                _ => full_ltc(&mut rng),
+            };
+            let (p1, p2) = (point(&mut rng, 2.0), point(&mut rng, 2.0));
+            let lobe = Lobe::new(&material);
+            for upper in [false, true] {
+                let est = line(&lobe, p1, p2, upper);
+                let exact = brute_line(&material, p1, p2, upper, 2000);
+                let err = (est.value - exact).abs();
+                // 1e-15·|I| is what the brute sum itself can be off by.
+                assert!(
+                    err <= est.error + 1e-15 * exact,
+                    "{i} {material:?} {p1:?} {p2:?}: {est:?} vs {exact}"
+                );
+                assert!(est.error <= 1e-12 * exact.max(1e-300), "{i}: {est:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn sharp_lobes_through_the_peak() {
+        let mut rng = rng(6);
+        for i in 0..12 {
+            let a = 10f64.powf(rng.random_range(2.0..3.0));
+            let minv = [
+                [a, 0.0, rng.random_range(-0.3..0.3) * a],
+                [0.0, a * rng.random_range(0.5..1.0), 0.0],
+                [rng.random_range(-0.5..0.5), 0.0, 1.0],
+            ];
+            let material = Material::Ltc { minv };
+            let len = 10f64.powf(rng.random_range(-2.0..1.0));
+            let shift = rng.random_range(-0.6..0.6) * len;
+            let (p1, p2) = segment_through_lobe(&material, 1.0, len, shift, &mut rng);
+            let est = line(&Lobe::new(&material), p1, p2, true);
+            let exact = brute_line(&material, p1, p2, true, 40000);
+            let err = (est.value - exact).abs();
+            assert!(
+                exact > 0.0 && err <= est.error + 1e-15 * exact,
+                "{i}: {est:?} vs {exact}"
+            );
+            // The conditioning term, ~4ε·‖M⁻¹‖‖M‖, is about 1e-12 here.
+            assert!(est.error <= 1e-11 * exact, "{i}: {est:?}");
+        }
+    }
+}
+#[cfg(test)]
+mod debug {
+    use super::*;
+    use crate::reference::testing::*;
+    use crate::scene::Material;
+    use rand::Rng;
+    #[test]
+    fn dbg_bench() {
+        for amax in [1.0f64, 10.0, 100.0, 1000.0] {
+            let mut rng = rng(7);
+            let mut cases = vec![];
+            for _ in 0..2000 {
+                let a = rng.random_range(1.0..amax.max(1.0001));
+                let c = a * rng.random_range(0.7..1.0);
+                let b = rng.random_range(-1.0..1.0) * a * 0.3;
+                let d = rng.random_range(-0.5..0.5);
+                let m = Material::Ltc {
+                    minv: [[a, 0.0, b], [0.0, c, 0.0], [d, 0.0, 1.0]],
+                };
+                // line at distance 1 from the origin, length L
+                let len = 10f64.powf(rng.random_range(-1.0..2.0));
+                let n = point(&mut rng, 1.0);
+                let nl = length(n);
+                let n = mul(n, 1.0 / nl);
+                let t = reject(point(&mut rng, 1.0), n);
+                let t = mul(t, 1.0 / length(t));
+                let s0 = rng.random_range(-1.0..0.0) * len;
+                let p1 = [0, 1, 2].map(|k| n[k] + s0 * t[k]);
+                let p2 = [0, 1, 2].map(|k| p1[k] + len * t[k]);
+                cases.push((Lobe::new(&m), p1, p2));
+            }
+            let t0 = std::time::Instant::now();
+            let mut worst: f64 = 0.0;
+            let mut nz = 0;
+            let mut tmax: f64 = 0.0;
+            for (l, p1, p2) in &cases {
+                let mut tm = f64::MAX;
+                let mut e = line(l, *p1, *p2, true);
+                for _ in 0..3 {
+                    let t1 = std::time::Instant::now();
+                    e = line(l, *p1, *p2, true);
+                    tm = tm.min(t1.elapsed().as_secs_f64());
+                }
+                if tm > tmax {
+                    tmax = tm;
+                    eprintln!("  {tm:e} {l:?} {p1:?} {p2:?} {e:?}");
+                }
+                if e.value > 0.0 {
+                    nz += 1;
+                    worst = worst.max(e.error / e.value);
+                }
+            }
+            let dt = t0.elapsed().as_secs_f64() / cases.len() as f64;
+            eprintln!(
+                "amax {amax}: {:.2} us/ref (max {:.1}), nonzero {nz}, worst rel err {worst:e}",
+                dt * 1e6,
+                tmax * 1e6
+            );
+        }
+    }
+}

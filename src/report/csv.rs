@@ -1,0 +1,73 @@
+//! CSV tables: one row per method × material × bin (the whole sample is bin `all`).
+
+use crate::analysis::{Analysis, PairStats};
+use crate::stats::{BinStats, Quantiles};
+use std::fmt::Write;
+
+fn q(x: Option<Quantiles>) -> [String; 4] {
+    match x {
+        Some(q) => [q.median, q.p90, q.p99, q.max].map(|v| format!("{v:e}")),
+        None => std::array::from_fn(|_| String::new()),
+    }
+}
+
+fn stats_row(s: &BinStats) -> String {
+    let mut cols = vec![s.count.to_string(), s.nan.to_string(), s.inf.to_string()];
+    cols.extend(q(s.rel));
+    cols.extend(q(s.abs));
+    cols.extend(q(s.rel_cpu_f32));
+    cols.extend(q(s.rel_f64));
+    cols.push(s.nan_f64.to_string());
+    cols.extend(q(s.bits));
+    cols.extend(s.within.map(|w| format!("{w}")));
+    cols.extend(q(s.reference_rel).into_iter().skip(3)); // the worst reference error
+    cols.push(s.reference_flag.to_string());
+    cols.join(",")
+}
+
+pub fn stats(analysis: &Analysis) -> String {
+    let mut out = String::from(
+        "method,target,material,supported,axis,bin_lo,bin_hi,count,nan,inf,\
+         rel_median,rel_p90,rel_p99,rel_max,abs_median,abs_p90,abs_p99,abs_max,\
+         cpu_f32_rel_median,cpu_f32_rel_p90,cpu_f32_rel_p99,cpu_f32_rel_max,f64_rel_median,f64_rel_p90,f64_rel_p99,f64_rel_max,f64_nan,\
+         bits_median,bits_p90,bits_p99,bits_max,within_1e-3,within_1e-2,within_1e-1,reference_rel_max,reference_flag\n",
+    );
+    for m in &analysis.methods {
+        for mat in &m.materials {
+            let head = format!("{},{},{},{}", m.label, m.target, mat.material, mat.supported);
+            let _ = writeln!(out, "{head},all,,,{}", stats_row(&mat.all));
+            for axis in &mat.axes {
+                for b in &axis.bins {
+                    let _ = writeln!(out, "{head},{},{},{},{}", axis.axis, b.lo, b.hi, stats_row(&b.stats));
+                }
+            }
+        }
+    }
+    out
+}
+
+fn pair_row(s: &PairStats) -> String {
+    let mut cols = vec![s.count.to_string()];
+    cols.extend(q(s.diff_f32));
+    cols.extend(q(s.diff_f64));
+    cols.join(",")
+}
+
+pub fn comparisons(analysis: &Analysis) -> String {
+    let mut out = String::from(
+        "a,b,material,axis,bin_lo,bin_hi,count,f32_diff_median,f32_diff_p90,f32_diff_p99,f32_diff_max,\
+         f64_diff_median,f64_diff_p90,f64_diff_p99,f64_diff_max\n",
+    );
+    for c in &analysis.comparisons {
+        for mat in &c.materials {
+            let head = format!("{},{},{}", c.a, c.b, mat.material);
+            let _ = writeln!(out, "{head},all,,,{}", pair_row(&mat.all));
+            for axis in &mat.axes {
+                for b in &axis.bins {
+                    let _ = writeln!(out, "{head},{},{},{},{}", axis.axis, b.lo, b.hi, pair_row(&b.stats));
+                }
+            }
+        }
+    }
+    out
+}

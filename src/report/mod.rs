@@ -1,0 +1,84 @@
+//! Reports: Markdown for people, CSV and JSON for tools. Every file is written to a
+//! temporary name and renamed into place, so a failed run never leaves half a report
+//! and never destroys the previous one.
+
+mod csv;
+mod findings;
+mod markdown;
+
+use crate::analysis::Analysis;
+use crate::case::Case;
+use crate::sweep::{Measured, Setup};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Writes `contents` to `path` atomically (temporary file in the same directory, then rename).
+pub fn write_atomic(path: &Path, contents: &[u8]) -> anyhow::Result<()> {
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
+    let tmp = dir.join(format!(
+        ".{}.tmp-{}",
+        path.file_name().and_then(|n| n.to_str()).unwrap_or("out"),
+        std::process::id()
+    ));
+    let result = (|| -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(contents)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        anyhow::bail!("cannot write {}: {e}", path.display());
+    }
+    Ok(())
+}
+
+/// Formats a non-negative statistic compactly: `3.1e-07`, `0`, or `—` when absent.
+pub fn sci(x: Option<f64>) -> String {
+    match x {
+        None => "—".into(),
+        Some(0.0) => "0".into(),
+        Some(v) if v.is_nan() => "NaN".into(),
+        Some(v) => format!("{v:.1e}"),
+    }
+}
+
+/// Everything a report is made from.
+pub struct ReportInput<'a> {
+    pub case_path: &'a str,
+    pub case: &'a Case,
+    pub setup: &'a Setup,
+    pub measured: &'a Measured,
+    pub analysis: &'a Analysis,
+}
+
+/// Writes `report.md`, `summary.json`, `stats.csv` and `comparisons.csv` into `dir`.
+pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<PathBuf>> {
+    let summary = serde_json::json!({
+        "case": input.case.name,
+        "case_file": input.case_path,
+        "seed": input.case.seed,
+        "configurations": input.setup.samples.len(),
+        "error_floor": input.case.error_floor,
+        "timing": input.measured.timing,
+        "leak": findings::leak(input),
+        "analysis": input.analysis,
+    });
+    let files = [
+        ("report.md", markdown::render(input).into_bytes()),
+        ("summary.json", serde_json::to_vec_pretty(&summary)?),
+        ("stats.csv", csv::stats(input.analysis).into_bytes()),
+        ("comparisons.csv", csv::comparisons(input.analysis).into_bytes()),
+    ];
+    let mut written = Vec::new();
+    for (name, bytes) in files {
+        let path = dir.join(name);
+        write_atomic(&path, &bytes)?;
+        written.push(path);
+    }
+    Ok(written)
+}

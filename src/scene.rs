@@ -1,0 +1,320 @@
+//! One configuration: a shading point at the origin (normal +z), a light segment and a
+//! material. This is what `eval` reads, what the sampler makes and what every method and
+//! reference is evaluated on (DESIGN §1, §3).
+
+use serde::{Deserialize, Serialize};
+
+pub type Vec3 = [f64; 3];
+pub type Mat3 = [[f64; 3]; 3];
+
+/// The spherical distribution D (the cosine-weighted BRDF).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase", try_from = "RawMaterial")]
+pub enum Material {
+    /// `D(ω) = max(0, ω.z)/π`.
+    Diffuse,
+    /// Linearly transformed cosine; `minv` is M⁻¹, row-major, `ω_o = M⁻¹·ω`.
+    Ltc { minv: Mat3 },
+}
+
+/// The JSON form, read strictly: serde's internally tagged enums let unknown fields
+/// through on unit variants, so the material is read flat and checked here.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMaterial {
+    kind: String,
+    #[serde(default)]
+    minv: Option<Mat3>,
+}
+
+impl TryFrom<RawMaterial> for Material {
+    type Error = String;
+    fn try_from(raw: RawMaterial) -> Result<Material, String> {
+        match (raw.kind.as_str(), raw.minv) {
+            ("diffuse", None) => Ok(Material::Diffuse),
+            ("diffuse", Some(_)) => Err("a diffuse material takes no `minv`".into()),
+            ("ltc", Some(minv)) => Ok(Material::Ltc { minv }),
+            ("ltc", None) => Err("an ltc material needs `minv` (3×3, row-major)".into()),
+            (other, _) => Err(format!("unknown material kind `{other}` (diffuse, ltc)")),
+        }
+    }
+}
+
+impl Material {
+    /// M⁻¹ as the LTC methods use it: the identity for the diffuse material.
+    pub fn minv(&self) -> Mat3 {
+        match self {
+            Material::Diffuse => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            Material::Ltc { minv } => *minv,
+        }
+    }
+
+    /// True when M⁻¹ has the isotropic-GGX sparsity `[[a,0,b],[0,c,0],[d,0,1]]`
+    /// that the 2023 listing assumes.
+    pub fn is_sparse(&self) -> bool {
+        let m = self.minv();
+        m[0][1] == 0.0 && m[1][0] == 0.0 && m[1][2] == 0.0 && m[2][1] == 0.0 && m[2][2] == 1.0
+    }
+}
+
+/// A thin two-sided rectangle centred on the segment (target `rectangle`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rect {
+    pub normal: Vec3,
+    pub width: f64,
+}
+
+/// One explicit configuration, as in DESIGN §3.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    pub id: String,
+    pub p1: Vec3,
+    pub p2: Vec3,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rect: Option<Rect>,
+    pub material: Material,
+}
+
+/// Why a configuration cannot be evaluated.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Degenerate {
+    #[error("a coordinate is not finite")]
+    NotFinite,
+    #[error("p1 and p2 coincide: the segment has no length")]
+    ZeroLength,
+    #[error(
+        "the shading point lies on the light segment (distance {0:.3e} from the line, relative to the segment's size)"
+    )]
+    PointOnLight(f64),
+    #[error("the shading point lies inside the tube (distance to the axis {dist:.6e} <= radius {radius:.6e})")]
+    InsideTube { dist: f64, radius: f64 },
+    #[error("radius must be > 0, got {0}")]
+    BadRadius(f64),
+    #[error("rect.width must be > 0, got {0}")]
+    BadWidth(f64),
+    #[error("rect.normal must be a unit vector perpendicular to p2 - p1 (|n| = {len:.6}, n·ω_t = {dot:.2e})")]
+    BadRectNormal { len: f64, dot: f64 },
+    #[error("the shading point lies on the rectangle")]
+    PointOnRectangle,
+    #[error("minv is singular or not finite (det = {0:.3e})")]
+    SingularMinv(f64),
+}
+
+pub fn sub(a: Vec3, b: Vec3) -> Vec3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+pub fn dot(a: Vec3, b: Vec3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+pub fn cross(a: Vec3, b: Vec3) -> Vec3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+pub fn length(a: Vec3) -> f64 {
+    dot(a, a).sqrt()
+}
+pub fn det3(m: &Mat3) -> f64 {
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+}
+
+impl Config {
+    /// Distance from the shading point (origin) to the closest point of the segment.
+    pub fn distance_to_segment(&self) -> f64 {
+        let e = sub(self.p2, self.p1);
+        let t = (-dot(self.p1, e) / dot(e, e)).clamp(0.0, 1.0);
+        length([self.p1[0] + t * e[0], self.p1[1] + t * e[1], self.p1[2] + t * e[2]])
+    }
+
+    /// Distance from the shading point to the infinite line through the segment (`d` of Eq. 1.15).
+    pub fn distance_to_line(&self) -> f64 {
+        let e = sub(self.p2, self.p1);
+        length(cross(self.p1, e)) / length(e)
+    }
+
+    /// Checks the configuration is one the targets are defined on (DESIGN §1):
+    /// degenerate ones are reported, never silently evaluated.
+    pub fn validate(&self) -> Result<(), Degenerate> {
+        let mut all = [self.p1, self.p2].concat();
+        all.extend(self.material.minv().concat());
+        if let Some(r) = self.radius {
+            all.push(r);
+        }
+        if let Some(rect) = &self.rect {
+            all.extend(rect.normal);
+            all.push(rect.width);
+        }
+        if all.iter().any(|v| !v.is_finite()) {
+            return Err(Degenerate::NotFinite);
+        }
+        let e = sub(self.p2, self.p1);
+        let len = length(e);
+        if len == 0.0 {
+            return Err(Degenerate::ZeroLength);
+        }
+        // The line may pass through the origin outside the segment; only the segment matters
+        // for the integrals, but d = 0 makes every line formula 0/0, so the reported size is
+        // relative to the segment's own scale.
+        let scale = length(self.p1).max(length(self.p2));
+        let seg = self.distance_to_segment();
+        if seg <= 1e-12 * scale {
+            return Err(Degenerate::PointOnLight(seg / scale));
+        }
+        let det = det3(&self.material.minv());
+        if det == 0.0 || !det.is_finite() {
+            return Err(Degenerate::SingularMinv(det));
+        }
+        if let Some(r) = self.radius {
+            if r <= 0.0 {
+                return Err(Degenerate::BadRadius(r));
+            }
+            // The tube (without caps) contains the origin when the origin is within R of
+            // the axis and its projection falls inside the segment; the caps are disks of
+            // radius R at the ends, covered by the same test on the segment distance.
+            if seg <= r {
+                return Err(Degenerate::InsideTube { dist: seg, radius: r });
+            }
+        }
+        if let Some(rect) = &self.rect {
+            if rect.width <= 0.0 {
+                return Err(Degenerate::BadWidth(rect.width));
+            }
+            let n_len = length(rect.normal);
+            let n_dot = dot(rect.normal, e) / len;
+            if (n_len - 1.0).abs() > 1e-6 || n_dot.abs() > 1e-6 {
+                return Err(Degenerate::BadRectNormal { len: n_len, dot: n_dot });
+            }
+            // On the rectangle: in its plane, within its extent.
+            let t = dot(self.p1, e) / (len * len);
+            let b = cross(rect.normal, e);
+            let s = dot(self.p1, b) / length(b);
+            if dot(self.p1, rect.normal).abs() <= 1e-12 * scale
+                && (-1.0..=0.0).contains(&t)
+                && s.abs() <= rect.width / 2.0
+            {
+                return Err(Degenerate::PointOnRectangle);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The configuration as a compute kernel reads it: std430 layout of the WGSL `Scene`
+/// in `kernels/prelude.wgsl` (96 bytes). `minv` is stored column-major as WGSL's
+/// `mat3x3<f32>` is, each column padded to 16 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuScene {
+    pub p1: [f32; 3],
+    pub radius: f32,
+    pub p2: [f32; 3],
+    pub rect_width: f32,
+    pub rect_normal: [f32; 3],
+    pub flags: u32,
+    pub minv_cols: [[f32; 4]; 3],
+}
+
+pub const FLAG_LTC: u32 = 1;
+pub const FLAG_RADIUS: u32 = 2;
+pub const FLAG_RECT: u32 = 4;
+
+impl From<&Config> for GpuScene {
+    fn from(c: &Config) -> Self {
+        let f = |v: Vec3| [v[0] as f32, v[1] as f32, v[2] as f32];
+        let m = c.material.minv();
+        let mut flags = 0;
+        if matches!(c.material, Material::Ltc { .. }) {
+            flags |= FLAG_LTC;
+        }
+        if c.radius.is_some() {
+            flags |= FLAG_RADIUS;
+        }
+        if c.rect.is_some() {
+            flags |= FLAG_RECT;
+        }
+        let (rn, rw) = c.rect.as_ref().map(|r| (r.normal, r.width)).unwrap_or(([0.0; 3], 0.0));
+        GpuScene {
+            p1: f(c.p1),
+            radius: c.radius.unwrap_or(0.0) as f32,
+            p2: f(c.p2),
+            rect_width: rw as f32,
+            rect_normal: f(rn),
+            flags,
+            minv_cols: [0, 1, 2].map(|j| [m[0][j] as f32, m[1][j] as f32, m[2][j] as f32, 0.0]),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn base() -> Config {
+        Config {
+            id: "c".into(),
+            p1: [0.3, -0.2, 1.0],
+            p2: [0.9, 0.4, 1.6],
+            radius: None,
+            rect: None,
+            material: Material::Diffuse,
+        }
+    }
+
+    #[test]
+    fn parses_design_example_and_rejects_unknown_fields() {
+        let s = r#"{"id": "c1", "p1": [0.3, -0.2, 1.0], "p2": [0.9, 0.4, 1.6], "radius": 0.01,
+            "rect": {"normal": [0.0, 0.0, -1.0], "width": 0.02},
+            "material": {"kind": "ltc", "minv": [[0.5, 0, 0.1], [0, 0.6, 0], [-0.2, 0, 1]]}}"#;
+        let c: Config = serde_json::from_str(s).unwrap();
+        assert_eq!(c.radius, Some(0.01));
+        assert!(c.material.is_sparse());
+        let bad = s.replace("\"radius\"", "\"radios\"");
+        let err = serde_json::from_str::<Config>(&bad).unwrap_err().to_string();
+        assert!(err.contains("radios"), "{err}");
+        let bad_mat = r#"{"id":"c","p1":[0,0,1],"p2":[1,0,1],"material":{"kind":"diffuse","roughness":1}}"#;
+        assert!(serde_json::from_str::<Config>(bad_mat).is_err());
+    }
+
+    #[test]
+    fn degenerate_configurations_are_named() {
+        let mut c = base();
+        assert_eq!(c.validate(), Ok(()));
+        c.p2 = c.p1;
+        assert_eq!(c.validate(), Err(Degenerate::ZeroLength));
+        let mut c = base();
+        c.p1 = [-1.0, 0.0, 0.0];
+        c.p2 = [1.0, 0.0, 0.0];
+        assert!(matches!(c.validate(), Err(Degenerate::PointOnLight(_))));
+        // The line passes through the origin, but not the segment: allowed.
+        c.p1 = [1.0, 0.0, 0.0];
+        c.p2 = [2.0, 0.0, 0.0];
+        assert_eq!(c.validate(), Ok(()));
+        let mut c = base();
+        c.radius = Some(2.0);
+        assert!(matches!(c.validate(), Err(Degenerate::InsideTube { .. })));
+        let mut c = base();
+        c.material = Material::Ltc {
+            minv: [[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+        };
+        assert!(matches!(c.validate(), Err(Degenerate::SingularMinv(_))));
+    }
+
+    #[test]
+    fn gpu_layout_is_96_bytes_column_major() {
+        assert_eq!(std::mem::size_of::<GpuScene>(), 96);
+        let mut c = base();
+        c.material = Material::Ltc {
+            minv: [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.0]],
+        };
+        let g = GpuScene::from(&c);
+        assert_eq!(g.minv_cols[0][..3], [1.0, 4.0, 7.0]);
+        assert_eq!(g.flags, FLAG_LTC);
+    }
+}

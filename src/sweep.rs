@@ -1,0 +1,177 @@
+//! A sweep, measured: case → configurations → GPU results, f64 ports, references.
+//! Everything that can fail on bad input (case file, kernels, adapter) fails before any
+//! measuring starts and before any report is written.
+
+use crate::analysis::{MethodRun, References};
+use crate::case::Case;
+use crate::gpu::Gpu;
+use crate::methods::{self, Method};
+use crate::reference::{self, Estimate};
+use crate::sampler::{self, Sample};
+use crate::scene::GpuScene;
+use crate::target::Target;
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::PathBuf;
+use std::time::Instant;
+
+pub struct Setup {
+    pub case: Case,
+    pub methods: Vec<Method>,
+    pub samples: Vec<Sample>,
+}
+
+/// Loads and checks everything a sweep needs, without touching the GPU.
+pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> anyhow::Result<Setup> {
+    let mut case = case;
+    if let Some(n) = count {
+        for m in &mut case.materials {
+            m.count = n;
+        }
+    }
+    let kernels = methods::kernel_set(user_kernels)?;
+    let mut methods = Vec::new();
+    for spec in &case.methods {
+        methods.push(methods::resolve(spec, &kernels).map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?);
+    }
+    for [a, b] in &case.compare {
+        let target = |l: &String| methods.iter().find(|m| &m.label == l).map(|m| m.target());
+        if target(a) != target(b) {
+            anyhow::bail!(
+                "case `{}`: compare [{a}, {b}]: the two methods approximate different targets",
+                case.name
+            );
+        }
+    }
+    let samples = sampler::sample_case(&case);
+    Ok(Setup { case, methods, samples })
+}
+
+/// Wall-clock time of each stage, measured in this run.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct Timing {
+    pub configurations: usize,
+    pub adapter: String,
+    /// (method label, GPU seconds incl. upload and readback, configurations per second).
+    pub gpu: Vec<(String, f64, f64)>,
+    /// (method label, CPU f64 port seconds on all cores).
+    pub f64_ports: Vec<(String, f64)>,
+    pub references_seconds: f64,
+    pub references_evaluated: usize,
+    pub total_seconds: f64,
+}
+
+pub struct Measured {
+    pub runs: Vec<MethodRun>,
+    pub references: References,
+    pub timing: Timing,
+}
+
+fn bar(len: usize, what: &str) -> ProgressBar {
+    let pb = ProgressBar::new(len as u64);
+    pb.set_style(
+        ProgressStyle::with_template("{msg:>28} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    pb.set_message(what.to_string());
+    pb
+}
+
+/// The targets whose references a sweep needs: every method's, plus `line_upper`
+/// beside `line` (the leak below the horizon is reported from their difference).
+pub fn needed_targets(methods: &[Method]) -> BTreeSet<Target> {
+    let mut t: BTreeSet<Target> = methods.iter().map(Method::target).collect();
+    if t.contains(&Target::Line) {
+        t.insert(Target::LineUpper);
+    }
+    t
+}
+
+/// References for every configuration and target that applies to it, in parallel.
+pub fn references(samples: &[crate::scene::Config], targets: &BTreeSet<Target>, pb: &ProgressBar) -> References {
+    samples
+        .par_iter()
+        .map(|c| {
+            let r: BTreeMap<Target, Estimate> = targets
+                .iter()
+                .filter_map(|&t| reference::reference(c, t).map(|e| (t, e)))
+                .collect();
+            pb.inc(1);
+            r
+        })
+        .collect()
+}
+
+pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measured> {
+    let start = Instant::now();
+    // Compile every pipeline first: a kernel error stops the sweep before any work.
+    let mut pipelines = Vec::new();
+    for m in &setup.methods {
+        pipelines.push(gpu.pipeline(&m.kernel, &m.params)?);
+    }
+    let configs: Vec<_> = setup.samples.iter().map(|s| s.config.clone()).collect();
+    let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
+    let n = configs.len();
+    let mut timing = Timing {
+        configurations: n,
+        adapter: gpu.adapter.to_string(),
+        ..Timing::default()
+    };
+
+    let mut runs = Vec::new();
+    for (m, pipeline) in setup.methods.iter().zip(&pipelines) {
+        let pb = bar(n, &format!("GPU {}", m.label));
+        let out = gpu.run(pipeline, &scenes, chunk, &mut |done| pb.set_position(done as u64))?;
+        pb.finish_and_clear();
+        let gpu_seconds = out.wall.as_secs_f64();
+        timing.gpu.push((m.label.clone(), gpu_seconds, n as f64 / gpu_seconds));
+
+        let t = Instant::now();
+        let f64: Vec<Option<f64>> = configs
+            .par_iter()
+            .map(|c| if m.applies(c) { m.eval_f64(c) } else { None })
+            .collect();
+        let f64_seconds = t.elapsed().as_secs_f64();
+        timing.f64_ports.push((m.label.clone(), f64_seconds));
+        let f32_cpu = configs
+            .par_iter()
+            .map(|c| if m.applies(c) { m.eval_f32_cpu(c) } else { None })
+            .collect();
+        let f32 = out
+            .values
+            .iter()
+            .zip(&configs)
+            .map(|(&v, c)| if m.applies(c) { v } else { f32::NAN })
+            .collect();
+        runs.push(MethodRun {
+            method: m.clone(),
+            f32,
+            f32_cpu,
+            f64,
+            gpu_seconds,
+            f64_seconds,
+        });
+    }
+
+    let targets = needed_targets(&setup.methods);
+    let pb = bar(
+        n,
+        &format!(
+            "references ({})",
+            targets.iter().map(|t| t.name()).collect::<Vec<_>>().join(", ")
+        ),
+    );
+    let t = Instant::now();
+    let references = references(&configs, &targets, &pb);
+    pb.finish_and_clear();
+    timing.references_seconds = t.elapsed().as_secs_f64();
+    timing.references_evaluated = references.iter().map(BTreeMap::len).sum();
+    timing.total_seconds = start.elapsed().as_secs_f64();
+    Ok(Measured {
+        runs,
+        references,
+        timing,
+    })
+}

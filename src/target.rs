@@ -1,0 +1,53 @@
+//! The integrals a method approximates and a reference computes (DESIGN §1).
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Target {
+    /// Eq. 1.6: `∫ D(ω_p) 2‖ω_p × ω_t‖/‖p‖² dl`.
+    Line,
+    /// `line` with `D(ω)·[ω.z > 0]`: what a real surface receives.
+    LineUpper,
+    /// Eq. 1.2 over the tube's side, radius R.
+    Cylinder,
+    /// Eq. 1.29 for both end disks.
+    Caps,
+    /// `cylinder + caps`.
+    Tube,
+    /// Thin two-sided rectangle centred on the segment.
+    Rectangle,
+}
+
+impl Target {
+    pub const ALL: [Target; 6] = [
+        Target::Line,
+        Target::LineUpper,
+        Target::Cylinder,
+        Target::Caps,
+        Target::Tube,
+        Target::Rectangle,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Target::Line => "line",
+            Target::LineUpper => "line_upper",
+            Target::Cylinder => "cylinder",
+            Target::Caps => "caps",
+            Target::Tube => "tube",
+            Target::Rectangle => "rectangle",
+        }
+    }
+
+    pub fn from_name(s: &str) -> Option<Target> {
+        Target::ALL.into_iter().find(|t| t.name() == s)
+    }
+}
+
+impl fmt::Display for Target {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}

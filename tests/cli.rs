@@ -1,0 +1,282 @@
+//! The command line as a user meets it: bad input gets a clear message naming what and
+//! where, a non-zero exit, and nothing written; good input gives reports and results.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn linelight(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .args(args)
+        .output()
+        .expect("linelight runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+const CASE: &str = r#"
+name = "tiny"
+title = "tiny"
+seed = 7
+methods = ["line.ltc2023", "line.ltc2017"]
+compare = [["line.ltc2017", "line.ltc2023"]]
+[geometry]
+elevation = { dist = "uniform", min = -10.0, max = 90.0 }
+tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
+length = { dist = "log_uniform", min = 0.1, max = 10.0 }
+center = { dist = "uniform", min = -1.0, max = 1.0 }
+[[materials]]
+name = "diffuse"
+kind = "diffuse"
+count = 300
+[[materials]]
+name = "iso"
+kind = "ltc_sparse"
+count = 300
+alpha = { dist = "log_uniform", min = 0.1, max = 1.0 }
+[[bins]]
+axis = "length"
+edges = [0.1, 1.0, 10.0]
+# The mechanism under test, not the method's quality: no NaN, nothing off by 100 %.
+[tolerances."line.ltc2023"]
+max = 1.0
+nan = 0
+"#;
+
+#[test]
+fn sweep_writes_reports_and_a_verdict() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = write(dir.path(), "tiny.toml", CASE);
+    let out = dir.path().join("reports");
+    let raw = dir.path().join("raw.jsonl");
+    let o = linelight(&[
+        "sweep",
+        case.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--raw",
+        raw.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("verdict: PASS"), "{stdout}");
+    assert!(stderr(&o).contains("adapter: "), "the adapter is printed");
+    assert!(
+        !stderr(&o).contains("XDG_RUNTIME_DIR"),
+        "driver noise reached the user: {}",
+        stderr(&o)
+    );
+    for f in ["report.md", "summary.json", "stats.csv", "comparisons.csv"] {
+        assert!(out.join("tiny").join(f).is_file(), "{f} missing");
+    }
+    let report = std::fs::read_to_string(out.join("tiny/report.md")).unwrap();
+    assert!(report.contains("**Verdict: PASS**") && report.contains("`line.ltc2017` against `line.ltc2023`"));
+    assert_eq!(std::fs::read_to_string(&raw).unwrap().lines().count(), 600);
+}
+
+#[test]
+fn failing_tolerance_gives_exit_1_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    // A tolerance no f32 evaluation can meet.
+    let case = write(dir.path(), "strict.toml", &CASE.replace("max = 1.0", "max = 1e-30"));
+    let out = dir.path().join("reports");
+    let o = linelight(&[
+        "sweep",
+        case.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--count",
+        "50",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let report = std::fs::read_to_string(out.join("tiny/report.md")).unwrap();
+    assert!(
+        report.contains("**Verdict: FAIL**") && report.contains("FAIL `line.ltc2023` on `diffuse`: max rel. error"),
+        "{report}"
+    );
+}
+
+#[test]
+fn malformed_case_file_names_file_and_line_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("reports");
+    let case = write(
+        dir.path(),
+        "bad.toml",
+        &CASE.replace("seed = 7", "seed = 7\nroughness = 0.5"),
+    );
+    let o = linelight(&["sweep", case.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(
+        e.contains("bad.toml") && e.contains("roughness") && e.contains("line 5"),
+        "{e}"
+    );
+    assert!(!out.exists(), "nothing may be written on bad input");
+
+    let case = write(dir.path(), "broken.toml", "name = \"x\"\nseed = [\n");
+    let o = linelight(&["sweep", case.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("broken.toml") && stderr(&o).contains("malformed"),
+        "{}",
+        stderr(&o)
+    );
+
+    let case = write(
+        dir.path(),
+        "unknown.toml",
+        &CASE.replace("\"line.ltc2017\"]", "\"line.ltc2017\", \"line.ltc2099\"]"),
+    );
+    let o = linelight(&["sweep", case.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("unknown method `line.ltc2099`"), "{}", stderr(&o));
+}
+
+#[test]
+fn kernel_with_wgsl_error_names_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let kernel = write(
+        dir.path(),
+        "broken.wgsl",
+        "//! id: line.broken\n//! target: line\n\nfn method(scene: Scene) -> f32 {\n    let a = scene.p1;\n    let b = scene.p2;\n    return lenght(a - b);\n}\n",
+    );
+    let o = linelight(&["check", kernel.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(e.contains("broken.wgsl:7:"), "{e}");
+    assert!(e.contains("lenght"), "{e}");
+
+    // The same kernel through eval: refused before anything is written.
+    let input = write(
+        dir.path(),
+        "in.jsonl",
+        r#"{"id":"a","p1":[0,0,1],"p2":[1,0,1],"material":{"kind":"diffuse"}}"#,
+    );
+    let output = dir.path().join("out.jsonl");
+    let o = linelight(&[
+        "eval",
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        output.to_str().unwrap(),
+        "--kernel",
+        kernel.to_str().unwrap(),
+        "--methods",
+        "line.broken",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("broken.wgsl:7:"), "{}", stderr(&o));
+    assert!(!output.exists());
+}
+
+#[test]
+fn eval_rejects_bad_lines_without_touching_the_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = write(dir.path(), "out.jsonl", "previous results\n");
+    let input = write(
+        dir.path(),
+        "in.jsonl",
+        concat!(
+            r#"{"id":"ok","p1":[0,0,1],"p2":[1,0,1],"material":{"kind":"diffuse"}}"#,
+            "\n",
+            r#"{"id":"typo","p1":[0,0,1],"p2":[1,0,1],"radus":0.1,"material":{"kind":"diffuse"}}"#,
+            "\n",
+            r#"{"id":"through","p1":[-1,0,0],"p2":[1,0,0],"material":{"kind":"diffuse"}}"#,
+            "\n",
+            r#"{"id":"tube","p1":[-1,0,0.05],"p2":[1,0,0.05],"radius":0.1,"material":{"kind":"diffuse"}}"#,
+            "\n",
+        ),
+    );
+    let o = linelight(&[
+        "eval",
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        output.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(e.contains("in.jsonl:2:") && e.contains("radus"), "{e}");
+    assert!(e.contains("in.jsonl:3:") && e.contains("on the light segment"), "{e}");
+    assert!(e.contains("in.jsonl:4:") && e.contains("inside the tube"), "{e}");
+    assert_eq!(std::fs::read_to_string(&output).unwrap(), "previous results\n");
+}
+
+#[test]
+fn eval_writes_nan_as_a_string_and_keeps_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let kernel = write(
+        dir.path(),
+        "nan.wgsl",
+        "//! id: line.nan\n//! target: line\nfn method(scene: Scene) -> f32 {\n    let z = scene.radius;\n    return z / z;\n}\n",
+    );
+    let input = write(
+        dir.path(),
+        "in.jsonl",
+        concat!(
+            r#"{"id":"b","p1":[0,0,1],"p2":[1,0,1],"material":{"kind":"diffuse"}}"#,
+            "\n",
+            r#"{"id":"a","p1":[0.3,-0.2,1.0],"p2":[0.9,0.4,1.6],"material":{"kind":"diffuse"}}"#,
+            "\n",
+        ),
+    );
+    let output = dir.path().join("out.jsonl");
+    let o = linelight(&[
+        "eval",
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        output.to_str().unwrap(),
+        "--kernel",
+        kernel.to_str().unwrap(),
+        "--methods",
+        "line.nan,line.ltc2023",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows: Vec<serde_json::Value> = std::fs::read_to_string(&output)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(rows.len(), 2);
+    assert_eq!(rows[0]["id"], "b");
+    assert_eq!(rows[0]["methods"]["line.nan"]["f32"], "NaN");
+    assert!(
+        rows[0]["methods"]["line.nan"]["f64"].is_null(),
+        "a user kernel has no f64 port"
+    );
+    assert!(rows[1]["methods"]["line.ltc2023"]["f64"].is_number());
+    assert!(rows[1]["reference_error"]["line"].as_f64().unwrap() >= 0.0);
+}
+
+#[test]
+fn unknown_adapter_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = write(
+        dir.path(),
+        "in.jsonl",
+        r#"{"id":"a","p1":[0,0,1],"p2":[1,0,1],"material":{"kind":"diffuse"}}"#,
+    );
+    let output = dir.path().join("out.jsonl");
+    let o = linelight(&[
+        "eval",
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        output.to_str().unwrap(),
+        "--adapter",
+        "NoSuchGPU-42",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(e.contains("NoSuchGPU-42") && e.contains("llvmpipe"), "{e}");
+    assert!(!output.exists());
+}

@@ -1,0 +1,174 @@
+//! `linelight eval` on explicit configurations: its references agree with an independent
+//! quadrature (written here, sharing no code with src/reference) to 1e-8 relative.
+
+use std::process::Command;
+
+type V = [f64; 3];
+
+fn dot(a: V, b: V) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn axpy(a: f64, x: V, y: V) -> V {
+    [a * x[0] + y[0], a * x[1] + y[1], a * x[2] + y[2]]
+}
+
+/// Gauss–Legendre nodes and weights on [-1, 1] by Newton iteration on P_n.
+fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
+    (0..n)
+        .map(|i| {
+            let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+            loop {
+                let (mut p0, mut p1) = (1.0, x);
+                for k in 2..=n {
+                    let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
+                    p0 = p1;
+                    p1 = p2;
+                }
+                let dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
+                let dx = p1 / dp;
+                x -= dx;
+                if dx.abs() < 1e-15 {
+                    return (x, 2.0 / ((1.0 - x * x) * dp * dp));
+                }
+            }
+        })
+        .collect()
+}
+
+/// The line integral by angle: l = l_foot + d·tan θ turns Eq. 1.6 into ∫ 2 D(ω(θ)) cos θ / d dθ,
+/// split where D has a kink (its support plane and, for `upper`, the horizon).
+fn independent_line(p1: V, p2: V, minv: [[f64; 3]; 3], upper: bool) -> f64 {
+    let e = [p2[0] - p1[0], p2[1] - p1[1], p2[2] - p1[2]];
+    let len = dot(e, e).sqrt();
+    let t = [e[0] / len, e[1] / len, e[2] / len];
+    let l1 = dot(p1, t);
+    let po = axpy(-l1, t, p1);
+    let d = dot(po, po).sqrt();
+    let det = minv[0][0] * (minv[1][1] * minv[2][2] - minv[1][2] * minv[2][1])
+        - minv[0][1] * (minv[1][0] * minv[2][2] - minv[1][2] * minv[2][0])
+        + minv[0][2] * (minv[1][0] * minv[2][1] - minv[1][1] * minv[2][0]);
+    let dist = |w: V| -> f64 {
+        let wo = [dot(minv[0], w), dot(minv[1], w), dot(minv[2], w)];
+        let lo = dot(wo, wo).sqrt();
+        let mut v = (wo[2] / lo).max(0.0) * det.abs() / (std::f64::consts::PI * lo * lo * lo);
+        if upper && w[2] <= 0.0 {
+            v = 0.0;
+        }
+        v
+    };
+    let (th1, th2) = ((l1 / d).atan(), ((l1 + len) / d).atan());
+    let mut cuts = vec![th1, th2];
+    // Plane n·p = 0 crosses p(θ) = po + d tanθ t where tanθ = -(n·po)/(d n·t).
+    let mut planes = vec![minv[2]];
+    if upper {
+        planes.push([0.0, 0.0, 1.0]);
+    }
+    for n in planes {
+        let th = (-dot(n, po) / (d * dot(n, t))).atan();
+        if th > th1 && th < th2 {
+            cuts.push(th);
+        }
+    }
+    cuts.sort_by(f64::total_cmp);
+    let rule = gauss_legendre(12);
+    let panels = 400;
+    let mut sum = 0.0;
+    for w in cuts.windows(2) {
+        let h = (w[1] - w[0]) / panels as f64;
+        for k in 0..panels {
+            let mid = w[0] + (k as f64 + 0.5) * h;
+            for &(x, wt) in &rule {
+                let th = mid + 0.5 * h * x;
+                let dir = axpy(
+                    th.sin(),
+                    t,
+                    [po[0] / d * th.cos(), po[1] / d * th.cos(), po[2] / d * th.cos()],
+                );
+                sum += 0.5 * h * wt * 2.0 * dist(dir) * th.cos() / d;
+            }
+        }
+    }
+    sum
+}
+
+fn configs() -> Vec<serde_json::Value> {
+    use serde_json::json;
+    let iso = [[0.5, 0.0, 0.1], [0.0, 0.6, 0.0], [-0.2, 0.0, 1.0]];
+    let sharp = [[12.0, 0.0, -6.0], [0.0, 10.0, 0.0], [0.2, 0.0, 1.0]];
+    let full = [[2.0, 0.7, -0.4], [-0.5, 3.0, 0.3], [0.1, -0.2, 1.0]];
+    let mut out = vec![
+        json!({"id": "design", "p1": [0.3, -0.2, 1.0], "p2": [0.9, 0.4, 1.6], "radius": 0.01,
+        "rect": {"normal": [0.0, 0.0, -1.0], "width": 0.02},
+        "material": {"kind": "ltc", "minv": iso}}),
+    ];
+    let segs: [(V, V); 6] = [
+        ([-1.0, 0.5, 1.0], [1.0, 0.5, 1.0]),    // parallel to the surface
+        ([0.2, 0.1, -0.5], [0.4, 0.3, 1.5]),    // crosses the horizon
+        ([3.0, -2.0, 0.2], [-3.0, 2.5, 0.1]),   // long, grazing
+        ([0.05, 0.0, 0.2], [0.05, 0.01, 0.21]), // short, close
+        ([-20.0, 1.0, 2.0], [30.0, 1.0, 3.0]),  // very long
+        ([0.5, 0.5, -0.1], [0.6, -0.5, 0.05]),  // mostly below
+    ];
+    for (k, (p1, p2)) in segs.iter().enumerate() {
+        out.push(json!({"id": format!("diffuse{k}"), "p1": p1, "p2": p2, "material": {"kind": "diffuse"}}));
+        for (name, m) in [("iso", iso), ("sharp", sharp), ("full", full)] {
+            out.push(json!({"id": format!("{name}{k}"), "p1": p1, "p2": p2, "material": {"kind": "ltc", "minv": m}}));
+        }
+    }
+    out
+}
+
+#[test]
+fn eval_references_agree_with_an_independent_quadrature() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in.jsonl");
+    let output = dir.path().join("out.jsonl");
+    let cs = configs();
+    std::fs::write(&input, cs.iter().map(|c| c.to_string() + "\n").collect::<String>()).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .args([
+            "eval",
+            "--input",
+            input.to_str().unwrap(),
+            "--output",
+            output.to_str().unwrap(),
+            "--methods",
+            "line.ltc2023",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rows: Vec<serde_json::Value> = std::fs::read_to_string(&output)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(rows.len(), cs.len());
+    let v = |x: &serde_json::Value| -> V { [0, 1, 2].map(|i| x[i].as_f64().unwrap()) };
+    let mut worst = 0.0f64;
+    for (c, row) in cs.iter().zip(&rows) {
+        assert_eq!(c["id"], row["id"]);
+        let minv = match c["material"]["kind"].as_str().unwrap() {
+            "diffuse" => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            _ => [0, 1, 2].map(|r| v(&c["material"]["minv"][r])),
+        };
+        for (target, upper) in [("line", false), ("line_upper", true)] {
+            let expected = independent_line(v(&c["p1"]), v(&c["p2"]), minv, upper);
+            let got = row["reference"][target].as_f64().unwrap();
+            let err = row["reference_error"][target].as_f64().unwrap();
+            let rel = (got - expected).abs() / expected.abs().max(1e-300);
+            worst = worst.max(rel);
+            assert!(
+                rel <= 1e-8 || (got - expected).abs() < 1e-14,
+                "{} {target}: eval {got:e} ± {err:e}, independent {expected:e} (rel {rel:e})",
+                c["id"]
+            );
+            assert!(
+                err >= 0.0 && err <= 1e-8 * got.abs().max(1e-14),
+                "{} {target}: error estimate {err:e}",
+                c["id"]
+            );
+        }
+    }
+    eprintln!("worst relative disagreement: {worst:e}");
+}

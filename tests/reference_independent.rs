@@ -1,0 +1,358 @@
+//! `reference()` against a second quadrature written here from DESIGN §1 alone: composite
+//! Gauss–Legendre on many equal panels, in parametrisations the reference does not use
+//! (l = l0 + d·sinh u for the line; the surfaces in their own area coordinates), with its
+//! own D (Listing 1.10) and its own kink location.
+
+use linelight::reference::reference;
+use linelight::scene::{Config, Material, Rect, Vec3};
+use rayon::prelude::*;
+use linelight::target::Target;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::f64::consts::PI;
+
+fn add(a: Vec3, b: Vec3) -> Vec3 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+fn sub(a: Vec3, b: Vec3) -> Vec3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn mul(a: Vec3, s: f64) -> Vec3 {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+fn dot(a: Vec3, b: Vec3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn cross(a: Vec3, b: Vec3) -> Vec3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn norm(a: Vec3) -> f64 {
+    dot(a, a).sqrt()
+}
+fn unit(a: Vec3) -> Vec3 {
+    mul(a, 1.0 / norm(a))
+}
+
+/// Listing 1.10, for any material (diffuse is M⁻¹ = I).
+fn d_of(minv: &[[f64; 3]; 3], w: Vec3) -> f64 {
+    let wo = minv.map(|r| dot(r, w));
+    let lo = norm(wo);
+    let det = minv[0][0] * (minv[1][1] * minv[2][2] - minv[1][2] * minv[2][1])
+        - minv[0][1] * (minv[1][0] * minv[2][2] - minv[1][2] * minv[2][0])
+        + minv[0][2] * (minv[1][0] * minv[2][1] - minv[1][1] * minv[2][0]);
+    (wo[2] / lo).max(0.0) * det.abs() / (PI * lo * lo * lo)
+}
+
+/// 16-point Gauss–Legendre on [−1, 1] by Newton on P₁₆.
+fn gauss16() -> Vec<(f64, f64)> {
+    let n = 16;
+    (0..n)
+        .map(|i| {
+            let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+            loop {
+                let (mut p0, mut p1) = (1.0, x);
+                for k in 2..=n {
+                    let k = k as f64;
+                    (p0, p1) = (p1, ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k);
+                }
+                let dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
+                let dx = p1 / dp;
+                x -= dx;
+                if dx.abs() < 1e-16 {
+                    return (x, 2.0 / ((1.0 - x * x) * dp * dp));
+                }
+            }
+        })
+        .collect()
+}
+
+/// ∫ f over [a, b], cut at `cuts`, with `panels` equal panels spread over the pieces in
+/// proportion to their length (at least 50 each).
+fn composite(f: &dyn Fn(f64) -> f64, a: f64, b: f64, cuts: &[f64], panels: usize) -> f64 {
+    let rule = gauss16();
+    let mut ends: Vec<f64> = cuts.iter().copied().filter(|&c| c > a && c < b).collect();
+    ends.extend([a, b]);
+    ends.sort_by(f64::total_cmp);
+    let mut sum = 0.0;
+    for w in ends.windows(2) {
+        let n = ((panels as f64 * (w[1] - w[0]) / (b - a)).ceil() as usize).max(50);
+        let h = (w[1] - w[0]) / n as f64;
+        for i in 0..n {
+            let c = w[0] + (i as f64 + 0.5) * h;
+            sum += rule.iter().map(|&(x, wt)| wt * f(c + 0.5 * h * x)).sum::<f64>() * 0.5 * h;
+        }
+    }
+    sum
+}
+
+/// The solutions φ ∈ [0, 2π) of a + b cos φ + c sin φ = 0.
+fn trig_roots(a: f64, b: f64, c: f64) -> Vec<f64> {
+    let r = b.hypot(c);
+    if r == 0.0 || a.abs() > r {
+        return Vec::new();
+    }
+    let (g, h) = (c.atan2(b), (-a / r).acos());
+    [g - h, g + h].iter().map(|x| x.rem_euclid(2.0 * PI)).collect()
+}
+
+/// The solution l of a + b·l = 0, if any.
+fn linear_root(a: f64, b: f64) -> Option<f64> {
+    (b != 0.0).then(|| -a / b)
+}
+
+/// Two unit vectors completing ω_t to an orthonormal basis.
+fn basis(t: Vec3) -> (Vec3, Vec3) {
+    let helper = if t[2].abs() < 0.9 { [0.0, 0.0, 1.0] } else { [1.0, 0.0, 0.0] };
+    let e1 = unit(cross(helper, t));
+    (e1, cross(t, e1))
+}
+
+/// `line` (or `line_upper`) in u with l = l0 + d·sinh u: dl = d cosh u du, ‖p‖ = d cosh u,
+/// so the integrand 2d·D/‖p‖³ dl is 2D/(d cosh²u) du.
+fn line(c: &Config, upper: bool) -> f64 {
+    let minv = c.material.minv();
+    let e = sub(c.p2, c.p1);
+    let len = norm(e);
+    let t = mul(e, 1.0 / len);
+    let l0 = -dot(c.p1, t);
+    let d = norm(cross(c.p1, t));
+    let u = |l: f64| ((l - l0) / d).asinh();
+    let f = |x: f64| {
+        let p = add(c.p1, mul(t, l0 + d * x.sinh()));
+        let w = unit(p);
+        if upper && w[2] <= 0.0 {
+            return 0.0;
+        }
+        2.0 * d_of(&minv, w) / (d * x.cosh().powi(2))
+    };
+    // The support plane of D and the horizon cross the line where their normal·p(l) = 0.
+    let cuts: Vec<f64> = [minv[2], [0.0, 0.0, 1.0]]
+        .iter()
+        .filter(|n| dot(**n, t) != 0.0)
+        .map(|n| u(-dot(*n, c.p1) / dot(*n, t)))
+        .collect();
+    composite(&f, u(0.0), u(len), &cuts, 4000)
+}
+
+fn material(rng: &mut ChaCha8Rng, i: usize) -> Material {
+    let (a, c) = (rng.random_range(1.0..30.0), rng.random_range(1.0..30.0));
+    let (b, d) = (rng.random_range(-2.0..2.0), rng.random_range(-0.8..0.8));
+    let sparse = [[a, 0.0, b], [0.0, c, 0.0], [d, 0.0, 1.0]];
+    match i % 3 {
+        0 => Material::Diffuse,
+        1 => Material::Ltc { minv: sparse },
+        _ => Material::Ltc {
+            minv: sparse.map(|r| r.map(|x| x + rng.random_range(-0.5..0.5))),
+        },
+    }
+}
+
+/// A configuration with segment distance at least 0.05; every third one crosses the horizon.
+fn config(rng: &mut ChaCha8Rng, i: usize) -> Config {
+    loop {
+        let mut p = || [0; 3].map(|_| rng.random_range(-2.0..2.0f64));
+        let (mut p1, mut p2) = (p(), p());
+        if i % 3 == 0 {
+            p1[2] = -p1[2].abs();
+            p2[2] = p2[2].abs();
+        }
+        let c = Config {
+            id: format!("c{i}"),
+            p1,
+            p2,
+            radius: None,
+            rect: None,
+            material: material(rng, i),
+        };
+        if c.validate().is_ok() && c.distance_to_segment() > 0.05 {
+            return c;
+        }
+    }
+}
+
+fn check(c: &Config, target: Target, independent: f64, tol: f64) {
+    let r = reference(c, target).expect("target computable");
+    let err = (r.value - independent).abs();
+    assert!(
+        err <= tol * independent.abs() + 1e-300,
+        "{target} {c:?}: reference {r:?}, independent {independent:e}, rel {:e}",
+        err / independent.abs()
+    );
+}
+
+#[test]
+fn line_and_line_upper_agree_with_sinh_quadrature() {
+    let mut rng = ChaCha8Rng::seed_from_u64(20240601);
+    let mut nonzero = 0;
+    for i in 0..60 {
+        let c = config(&mut rng, i);
+        let (all, upper) = (line(&c, false), line(&c, true));
+        nonzero += (upper > 0.0) as usize;
+        check(&c, Target::Line, all, 1e-8);
+        check(&c, Target::LineUpper, upper, 1e-8);
+    }
+    assert!(nonzero >= 30, "only {nonzero} of 60 configurations see the light");
+}
+
+/// `cylinder` per Eq. 1.2 in (l, φ): outer l = l0 + d·sinh u, inner φ over the visible arc
+/// (where −p1·ω_n(φ) > R, the same for every l) cut where D's support plane crosses it.
+fn cylinder(c: &Config) -> f64 {
+    let r = c.radius.unwrap();
+    let minv = c.material.minv();
+    let sigma = minv[2];
+    let e = sub(c.p2, c.p1);
+    let len = norm(e);
+    let t = mul(e, 1.0 / len);
+    let (e1, e2) = basis(t);
+    let wn = |phi: f64| add(mul(e1, phi.cos()), mul(e2, phi.sin()));
+    // −p·ω_n − R·0 = −(A cos φ + B sin φ) − R: the arc where this is positive.
+    let (a, b) = (dot(c.p1, e1), dot(c.p1, e2));
+    let rho = a.hypot(b);
+    if rho <= r {
+        return 0.0;
+    }
+    let half = (r / rho).acos();
+    let centre = b.atan2(a) + PI;
+    let (lo, hi) = (centre - half, centre + half);
+    let support = |l: f64, phi: f64| dot(sigma, add(add(c.p1, mul(t, l)), mul(wn(phi), r)));
+    let inner = |l: f64| {
+        let base = add(c.p1, mul(t, l));
+        let f = |phi: f64| {
+            let n = wn(phi);
+            let p = add(base, mul(n, r));
+            let w = unit(p);
+            d_of(&minv, w) * (-dot(w, n)).max(0.0) / dot(p, p) * r
+        };
+        let cuts: Vec<f64> = trig_roots(dot(sigma, base), r * dot(sigma, e1), r * dot(sigma, e2))
+            .into_iter()
+            .flat_map(|x| [x - 2.0 * PI, x, x + 2.0 * PI])
+            .collect();
+        composite(&f, lo, hi, &cuts, 120)
+    };
+    let l0 = -dot(c.p1, t);
+    let d = norm(cross(c.p1, t));
+    let u = |l: f64| ((l - l0) / d).asinh();
+    // Kinks of the inner integral in l: the support's zeros reach an arc end, or appear.
+    let mut cuts = Vec::new();
+    for phi in [lo, hi] {
+        cuts.extend(linear_root(support(0.0, phi), dot(sigma, t)).map(u));
+    }
+    let s_perp = r * (dot(sigma, e1)).hypot(dot(sigma, e2));
+    for sign in [-1.0, 1.0] {
+        cuts.extend(linear_root(dot(sigma, c.p1) + sign * s_perp, dot(sigma, t)).map(u));
+    }
+    let f = |x: f64| {
+        let l = l0 + d * x.sinh();
+        inner(l) * d * x.cosh()
+    };
+    composite(&f, u(0.0), u(len), &cuts, 300)
+}
+
+/// `caps` per Eq. 1.29 in the disks' polar coordinates (φ outer, r inner), one-sided as in
+/// Listing 1.8.
+fn caps(c: &Config) -> f64 {
+    let r = c.radius.unwrap();
+    let minv = c.material.minv();
+    let sigma = minv[2];
+    let t = unit(sub(c.p2, c.p1));
+    let (e1, e2) = basis(t);
+    let mut total = 0.0;
+    for (centre, normal) in [(c.p1, t), (c.p2, mul(t, -1.0))] {
+        let u = |phi: f64| add(mul(e1, phi.cos()), mul(e2, phi.sin()));
+        let inner = |phi: f64| {
+            let f = |rr: f64| {
+                let p = add(centre, mul(u(phi), rr));
+                let w = unit(p);
+                rr * d_of(&minv, w) * dot(w, normal).max(0.0) / dot(p, p)
+            };
+            let cut = linear_root(dot(sigma, centre), dot(sigma, u(phi)));
+            composite(&f, 0.0, r, &cut.into_iter().collect::<Vec<_>>(), 100)
+        };
+        let cuts = trig_roots(dot(sigma, centre), r * dot(sigma, e1), r * dot(sigma, e2));
+        total += composite(&inner, 0.0, 2.0 * PI, &cuts, 200);
+    }
+    total
+}
+
+/// `rectangle` in (l, s) with both sinh-graded about the origin's foot on the plane.
+fn rectangle(c: &Config) -> f64 {
+    let rect = c.rect.as_ref().unwrap();
+    let minv = c.material.minv();
+    let sigma = minv[2];
+    let e = sub(c.p2, c.p1);
+    let len = norm(e);
+    let t = mul(e, 1.0 / len);
+    let wb = unit(cross(rect.normal, t));
+    let n = cross(t, wb);
+    let h = dot(c.p1, n);
+    let half = rect.width / 2.0;
+    // The foot of the origin on the plane is at l = lf, s = sf.
+    let (lf, sf) = (-dot(c.p1, t), -dot(c.p1, wb));
+    let scale = h.abs().max(1e-3 * rect.width);
+    let u = |l: f64| ((l - lf) / scale).asinh();
+    let inner = |l: f64| {
+        let base = add(c.p1, mul(t, l));
+        let dl = (h * h + (l - lf).powi(2)).sqrt();
+        let v = |s: f64| ((s - sf) / dl).asinh();
+        let f = |x: f64| {
+            let s = sf + dl * x.sinh();
+            let p = add(base, mul(wb, s));
+            let w = unit(p);
+            d_of(&minv, w) * dot(w, n).abs() / dot(p, p) * dl * x.cosh()
+        };
+        let cut = linear_root(dot(sigma, base), dot(sigma, wb)).map(v);
+        composite(&f, v(-half), v(half), &cut.into_iter().collect::<Vec<_>>(), 120)
+    };
+    let mut cuts = Vec::new();
+    for s in [-half, half] {
+        let a = dot(sigma, add(c.p1, mul(wb, s)));
+        cuts.extend(linear_root(a, dot(sigma, t)).map(u));
+    }
+    let f = |x: f64| {
+        let l = lf + scale * x.sinh();
+        inner(l) * scale * x.cosh()
+    };
+    composite(&f, u(0.0), u(len), &cuts, 300)
+}
+
+/// A configuration with a tube (radius up to half the segment's distance) and a rectangle
+/// (normal ⟂ ω_t, width up to the segment's distance).
+fn surface_config(rng: &mut ChaCha8Rng, i: usize) -> Config {
+    loop {
+        let mut c = config(rng, i);
+        let dist = c.distance_to_segment();
+        let t = unit(sub(c.p2, c.p1));
+        let (e1, e2) = basis(t);
+        let a = rng.random_range(0.0..2.0 * PI);
+        c.radius = Some(dist * rng.random_range(0.02..0.5));
+        c.rect = Some(Rect {
+            normal: add(mul(e1, a.cos()), mul(e2, a.sin())),
+            width: dist * rng.random_range(0.02..1.0),
+        });
+        if c.validate().is_ok() {
+            return c;
+        }
+    }
+}
+
+#[test]
+fn surfaces_agree_with_area_quadrature() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let configs: Vec<Config> = (0..50).map(|i| surface_config(&mut rng, i)).collect();
+    let nonzero: usize = configs
+        .par_iter()
+        .map(|c| {
+            let (side, ends, flat) = (cylinder(c), caps(c), rectangle(c));
+            check(c, Target::Cylinder, side, 1e-7);
+            check(c, Target::Caps, ends, 1e-7);
+            check(c, Target::Tube, side + ends, 1e-7);
+            check(c, Target::Rectangle, flat, 1e-7);
+            (side > 0.0 && flat > 0.0) as usize
+        })
+        .sum();
+    assert!(nonzero >= 25, "only {nonzero} of 50 configurations see the light");
+}
