@@ -81,7 +81,7 @@ pub(crate) fn split_halves(
 /// The zeros of `a + b·cos x + c·sin x` in (−π, π].
 pub(crate) fn trig_zeros(a: f64, b: f64, c: f64) -> Vec<f64> {
     let rho = b.hypot(c);
-    if !(rho >= a.abs() && rho > 0.0) {
+    if rho < a.abs() || rho == 0.0 {
         return Vec::new();
     }
     let (centre, offset) = (c.atan2(b), (-a / rho).acos());
@@ -113,7 +113,7 @@ const GRADE_BELOW: f64 = 0.1;
 /// peak of that width grow geometrically and each is resolved by a few rules.
 pub(crate) fn graded(centre: f64, width: f64, cuts: &mut Vec<f64>) {
     cuts.push(centre);
-    if !(width < GRADE_BELOW) {
+    if width >= GRADE_BELOW {
         return;
     }
     let mut t = width;
@@ -127,7 +127,7 @@ pub(crate) fn graded(centre: f64, width: f64, cuts: &mut Vec<f64>) {
 /// replaced by `D·[ω.z > 0]` if `upper`. Zero when the chord passes through the origin.
 pub(crate) fn integrate_chord(lobe: &Lobe, chord: &Chord, upper: bool, rtol: f64, max_panels: usize) -> Quad {
     let d = length(chord.foot);
-    if !(d > 0.0) {
+    if d == 0.0 {
         return Quad::default();
     }
     let (n, dir) = (mul(chord.foot, 1.0 / d), chord.dir);
@@ -434,67 +434,6 @@ mod tests {
             );
             // The conditioning term, ~4ε·‖M⁻¹‖‖M‖, is about 1e-12 here.
             assert!(est.error <= 1e-11 * exact, "{i}: {est:?}");
-        }
-    }
-}
-#[cfg(test)]
-mod debug {
-    use super::*;
-    use crate::reference::testing::*;
-    use crate::scene::Material;
-    use rand::Rng;
-    #[test]
-    fn dbg_bench() {
-        for amax in [1.0f64, 10.0, 100.0, 1000.0] {
-            let mut rng = rng(7);
-            let mut cases = vec![];
-            for _ in 0..2000 {
-                let a = rng.random_range(1.0..amax.max(1.0001));
-                let c = a * rng.random_range(0.7..1.0);
-                let b = rng.random_range(-1.0..1.0) * a * 0.3;
-                let d = rng.random_range(-0.5..0.5);
-                let m = Material::Ltc {
-                    minv: [[a, 0.0, b], [0.0, c, 0.0], [d, 0.0, 1.0]],
-                };
-                // line at distance 1 from the origin, length L
-                let len = 10f64.powf(rng.random_range(-1.0..2.0));
-                let n = point(&mut rng, 1.0);
-                let nl = length(n);
-                let n = mul(n, 1.0 / nl);
-                let t = reject(point(&mut rng, 1.0), n);
-                let t = mul(t, 1.0 / length(t));
-                let s0 = rng.random_range(-1.0..0.0) * len;
-                let p1 = [0, 1, 2].map(|k| n[k] + s0 * t[k]);
-                let p2 = [0, 1, 2].map(|k| p1[k] + len * t[k]);
-                cases.push((Lobe::new(&m), p1, p2));
-            }
-            let t0 = std::time::Instant::now();
-            let mut worst: f64 = 0.0;
-            let mut nz = 0;
-            let mut tmax: f64 = 0.0;
-            for (l, p1, p2) in &cases {
-                let mut tm = f64::MAX;
-                let mut e = line(l, *p1, *p2, true);
-                for _ in 0..3 {
-                    let t1 = std::time::Instant::now();
-                    e = line(l, *p1, *p2, true);
-                    tm = tm.min(t1.elapsed().as_secs_f64());
-                }
-                if tm > tmax {
-                    tmax = tm;
-                    eprintln!("  {tm:e} {l:?} {p1:?} {p2:?} {e:?}");
-                }
-                if e.value > 0.0 {
-                    nz += 1;
-                    worst = worst.max(e.error / e.value);
-                }
-            }
-            let dt = t0.elapsed().as_secs_f64() / cases.len() as f64;
-            eprintln!(
-                "amax {amax}: {:.2} us/ref (max {:.1}), nonzero {nz}, worst rel err {worst:e}",
-                dt * 1e6,
-                tmax * 1e6
-            );
         }
     }
 }

@@ -92,7 +92,7 @@ impl Circle {
         // Q_min·Q_max = qa·qc − qb² = ‖a×b‖², without the cancellation of (qa+qc)/2 − amp.
         let c = cross(self.a, self.b);
         let q_min = dot(c, c) / q_max;
-        if !(q_max > q_min) {
+        if q_max <= q_min {
             return None;
         }
         let centre = 0.5 * (-qb).atan2(0.5 * (qa - qc));

@@ -55,6 +55,8 @@ impl std::ops::AddAssign for Quad {
 }
 
 /// Positive K21 abscissae on [−1, 1]; odd indices are the G10 nodes, the last is the centre.
+/// QUADPACK's 33-digit constants, kept verbatim.
+#[allow(clippy::excessive_precision)]
 const XGK: [f64; 11] = [
     0.995657163025808080735527280689003,
     0.973906528517171720077964012084452,
@@ -68,6 +70,7 @@ const XGK: [f64; 11] = [
     0.148874338981631210884826001129720,
     0.0,
 ];
+#[allow(clippy::excessive_precision)]
 const WGK: [f64; 11] = [
     0.011694638867371874278064396062192,
     0.032558162307964727478818972459390,
@@ -82,6 +85,7 @@ const WGK: [f64; 11] = [
     0.149445554002916905664936468389821,
 ];
 /// G10 weights of XGK[1], XGK[3], …, XGK[9].
+#[allow(clippy::excessive_precision)]
 const WG: [f64; 5] = [
     0.066671344308688137593568809893332,
     0.149451349150580593145776339657697,

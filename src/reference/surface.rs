@@ -66,7 +66,7 @@ pub(crate) fn cylinder(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64) -> Estimate
     let axis = Axis::new(p1, p2);
     let d = length(axis.foot);
     let gap = d - radius;
-    if !(gap > 0.0) {
+    if gap <= 0.0 {
         // The origin is within R of the axis line (beyond an end): no side faces it.
         return Estimate { value: 0.0, error: 0.0 };
     }
@@ -260,6 +260,18 @@ mod tests {
                 last = gap;
             }
             assert!(last < 1e-3, "{material:?}: {last:e}");
+        }
+    }
+
+    #[test]
+    fn long_cylinder_above_the_point() {
+        // An infinite cylinder parallel to the surface, its axis at height h above the point,
+        // spans |φ| < asin(R/h) in the cross-section, so by the 2D crossed-strings form factor
+        // E = (sin φ₂ − sin φ₁)/2 = R/h. Ends at ±10⁴h change that by O((h/L)³).
+        for r in [0.1, 0.5, 0.9] {
+            let est = cylinder(&diffuse(), [-1e4, 0.0, 1.0], [1e4, 0.0, 1.0], r);
+            assert!(rel(est.value, r) < 1e-10, "R={r}: {est:?}");
+            assert!(est.error < 1e-9 * r, "R={r}: {est:?}");
         }
     }
 
