@@ -1,7 +1,7 @@
 //! Analysis: measured values and references → per-method, per-material, per-bin
 //! statistics, method-against-method comparisons and the verdict. No I/O here.
 
-use crate::case::{Case, Tolerance};
+use crate::case::{BinAxis, Case, Tolerance};
 use crate::methods::Method;
 use crate::reference::Estimate;
 use crate::sampler::Sample;
@@ -38,6 +38,14 @@ pub struct AxisStats {
     pub bins: Vec<Bin>,
 }
 
+/// Statistics over a two-dimensional grid of bins; `cells[y][x]`.
+#[derive(Clone, Debug, Serialize)]
+pub struct MapStats {
+    pub x: BinAxis,
+    pub y: BinAxis,
+    pub cells: Vec<Vec<BinStats>>,
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct MaterialStats {
     pub material: String,
@@ -45,6 +53,10 @@ pub struct MaterialStats {
     pub supported: bool,
     pub all: BinStats,
     pub axes: Vec<AxisStats>,
+    pub maps: Vec<MapStats>,
+    /// For `line` methods: the same results judged against `line_upper`, what a real
+    /// surface receives (the difference is the leak below the horizon).
+    pub against_line_upper: Option<BinStats>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -127,19 +139,17 @@ fn reference_for(references: &References, i: usize, target: Target) -> Option<Es
 
 fn method_stats(case: &Case, samples: &[Sample], references: &References, run: &MethodRun) -> MethodStats {
     let target = run.method.target();
-    let floor = case.floor(target);
-    let outcome = |i: usize| -> Option<(Outcome, Option<Outcome>, Option<Outcome>, f64)> {
-        let r = reference_for(references, i, target)?;
+    // One configuration judged against `judged` (the method's target, or `line_upper`).
+    let outcome = |i: usize, judged: Target| -> Option<(Outcome, Option<Outcome>, Option<Outcome>, f64)> {
+        let r = reference_for(references, i, judged)?;
         if !run.method.applies(&samples[i].config) {
             return None;
         }
-        let f32_outcome = Outcome::of_f32(run.f32[i], r.value, floor);
-        let cpu_outcome = run.f32_cpu[i].map(|v| Outcome::of_f32(v, r.value, floor));
-        let f64_outcome = run.f64[i].map(|v| Outcome::of_f64(v, r.value, floor));
+        let floor = case.floor(judged);
         Some((
-            f32_outcome,
-            cpu_outcome,
-            f64_outcome,
+            Outcome::of_f32(run.f32[i], r.value, floor),
+            run.f32_cpu[i].map(|v| Outcome::of_f32(v, r.value, floor)),
+            run.f64[i].map(|v| Outcome::of_f64(v, r.value, floor)),
             r.error / r.value.abs().max(floor),
         ))
     };
@@ -149,14 +159,18 @@ fn method_stats(case: &Case, samples: &[Sample], references: &References, run: &
         .enumerate()
         .map(|(m, family)| {
             let idx: Vec<usize> = members(samples, m).collect();
-            let collect = |filter: &dyn Fn(usize) -> bool| {
+            let collect_against = |judged: Target, filter: &dyn Fn(usize) -> bool| {
                 let mut acc = BinAccumulator::default();
                 for &i in idx.iter().filter(|&&i| filter(i)) {
-                    if let Some((gpu, cpu, f64, r)) = outcome(i) {
+                    if let Some((gpu, cpu, f64, r)) = outcome(i, judged) {
                         acc.push(gpu, cpu, f64, r);
                     }
                 }
                 acc.finish()
+            };
+            let collect = |filter: &dyn Fn(usize) -> bool| collect_against(target, filter);
+            let in_bin = |axis: &str, edges: &[f64], k: usize, i: usize| {
+                bin_index(edges, samples[i].axes.get(axis)) == Some(k)
             };
             let supported = idx.first().is_none_or(|&i| run.method.supports(&samples[i].config));
             MaterialStats {
@@ -172,11 +186,32 @@ fn method_stats(case: &Case, samples: &[Sample], references: &References, run: &
                             .map(|k| Bin {
                                 lo: b.edges[k],
                                 hi: b.edges[k + 1],
-                                stats: collect(&|i| bin_index(&b.edges, samples[i].axes.get(&b.axis)) == Some(k)),
+                                stats: collect(&|i| in_bin(&b.axis, &b.edges, k, i)),
                             })
                             .collect(),
                     })
                     .collect(),
+                maps: case
+                    .maps
+                    .iter()
+                    .map(|map| MapStats {
+                        x: map.x.clone(),
+                        y: map.y.clone(),
+                        cells: (0..map.y.edges.len() - 1)
+                            .map(|ky| {
+                                (0..map.x.edges.len() - 1)
+                                    .map(|kx| {
+                                        collect(&|i| {
+                                            in_bin(&map.x.axis, &map.x.edges, kx, i)
+                                                && in_bin(&map.y.axis, &map.y.edges, ky, i)
+                                        })
+                                    })
+                                    .collect()
+                            })
+                            .collect(),
+                    })
+                    .collect(),
+                against_line_upper: (target == Target::Line).then(|| collect_against(Target::LineUpper, &|_| true)),
             }
         })
         .collect();

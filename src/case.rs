@@ -13,6 +13,8 @@ pub enum Dist {
     Fixed { value: f64 },
     Uniform { min: f64, max: f64 },
     LogUniform { min: f64, max: f64 },
+    /// Magnitude log-uniform in [min, max], sign + or − with equal odds.
+    SignedLogUniform { min: f64, max: f64 },
 }
 
 impl Dist {
@@ -22,7 +24,9 @@ impl Dist {
             Dist::Uniform { min, max } if !(min.is_finite() && max.is_finite() && min <= max) => {
                 Err(format!("{name}: need finite min <= max, got [{min}, {max}]"))
             }
-            Dist::LogUniform { min, max } if !(min > 0.0 && max.is_finite() && min <= max) => {
+            Dist::LogUniform { min, max } | Dist::SignedLogUniform { min, max }
+                if !(min > 0.0 && max.is_finite() && min <= max) =>
+            {
                 Err(format!("{name}: log_uniform needs 0 < min <= max, got [{min}, {max}]"))
             }
             _ => Ok(()),
@@ -96,11 +100,28 @@ pub enum MaterialKind {
 }
 
 /// One bin axis: a derived parameter of each configuration and the bin edges.
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct BinAxis {
     pub axis: String,
     pub edges: Vec<f64>,
+}
+
+/// A validity map: every method's error binned over two axes at once.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Map {
+    pub x: BinAxis,
+    pub y: BinAxis,
+    /// The methods drawn (default: all).
+    #[serde(default)]
+    pub methods: Vec<String>,
+}
+
+impl Map {
+    pub fn shows(&self, label: &str) -> bool {
+        self.methods.is_empty() || self.methods.iter().any(|m| m == label)
+    }
 }
 
 /// Thresholds a method must meet for the verdict, on each material's whole sample
@@ -129,6 +150,9 @@ pub struct Case {
     pub materials: Vec<MaterialFamily>,
     #[serde(default)]
     pub bins: Vec<BinAxis>,
+    /// Two-dimensional validity maps (tables and SVG heat maps of the p99 error).
+    #[serde(default)]
+    pub maps: Vec<Map>,
     /// Pairs of methods whose results are compared configuration by configuration.
     #[serde(default)]
     pub compare: Vec<[String; 2]>,
@@ -149,6 +173,7 @@ pub const AXES: &[&str] = &[
     "reach_o",
     "radius",
     "width",
+    "rect_angle",
 ];
 
 impl Case {
@@ -215,7 +240,8 @@ impl Case {
                         .ok_or_else(|| format!("{name}: an LTC material needs `alpha`"))?;
                     let (Dist::Fixed { value: lowest }
                     | Dist::Uniform { min: lowest, .. }
-                    | Dist::LogUniform { min: lowest, .. }) = *alpha;
+                    | Dist::LogUniform { min: lowest, .. }
+                    | Dist::SignedLogUniform { min: lowest, .. }) = *alpha;
                     if lowest <= 0.0 {
                         return Err(format!("{name}: alpha must be > 0"));
                     }
@@ -239,7 +265,7 @@ impl Case {
         if self.methods.is_empty() {
             return Err("no methods".into());
         }
-        for b in &self.bins {
+        for b in self.bins.iter().chain(self.maps.iter().flat_map(|m| [&m.x, &m.y])) {
             if !AXES.contains(&b.axis.as_str()) {
                 return Err(format!("unknown bin axis `{}` (one of {})", b.axis, AXES.join(", ")));
             }
@@ -248,6 +274,11 @@ impl Case {
                     "bins `{}`: edges must be at least two increasing numbers",
                     b.axis
                 ));
+            }
+        }
+        for m in self.maps.iter().flat_map(|m| &m.methods) {
+            if !self.methods.contains(m) {
+                return Err(format!("maps name `{m}`, which is not in `methods`"));
             }
         }
         for pair in &self.compare {

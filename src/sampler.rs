@@ -25,6 +25,8 @@ pub struct Axes {
     pub reach_o: f64,
     pub radius: f64,
     pub width: f64,
+    /// Angle (degrees) of the rectangle's normal from facing the shading point: 90 is edge-on.
+    pub rect_angle: f64,
 }
 
 impl Axes {
@@ -38,6 +40,7 @@ impl Axes {
             "reach_o" => self.reach_o,
             "radius" => self.radius,
             "width" => self.width,
+            "rect_angle" => self.rect_angle,
             _ => f64::NAN,
         }
     }
@@ -64,7 +67,12 @@ impl Draw {
         match *d {
             Dist::Fixed { value } => value,
             Dist::Uniform { min, max } => min + (max - min) * u,
-            Dist::LogUniform { min, max } => libm::exp(libm::log(min) + (libm::log(max) - libm::log(min)) * u),
+            Dist::LogUniform { min, max } => log_uniform(min, max, u),
+            Dist::SignedLogUniform { min, max } => {
+                // The sign from the top bit, the magnitude from the rest: one draw.
+                let (sign, v) = if u < 0.5 { (-1.0, 2.0 * u) } else { (1.0, 2.0 * u - 1.0) };
+                sign * log_uniform(min, max, v)
+            }
         }
     }
 
@@ -92,6 +100,10 @@ pub fn sample_case(case: &Case) -> Vec<Sample> {
         }
     }
     out
+}
+
+fn log_uniform(min: f64, max: f64, u: f64) -> f64 {
+    libm::exp(libm::log(min) + (libm::log(max) - libm::log(min)) * u)
 }
 
 fn deg(x: f64) -> f64 {
@@ -123,7 +135,8 @@ fn sample_one(draw: &mut Draw, g: &Geometry, family: &MaterialFamily, material: 
     let center = draw.sample(&g.center);
     let radius = g.radius.as_ref().map(|r| draw.sample(r) * d);
     let rect_width = g.rect_width.as_ref().map(|w| draw.sample(w) * d);
-    let rect_angle = deg(draw.opt(&g.rect_angle, 0.0));
+    let rect_angle_deg = draw.opt(&g.rect_angle, 0.0);
+    let rect_angle = deg(rect_angle_deg);
 
     // Foot point p_o, horizontal direction h ⟂ p_o and v = ω_po × h complete the frame.
     let (ce, se) = (libm::cos(deg(elevation)), libm::sin(deg(elevation)));
@@ -173,6 +186,7 @@ fn sample_one(draw: &mut Draw, g: &Geometry, family: &MaterialFamily, material: 
             reach_o,
             radius: radius.map_or(f64::NAN, |r| r / d),
             width: rect_width.map_or(f64::NAN, |w| w / d),
+            rect_angle: if rect_width.is_some() { rect_angle_deg } else { f64::NAN },
         },
     }
 }

@@ -77,6 +77,36 @@ pub fn render(input: &ReportInput) -> String {
     if !case.notes.trim().is_empty() {
         let _ = writeln!(w, "## Finding\n\n{}\n", case.notes.trim());
     }
+    // At a glance: p99 per method and material, GPU f32 / CPU f64.
+    let _ = writeln!(w, "## At a glance\n");
+    let _ = writeln!(
+        w,
+        "p99 relative error against the reference: GPU f32 / the same formula in f64 (NaN/inf count if any; \
+         † = outside the matrices the method claims to handle).\n"
+    );
+    let names: Vec<String> = case.materials.iter().map(|f| format!("`{}`", f.name)).collect();
+    let _ = writeln!(w, "| method | target | {} |", names.join(" | "));
+    let _ = writeln!(w, "|---|---|{}", "---:|".repeat(names.len()));
+    for ms in &a.methods {
+        let cells: Vec<String> = ms
+            .materials
+            .iter()
+            .map(|mat| {
+                let s = &mat.all;
+                let mut c = format!("{} / {}", sci(s.rel.map(|q| q.p99)), sci(s.rel_f64.map(|q| q.p99)));
+                if s.nan + s.inf > 0 {
+                    c += &format!(" ({} NaN/inf)", s.nan + s.inf);
+                }
+                if !mat.supported {
+                    c += " †";
+                }
+                c
+            })
+            .collect();
+        let _ = writeln!(w, "| `{}` | {} | {} |", ms.label, ms.target, cells.join(" | "));
+    }
+    let _ = writeln!(w);
+
     if !a.comparisons.is_empty() {
         let _ = writeln!(w, "## Measured differences\n");
         for c in &a.comparisons {
@@ -171,6 +201,83 @@ pub fn render(input: &ReportInput) -> String {
         }
     }
 
+    // Convergence: a method run at several parameter values (sample counts).
+    let mut ids: Vec<&str> = Vec::new();
+    for m in &a.methods {
+        if !ids.contains(&m.id.as_str()) {
+            ids.push(&m.id);
+        }
+    }
+    for id in ids {
+        let runs: Vec<_> = a.methods.iter().filter(|m| m.id == id).collect();
+        if runs.len() < 2 {
+            continue;
+        }
+        let _ = writeln!(w, "## Convergence of `{id}`\n");
+        let _ = writeln!(
+            w,
+            "Relative error against the reference as the sample count grows: median / p99 / max of the GPU \
+             f32 result, and p99 of the same rule in f64 (its discretisation error alone).\n"
+        );
+        let names: Vec<String> = case.materials.iter().map(|f| format!("`{}` (f32 median / p99 / max; f64 p99)", f.name)).collect();
+        let _ = writeln!(w, "| method | {} |", names.join(" | "));
+        let _ = writeln!(w, "|---|{}", "---:|".repeat(names.len()));
+        for ms in runs {
+            let cells: Vec<String> = ms
+                .materials
+                .iter()
+                .map(|mat| {
+                    let q = mat.all.rel;
+                    format!(
+                        "{} / {} / {}; {}",
+                        sci(q.map(|q| q.median)),
+                        sci(q.map(|q| q.p99)),
+                        sci(q.map(|q| q.max)),
+                        sci(mat.all.rel_f64.map(|q| q.p99))
+                    )
+                })
+                .collect();
+            let _ = writeln!(w, "| `{}` | {} |", ms.label, cells.join(" | "));
+        }
+        let _ = writeln!(w);
+    }
+
+    // Validity maps.
+    for (k, map) in case.maps.iter().enumerate() {
+        let _ = writeln!(w, "## Validity map: `{}` × `{}`\n", map.x.axis, map.y.axis);
+        for ms in a.methods.iter().filter(|m| map.shows(&m.label)) {
+            for mat in &ms.materials {
+                let stats = &mat.maps[k];
+                let file = super::map_file(&ms.label, &mat.material, &map.x.axis, &map.y.axis);
+                let _ = writeln!(w, "### `{}` on `{}`\n\n![{} on {}]({file})\n", ms.label, mat.material, ms.label, mat.material);
+                let _ = writeln!(
+                    w,
+                    "Where the p99 relative error stays under each threshold, from the smallest `{}` up:\n",
+                    map.x.axis
+                );
+                let _ = writeln!(w, "| {} | n | p99 ≤ 1 % | p99 ≤ 5 % | p99 ≤ 10 % |", map.y.axis);
+                let _ = writeln!(w, "|---|---:|---|---|---|");
+                let limits = [0.01, 0.05, 0.1].map(|t| super::svg::valid_up_to(stats, t));
+                for ky in (0..map.y.edges.len() - 1).rev() {
+                    let n: usize = stats.cells[ky].iter().map(|c| c.count + c.nan + c.inf).sum();
+                    let cells = limits.iter().map(|l| match l[ky] {
+                        Some(x) if x == *map.x.edges.last().unwrap() => format!("whole range (≤ {x})"),
+                        Some(x) => format!("{} < {x}", map.x.axis),
+                        None => "nowhere".into(),
+                    });
+                    let _ = writeln!(
+                        w,
+                        "| [{}, {}) | {n} | {} |",
+                        map.y.edges[ky],
+                        map.y.edges[ky + 1],
+                        cells.collect::<Vec<_>>().join(" | ")
+                    );
+                }
+                let _ = writeln!(w);
+            }
+        }
+    }
+
     // Comparison tables.
     for c in &a.comparisons {
         let _ = writeln!(w, "## `{}` against `{}`\n", c.a, c.b);
@@ -226,6 +333,31 @@ pub fn render(input: &ReportInput) -> String {
                 sci(Some(l.median_fraction)),
                 sci(Some(l.max_fraction))
             );
+        }
+        let _ = writeln!(w);
+        let _ = writeln!(
+            w,
+            "The `line` methods judged against `line_upper` instead (p99 / max relative error), and how \
+             many configurations with the light wholly below the horizon (`line_upper` = 0) get a \
+             non-zero value from them:\n"
+        );
+        let _ = writeln!(w, "| method | material | p99 vs line_upper | max vs line_upper | non-zero below horizon |");
+        let _ = writeln!(w, "|---|---|---:|---:|---:|");
+        for ms in &a.methods {
+            for mat in &ms.materials {
+                let Some(up) = &mat.against_line_upper else { continue };
+                let below = findings::lit_from_below(input, &ms.label, &mat.material);
+                let _ = writeln!(
+                    w,
+                    "| `{}` | `{}` | {} | {} | {} of {} |",
+                    ms.label,
+                    mat.material,
+                    sci(up.rel.map(|q| q.p99)),
+                    sci(up.rel.map(|q| q.max)),
+                    below.0,
+                    below.1
+                );
+            }
         }
         let _ = writeln!(w);
     }

@@ -5,6 +5,7 @@
 mod csv;
 mod findings;
 mod markdown;
+mod svg;
 
 use crate::analysis::Analysis;
 use crate::case::Case;
@@ -75,10 +76,33 @@ pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<Path
         ("comparisons.csv", csv::comparisons(input.analysis).into_bytes()),
     ];
     let mut written = Vec::new();
-    for (name, bytes) in files {
-        let path = dir.join(name);
+    for (name, bytes) in files.into_iter().map(|(n, b)| (n.to_string(), b)).chain(heat_maps(input)) {
+        let path = dir.join(&name);
         write_atomic(&path, &bytes)?;
         written.push(path);
     }
     Ok(written)
+}
+
+/// Where a map's SVG goes, relative to the report.
+pub fn map_file(method: &str, material: &str, x: &str, y: &str) -> String {
+    let clean = |s: &str| s.chars().map(|c| if c.is_ascii_alphanumeric() || c == '.' { c } else { '_' }).collect::<String>();
+    format!("maps/{}__{}__{}_{}.svg", clean(method), clean(material), clean(x), clean(y))
+}
+
+fn heat_maps(input: &ReportInput) -> Vec<(String, Vec<u8>)> {
+    let mut out = Vec::new();
+    for (k, map) in input.case.maps.iter().enumerate() {
+        for ms in input.analysis.methods.iter().filter(|m| map.shows(&m.label)) {
+            for mat in &ms.materials {
+                let stats = &mat.maps[k];
+                let title = format!("{} ({}) on {}", ms.label, ms.target, mat.material);
+                out.push((
+                    map_file(&ms.label, &mat.material, &map.x.axis, &map.y.axis),
+                    svg::heat_map(stats, &title).into_bytes(),
+                ));
+            }
+        }
+    }
+    out
 }
