@@ -10,11 +10,22 @@ use std::path::Path;
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(tag = "dist", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Dist {
-    Fixed { value: f64 },
-    Uniform { min: f64, max: f64 },
-    LogUniform { min: f64, max: f64 },
+    Fixed {
+        value: f64,
+    },
+    Uniform {
+        min: f64,
+        max: f64,
+    },
+    LogUniform {
+        min: f64,
+        max: f64,
+    },
     /// Magnitude log-uniform in [min, max], sign + or − with equal odds.
-    SignedLogUniform { min: f64, max: f64 },
+    SignedLogUniform {
+        min: f64,
+        max: f64,
+    },
 }
 
 impl Dist {
@@ -59,6 +70,36 @@ pub struct Geometry {
     pub rect_width: Option<Dist>,
     #[serde(default)]
     pub rect_angle: Option<Dist>,
+    /// Sets p2's height above the surface (units of d) after the segment is built: end points
+    /// on or just under the horizon (the stability suite).
+    #[serde(default)]
+    pub endpoint_height: Option<Dist>,
+}
+
+impl Geometry {
+    fn check(&self, at: &str) -> Result<(), String> {
+        for (name, d) in [
+            ("distance", &self.distance),
+            ("elevation", &self.elevation),
+            ("azimuth", &self.azimuth),
+            ("tilt_angle", &self.tilt_angle),
+            ("length", &self.length),
+            ("center", &self.center),
+        ] {
+            d.check(&format!("{at}.{name}"))?;
+        }
+        for (name, d) in [
+            ("radius", &self.radius),
+            ("rect_width", &self.rect_width),
+            ("rect_angle", &self.rect_angle),
+            ("endpoint_height", &self.endpoint_height),
+        ] {
+            if let Some(d) = d {
+                d.check(&format!("{at}.{name}"))?;
+            }
+        }
+        Ok(())
+    }
 }
 
 fn one() -> Dist {
@@ -79,6 +120,9 @@ pub struct MaterialFamily {
     pub name: String,
     pub kind: MaterialKind,
     pub count: usize,
+    /// This family's own geometry, in place of the case's (the stability suite's families).
+    #[serde(default)]
+    pub geometry: Option<Geometry>,
     #[serde(default)]
     pub alpha: Option<Dist>,
     #[serde(default)]
@@ -146,7 +190,9 @@ pub struct Case {
     #[serde(default)]
     pub notes: String,
     pub methods: Vec<String>,
-    pub geometry: Geometry,
+    /// The geometry of every family that does not bring its own.
+    #[serde(default)]
+    pub geometry: Option<Geometry>,
     pub materials: Vec<MaterialFamily>,
     #[serde(default)]
     pub bins: Vec<BinAxis>,
@@ -193,31 +239,19 @@ impl Case {
     }
 
     fn check(&self) -> Result<(), String> {
-        let g = &self.geometry;
-        for (name, d) in [
-            ("geometry.distance", &g.distance),
-            ("geometry.elevation", &g.elevation),
-            ("geometry.azimuth", &g.azimuth),
-            ("geometry.tilt_angle", &g.tilt_angle),
-            ("geometry.length", &g.length),
-            ("geometry.center", &g.center),
-        ] {
-            d.check(name)?;
-        }
-        for (name, d) in [
-            ("geometry.radius", &g.radius),
-            ("geometry.rect_width", &g.rect_width),
-            ("geometry.rect_angle", &g.rect_angle),
-        ] {
-            if let Some(d) = d {
-                d.check(name)?;
-            }
+        if let Some(g) = &self.geometry {
+            g.check("geometry")?;
         }
         if self.materials.is_empty() {
             return Err("no [[materials]]".into());
         }
         for m in &self.materials {
             let name = format!("materials `{}`", m.name);
+            match (&m.geometry, &self.geometry) {
+                (Some(g), _) => g.check(&format!("{name}.geometry"))?,
+                (None, Some(_)) => {}
+                (None, None) => return Err(format!("{name}: no [geometry] for the case and none of its own")),
+            }
             if m.count == 0 {
                 return Err(format!("{name}: count must be > 0"));
             }
@@ -301,6 +335,15 @@ impl Case {
         Ok(())
     }
 
+    /// The geometry a family is drawn from.
+    pub fn geometry_of<'a>(&'a self, family: &'a MaterialFamily) -> &'a Geometry {
+        family
+            .geometry
+            .as_ref()
+            .or(self.geometry.as_ref())
+            .expect("checked: every family has a geometry")
+    }
+
     /// The relative-error floor for a target (DESIGN §4); documented in the report.
     pub fn floor(&self, target: Target) -> f64 {
         self.error_floor.get(target.name()).copied().unwrap_or(1e-6)
@@ -330,7 +373,7 @@ count = 10
     #[test]
     fn minimal_case_parses() {
         let c = Case::parse("t.toml", MINIMAL).unwrap();
-        assert_eq!(c.geometry.distance, Dist::Fixed { value: 1.0 });
+        assert_eq!(c.geometry.as_ref().unwrap().distance, Dist::Fixed { value: 1.0 });
         assert_eq!(c.materials[0].kind, MaterialKind::Diffuse);
     }
 

@@ -5,7 +5,7 @@
 //! so adding a material changes no other), floats drawn from raw integers, and the
 //! transcendental functions from `libm` (pure Rust) rather than the platform's libm.
 
-use crate::case::{Case, Dist, Geometry, MaterialFamily, MaterialKind};
+use crate::case::{Case, Dist, MaterialFamily, MaterialKind};
 use crate::scene::{cross, dot, length, sub, Config, Mat3, Material, Rect, Vec3};
 use rand::{RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -49,57 +49,110 @@ impl Axes {
 #[derive(Clone, Debug)]
 pub struct Sample {
     pub config: Config,
-    /// Index into the case's materials.
+    /// Index into the case's materials (families).
     pub material: usize,
     pub axes: Axes,
+    /// The uniforms it was drawn from (`sample_from_units` maps them back).
+    pub units: Vec<f64>,
 }
 
-struct Draw(ChaCha8Rng);
+/// A source of uniform numbers in [0, 1): the seeded stream when sampling, a stored vector
+/// when replaying or searching. A configuration is a pure function of its uniforms.
+trait Uniforms {
+    fn unit(&mut self) -> f64;
+}
 
-impl Draw {
-    /// Uniform in [0, 1) from 53 random bits: identical on every platform.
+struct Stream(ChaCha8Rng);
+
+impl Uniforms for Stream {
+    /// From 53 random bits: identical on every platform.
     fn unit(&mut self) -> f64 {
         (self.0.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
     }
+}
 
-    fn sample(&mut self, d: &Dist) -> f64 {
-        let u = self.unit();
-        match *d {
-            Dist::Fixed { value } => value,
-            Dist::Uniform { min, max } => min + (max - min) * u,
-            Dist::LogUniform { min, max } => log_uniform(min, max, u),
-            Dist::SignedLogUniform { min, max } => {
-                // The sign from the top bit, the magnitude from the rest: one draw.
-                let (sign, v) = if u < 0.5 { (-1.0, 2.0 * u) } else { (1.0, 2.0 * u - 1.0) };
-                sign * log_uniform(min, max, v)
-            }
-        }
-    }
+/// Replays stored uniforms, counting how many were taken.
+struct Replay<'a> {
+    units: &'a [f64],
+    taken: usize,
+}
 
-    fn opt(&mut self, d: &Option<Dist>, default: f64) -> f64 {
-        // Draw even when absent would shift the stream; absent parameters draw nothing.
-        d.as_ref().map_or(default, |d| self.sample(d))
+impl Uniforms for Replay<'_> {
+    fn unit(&mut self) -> f64 {
+        let u = self.units.get(self.taken).copied().unwrap_or(0.5);
+        self.taken += 1;
+        u
     }
 }
 
-/// All configurations of a case, material after material, in a fixed order.
+/// Records the uniforms another source hands out.
+struct Recorder<'a> {
+    inner: &'a mut dyn Uniforms,
+    units: Vec<f64>,
+}
+
+impl Uniforms for Recorder<'_> {
+    fn unit(&mut self) -> f64 {
+        let u = self.inner.unit();
+        self.units.push(u);
+        u
+    }
+}
+
+fn draw(source: &mut dyn Uniforms, d: &Dist) -> f64 {
+    let u = source.unit();
+    match *d {
+        Dist::Fixed { value } => value,
+        Dist::Uniform { min, max } => min + (max - min) * u,
+        Dist::LogUniform { min, max } => log_uniform(min, max, u),
+        Dist::SignedLogUniform { min, max } => {
+            // The sign from the lower or upper half, the magnitude from the rest: one draw.
+            let (sign, v) = if u < 0.5 { (-1.0, 2.0 * u) } else { (1.0, 2.0 * u - 1.0) };
+            sign * log_uniform(min, max, v)
+        }
+    }
+}
+
+/// Absent parameters draw nothing, so adding one to a case changes no other's stream.
+fn draw_opt(source: &mut dyn Uniforms, d: &Option<Dist>, default: f64) -> f64 {
+    d.as_ref().map_or(default, |d| draw(source, d))
+}
+
+/// All configurations of a case, family after family, in a fixed order.
 pub fn sample_case(case: &Case) -> Vec<Sample> {
     let mut out = Vec::with_capacity(case.materials.iter().map(|m| m.count).sum());
     for (index, family) in case.materials.iter().enumerate() {
-        // One stream per material: the seed mixed with the material's index.
+        // One stream per family: the seed mixed with the family's index.
         let stream = case.seed ^ (index as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        let mut draw = Draw(ChaCha8Rng::seed_from_u64(stream));
+        let mut source = Stream(ChaCha8Rng::seed_from_u64(stream));
         let mut n = 0;
         while n < family.count {
-            let s = sample_one(&mut draw, &case.geometry, family, index, format!("{}-{n}", family.name));
+            let mut recorder = Recorder {
+                inner: &mut source,
+                units: Vec::new(),
+            };
+            let s = sample_one(&mut recorder, case, index, format!("{}-{n}", family.name));
+            let units = recorder.units;
             // The distributions keep d = distance > radius, so this is a guard, not a filter.
             if s.config.validate().is_ok() {
-                out.push(s);
+                out.push(Sample { units, ..s });
                 n += 1;
             }
         }
     }
     out
+}
+
+/// The configuration a vector of uniforms stands for in a family (the search moves in these);
+/// None when it is degenerate.
+pub fn sample_from_units(case: &Case, family: usize, units: &[f64], id: String) -> Option<Sample> {
+    let mut replay = Replay { units, taken: 0 };
+    let s = sample_one(&mut replay, case, family, id);
+    s.config.validate().ok()?;
+    Some(Sample {
+        units: units[..replay.taken.min(units.len())].to_vec(),
+        ..s
+    })
 }
 
 fn log_uniform(min: f64, max: f64, u: f64) -> f64 {
@@ -126,17 +179,20 @@ fn mat_vec(m: &Mat3, v: Vec3) -> Vec3 {
     [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
 }
 
-fn sample_one(draw: &mut Draw, g: &Geometry, family: &MaterialFamily, material: usize, id: String) -> Sample {
-    let d = draw.sample(&g.distance);
-    let elevation = draw.sample(&g.elevation);
-    let azimuth = deg(draw.sample(&g.azimuth));
-    let tilt_angle = deg(draw.sample(&g.tilt_angle));
-    let length_over_d = draw.sample(&g.length);
-    let center = draw.sample(&g.center);
-    let radius = g.radius.as_ref().map(|r| draw.sample(r) * d);
-    let rect_width = g.rect_width.as_ref().map(|w| draw.sample(w) * d);
-    let rect_angle_deg = draw.opt(&g.rect_angle, 0.0);
+fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: String) -> Sample {
+    let family = &case.materials[material];
+    let g = case.geometry_of(family);
+    let d = draw(source, &g.distance);
+    let elevation = draw(source, &g.elevation);
+    let azimuth = deg(draw(source, &g.azimuth));
+    let tilt_angle = deg(draw(source, &g.tilt_angle));
+    let length_over_d = draw(source, &g.length);
+    let center = draw(source, &g.center);
+    let radius = g.radius.as_ref().map(|r| draw(source, r) * d);
+    let rect_width = g.rect_width.as_ref().map(|w| draw(source, w) * d);
+    let rect_angle_deg = draw_opt(source, &g.rect_angle, 0.0);
     let rect_angle = deg(rect_angle_deg);
+    let endpoint_height = g.endpoint_height.as_ref().map(|h| draw(source, h) * d);
 
     // Foot point p_o, horizontal direction h ⟂ p_o and v = ω_po × h complete the frame.
     let (ce, se) = (libm::cos(deg(elevation)), libm::sin(deg(elevation)));
@@ -148,7 +204,13 @@ fn sample_one(draw: &mut Draw, g: &Geometry, family: &MaterialFamily, material: 
     let p_o = scale(w_po, d);
     let half = 0.5 * length_over_d * d;
     let p1 = add(p_o, scale(w_t, center * d - half));
-    let p2 = add(p_o, scale(w_t, center * d + half));
+    let mut p2 = add(p_o, scale(w_t, center * d + half));
+    if let Some(z) = endpoint_height {
+        p2[2] = z;
+    }
+    // What was drawn, as the final segment has it (the end point may have moved).
+    let w_t = normalize(sub(p2, p1));
+    let length_over_d = length(sub(p2, p1)) / d;
 
     let rect = rect_width.map(|width| {
         // The normal turns about the tangent: 0° faces the shading point, 90° is edge-on.
@@ -160,7 +222,7 @@ fn sample_one(draw: &mut Draw, g: &Geometry, family: &MaterialFamily, material: 
         }
     });
 
-    let (material_value, alpha) = sample_material(draw, family);
+    let (material_value, alpha) = sample_material(source, family);
     let minv = material_value.minv();
     let (p1o, p2o) = (mat_vec(&minv, p1), mat_vec(&minv, p2));
     let t_o = normalize(sub(p2o, p1o));
@@ -177,6 +239,7 @@ fn sample_one(draw: &mut Draw, g: &Geometry, family: &MaterialFamily, material: 
             material: material_value,
         },
         material,
+        units: Vec::new(),
         axes: Axes {
             length: length_over_d,
             center,
@@ -191,14 +254,14 @@ fn sample_one(draw: &mut Draw, g: &Geometry, family: &MaterialFamily, material: 
     }
 }
 
-fn sample_material(draw: &mut Draw, family: &MaterialFamily) -> (Material, f64) {
+fn sample_material(source: &mut dyn Uniforms, family: &MaterialFamily) -> (Material, f64) {
     match family.kind {
         MaterialKind::Diffuse => (Material::Diffuse, f64::NAN),
         MaterialKind::LtcSparse | MaterialKind::LtcFull => {
-            let alpha = draw.opt(&family.alpha, 1.0);
-            let aspect = draw.opt(&family.aspect, 1.0);
-            let peak = deg(draw.opt(&family.peak, 0.0));
-            let shear = draw.opt(&family.shear, 0.0);
+            let alpha = draw_opt(source, &family.alpha, 1.0);
+            let aspect = draw_opt(source, &family.aspect, 1.0);
+            let peak = deg(draw_opt(source, &family.peak, 0.0));
+            let shear = draw_opt(source, &family.shear, 0.0);
             let a = aspect / alpha;
             let sparse = [
                 [a, 0.0, -a * libm::tan(peak)],
@@ -206,7 +269,7 @@ fn sample_material(draw: &mut Draw, family: &MaterialFamily) -> (Material, f64) 
                 [shear, 0.0, 1.0],
             ];
             let minv = if family.kind == MaterialKind::LtcFull {
-                let r = deg(draw.opt(&family.rotation, 0.0));
+                let r = deg(draw_opt(source, &family.rotation, 0.0));
                 let (c, s) = (libm::cos(r), libm::sin(r));
                 // M⁻¹·R_z(r): the lobe turned by r about the normal.
                 let rz = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]];
@@ -278,6 +341,15 @@ rotation = { dist = "uniform", min = 0.0, max = 180.0 }
         let mut other = case();
         other.seed = 43;
         assert_ne!(sample_case(&other)[0].config.p1, p1);
+    }
+
+    #[test]
+    fn a_configuration_is_a_function_of_its_uniforms() {
+        let case = case();
+        for s in sample_case(&case).iter().step_by(7) {
+            let again = sample_from_units(&case, s.material, &s.units, s.config.id.clone()).unwrap();
+            assert_eq!(again.config, s.config);
+        }
     }
 
     #[test]
