@@ -151,6 +151,31 @@ pub struct BinAxis {
     pub edges: Vec<f64>,
 }
 
+/// The worst-case search (src/search.rs): which methods, and how hard to look.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SearchSpec {
+    pub methods: Vec<String>,
+    /// Starting points per family: its worst configurations in the random sample.
+    #[serde(default = "default_restarts")]
+    pub restarts: usize,
+    /// Refinement steps, each one GPU dispatch of restarts × population candidates.
+    #[serde(default = "default_steps")]
+    pub steps: usize,
+    #[serde(default = "default_population")]
+    pub population: usize,
+}
+
+fn default_restarts() -> usize {
+    8
+}
+fn default_steps() -> usize {
+    20
+}
+fn default_population() -> usize {
+    32
+}
+
 /// A validity map: every method's error binned over two axes at once.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -199,6 +224,8 @@ pub struct Case {
     /// Two-dimensional validity maps (tables and SVG heat maps of the p99 error).
     #[serde(default)]
     pub maps: Vec<Map>,
+    #[serde(default)]
+    pub search: Option<SearchSpec>,
     /// Pairs of methods whose results are compared configuration by configuration.
     #[serde(default)]
     pub compare: Vec<[String; 2]>,
@@ -310,9 +337,9 @@ impl Case {
                 ));
             }
         }
-        for m in self.maps.iter().flat_map(|m| &m.methods) {
+        for m in self.maps.iter().flat_map(|m| &m.methods).chain(self.search.iter().flat_map(|s| &s.methods)) {
             if !self.methods.contains(m) {
-                return Err(format!("maps name `{m}`, which is not in `methods`"));
+                return Err(format!("maps or search name `{m}`, which is not in `methods`"));
             }
         }
         for pair in &self.compare {

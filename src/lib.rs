@@ -8,6 +8,7 @@
 
 pub mod analysis;
 pub mod case;
+pub mod cost;
 pub mod eval;
 pub mod gpu;
 pub mod kernel;
@@ -16,6 +17,7 @@ pub mod reference;
 pub mod report;
 pub mod sampler;
 pub mod scene;
+pub mod search;
 pub mod stats;
 pub mod sweep;
 pub mod target;

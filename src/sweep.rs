@@ -59,6 +59,7 @@ pub struct Timing {
     pub f64_ports: Vec<(String, f64)>,
     pub references_seconds: f64,
     pub references_evaluated: usize,
+    pub search_seconds: f64,
     pub total_seconds: f64,
 }
 
@@ -66,6 +67,8 @@ pub struct Measured {
     pub runs: Vec<MethodRun>,
     pub references: References,
     pub timing: Timing,
+    /// The worst-case search's findings (cases with a `[search]`).
+    pub found: Vec<crate::search::Found>,
 }
 
 fn bar(len: usize, what: &str) -> ProgressBar {
@@ -109,7 +112,7 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
     // Compile every pipeline first: a kernel error stops the sweep before any work.
     let mut pipelines = Vec::new();
     for m in &setup.methods {
-        pipelines.push(gpu.pipeline(&m.kernel, &m.params)?);
+        pipelines.push(gpu.pipeline(m)?);
     }
     let configs: Vec<_> = setup.samples.iter().map(|s| s.config.clone()).collect();
     let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
@@ -168,8 +171,27 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
     pb.finish_and_clear();
     timing.references_seconds = t.elapsed().as_secs_f64();
     timing.references_evaluated = references.iter().map(BTreeMap::len).sum();
+
+    let mut found = Vec::new();
+    if let Some(spec) = &setup.case.search {
+        let t = Instant::now();
+        let jobs: Vec<(&MethodRun, usize)> = runs
+            .iter()
+            .filter(|r| spec.methods.contains(&r.method.label))
+            .flat_map(|r| (0..setup.case.materials.len()).map(move |f| (r, f)))
+            .collect();
+        let pb = bar(jobs.len(), "worst-case search");
+        for (run, family) in jobs {
+            let f = crate::search::search(&setup.case, spec, &setup.samples, &references, run, gpu, family)?;
+            found.extend(f);
+            pb.inc(1);
+        }
+        pb.finish_and_clear();
+        timing.search_seconds = t.elapsed().as_secs_f64();
+    }
     timing.total_seconds = start.elapsed().as_secs_f64();
     Ok(Measured {
+        found,
         runs,
         references,
         timing,

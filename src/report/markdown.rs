@@ -219,7 +219,11 @@ pub fn render(input: &ReportInput) -> String {
             "Relative error against the reference as the sample count grows: median / p99 / max of the GPU \
              f32 result, and p99 of the same rule in f64 (its discretisation error alone).\n"
         );
-        let names: Vec<String> = case.materials.iter().map(|f| format!("`{}` (f32 median / p99 / max; f64 p99)", f.name)).collect();
+        let names: Vec<String> = case
+            .materials
+            .iter()
+            .map(|f| format!("`{}` (f32 median / p99 / max; f64 p99)", f.name))
+            .collect();
         let _ = writeln!(w, "| method | {} |", names.join(" | "));
         let _ = writeln!(w, "|---|{}", "---:|".repeat(names.len()));
         for ms in runs {
@@ -249,7 +253,11 @@ pub fn render(input: &ReportInput) -> String {
             for mat in &ms.materials {
                 let stats = &mat.maps[k];
                 let file = super::map_file(&ms.label, &mat.material, &map.x.axis, &map.y.axis);
-                let _ = writeln!(w, "### `{}` on `{}`\n\n![{} on {}]({file})\n", ms.label, mat.material, ms.label, mat.material);
+                let _ = writeln!(
+                    w,
+                    "### `{}` on `{}`\n\n![{} on {}]({file})\n",
+                    ms.label, mat.material, ms.label, mat.material
+                );
                 let _ = writeln!(
                     w,
                     "Where the p99 relative error stays under each threshold, from the smallest `{}` up:\n",
@@ -309,6 +317,55 @@ pub fn render(input: &ReportInput) -> String {
         }
     }
 
+    // Worst-case search.
+    if !m.found.is_empty() {
+        let _ = writeln!(w, "## Worst cases found\n");
+        let _ = writeln!(
+            w,
+            "For each method and family: the worst relative error in the random sample, and after the \
+             search refined the worst starting points (∞: NaN or inf). Every configuration is in \
+             `worst.jsonl`; replay with `linelight eval --input worst.jsonl --output out.jsonl`.\n"
+        );
+        let _ = writeln!(w, "| method | family | worst in sample | worst found | evaluations | value (f32) | reference | id |");
+        let _ = writeln!(w, "|---|---|---:|---:|---:|---:|---:|---|");
+        for f in &m.found {
+            let _ = writeln!(
+                w,
+                "| `{}` | `{}` | {} | {} | {} | {:e} | {:e} ± {:.0e} | `{}` |",
+                f.method,
+                f.family,
+                sci(Some(f.sample_worst)),
+                sci(Some(f.worst)),
+                f.evaluations,
+                f.value,
+                f.reference.value,
+                f.reference.error,
+                f.config.id
+            );
+        }
+        let _ = writeln!(w);
+    }
+    let nonfinite = super::nonfinite(input);
+    if !nonfinite.is_empty() {
+        let _ = writeln!(w, "## NaN and inf\n");
+        let _ = writeln!(
+            w,
+            "{} configurations gave NaN or ±inf from at least one method; all are in `nonfinite.jsonl` \
+             (replay with `linelight eval`).\n",
+            nonfinite.len()
+        );
+        let _ = writeln!(w, "| configuration | methods |");
+        let _ = writeln!(w, "|---|---|");
+        for (c, methods) in nonfinite.iter().take(40) {
+            let names: Vec<String> = methods.iter().map(|m| format!("`{m}`")).collect();
+            let _ = writeln!(w, "| `{}` | {} |", c.id, names.join(", "));
+        }
+        if nonfinite.len() > 40 {
+            let _ = writeln!(w, "| … {} more in `nonfinite.jsonl` | |", nonfinite.len() - 40);
+        }
+        let _ = writeln!(w);
+    }
+
     // Leak below the horizon.
     let leaks = findings::leak(input);
     if !leaks.is_empty() {
@@ -341,7 +398,10 @@ pub fn render(input: &ReportInput) -> String {
              many configurations with the light wholly below the horizon (`line_upper` = 0) get a \
              non-zero value from them:\n"
         );
-        let _ = writeln!(w, "| method | material | p99 vs line_upper | max vs line_upper | non-zero below horizon |");
+        let _ = writeln!(
+            w,
+            "| method | material | p99 vs line_upper | max vs line_upper | non-zero below horizon |"
+        );
         let _ = writeln!(w, "|---|---|---:|---:|---:|");
         for ms in &a.methods {
             for mat in &ms.materials {

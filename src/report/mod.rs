@@ -4,6 +4,7 @@
 
 mod csv;
 mod findings;
+pub mod chart;
 mod markdown;
 mod svg;
 
@@ -69,6 +70,17 @@ pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<Path
         "leak": findings::leak(input),
         "analysis": input.analysis,
     });
+    let mut extra = Vec::new();
+    if !input.measured.found.is_empty() {
+        let rows: Vec<_> =
+            input.measured.found.iter().map(|f| serde_json::to_value(&f.config)).collect::<Result<_, _>>()?;
+        extra.push(("worst.jsonl".to_string(), crate::eval::to_jsonl(&rows)));
+    }
+    let nonfinite = nonfinite(input);
+    if !nonfinite.is_empty() {
+        let rows: Vec<_> = nonfinite.iter().map(|(c, _)| serde_json::to_value(c)).collect::<Result<_, _>>()?;
+        extra.push(("nonfinite.jsonl".to_string(), crate::eval::to_jsonl(&rows)));
+    }
     let files = [
         ("report.md", markdown::render(input).into_bytes()),
         ("summary.json", serde_json::to_vec_pretty(&summary)?),
@@ -76,7 +88,12 @@ pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<Path
         ("comparisons.csv", csv::comparisons(input.analysis).into_bytes()),
     ];
     let mut written = Vec::new();
-    for (name, bytes) in files.into_iter().map(|(n, b)| (n.to_string(), b)).chain(heat_maps(input)) {
+    for (name, bytes) in files
+        .into_iter()
+        .map(|(n, b)| (n.to_string(), b))
+        .chain(heat_maps(input))
+        .chain(extra)
+    {
         let path = dir.join(&name);
         write_atomic(&path, &bytes)?;
         written.push(path);
@@ -86,8 +103,18 @@ pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<Path
 
 /// Where a map's SVG goes, relative to the report.
 pub fn map_file(method: &str, material: &str, x: &str, y: &str) -> String {
-    let clean = |s: &str| s.chars().map(|c| if c.is_ascii_alphanumeric() || c == '.' { c } else { '_' }).collect::<String>();
-    format!("maps/{}__{}__{}_{}.svg", clean(method), clean(material), clean(x), clean(y))
+    let clean = |s: &str| {
+        s.chars()
+            .map(|c| if c.is_ascii_alphanumeric() || c == '.' { c } else { '_' })
+            .collect::<String>()
+    };
+    format!(
+        "maps/{}__{}__{}_{}.svg",
+        clean(method),
+        clean(material),
+        clean(x),
+        clean(y)
+    )
 }
 
 fn heat_maps(input: &ReportInput) -> Vec<(String, Vec<u8>)> {
@@ -105,4 +132,25 @@ fn heat_maps(input: &ReportInput) -> Vec<(String, Vec<u8>)> {
         }
     }
     out
+}
+
+/// Every configuration on which some method returned NaN or ±inf, with those methods:
+/// written out (`nonfinite.jsonl`) so each can be replayed with `linelight eval`.
+pub fn nonfinite<'a>(input: &'a ReportInput) -> Vec<(&'a crate::scene::Config, Vec<&'a str>)> {
+    input
+        .setup
+        .samples
+        .iter()
+        .enumerate()
+        .filter_map(|(i, s)| {
+            let methods: Vec<&str> = input
+                .measured
+                .runs
+                .iter()
+                .filter(|r| r.method.applies(&s.config) && !r.f32[i].is_finite())
+                .map(|r| r.method.label.as_str())
+                .collect();
+            (!methods.is_empty()).then_some((&s.config, methods))
+        })
+        .collect()
 }

@@ -14,7 +14,10 @@ pub const BANDS: [(f64, &str, &str); 5] = [
 ];
 
 fn colour(p99: f64) -> &'static str {
-    BANDS.iter().find(|(limit, _, _)| p99 <= *limit).map_or("#d73027", |b| b.1)
+    BANDS
+        .iter()
+        .find(|(limit, _, _)| p99 <= *limit)
+        .map_or("#d73027", |b| b.1)
 }
 
 fn edge(x: f64) -> String {
@@ -41,8 +44,15 @@ pub fn heat_map(map: &MapStats, title: &str) -> String {
         r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" font-family="sans-serif" font-size="11">"#
     );
     let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    let _ = writeln!(s, r#"<text x="{left}" y="20" font-size="13" font-weight="bold">{}</text>"#, escape(title));
-    let _ = writeln!(s, r#"<text x="{left}" y="36">p99 relative error per cell (count below); grey: no sample</text>"#);
+    let _ = writeln!(
+        s,
+        r#"<text x="{left}" y="20" font-size="13" font-weight="bold">{}</text>"#,
+        escape(title)
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="{left}" y="36">p99 relative error per cell (count below); grey: no sample</text>"#
+    );
     // Rows: y grows upwards, as on a chart.
     for (ky, row) in map.cells.iter().enumerate() {
         let y = top + ch * (ny - 1 - ky) as f64;
@@ -50,7 +60,10 @@ pub fn heat_map(map: &MapStats, title: &str) -> String {
             let x = left + cw * kx as f64;
             let n = stats.count + stats.nan + stats.inf;
             // NaN/inf make a cell red whatever its finite errors say.
-            let p99 = stats.rel.map(|q| q.p99).map(|p| if stats.nan + stats.inf > 0 { f64::INFINITY } else { p });
+            let p99 = stats
+                .rel
+                .map(|q| q.p99)
+                .map(|p| if stats.nan + stats.inf > 0 { f64::INFINITY } else { p });
             let fill = p99.map_or("#dddddd", colour);
             let _ = writeln!(
                 s,
@@ -61,7 +74,12 @@ pub fn heat_map(map: &MapStats, title: &str) -> String {
                 Some(q) => format!("{:.1e}", q.p99),
                 None => "—".into(),
             };
-            let _ = writeln!(s, r#"<text x="{}" y="{}" text-anchor="middle">{label}</text>"#, x + cw / 2.0, y + 15.0);
+            let _ = writeln!(
+                s,
+                r#"<text x="{}" y="{}" text-anchor="middle">{label}</text>"#,
+                x + cw / 2.0,
+                y + 15.0
+            );
             let _ = writeln!(
                 s,
                 r##"<text x="{}" y="{}" text-anchor="middle" font-size="9" fill="#333">n={n}</text>"##,
@@ -89,7 +107,13 @@ pub fn heat_map(map: &MapStats, title: &str) -> String {
     );
     for (k, e) in map.y.edges.iter().enumerate() {
         let y = top + ch * (ny - k) as f64;
-        let _ = writeln!(s, r#"<text x="{}" y="{}" text-anchor="end">{}</text>"#, left - 6.0, y + 4.0, edge(*e));
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="{}" text-anchor="end">{}</text>"#,
+            left - 6.0,
+            y + 4.0,
+            edge(*e)
+        );
     }
     let _ = writeln!(
         s,
