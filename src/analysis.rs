@@ -145,7 +145,7 @@ fn method_stats(case: &Case, samples: &[Sample], references: &References, run: &
         if !run.method.applies(&samples[i].config) {
             return None;
         }
-        let floor = case.floor(judged);
+        let floor = case.floor_for(judged, &samples[i].config);
         Some((
             Outcome::of_f32(run.f32[i], r.value, floor),
             run.f32_cpu[i].map(|v| Outcome::of_f32(v, r.value, floor)),
@@ -169,9 +169,8 @@ fn method_stats(case: &Case, samples: &[Sample], references: &References, run: &
                 acc.finish()
             };
             let collect = |filter: &dyn Fn(usize) -> bool| collect_against(target, filter);
-            let in_bin = |axis: &str, edges: &[f64], k: usize, i: usize| {
-                bin_index(edges, samples[i].axes.get(axis)) == Some(k)
-            };
+            let in_bin =
+                |axis: &str, edges: &[f64], k: usize, i: usize| bin_index(edges, samples[i].axes.get(axis)) == Some(k);
             let supported = idx.first().is_none_or(|&i| run.method.supports(&samples[i].config));
             MaterialStats {
                 material: family.name.clone(),
@@ -245,7 +244,6 @@ fn pair_stats(idx: impl Iterator<Item = usize>, diff: &dyn Fn(usize) -> Option<(
 
 fn compare(case: &Case, samples: &[Sample], references: &References, a: &MethodRun, b: &MethodRun) -> Comparison {
     let target = a.method.target();
-    let floor = case.floor(target);
     // Differences normalised by the reference, so they read as relative errors; NaN/inf
     // results are left out here (they are counted in each method's own table).
     let diff = |i: usize| -> Option<(f64, Option<f64>)> {
@@ -254,6 +252,7 @@ fn compare(case: &Case, samples: &[Sample], references: &References, a: &MethodR
             return None;
         }
         let r = reference_for(references, i, target)?.value;
+        let floor = case.floor_for(target, c);
         let (x, y) = (a.f32[i] as f64, b.f32[i] as f64);
         if !(x.is_finite() && y.is_finite()) {
             return None;

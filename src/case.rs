@@ -371,9 +371,19 @@ impl Case {
             .expect("checked: every family has a geometry")
     }
 
-    /// The relative-error floor for a target (DESIGN §4); documented in the report.
+    /// The relative-error floor for a target (DESIGN §4), in units where the line's distance
+    /// d = 1; documented in the report.
     pub fn floor(&self, target: Target) -> f64 {
         self.error_floor.get(target.name()).copied().unwrap_or(1e-6)
+    }
+
+    /// The floor for one configuration: `line` and `line_upper` scale as 1/d, the other
+    /// targets are scale-invariant, so a configuration at distance d gets floor/d for lines.
+    pub fn floor_for(&self, target: Target, config: &crate::scene::Config) -> f64 {
+        match target {
+            Target::Line | Target::LineUpper => self.floor(target) / config.distance_to_line(),
+            _ => self.floor(target),
+        }
     }
 }
 

@@ -50,11 +50,11 @@ struct Point {
 /// Evaluates candidates: the method on the GPU (one dispatch), references on all cores.
 /// One result per candidate, in order (None where the target has no reference).
 fn evaluate(
+    case: &Case,
     gpu: &Gpu,
     pipeline: &crate::gpu::MethodPipeline,
     run: &MethodRun,
     candidates: Vec<Sample>,
-    floor: f64,
 ) -> anyhow::Result<Vec<Option<Point>>> {
     let target = run.method.target();
     let scenes: Vec<GpuScene> = candidates.iter().map(|s| GpuScene::from(&s.config)).collect();
@@ -64,7 +64,7 @@ fn evaluate(
         .zip(values)
         .map(|(sample, value)| {
             let reference = reference::reference(&sample.config, target)?;
-            let score = score(value, &reference, floor);
+            let score = score(value, &reference, case.floor_for(target, &sample.config));
             Some(Point { sample, value, reference, score })
         })
         .collect())
@@ -81,12 +81,12 @@ pub fn search(
     family: usize,
 ) -> anyhow::Result<Option<Found>> {
     let target = run.method.target();
-    let floor = case.floor(target);
     let members: Vec<usize> = (0..samples.len())
         .filter(|&i| samples[i].material == family && run.method.applies(&samples[i].config))
         .filter(|&i| run.method.supports(&samples[i].config))
         .collect();
-    let ranked = |i: usize| references[i].get(&target).map(|r| score(run.f32[i], r, floor));
+    let ranked =
+        |i: usize| references[i].get(&target).map(|r| score(run.f32[i], r, case.floor_for(target, &samples[i].config)));
     let mut starts: Vec<(usize, f64)> = members.iter().filter_map(|&i| Some((i, ranked(i)?))).collect();
     if starts.is_empty() {
         return Ok(None);
@@ -144,7 +144,7 @@ pub fn search(
             break;
         }
         evaluations += candidates.len();
-        let points = evaluate(gpu, &pipeline, run, candidates, floor)?;
+        let points = evaluate(case, gpu, &pipeline, run, candidates)?;
         // Each start moves to its best candidate if that is worse (for the method) than where it is.
         let mut best: Vec<Option<Point>> = current.iter().map(|_| None).collect();
         for (p, &k) in points.into_iter().zip(&owner).filter_map(|(p, k)| Some((p?, k))) {

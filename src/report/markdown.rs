@@ -459,7 +459,7 @@ pub fn render(input: &ReportInput) -> String {
     let _ = writeln!(
         w,
         "- Relative error = |value − reference| / max(|reference|, floor); floor per target (units where the \
-         line's distance d = 1): {}.\n\
+         line's distance d = 1; `line` and `line_upper` floors scale as 1/d): {}.\n\
          - Bits of error = log2(1 + ULP distance between the f32 result and the f32-rounded reference).\n\
          - Quantiles are nearest-rank over the configurations with a finite result; NaN and ±inf are counted \
          in their own columns and never enter a quantile; the ≤ columns count them as outside.\n\
