@@ -26,6 +26,9 @@ pub struct KernelFile {
     pub minv: MinvSupport,
     /// Overridable constants and their defaults, in the order `id@NxM` sets them.
     pub params: Vec<(String, u32)>,
+    /// `//! uses: line`: the kernel calls `I_line(p1, p2)`, which the harness supplies
+    /// from a line method chosen at run time (`cylinder.line[line.ltc2023]`).
+    pub uses_line: bool,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -77,6 +80,7 @@ impl KernelFile {
             message,
         };
         let (mut id, mut target, mut source, mut minv, mut params) = (None, None, None, None, Vec::new());
+        let mut uses_line = false;
         for (i, raw) in text.lines().enumerate() {
             let Some(rest) = raw.trim_start().strip_prefix("//!") else {
                 continue;
@@ -119,10 +123,16 @@ impl KernelFile {
                         );
                     }
                 }
+                "uses" => {
+                    if value != "line" {
+                        return Err(err(lineno, format!("uses must be `line`, got `{value}`")));
+                    }
+                    uses_line = true;
+                }
                 other => {
                     return Err(err(
                         lineno,
-                        format!("unknown header key `{other}` (id, target, source, minv, params)"),
+                        format!("unknown header key `{other}` (id, target, source, minv, params, uses)"),
                     ))
                 }
             }
@@ -143,6 +153,7 @@ impl KernelFile {
             source: source.unwrap_or_else(|| "user kernel".to_string()),
             minv: minv.unwrap_or(MinvSupport::Full),
             params,
+            uses_line,
         })
     }
 }
@@ -164,5 +175,15 @@ mod tests {
         assert_eq!((e.line, e.path.as_str()), (2, "k.wgsl"));
         assert!(e.to_string().starts_with("k.wgsl:2: unknown target `lines`"));
         assert!(KernelFile::parse("k.wgsl", "//! target: line\n").is_err());
+    }
+
+    #[test]
+    fn uses_line_header() {
+        let k = KernelFile::parse("c.wgsl", "//! id: cyl.x\n//! target: cylinder\n//! uses: line\n").unwrap();
+        assert!(k.uses_line);
+        let k = KernelFile::parse("c.wgsl", "//! id: cyl.x\n//! target: cylinder\n").unwrap();
+        assert!(!k.uses_line);
+        let e = KernelFile::parse("c.wgsl", "//! id: cyl.x\n//! target: cylinder\n//! uses: caps\n").unwrap_err();
+        assert_eq!(e.to_string(), "c.wgsl:3: uses must be `line`, got `caps`");
     }
 }

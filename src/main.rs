@@ -64,6 +64,34 @@ enum Command {
         #[command(flatten)]
         gpu: GpuArgs,
     },
+    /// Cost per method: GPU ns per evaluation (timestamp queries), the CPU f32 port on all
+    /// cores, and an operation count from the kernel's naga IR. Measured, never asserted.
+    Bench {
+        /// Case file whose sampler makes the configurations and names the methods and pairs.
+        #[arg(default_value = "cases/line_fwt.toml")]
+        case: PathBuf,
+        /// Comma-separated method specs (default: the case's methods).
+        #[arg(long, value_delimiter = ',')]
+        methods: Vec<String>,
+        /// Configurations per dispatch, split evenly over the case's materials.
+        #[arg(long, default_value_t = 65536)]
+        count: usize,
+        /// Timed rounds (every method once per round, in rotated order).
+        #[arg(long, default_value_t = 9)]
+        repeats: usize,
+        /// Untimed rounds first.
+        #[arg(long, default_value_t = 2)]
+        warmup: usize,
+        /// Adapter to use: any part of its name (default: lavapipe / llvmpipe).
+        #[arg(long)]
+        adapter: Option<String>,
+        /// Extra method kernel(s) to make available, validated like the built-ins.
+        #[arg(long = "kernel", value_name = "FILE")]
+        kernels: Vec<PathBuf>,
+        /// Also write the costs (one object per method) as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
     /// List the Vulkan adapters wgpu can see.
     Adapters,
     /// Compose and validate kernel files with naga (no GPU needed).
@@ -181,7 +209,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             let device = open_gpu(&gpu)?;
             let pipelines = methods
                 .iter()
-                .map(|m| device.pipeline(&m.kernel, &m.params))
+                .map(|m| device.pipeline(m))
                 .collect::<Result<Vec<_>, _>>()?;
             let scenes: Vec<_> = configs.iter().map(linelight::scene::GpuScene::from).collect();
             let mut f32s = Vec::new();
@@ -203,6 +231,29 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 .collect();
             write_atomic(&output, &eval::to_jsonl(&rows))?;
             eprintln!("wrote {} results to {}", rows.len(), output.display());
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Bench {
+            case,
+            methods,
+            count,
+            repeats,
+            warmup,
+            adapter,
+            kernels,
+            json,
+        } => {
+            let options = linelight::bench::BenchOptions {
+                case,
+                methods,
+                count,
+                repeats,
+                warmup,
+                adapter,
+                kernels,
+                json,
+            };
+            linelight::bench::run(&options)?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Adapters => {

@@ -1,15 +1,24 @@
 //! Kernel composition: prelude + method kernel + harness entry point, parsed and
 //! validated by naga before wgpu ever sees it, so errors name the user's file and line.
+//!
+//! A composite kernel (`//! uses: line`) is composed with its inner line method: the
+//! inner's `method` and `override`s are renamed (`ll_line_method`, `ll_inner_NAME`) and
+//! glue defines the `I_line(p1, p2)` the composite calls.
 
 use super::diagnostic::{KernelError, SourceMap, ENTRY_PATH};
-use crate::kernel::{KernelFile, PRELUDE, PRELUDE_PATH};
+use super::rename::{find_fn, rename_identifiers};
+use crate::kernel::{builtin_kernels, KernelFile, PRELUDE, PRELUDE_PATH};
+use crate::methods::DEFAULT_INNER;
 use naga::common::wgsl::TypeContext;
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use naga::{Scalar, ScalarKind, Span, TypeInner};
+use std::ops::Range;
 
 /// The compute entry point appended to every kernel. Bindings and names are fixed: the
 /// runner's bind group layout matches them (runner.rs), and `ll_` names are reserved.
-pub const ENTRY_POINT: &str = "\
+/// `{scene}` binds the configuration: a `let`, or for a composite the private `ll_scene`
+/// the glue's `I_line` reads.
+const ENTRY_POINT: &str = "\
 // linelight entry point: evaluates `method` on every configuration of one chunk.
 @group(0) @binding(0) var<storage, read> ll_scenes: array<Scene>;
 @group(0) @binding(1) var<storage, read_write> ll_results: array<f32>;
@@ -21,11 +30,46 @@ fn ll_main(@builtin(global_invocation_id) ll_id: vec3<u32>) {
     if (ll_i >= ll_count) {
         return;
     }
-    let ll_scene = ll_scenes[ll_i];
+    {scene} = ll_scenes[ll_i];
     Minv = ll_scene.minv;
     ll_results[ll_i] = method(ll_scene);
 }
 ";
+
+/// The entry point for a kernel, composite (`//! uses: line`) or not.
+pub fn entry_point(uses_line: bool) -> String {
+    ENTRY_POINT.replace("{scene}", if uses_line { "ll_scene" } else { "let ll_scene" })
+}
+
+/// Between a composite and its inner line method (the file errors in it are shown under).
+pub const GLUE_PATH: &str = "<linelight I_line glue>";
+const LINE_GLUE: &str = "\
+// linelight glue: the line integral a `//! uses: line` kernel calls, evaluated by the
+// inner line method on the current configuration with the segment replaced.
+var<private> ll_scene: Scene;
+
+fn I_line(p1: vec3<f32>, p2: vec3<f32>) -> f32 {
+    var s = ll_scene;
+    s.p1 = p1;
+    s.p2 = p2;
+    return ll_line_method(s);
+}
+";
+
+/// What a composite is checked against before its inner method is known.
+const STAND_IN: &str = "\
+// linelight: a stand-in for the `I_line` of the line method chosen at run time.
+fn I_line(p1: vec3<f32>, p2: vec3<f32>) -> f32 {
+    return 0.0;
+}
+";
+
+/// What the inner line method's names become in a composite; its overrides are set
+/// under their new names (runner.rs).
+const INNER_METHOD: &str = "ll_line_method";
+pub(crate) fn inner_name(name: &str) -> String {
+    format!("ll_inner_{name}")
+}
 
 /// The entry point's name and workgroup size, as the runner dispatches it.
 pub const ENTRY_NAME: &str = "ll_main";
@@ -37,60 +81,182 @@ pub struct Composed {
     pub source: String,
     pub module: naga::Module,
     pub info: naga::valid::ModuleInfo,
+    /// The line method a composite was composed with (given or [`DEFAULT_INNER`]).
+    pub inner: Option<KernelFile>,
 }
 
-/// Composes and validates `kernel` with naga's default capabilities.
+/// Composes and validates `kernel` with naga's default capabilities; a composite with
+/// the default line method, [`DEFAULT_INNER`].
 pub fn compose(kernel: &KernelFile) -> Result<Composed, KernelError> {
-    compose_with(kernel, Capabilities::default())
+    compose_with(kernel, None, Capabilities::default())
 }
 
-/// Composes and validates `kernel`, allowing what `capabilities` allows (the device's).
-pub fn compose_with(kernel: &KernelFile, capabilities: Capabilities) -> Result<Composed, KernelError> {
-    compose_parts(PRELUDE, kernel, capabilities)
+/// Composes and validates `kernel` (a composite with `inner`, or the default line method
+/// when `None`), allowing what `capabilities` allows (the device's).
+pub fn compose_with(
+    kernel: &KernelFile,
+    inner: Option<&KernelFile>,
+    capabilities: Capabilities,
+) -> Result<Composed, KernelError> {
+    compose_parts(PRELUDE, kernel, inner, capabilities)
 }
 
 pub(crate) fn compose_parts(
     prelude: &str,
     kernel: &KernelFile,
+    inner: Option<&KernelFile>,
     capabilities: Capabilities,
 ) -> Result<Composed, KernelError> {
-    let mut map = SourceMap::new(&kernel.path);
-    let mut source = String::new();
+    let inner = match (kernel.uses_line, inner) {
+        (false, None) => None,
+        (false, Some(inner)) => {
+            return Err(KernelError::plain(
+                &kernel.path,
+                format!(
+                    "{} has no `//! uses: line`, so it takes no line method ({} given)",
+                    kernel.id, inner.id
+                ),
+            ))
+        }
+        (true, Some(inner)) => Some(inner.clone()),
+        (true, None) => Some(default_inner()),
+    };
+    let (directives, body) = split_directives(&kernel.text);
+
+    // The kernel on its own first (a composite with a stand-in `I_line`), so that its
+    // contract is checked before any name of the inner method can clash with its own.
+    //
     // WGSL wants directives (`enable f16;`) before any declaration, so the kernel's go
     // above the prelude. Both parts keep the kernel's line numbers.
-    let (directives, body) = split_directives(&kernel.text);
-    if !directives.is_empty() {
-        map.push(&mut source, &kernel.path, &directives);
+    let mut c = Composition::new(&kernel.path, capabilities);
+    c.push(&kernel.path, &directives);
+    c.push(PRELUDE_PATH, prelude);
+    if kernel.uses_line {
+        c.push(GLUE_PATH, STAND_IN);
     }
-    map.push(&mut source, PRELUDE_PATH, prelude);
-    let kernel_start = source.len();
-    map.push(&mut source, &kernel.path, &body);
-
+    let kernel_start = c.source.len();
+    c.push(&kernel.path, &body);
+    if let Some(name) = find_fn(&body, "I_line").filter(|_| kernel.uses_line) {
+        let span = Span::from(kernel_start + name.start..kernel_start + name.end);
+        return Err(c.map.diagnose(
+            "a kernel with `//! uses: line` must not define `I_line`: the harness defines it, \
+             calling the line method chosen at run time",
+            vec![(span, "defined here".to_string())],
+            Vec::new(),
+        ));
+    }
     // Parse without the entry point first: an unclosed brace or comment in the kernel is
     // then reported at the kernel's end, not inside the entry point it swallowed, and a
     // missing `method` gets its own message instead of "unknown identifier" in our code.
-    let front = || {
-        let mut options = naga::front::wgsl::Options::new();
-        options.capabilities = capabilities;
-        naga::front::wgsl::Frontend::new_with_options(options)
-    };
-    let module = front().parse(&source).map_err(|e| map.parse_error(&e))?;
-    check_contract(&map, &source, kernel_start, &body, kernel, &module)?;
+    let module = c.parse().map_err(|e| {
+        if !kernel.uses_line && e.message.contains("`I_line`") {
+            e.with_note("`I_line` is defined for kernels whose header has `//! uses: line`")
+        } else {
+            e
+        }
+    })?;
+    check_contract(&c.map, &c.source, kernel_start..c.source.len(), &body, kernel, &module)?;
 
-    map.push(&mut source, ENTRY_PATH, ENTRY_POINT);
-    let module = front().parse(&source).map_err(|e| map.parse_error(&e))?;
+    if let Some(inner) = &inner {
+        c = with_inner(prelude, inner, &kernel.path, &directives, &body, capabilities)?;
+    }
+    c.push(ENTRY_PATH, &entry_point(kernel.uses_line));
+    let module = c.parse()?;
     let info = Validator::new(ValidationFlags::all(), capabilities)
         .validate(&module)
-        .map_err(|e| map.validation_error(&e))?;
-    Ok(Composed { source, module, info })
+        .map_err(|e| c.map.validation_error(&e))?;
+    Ok(Composed {
+        source: c.source,
+        module,
+        info,
+        inner,
+    })
+}
+
+/// A composite (its `directives` and `body`, already checked) with its inner line method
+/// and the glue between them, without the entry point.
+fn with_inner(
+    prelude: &str,
+    inner: &KernelFile,
+    path: &str,
+    directives: &str,
+    body: &str,
+    capabilities: Capabilities,
+) -> Result<Composition, KernelError> {
+    if inner.uses_line {
+        return Err(KernelError::plain(
+            &inner.path,
+            format!("{} uses a line method itself, so it cannot be one", inner.id),
+        ));
+    }
+    // The inner alone: its errors read as when it runs alone, and its module lists the
+    // overrides to rename.
+    let alone = compose_parts(prelude, inner, None, capabilities)?;
+    let mut renames = vec![("method", INNER_METHOD.to_string()), ("I_line", inner_name("I_line"))];
+    renames.extend(alone.module.overrides.iter().filter_map(|(_, o)| {
+        let name = o.name.as_deref()?;
+        Some((name, inner_name(name)))
+    }));
+    let (inner_directives, inner_body) = split_directives(&inner.text);
+    let (renamed, edits) = rename_identifiers(&inner_body, &renames);
+
+    let mut c = Composition::new(path, capabilities);
+    c.push(&inner.path, &inner_directives);
+    c.push(path, directives);
+    c.push(PRELUDE_PATH, prelude);
+    c.map
+        .push_renamed(&mut c.source, &inner.path, &inner_body, &renamed, edits);
+    c.push(GLUE_PATH, LINE_GLUE);
+    c.push(path, body);
+    Ok(c)
+}
+
+fn default_inner() -> KernelFile {
+    builtin_kernels()
+        .into_iter()
+        .find(|k| k.id == DEFAULT_INNER)
+        .expect("the default line method is built in")
+}
+
+/// The composed source so far and which file each part came from.
+struct Composition {
+    map: SourceMap,
+    source: String,
+    capabilities: Capabilities,
+}
+
+impl Composition {
+    fn new(kernel_path: &str, capabilities: Capabilities) -> Composition {
+        Composition {
+            map: SourceMap::new(kernel_path),
+            source: String::new(),
+            capabilities,
+        }
+    }
+
+    /// Appends `text` (owned by `path`); nothing when it is empty.
+    fn push(&mut self, path: &str, text: &str) {
+        if !text.is_empty() {
+            self.map.push(&mut self.source, path, text);
+        }
+    }
+
+    fn parse(&self) -> Result<naga::Module, KernelError> {
+        let mut options = naga::front::wgsl::Options::new();
+        options.capabilities = self.capabilities;
+        naga::front::wgsl::Frontend::new_with_options(options)
+            .parse(&self.source)
+            .map_err(|e| self.map.parse_error(&e))
+    }
 }
 
 /// What kernels/README.md promises the harness: `fn method(scene: Scene) -> f32`, an
-/// `override` for each header param, no `ll_` names.
+/// `override` for each header param, no `ll_` names. Only the kernel's own declarations
+/// (in `kernel_range`) are checked: the inner line method of a composite was checked alone.
 fn check_contract(
     map: &SourceMap,
     source: &str,
-    kernel_start: usize,
+    kernel_range: Range<usize>,
     body: &str,
     kernel: &KernelFile,
     module: &naga::Module,
@@ -126,7 +292,8 @@ fn check_contract(
                 .map(|(h, o)| (&o.name, module.overrides.get_span(h))),
         )
         .chain(module.types.iter().map(|(h, t)| (&t.name, module.types.get_span(h))));
-    for (name, span) in named {
+    let own = |span: Span| span.to_range().is_some_and(|r| kernel_range.contains(&r.start));
+    for (name, span) in named.filter(|(_, span)| own(*span)) {
         if let Some(name) = name.as_deref().filter(|n| n.starts_with("ll_")) {
             return at(
                 span,
@@ -169,7 +336,7 @@ fn check_contract(
 
     let header = body.lines().position(|l| l.trim_start().starts_with("//! params"));
     let header_span = header.map(|i| {
-        let start = kernel_start + body.split_inclusive('\n').take(i).map(str::len).sum::<usize>();
+        let start = kernel_range.start + body.split_inclusive('\n').take(i).map(str::len).sum::<usize>();
         Span::from(start..start + body.lines().nth(i).unwrap_or("").len())
     });
     for (name, _) in &kernel.params {
@@ -200,7 +367,11 @@ fn check_contract(
             };
         }
     }
-    for (h, o) in module.overrides.iter() {
+    for (h, o) in module
+        .overrides
+        .iter()
+        .filter(|(h, _)| own(module.overrides.get_span(*h)))
+    {
         let name = o.name.as_deref().unwrap_or("?");
         if o.init.is_none() && !kernel.params.iter().any(|(p, _)| p == name) {
             return at(

@@ -1,10 +1,12 @@
 //! Kernel errors reported against the file that owns them.
 //!
-//! The composed module is prelude + kernel + entry point, so naga's spans are byte offsets
-//! into that concatenation. Each error is mapped back to the owning file's own text and
+//! The composed module is prelude + kernel + entry point (+ for a composite, its inner line
+//! method and the glue between them), so naga's spans are byte offsets into that
+//! concatenation. Each error is mapped back to the owning file's own text and
 //! rendered by naga's own emitter, so the user reads `my_kernel.wgsl:7:12` and the line
 //! they wrote, not a line number of a file they never saw.
 
+use super::rename::{original_offset, Rename};
 use naga::{Span, WithSpan};
 use std::fmt;
 
@@ -38,14 +40,25 @@ impl KernelError {
             message,
         }
     }
+
+    /// Adds a hint below the report, as naga renders its own notes.
+    pub(crate) fn with_note(mut self, note: &str) -> KernelError {
+        self.report.push_str(&format!("\n  = note: {note}"));
+        self
+    }
 }
 
 /// One file of the composed source.
 #[derive(Clone, Debug)]
 struct Segment {
     path: String,
+    /// Where it starts in the composed source, and how long it is there.
     start: usize,
+    len: usize,
+    /// The file's own text, as errors show it.
     text: String,
+    /// Identifiers renamed on the way into the composed source (the inner line method's).
+    renames: Vec<Rename>,
 }
 
 /// Which file each byte of the composed source came from.
@@ -67,15 +80,32 @@ impl SourceMap {
     /// Appends `text` (owned by `path`) to `source`, recording where it landed. A missing
     /// final newline is added so the next file starts on a line of its own.
     pub(crate) fn push(&mut self, source: &mut String, path: &str, text: &str) {
+        self.push_renamed(source, path, text, text, Vec::new());
+    }
+
+    /// Appends `renamed`, which is `original` with `renames` applied: errors in it are
+    /// shown in `original`, at the original line and column.
+    pub(crate) fn push_renamed(
+        &mut self,
+        source: &mut String,
+        path: &str,
+        original: &str,
+        renamed: &str,
+        renames: Vec<Rename>,
+    ) {
         let start = source.len();
-        source.push_str(text);
-        if !text.ends_with('\n') {
+        source.push_str(renamed);
+        let mut text = original.to_string();
+        if !renamed.ends_with('\n') {
             source.push('\n');
+            text.push('\n');
         }
         self.segments.push(Segment {
             path: path.to_string(),
             start,
-            text: source[start..].to_string(),
+            len: source.len() - start,
+            text,
+            renames,
         });
     }
 
@@ -89,11 +119,14 @@ impl SourceMap {
             .unwrap_or(&self.segments[0])
     }
 
-    /// `span` relative to its segment's text, clamped to it.
+    /// `span` relative to its segment's own text, clamped to it.
     fn local(&self, span: Span) -> (&Segment, Span) {
         let range = span.to_range().unwrap_or(0..0);
         let seg = self.segment(range.start);
-        let clamp = |o: usize| o.saturating_sub(seg.start).min(seg.text.len());
+        let clamp = |o: usize| {
+            let composed = o.saturating_sub(seg.start).min(seg.len);
+            original_offset(&seg.renames, composed).min(seg.text.len())
+        };
         (seg, Span::from(clamp(range.start)..clamp(range.end)))
     }
 
@@ -130,11 +163,9 @@ impl SourceMap {
     pub(crate) fn diagnose(&self, message: &str, labels: Vec<(Span, String)>, notes: Vec<String>) -> KernelError {
         let labels: Vec<_> = labels.into_iter().filter(|(s, _)| s.is_defined()).collect();
         let Some(&(primary, _)) = labels.first() else {
-            let mut e = KernelError::plain(&self.fallback, message);
-            for n in &notes {
-                e.report.push_str(&format!("\n  = note: {n}"));
-            }
-            return e;
+            return notes
+                .iter()
+                .fold(KernelError::plain(&self.fallback, message), |e, n| e.with_note(n));
         };
         let (seg, local) = self.local(primary);
         let mut spans = Vec::new();

@@ -1,10 +1,11 @@
 //! Method pipelines and chunked runs: one pipeline per method, configurations uploaded
 //! and read back a chunk at a time through buffers reused across chunks.
 
-use super::compose::{compose_with, ENTRY_NAME, WORKGROUP_SIZE};
+use super::compose::{compose_with, inner_name, ENTRY_NAME, WORKGROUP_SIZE};
 use super::device::{scoped, Gpu, GpuError};
 use super::diagnostic::KernelError;
 use crate::kernel::KernelFile;
+use crate::methods::Method;
 use crate::scene::GpuScene;
 use std::time::{Duration, Instant};
 
@@ -16,10 +17,12 @@ const RESULT_BYTES: u64 = std::mem::size_of::<f32>() as u64;
 
 /// A method kernel compiled for the device, with its params fixed.
 pub struct MethodPipeline {
-    /// The kernel's id, for messages.
+    /// The method with its inner line method spelled out, for messages.
     pub id: String,
-    /// The params it was compiled with, in header order.
+    /// The kernel's own params it was compiled with, in header order.
     pub params: Vec<(String, u32)>,
+    /// A composite's inner line method's params, in its header order.
+    pub inner_params: Vec<(String, u32)>,
     pipeline: wgpu::ComputePipeline,
 }
 
@@ -32,34 +35,25 @@ pub struct RunOutput {
 }
 
 impl Gpu {
-    /// Compiles `kernel` with `param_values` for its header params, in order; params not
-    /// given keep the header's defaults.
-    pub fn pipeline(&self, kernel: &KernelFile, param_values: &[u32]) -> Result<MethodPipeline, KernelError> {
-        if param_values.len() > kernel.params.len() {
-            let names: Vec<_> = kernel.params.iter().map(|(n, _)| n.as_str()).collect();
-            return Err(KernelError::plain(
-                &kernel.path,
-                format!(
-                    "{} takes {} param(s) ({}), {} given",
-                    kernel.id,
-                    names.len(),
-                    if names.is_empty() {
-                        "none".to_string()
-                    } else {
-                        names.join(", ")
-                    },
-                    param_values.len()
-                ),
-            ));
-        }
-        let composed = compose_with(kernel, self.capabilities)?;
-        let params: Vec<(String, u32)> = kernel
-            .params
+    /// Compiles `method`: its kernel with its params (those not given keep the header's
+    /// defaults), and for a composite its inner line method with the inner's params.
+    pub fn pipeline(&self, method: &Method) -> Result<MethodPipeline, KernelError> {
+        let kernel = &method.kernel;
+        let inner = method.inner.as_deref();
+        let composed = compose_with(kernel, inner.map(|m| &m.kernel), self.capabilities)?;
+        let params = param_values(kernel, &method.params)?;
+        let inner_params = match (inner, &composed.inner) {
+            (Some(m), _) => param_values(&m.kernel, &m.params)?,
+            (None, Some(default)) => param_values(default, &[])?,
+            (None, None) => Vec::new(),
+        };
+        // The inner's overrides were renamed in composition (compose.rs).
+        let constants: Vec<(String, f64)> = params
             .iter()
-            .enumerate()
-            .map(|(i, (name, default))| (name.clone(), param_values.get(i).copied().unwrap_or(*default)))
+            .map(|(n, v)| (n.clone(), f64::from(*v)))
+            .chain(inner_params.iter().map(|(n, v)| (inner_name(n), f64::from(*v))))
             .collect();
-        let constants: Vec<(&str, f64)> = params.iter().map(|(n, v)| (n.as_str(), f64::from(*v))).collect();
+        let constants: Vec<(&str, f64)> = constants.iter().map(|(n, v)| (n.as_str(), *v)).collect();
 
         let pipeline = scoped(&self.device, || {
             let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -79,17 +73,18 @@ impl Gpu {
             })
         })
         .map_err(|e| {
-            let set: Vec<_> = params.iter().map(|(n, v)| format!("{n}={v}")).collect();
-            let with = if set.is_empty() {
-                String::new()
-            } else {
-                format!(" with {}", set.join(" "))
-            };
+            let show = |ps: &[(String, u32)]| ps.iter().map(|(n, v)| format!(" {n}={v}")).collect::<String>();
+            let mut with = show(&params);
+            if !inner_params.is_empty() {
+                with.push_str(&format!(" and line method{}", show(&inner_params)));
+            }
+            let with = if with.is_empty() { with } else { format!(" with{with}") };
             KernelError::plain(&kernel.path, format!("wgpu rejected the kernel{with}: {e}"))
         })?;
         Ok(MethodPipeline {
-            id: kernel.id.clone(),
+            id: method.describe(),
             params,
+            inner_params,
             pipeline,
         })
     }
@@ -235,4 +230,31 @@ impl ChunkBuffers {
             bind_group,
         }
     }
+}
+
+/// `values` for `kernel`'s header params, in order; params not given keep their defaults.
+fn param_values(kernel: &KernelFile, values: &[u32]) -> Result<Vec<(String, u32)>, KernelError> {
+    if values.len() > kernel.params.len() {
+        let names: Vec<_> = kernel.params.iter().map(|(n, _)| n.as_str()).collect();
+        let names = if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join(", ")
+        };
+        return Err(KernelError::plain(
+            &kernel.path,
+            format!(
+                "{} takes {} param(s) ({names}), {} given",
+                kernel.id,
+                kernel.params.len(),
+                values.len()
+            ),
+        ));
+    }
+    Ok(kernel
+        .params
+        .iter()
+        .enumerate()
+        .map(|(i, (name, default))| (name.clone(), values.get(i).copied().unwrap_or(*default)))
+        .collect())
 }

@@ -3,6 +3,7 @@
 use super::compose::compose_parts;
 use super::*;
 use crate::kernel::{KernelFile, PRELUDE_PATH};
+use crate::methods::Method;
 use crate::scene::GpuScene;
 use naga::valid::Capabilities;
 use std::sync::OnceLock;
@@ -13,6 +14,16 @@ fn gpu() -> &'static Gpu {
         quiet_driver_environment();
         Gpu::new(None).unwrap_or_else(|e| panic!("{e}"))
     })
+}
+
+/// A method without an inner line method, params as given (resolve would refuse 0).
+fn method(k: &KernelFile, params: &[u32]) -> Method {
+    Method {
+        label: k.id.clone(),
+        kernel: k.clone(),
+        params: params.to_vec(),
+        inner: None,
+    }
 }
 
 fn kernel(path: &str, header: &str, body: &str) -> KernelFile {
@@ -37,7 +48,7 @@ fn gpu_trivial_kernel_across_chunks() {
         "fn method(scene: Scene) -> f32 { return scene.p1.x + 2.0 * scene.minv[0][1] + 4.0 * Minv[1][0]; }\n",
     );
     let g = gpu();
-    let pipeline = g.pipeline(&k, &[]).unwrap();
+    let pipeline = g.pipeline(&method(&k, &[])).unwrap();
     let scenes: Vec<GpuScene> = (0..300)
         .map(|i| {
             let mut s = scene(i as f32, 1.0);
@@ -62,7 +73,9 @@ fn gpu_nan_and_infinity_are_kept() {
     );
     let g = gpu();
     let scenes = [scene(1.0, 0.0), scene(-1.0, 0.0), scene(0.0, 0.0), scene(1.0, 2.0)];
-    let out = g.run(&g.pipeline(&k, &[]).unwrap(), &scenes, 0, &mut |_| {}).unwrap();
+    let out = g
+        .run(&g.pipeline(&method(&k, &[])).unwrap(), &scenes, 0, &mut |_| {})
+        .unwrap();
     assert_eq!(out.values[0], f32::INFINITY);
     assert_eq!(out.values[1], f32::NEG_INFINITY);
     assert!(out.values[2].is_nan(), "{:?}", out.values);
@@ -80,14 +93,14 @@ fn gpu_override_param_changes_output() {
     let g = gpu();
     let scenes = [scene(1.0, 2.0), scene(3.0, 2.0)];
     let run = |params: &[u32]| {
-        g.run(&g.pipeline(&k, params).unwrap(), &scenes, 0, &mut |_| {})
+        g.run(&g.pipeline(&method(&k, params)).unwrap(), &scenes, 0, &mut |_| {})
             .unwrap()
             .values
     };
     assert_eq!(run(&[]), vec![3.0, 7.0]);
     assert_eq!(run(&[5]), vec![6.0, 16.0]);
     assert_eq!(run(&[5, 10]), vec![15.0, 25.0]);
-    let e = g.pipeline(&k, &[1, 2, 3]).err().unwrap().to_string();
+    let e = g.pipeline(&method(&k, &[1, 2, 3])).err().unwrap().to_string();
     assert!(e.contains("param.wgsl") && e.contains("SCALE, OFFSET"), "{e}");
 }
 
@@ -121,7 +134,7 @@ fn gpu_kernel_error_names_its_file_and_line() {
     assert!(text.contains('^'), "{text}");
     assert_eq!(e.location, Some((7, 25)));
     // The same error through the device path.
-    assert_eq!(gpu().pipeline(&k, &[]).err().unwrap().to_string(), text);
+    assert_eq!(gpu().pipeline(&method(&k, &[])).err().unwrap().to_string(), text);
 }
 
 #[test]
@@ -151,7 +164,7 @@ fn gpu_prelude_error_is_attributed_to_the_prelude() {
     );
     let line = prelude.lines().position(|l| l.contains("nope")).unwrap() + 1;
     let k = kernel("fine.wgsl", "", "fn method(scene: Scene) -> f32 { return 1.0; }\n");
-    let e = compose_parts(&prelude, &k, Capabilities::default()).unwrap_err();
+    let e = compose_parts(&prelude, &k, None, Capabilities::default()).unwrap_err();
     assert_eq!(e.path, PRELUDE_PATH);
     assert!(e.to_string().contains(&format!("{PRELUDE_PATH}:{line}:12")), "{e}");
 }
@@ -263,7 +276,12 @@ fn gpu_kernel_directives_are_hoisted_and_keep_line_numbers() {
         "enable f16;\nfn method(scene: Scene) -> f32 { return f32(f16(scene.p1.x) * 2.0h); }\n",
     );
     let out = g
-        .run(&g.pipeline(&k, &[]).unwrap(), &[scene(1.5, 0.0)], 0, &mut |_| {})
+        .run(
+            &g.pipeline(&method(&k, &[])).unwrap(),
+            &[scene(1.5, 0.0)],
+            0,
+            &mut |_| {},
+        )
         .unwrap();
     assert_eq!(out.values, vec![3.0]);
 }
@@ -278,10 +296,15 @@ fn gpu_pipeline_errors_from_wgpu_are_values() {
     );
     let g = gpu();
     let ok = g
-        .run(&g.pipeline(&k, &[2]).unwrap(), &[scene(0.0, 1.0)], 0, &mut |_| {})
+        .run(
+            &g.pipeline(&method(&k, &[2])).unwrap(),
+            &[scene(0.0, 1.0)],
+            0,
+            &mut |_| {},
+        )
         .unwrap();
     assert_eq!(ok.values, vec![5.0]);
-    let e = g.pipeline(&k, &[0]).err().unwrap();
+    let e = g.pipeline(&method(&k, &[0])).err().unwrap();
     assert_eq!(e.path, "div0.wgsl");
     assert!(
         e.to_string()
@@ -296,6 +319,6 @@ fn gpu_builtin_kernels_compose_and_compile() {
     let g = gpu();
     for k in crate::kernel::builtin_kernels() {
         compose(&k).unwrap_or_else(|e| panic!("{e}"));
-        g.pipeline(&k, &[]).unwrap_or_else(|e| panic!("{e}"));
+        g.pipeline(&method(&k, &[])).unwrap_or_else(|e| panic!("{e}"));
     }
 }

@@ -1,0 +1,659 @@
+//! Cost per method (`linelight bench`): what one evaluation costs, measured on the adapter
+//! in use, beside a deterministic operation count from the kernel's naga IR.
+//!
+//! Measuring, analysing and reporting are separate, as criterion.rs and hyperfine do it:
+//!
+//! - **Measuring** ([`bench_methods`]): the configurations are uploaded once
+//!   ([`crate::gpu::DispatchTimer`]); every method is compiled before anything is timed.
+//!   Then `warmup` untimed rounds and `repeats` timed rounds. One round runs every method
+//!   once on the GPU (one dispatch over all configurations, its own submission, waited on,
+//!   timed by GPU timestamps at the beginning and end of the compute pass, or by the wall
+//!   clock on an adapter without them) and then every method's CPU f32 port once over the
+//!   same configurations on all cores (rayon). The order of the methods rotates from round
+//!   to round, so drift and machine noise spread evenly over the methods, and the ratios
+//!   between methods, and between GPU and CPU, are taken within one run.
+//! - **Analysing** ([`Cost`], [`Ratio`]): per method, the median ns per evaluation over
+//!   the repeats with its min and max (every repeat's value is kept); ratios are medians
+//!   of the per-round ratios, with their min and max.
+//! - **Reporting** ([`render`], [`run`]): a table and a ratio line per compared pair.
+//!
+//! Speed is measured, never asserted: no test checks a duration beyond its being a
+//! positive number.
+//!
+//! On lavapipe the "GPU" is the CPU: llvmpipe's threads run the dispatch on the same cores
+//! the CPU port uses, so the GPU/CPU ratio there compares lavapipe's compiled SIMD kernel
+//! with the Rust port, not two pieces of hardware.
+
+use crate::case::Case;
+use crate::cost::OpCount;
+use crate::gpu::{Clock, Gpu};
+use crate::methods::{ports, Method};
+use crate::scene::{Config, GpuScene};
+use rayon::prelude::*;
+use std::fmt::Write as _;
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// What one method costs, measured in one run.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Cost {
+    /// The method label (`Method.label`).
+    pub label: String,
+    /// `"gpu-timestamp"` or `"wall"` (submit + wait, when the adapter has no timestamps).
+    pub clock: String,
+    /// Configurations per dispatch (and per CPU run).
+    pub configurations: usize,
+    /// Timed repeats (warm-up runs not counted).
+    pub repeats: usize,
+    pub ns_per_eval_median: f64,
+    pub ns_per_eval_min: f64,
+    pub ns_per_eval_max: f64,
+    /// Configurations per second, from the median.
+    pub configs_per_second: f64,
+    /// The CPU f32 port on all cores (rayon): median of the same number of repeats; None
+    /// for a method without a port.
+    pub cpu_f32_ns_per_eval: Option<f64>,
+    /// How many times faster the GPU dispatch is than the CPU f32 port: the median of the
+    /// per-round ratios CPU ns / GPU ns. None without a port.
+    pub gpu_cpu_speed_ratio: Option<f64>,
+    /// The operation count of one invocation (`crate::cost`); None if it failed.
+    pub ops: Option<OpCount>,
+    /// Why `ops` is None.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ops_error: Option<String>,
+    /// GPU ns per evaluation of each timed repeat, in the order run (round r is index r).
+    pub gpu_ns_per_eval: Vec<f64>,
+    /// CPU f32 port ns per evaluation of each timed repeat (empty without a port).
+    pub cpu_f32_ns_per_eval_runs: Vec<f64>,
+}
+
+/// A ratio between two measurements taken round by round in one run.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Ratio {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+    /// Rounds it was taken over.
+    pub rounds: usize,
+}
+
+impl Ratio {
+    /// The per-round ratios `numerator[r] / denominator[r]`; None if either is empty or
+    /// their lengths differ.
+    pub fn per_round(numerator: &[f64], denominator: &[f64]) -> Option<Ratio> {
+        if numerator.is_empty() || numerator.len() != denominator.len() {
+            return None;
+        }
+        let ratios: Vec<f64> = numerator.iter().zip(denominator).map(|(a, b)| a / b).collect();
+        let s = Spread::of(&ratios);
+        Some(Ratio {
+            median: s.median,
+            min: s.min,
+            max: s.max,
+            rounds: ratios.len(),
+        })
+    }
+}
+
+/// GPU time of `a` over GPU time of `b`, round by round: above 1, `b` is the faster.
+pub fn gpu_time_ratio(a: &Cost, b: &Cost) -> Option<Ratio> {
+    Ratio::per_round(&a.gpu_ns_per_eval, &b.gpu_ns_per_eval)
+}
+
+/// CPU f32 port time of `a` over that of `b`, round by round (None without both ports).
+pub fn cpu_time_ratio(a: &Cost, b: &Cost) -> Option<Ratio> {
+    Ratio::per_round(&a.cpu_f32_ns_per_eval_runs, &b.cpu_f32_ns_per_eval_runs)
+}
+
+/// Median (mean of the middle two for an even count), min and max.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Spread {
+    median: f64,
+    min: f64,
+    max: f64,
+}
+
+impl Spread {
+    /// Of a non-empty slice without NaN.
+    fn of(xs: &[f64]) -> Spread {
+        let mut v = xs.to_vec();
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        let median = if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            0.5 * (v[n / 2 - 1] + v[n / 2])
+        };
+        Spread {
+            median,
+            min: v[0],
+            max: v[n - 1],
+        }
+    }
+}
+
+/// Whether `method` (and a composite's inner line method) has a CPU port.
+pub fn has_cpu_port(method: &Method) -> bool {
+    ports::has_port(method.id()) && method.inner.as_deref().is_none_or(has_cpu_port)
+}
+
+/// Measures every method on `configs`: `warmup` untimed rounds, then `repeats` timed
+/// rounds (see the module doc). One [`Cost`] per method, in input order.
+pub fn bench_methods(
+    gpu: &Gpu,
+    methods: &[Method],
+    configs: &[Config],
+    warmup: usize,
+    repeats: usize,
+) -> anyhow::Result<Vec<Cost>> {
+    bench_methods_with(gpu, methods, configs, warmup, repeats, &mut |_, _| {})
+}
+
+/// [`bench_methods`], calling `progress(done, total)` after every timed or warm-up step
+/// (one method on the GPU, or its CPU port).
+pub fn bench_methods_with(
+    gpu: &Gpu,
+    methods: &[Method],
+    configs: &[Config],
+    warmup: usize,
+    repeats: usize,
+    progress: &mut dyn FnMut(usize, usize),
+) -> anyhow::Result<Vec<Cost>> {
+    anyhow::ensure!(repeats > 0, "bench: at least one timed repeat is needed");
+    anyhow::ensure!(!configs.is_empty(), "bench: no configurations to time");
+    let n = configs.len();
+    let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
+    let timer = gpu.dispatch_timer(&scenes)?;
+    // Everything that can fail on bad input fails before anything is timed.
+    let pipelines = methods
+        .iter()
+        .map(|m| timer.pipeline(m))
+        .collect::<Result<Vec<_>, _>>()?;
+    let ported: Vec<bool> = methods.iter().map(has_cpu_port).collect();
+
+    let steps_per_round = methods.len() + ported.iter().filter(|&&p| p).count();
+    let total = (warmup + repeats) * steps_per_round;
+    let mut done = 0;
+    let mut gpu_ns = vec![Vec::with_capacity(repeats); methods.len()];
+    let mut cpu_ns = vec![Vec::with_capacity(repeats); methods.len()];
+    for round in 0..warmup + repeats {
+        let timed = round >= warmup;
+        // Rotate the order: every method is first, second, … equally often.
+        let order: Vec<usize> = (0..methods.len()).map(|k| (k + round) % methods.len()).collect();
+        for &i in &order {
+            let ns = timer.time(&pipelines[i])?;
+            if timed {
+                gpu_ns[i].push(ns / n as f64);
+            }
+            done += 1;
+            progress(done, total);
+        }
+        for &i in order.iter().filter(|&&i| ported[i]) {
+            let ns = time_cpu_port(&methods[i], configs);
+            if timed {
+                cpu_ns[i].push(ns / n as f64);
+            }
+            done += 1;
+            progress(done, total);
+        }
+    }
+
+    let clock = timer.clock().name().to_string();
+    let costs = methods
+        .iter()
+        .zip(gpu_ns.into_iter().zip(cpu_ns))
+        .map(|(m, (gpu_runs, cpu_runs))| {
+            let g = Spread::of(&gpu_runs);
+            let cpu = (!cpu_runs.is_empty()).then(|| Spread::of(&cpu_runs).median);
+            let speed = Ratio::per_round(&cpu_runs, &gpu_runs).map(|r| r.median);
+            let (ops, ops_error) = match crate::cost::method_cost_of(m) {
+                Ok(ops) => (Some(ops), None),
+                Err(e) => (None, Some(format!("{e:#}"))),
+            };
+            Cost {
+                label: m.label.clone(),
+                clock: clock.clone(),
+                configurations: n,
+                repeats,
+                ns_per_eval_median: g.median,
+                ns_per_eval_min: g.min,
+                ns_per_eval_max: g.max,
+                configs_per_second: 1e9 / g.median,
+                cpu_f32_ns_per_eval: cpu,
+                gpu_cpu_speed_ratio: speed,
+                ops,
+                ops_error,
+                gpu_ns_per_eval: gpu_runs,
+                cpu_f32_ns_per_eval_runs: cpu_runs,
+            }
+        })
+        .collect();
+    Ok(costs)
+}
+
+/// Wall-clock ns of the method's CPU f32 port over every configuration, on all cores.
+fn time_cpu_port(method: &Method, configs: &[Config]) -> f64 {
+    let start = Instant::now();
+    configs.par_iter().for_each(|c| {
+        black_box(method.eval_f32_cpu(black_box(c)));
+    });
+    start.elapsed().as_nanos() as f64
+}
+
+/// What `linelight bench` was asked for.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    /// Case file whose sampler makes the configurations (and names the methods and pairs).
+    pub case: PathBuf,
+    /// Method specs; empty: the case's methods.
+    pub methods: Vec<String>,
+    /// Configurations per dispatch, split evenly over the case's materials.
+    pub count: usize,
+    pub repeats: usize,
+    pub warmup: usize,
+    pub adapter: Option<String>,
+    pub kernels: Vec<PathBuf>,
+    /// Also write the costs as JSON here.
+    pub json: Option<PathBuf>,
+}
+
+/// What a bench measured, ready to report.
+pub struct BenchRun {
+    pub adapter: String,
+    pub case: String,
+    pub materials: usize,
+    pub warmup: usize,
+    /// Threads of the CPU ports (rayon's pool).
+    pub cpu_threads: usize,
+    pub costs: Vec<Cost>,
+    /// The case's compared pairs whose two methods were both measured.
+    pub pairs: Vec<[String; 2]>,
+}
+
+/// `linelight bench`: samples the case's configurations, measures, prints the report to
+/// stdout (progress on stderr) and writes the JSON if asked.
+pub fn run(options: &BenchOptions) -> anyhow::Result<BenchRun> {
+    anyhow::ensure!(options.count > 0, "--count must be at least 1");
+    anyhow::ensure!(options.repeats > 0, "--repeats must be at least 1");
+    let mut case = Case::load(&options.case)?;
+    if !options.methods.is_empty() {
+        case.methods = options.methods.clone();
+    }
+    let materials = case.materials.len();
+    anyhow::ensure!(materials > 0, "case `{}` has no materials", case.name);
+    // The methods measured decide which pairs are compared (and `prepare` checks them).
+    case.compare
+        .retain(|pair| pair.iter().all(|l| case.methods.contains(l)));
+    let setup = crate::sweep::prepare(case, &options.kernels, Some(options.count.div_ceil(materials)))?;
+    let configs = split_evenly(&setup.samples, materials, options.count);
+    for m in &setup.methods {
+        let missing = configs.iter().filter(|c| !m.applies(c)).count();
+        anyhow::ensure!(
+            missing == 0,
+            "{} (target {}) does not apply to {missing} of case `{}`'s configurations: \
+             bench it with a case whose sampler makes {} configurations",
+            m.label,
+            m.target(),
+            setup.case.name,
+            m.target()
+        );
+    }
+
+    let gpu = Gpu::new(options.adapter.as_deref())?;
+    println!("adapter: {}", gpu.adapter);
+    let pb = indicatif::ProgressBar::new(0);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{msg:>12} [{bar:40}] {pos}/{len} (eta {eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    pb.set_message("bench");
+    let costs = bench_methods_with(
+        &gpu,
+        &setup.methods,
+        &configs,
+        options.warmup,
+        options.repeats,
+        &mut |done, total| {
+            pb.set_length(total as u64);
+            pb.set_position(done as u64);
+        },
+    )?;
+    pb.finish_and_clear();
+    let bench = BenchRun {
+        adapter: gpu.adapter.to_string(),
+        case: setup.case.name.clone(),
+        materials,
+        warmup: options.warmup,
+        cpu_threads: rayon::current_num_threads(),
+        pairs: setup.case.compare.clone(),
+        costs,
+    };
+    print!("{}", render(&bench));
+    if let Some(path) = &options.json {
+        let json = serde_json::to_string_pretty(&bench.costs)?;
+        crate::report::write_atomic(path, format!("{json}\n").as_bytes())?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(bench)
+}
+
+/// `count` of the samples, split as evenly as possible over the `materials` (the first
+/// of each material's, in sampling order); the samples hold at least ⌈count/materials⌉
+/// of each.
+fn split_evenly(samples: &[crate::sampler::Sample], materials: usize, count: usize) -> Vec<Config> {
+    let share = |i: usize| count * (i + 1) / materials - count * i / materials;
+    let mut taken = vec![0; materials];
+    samples
+        .iter()
+        .filter(|s| {
+            let keep = taken[s.material] < share(s.material);
+            taken[s.material] += usize::from(keep);
+            keep
+        })
+        .map(|s| s.config.clone())
+        .collect()
+}
+
+/// The report: a header, one row per method, a note on the op counts, and a ratio line
+/// per compared pair (everything after the adapter line `run` prints).
+pub fn render(bench: &BenchRun) -> String {
+    let mut out = String::new();
+    let Some(first) = bench.costs.first() else {
+        return "no methods measured\n".to_string();
+    };
+    let _ = writeln!(
+        out,
+        "case {}: {} configurations per dispatch ({} material(s)); {} warm-up + {} timed rounds, \
+         methods interleaved in rotated order",
+        bench.case, first.configurations, bench.materials, bench.warmup, first.repeats
+    );
+    let clock = if first.clock == Clock::Wall.name() {
+        "wall clock of submit + wait (this adapter has no timestamp queries)"
+    } else {
+        "GPU timestamps at the beginning and end of the compute pass"
+    };
+    let _ = writeln!(
+        out,
+        "GPU: {clock}; CPU: the f32 port on {} thread(s) (rayon)\n",
+        bench.cpu_threads
+    );
+
+    let header = [
+        "method",
+        "GPU ns/eval median [min–max]",
+        "Mconfigs/s",
+        "CPU f32 ns/eval median [min–max]",
+        "GPU/CPU speed",
+        "ops arith / transc / total",
+    ];
+    let mut rows: Vec<[String; 6]> = Vec::new();
+    let mut open_loops = false;
+    for c in &bench.costs {
+        let cpu = match c.cpu_f32_ns_per_eval {
+            Some(median) => {
+                let s = Spread::of(&c.cpu_f32_ns_per_eval_runs);
+                format!("{} [{}–{}]", sig(median), sig(s.min), sig(s.max))
+            }
+            None => "no port".to_string(),
+        };
+        let ops = match &c.ops {
+            Some(o) => {
+                let open = o.loops > 0 && o.loop_trips.is_none();
+                open_loops |= open;
+                format!(
+                    "{} / {} / {}{}",
+                    o.arithmetic,
+                    o.transcendental,
+                    o.total,
+                    if open { " *" } else { "" }
+                )
+            }
+            None => "–".to_string(),
+        };
+        rows.push([
+            c.label.clone(),
+            format!(
+                "{} [{}–{}]",
+                sig(c.ns_per_eval_median),
+                sig(c.ns_per_eval_min),
+                sig(c.ns_per_eval_max)
+            ),
+            sig(c.configs_per_second / 1e6),
+            cpu,
+            c.gpu_cpu_speed_ratio
+                .map_or("–".to_string(), |r| format!("{}×", sig(r))),
+            ops,
+        ]);
+    }
+    let widths: Vec<usize> = (0..header.len())
+        .map(|j| {
+            rows.iter()
+                .map(|r| r[j].chars().count())
+                .chain([header[j].chars().count()])
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let line = |cells: &[&str]| {
+        let mut s = String::new();
+        for (j, cell) in cells.iter().enumerate() {
+            let pad = widths[j] - cell.chars().count();
+            if j == 0 {
+                s.push_str(&format!("{cell}{}", " ".repeat(pad)));
+            } else {
+                s.push_str(&format!("  {}{cell}", " ".repeat(pad)));
+            }
+        }
+        s.push('\n');
+        s
+    };
+    out.push_str(&line(&header));
+    for r in &rows {
+        out.push_str(&line(&r.iter().map(String::as_str).collect::<Vec<_>>()));
+    }
+    let _ = writeln!(
+        out,
+        "\nGPU/CPU speed: median of the per-round CPU ns / GPU ns (above 1: the dispatch is faster).\n\
+         ops: one invocation's operation count from the naga IR (src/cost.rs); \
+         total = arithmetic + other math + {}×transcendental + branches.",
+        crate::cost::TRANSCENDENTAL_WEIGHT
+    );
+    if open_loops {
+        out.push_str("* a loop without a static trip count, its body counted once.\n");
+    }
+    for c in bench.costs.iter().filter(|c| c.ops_error.is_some()) {
+        let _ = writeln!(
+            out,
+            "ops of {}: {}",
+            c.label,
+            c.ops_error.as_deref().unwrap_or_default()
+        );
+    }
+
+    let pairs: Vec<(&Cost, &Cost)> = bench
+        .pairs
+        .iter()
+        .filter_map(|[a, b]| {
+            let find = |l: &str| bench.costs.iter().find(|c| c.label == l);
+            Some((find(a)?, find(b)?))
+        })
+        .collect();
+    if !pairs.is_empty() {
+        out.push_str(
+            "\nCompared pairs: time per evaluation of the first over the second, median [min–max] of the \
+             per-round ratios, one run (above 1: the second is faster).\n",
+        );
+    }
+    for (a, b) in pairs {
+        let Some(g) = gpu_time_ratio(a, b) else {
+            continue;
+        };
+        let _ = write!(
+            out,
+            "  {} / {}: GPU {} [{}–{}] over {} rounds",
+            a.label,
+            b.label,
+            sig3(g.median),
+            sig3(g.min),
+            sig3(g.max),
+            g.rounds
+        );
+        if let Some(c) = cpu_time_ratio(a, b) {
+            let _ = write!(out, ", CPU f32 {} [{}–{}]", sig3(c.median), sig3(c.min), sig3(c.max));
+        }
+        let _ = writeln!(
+            out,
+            ": on the GPU {} runs {}× as fast as {}",
+            b.label,
+            sig3(g.median),
+            a.label
+        );
+    }
+    out
+}
+
+/// Three significant digits, without exponent for everyday magnitudes.
+fn sig(x: f64) -> String {
+    if !x.is_finite() {
+        return x.to_string();
+    }
+    let a = x.abs();
+    if a >= 1e7 || (a < 1e-3 && a != 0.0) {
+        return format!("{x:.2e}");
+    }
+    let decimals = if a >= 100.0 {
+        0
+    } else if a >= 10.0 {
+        1
+    } else if a >= 1.0 {
+        2
+    } else {
+        3
+    };
+    format!("{x:.decimals$}")
+}
+
+/// Ratios: always three decimals, so that close ratios stay comparable.
+fn sig3(x: f64) -> String {
+    format!("{x:.3}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::OnceLock;
+
+    fn gpu() -> &'static Gpu {
+        static GPU: OnceLock<Gpu> = OnceLock::new();
+        GPU.get_or_init(|| {
+            crate::gpu::quiet_driver_environment();
+            Gpu::new(None).unwrap_or_else(|e| panic!("{e}"))
+        })
+    }
+
+    fn configs(n: usize) -> Vec<Config> {
+        let case = Case::load(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/cases/line_fwt.toml"
+        )))
+        .expect("the line_fwt case loads");
+        let setup = crate::sweep::prepare(case, &[], Some(n.div_ceil(3))).unwrap();
+        split_evenly(&setup.samples, 3, n)
+    }
+
+    #[test]
+    fn one_cost_per_method_in_input_order() {
+        let kernels = crate::methods::kernel_set(&[]).unwrap();
+        let specs = ["line.numeric@8", "line.ltc2023", "line.ltc2017"];
+        let methods: Vec<Method> = specs
+            .iter()
+            .map(|s| crate::methods::resolve(s, &kernels).unwrap())
+            .collect();
+        let configs = configs(500);
+        assert_eq!(configs.len(), 500);
+        let costs = bench_methods(gpu(), &methods, &configs, 1, 3).unwrap();
+        let labels: Vec<&str> = costs.iter().map(|c| c.label.as_str()).collect();
+        assert_eq!(labels, specs);
+        for c in &costs {
+            assert_eq!(c.configurations, 500);
+            assert_eq!(c.repeats, 3);
+            assert_eq!(c.clock, "gpu-timestamp");
+            assert_eq!(c.gpu_ns_per_eval.len(), 3);
+            assert_eq!(c.cpu_f32_ns_per_eval_runs.len(), 3, "{} has a CPU port", c.label);
+            assert!(c.ns_per_eval_min <= c.ns_per_eval_median && c.ns_per_eval_median <= c.ns_per_eval_max);
+            assert!(c.ns_per_eval_min > 0.0 && c.ns_per_eval_max.is_finite(), "{c:?}");
+            assert!(c.cpu_f32_ns_per_eval.is_some_and(|x| x > 0.0), "{c:?}");
+            assert!(c.gpu_cpu_speed_ratio.is_some_and(|x| x > 0.0 && x.is_finite()), "{c:?}");
+            let ops = c
+                .ops
+                .as_ref()
+                .unwrap_or_else(|| panic!("{}: {:?}", c.label, c.ops_error));
+            assert!(ops.total > 0);
+        }
+        // The deterministic count beside the measurement is the method's own.
+        for (c, m) in costs.iter().zip(&methods) {
+            assert_eq!(c.ops, Some(crate::cost::method_cost_of(m).unwrap()), "{}", c.label);
+        }
+        let json = serde_json::to_value(&costs).unwrap();
+        assert_eq!(json[1]["label"], "line.ltc2023");
+        assert_eq!(json[1]["clock"], "gpu-timestamp");
+    }
+
+    #[test]
+    fn a_user_kernel_has_no_cpu_port() {
+        let text = "//! id: user.half\n//! target: line\nfn method(scene: Scene) -> f32 { return 0.5 * scene.p1.z; }\n";
+        let m = Method {
+            label: "user.half".to_string(),
+            kernel: crate::kernel::KernelFile::parse("half.wgsl", text).unwrap(),
+            params: Vec::new(),
+            inner: None,
+        };
+        assert!(!has_cpu_port(&m));
+        let costs = bench_methods(gpu(), &[m], &configs(64), 0, 2).unwrap();
+        assert_eq!(costs[0].cpu_f32_ns_per_eval, None);
+        assert_eq!(costs[0].gpu_cpu_speed_ratio, None);
+        assert!(costs[0].cpu_f32_ns_per_eval_runs.is_empty());
+        assert_eq!(costs[0].gpu_ns_per_eval.len(), 2);
+        assert!(bench_methods(gpu(), &[], &configs(64), 0, 0).is_err(), "zero repeats");
+    }
+
+    #[test]
+    fn statistics_and_ratios() {
+        assert_eq!(
+            Spread::of(&[3.0, 1.0, 2.0]),
+            Spread {
+                median: 2.0,
+                min: 1.0,
+                max: 3.0
+            }
+        );
+        assert_eq!(Spread::of(&[4.0, 1.0, 2.0, 10.0]).median, 3.0);
+        let r = Ratio::per_round(&[2.0, 6.0, 3.0], &[1.0, 2.0, 3.0]).unwrap();
+        assert_eq!((r.median, r.min, r.max, r.rounds), (2.0, 1.0, 3.0, 3));
+        assert_eq!(Ratio::per_round(&[], &[]), None);
+        assert_eq!(Ratio::per_round(&[1.0], &[1.0, 2.0]), None);
+    }
+
+    #[test]
+    fn split_evenly_takes_count_over_the_materials() {
+        let case = Case::load(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/cases/line_fwt.toml"
+        )))
+        .unwrap();
+        let setup = crate::sweep::prepare(case, &[], Some(4)).unwrap();
+        let picked = split_evenly(&setup.samples, 3, 10);
+        assert_eq!(picked.len(), 10);
+        // 3 + 3 + 4, the first of each material's samples.
+        let by_material = |i: usize| setup.samples.iter().filter(move |s| s.material == i);
+        let expected: Vec<&Config> = by_material(0)
+            .take(3)
+            .chain(by_material(1).take(3))
+            .chain(by_material(2).take(4))
+            .map(|s| &s.config)
+            .collect();
+        assert_eq!(picked.iter().collect::<Vec<_>>(), expected);
+    }
+}

@@ -1,0 +1,194 @@
+//! Identifier renaming in WGSL text, token by token: the inner line method of a composite
+//! is composed with its `method` and `override`s renamed, and only whole identifier tokens
+//! that name them change, never comments, member names or longer identifiers.
+
+use std::ops::Range;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Ident,
+    Number,
+    Punct,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Token<'a> {
+    kind: Kind,
+    text: &'a str,
+    start: usize,
+}
+
+/// One replaced token: where it was in the original text and where it is in the new.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Rename {
+    pub old_start: usize,
+    pub old_len: usize,
+    pub new_start: usize,
+    pub new_len: usize,
+}
+
+/// Maps a byte offset in renamed text back to the original text. An offset inside a
+/// renamed token maps into the original token, clamped to its length.
+pub(crate) fn original_offset(renames: &[Rename], offset: usize) -> usize {
+    match renames.iter().rev().find(|r| r.new_start <= offset) {
+        None => offset,
+        Some(r) if offset < r.new_start + r.new_len => r.old_start + (offset - r.new_start).min(r.old_len),
+        Some(r) => r.old_start + r.old_len + (offset - r.new_start - r.new_len),
+    }
+}
+
+/// Replaces every identifier token named in `renames` (old, new) except member names:
+/// after `.` (member access), after `@` (attributes) and inside `struct` bodies.
+pub(crate) fn rename_identifiers(text: &str, renames: &[(&str, String)]) -> (String, Vec<Rename>) {
+    let mut out = String::with_capacity(text.len());
+    let mut edits = Vec::new();
+    let mut copied = 0;
+    let mut prev: Option<Token> = None;
+    // Brace depth inside a struct body; `struct` seen and its `{` not yet.
+    let (mut struct_depth, mut struct_pending) = (0usize, false);
+    for token in tokens(text) {
+        match (token.kind, token.text) {
+            (Kind::Ident, "struct") => struct_pending = true,
+            (Kind::Punct, "{") if struct_pending || struct_depth > 0 => {
+                struct_pending = false;
+                struct_depth += 1;
+            }
+            (Kind::Punct, "}") if struct_depth > 0 => struct_depth -= 1,
+            _ => {}
+        }
+        let member = prev.is_some_and(|p| p.kind == Kind::Punct && (p.text == "." || p.text == "@"));
+        let new = renames.iter().find(|(old, _)| *old == token.text).map(|(_, new)| new);
+        if let (Kind::Ident, Some(new), false, 0) = (token.kind, new, member, struct_depth) {
+            out.push_str(&text[copied..token.start]);
+            edits.push(Rename {
+                old_start: token.start,
+                old_len: token.text.len(),
+                new_start: out.len(),
+                new_len: new.len(),
+            });
+            out.push_str(new);
+            copied = token.start + token.text.len();
+        }
+        prev = Some(token);
+    }
+    out.push_str(&text[copied..]);
+    (out, edits)
+}
+
+/// Where `text` declares a function `name` (`fn name`), as the range of the name.
+pub(crate) fn find_fn(text: &str, name: &str) -> Option<Range<usize>> {
+    let tokens = tokens(text);
+    tokens
+        .windows(2)
+        .find(|w| w[0].kind == Kind::Ident && w[0].text == "fn" && w[1].kind == Kind::Ident && w[1].text == name)
+        .map(|w| w[1].start..w[1].start + name.len())
+}
+
+/// Identifiers, numbers and single punctuation characters; whitespace and comments
+/// (line comments and nested block comments) are skipped. WGSL has no string literals.
+fn tokens(text: &str) -> Vec<Token<'_>> {
+    let bytes = text.as_bytes();
+    let mut out = Vec::new();
+    let mut i = 0;
+    let word_end = |mut j: usize, extra: &dyn Fn(char) -> bool| {
+        while let Some(c) = text[j..].chars().next() {
+            if !(c.is_alphanumeric() || c == '_' || extra(c)) {
+                break;
+            }
+            j += c.len_utf8();
+        }
+        j
+    };
+    while let Some(c) = text[i..].chars().next() {
+        let next = bytes.get(i + 1).copied();
+        let (kind, end) = if c.is_whitespace() {
+            i += c.len_utf8();
+            continue;
+        } else if c == '/' && next == Some(b'/') {
+            i = text[i..].find('\n').map_or(text.len(), |n| i + n);
+            continue;
+        } else if c == '/' && next == Some(b'*') {
+            i = block_comment_end(text, i);
+            continue;
+        } else if c.is_ascii_digit() || (c == '.' && next.is_some_and(|b| b.is_ascii_digit())) {
+            // `1.5e3f`, `0x1p4`, `2u`: the suffix and exponent letters are not identifiers.
+            (Kind::Number, word_end(i + 1, &|c| c == '.'))
+        } else if c.is_alphabetic() || c == '_' {
+            (Kind::Ident, word_end(i + c.len_utf8(), &|_| false))
+        } else {
+            (Kind::Punct, i + c.len_utf8())
+        };
+        out.push(Token {
+            kind,
+            text: &text[i..end],
+            start: i,
+        });
+        i = end;
+    }
+    out
+}
+
+/// The end of the block comment starting at `start` (WGSL block comments nest).
+fn block_comment_end(text: &str, start: usize) -> usize {
+    let mut depth = 0;
+    let mut i = start;
+    while i < text.len() {
+        if text[i..].starts_with("/*") {
+            depth += 1;
+            i += 2;
+        } else if text[i..].starts_with("*/") {
+            depth -= 1;
+            i += 2;
+            if depth == 0 {
+                return i;
+            }
+        } else {
+            i += text[i..].chars().next().map_or(1, char::len_utf8);
+        }
+    }
+    text.len()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rename(text: &str) -> String {
+        let renames = [
+            ("method", "ll_line_method".to_string()),
+            ("N", "ll_inner_N".to_string()),
+        ];
+        rename_identifiers(text, &renames).0
+    }
+
+    #[test]
+    fn renames_whole_identifiers_only() {
+        let text = "// fn method(scene) uses N\n/* method /* N */ method */\n\
+                    override N: u32 = 2u;\nstruct S { N: f32, method: u32 }\n\
+                    fn method_2(s: S) -> f32 { return s.N + f32(N) + 1.5e3f; }\n\
+                    fn method(scene: Scene) -> f32 { let methods = N; return method_2(S(1.0, N)); }\n";
+        let expected = "// fn method(scene) uses N\n/* method /* N */ method */\n\
+                        override ll_inner_N: u32 = 2u;\nstruct S { N: f32, method: u32 }\n\
+                        fn method_2(s: S) -> f32 { return s.N + f32(ll_inner_N) + 1.5e3f; }\n\
+                        fn ll_line_method(scene: Scene) -> f32 { let methods = ll_inner_N; \
+                        return method_2(S(1.0, ll_inner_N)); }\n";
+        assert_eq!(rename(text), expected);
+    }
+
+    #[test]
+    fn offsets_map_back_to_the_original() {
+        let text = "fn method() {}\nlet x = N;";
+        let (new, edits) = rename_identifiers(text, &[("method", "ll_line_method".into()), ("N", "ll_inner_N".into())]);
+        assert_eq!(new, "fn ll_line_method() {}\nlet x = ll_inner_N;");
+        for (new_at, old_at) in [(0, 0), (3, 3), (5, 5), (17, 9), (30, 22), (31, 23), (41, 24)] {
+            assert_eq!(original_offset(&edits, new_at), old_at, "{new_at}");
+        }
+    }
+
+    #[test]
+    fn finds_function_declarations() {
+        let text = "// fn I_line\nfn I_line_x() {}\nfn  I_line(p1: vec3<f32>) {}";
+        assert_eq!(find_fn(text, "I_line"), Some(34..40));
+        assert_eq!(find_fn("let I_line = 1;", "I_line"), None);
+    }
+}

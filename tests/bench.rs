@@ -1,0 +1,94 @@
+//! `linelight bench` as a user meets it (on lavapipe: without it these fail, they do not
+//! skip). Speed is measured, never asserted: these check what is printed and written,
+//! not how fast anything ran.
+
+use std::process::{Command, Output};
+
+fn linelight(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(args)
+        .output()
+        .expect("linelight runs")
+}
+
+#[test]
+fn bench_prints_both_methods_and_their_ratio_and_writes_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("costs.json");
+    let o = linelight(&[
+        "bench",
+        "--count",
+        "1024",
+        "--repeats",
+        "3",
+        "--warmup",
+        "1",
+        "--methods",
+        "line.ltc2017,line.ltc2023",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success(),
+        "exit {:?}\nstdout:\n{stdout}\nstderr:\n{stderr}",
+        o.status
+    );
+    assert!(stdout.starts_with("adapter: llvmpipe"), "{stdout}");
+    assert!(stdout.contains("1024 configurations per dispatch"), "{stdout}");
+    let row = |label: &str| stdout.lines().find(|l| l.starts_with(&format!("{label} ")));
+    for label in ["line.ltc2017", "line.ltc2023"] {
+        let row = row(label).unwrap_or_else(|| panic!("no row for {label}:\n{stdout}"));
+        assert!(row.ends_with(char::is_numeric), "the row ends with the op count: {row}");
+    }
+    let ratio = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("line.ltc2017 / line.ltc2023: GPU "))
+        .unwrap_or_else(|| panic!("no ratio line:\n{stdout}"));
+    assert!(ratio.contains("over 3 rounds") && ratio.contains("CPU f32 "), "{ratio}");
+
+    let costs: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let costs = costs.as_array().unwrap();
+    assert_eq!(costs.len(), 2);
+    for (c, label) in costs.iter().zip(["line.ltc2017", "line.ltc2023"]) {
+        assert_eq!(c["label"], label);
+        assert_eq!(c["clock"], "gpu-timestamp");
+        assert_eq!(c["configurations"], 1024);
+        assert_eq!(c["repeats"], 3);
+        assert_eq!(c["gpu_ns_per_eval"].as_array().unwrap().len(), 3);
+        assert!(c["cpu_f32_ns_per_eval"].as_f64().is_some(), "{c}");
+        assert!(c["ops"]["total"].as_u64().is_some_and(|t| t > 0), "{c}");
+    }
+}
+
+#[test]
+fn bench_refuses_bad_input_before_measuring() {
+    let o = linelight(&["bench", "--count", "64", "--methods", "line.nope"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("unknown method `line.nope`"), "{stderr}");
+
+    // The line case samples no radius: a cylinder method cannot be timed on it.
+    let dir = tempfile::tempdir().unwrap();
+    let kernel = dir.path().join("cyl.wgsl");
+    std::fs::write(
+        &kernel,
+        "//! id: user.cyl\n//! target: cylinder\nfn method(scene: Scene) -> f32 { return scene.radius; }\n",
+    )
+    .unwrap();
+    let kernel = kernel.to_str().unwrap();
+    let o = linelight(&["bench", "--count", "64", "--kernel", kernel, "--methods", "user.cyl"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("user.cyl (target cylinder) does not apply to 64 of case `line_fwt`'s configurations"),
+        "{stderr}"
+    );
+    assert!(o.stdout.is_empty(), "nothing measured, nothing printed");
+
+    let o = linelight(&["bench", "--repeats", "0"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--repeats must be at least 1"));
+}
