@@ -62,6 +62,8 @@ pub struct MaterialStats {
 #[derive(Clone, Debug, Serialize)]
 pub struct MethodStats {
     pub label: String,
+    /// The label with a composite's inner method spelled out (`cylinder.line[line.ltc2023_full]`).
+    pub describe: String,
     pub id: String,
     pub target: Target,
     pub source: String,
@@ -216,6 +218,7 @@ fn method_stats(case: &Case, samples: &[Sample], references: &References, run: &
         .collect();
     MethodStats {
         label: run.method.label.clone(),
+        describe: run.method.describe(),
         id: run.method.id().to_string(),
         target,
         source: run.method.kernel.source.clone(),

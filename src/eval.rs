@@ -35,7 +35,10 @@ pub fn read_configs(path: &Path) -> anyhow::Result<Vec<Config>> {
         let at = format!("{}:{}", path.display(), i + 1);
         match serde_json::from_str::<Config>(line) {
             Err(e) => errors.push(format!("{at}: {e}")),
-            Ok(c) => {
+            Ok(mut c) => {
+                if c.orthonormalize_rect().is_some_and(|moved| moved > 1e-9) {
+                    eprintln!("note: {at}: `{}`: rect.normal made perpendicular to the segment (DESIGN §1)", c.id);
+                }
                 if let Err(d) = c.validate() {
                     errors.push(format!("{at}: configuration `{}` is degenerate: {d}", c.id));
                 } else if !ids.insert(c.id.clone()) {

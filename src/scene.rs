@@ -117,6 +117,9 @@ pub fn cross(a: Vec3, b: Vec3) -> Vec3 {
         a[0] * b[1] - a[1] * b[0],
     ]
 }
+fn scale_v(a: Vec3, s: f64) -> Vec3 {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
 pub fn length(a: Vec3) -> f64 {
     dot(a, a).sqrt()
 }
@@ -137,6 +140,24 @@ impl Config {
     pub fn distance_to_line(&self) -> f64 {
         let e = sub(self.p2, self.p1);
         length(cross(self.p1, e)) / length(e)
+    }
+
+    /// Makes `rect.normal` the unit vector perpendicular to the segment that DESIGN §1 asks
+    /// for, by removing its component along ω_t (the DESIGN's own example has one). Returns
+    /// how far the normal moved, or None when there is no rectangle or the normal is (nearly)
+    /// parallel to the segment, which `validate` then rejects.
+    pub fn orthonormalize_rect(&mut self) -> Option<f64> {
+        let e = sub(self.p2, self.p1);
+        let rect = self.rect.as_mut()?;
+        let t = scale_v(e, 1.0 / length(e));
+        let n = rect.normal;
+        let perp = sub(n, scale_v(t, dot(n, t)));
+        let len = length(perp);
+        if !(len > 1e-6 * length(n)) {
+            return None;
+        }
+        rect.normal = scale_v(perp, 1.0 / len);
+        Some(length(sub(rect.normal, n)))
     }
 
     /// Checks the configuration is one the targets are defined on (DESIGN §1):

@@ -469,7 +469,7 @@ pub fn render(input: &ReportInput) -> String {
         floors.join(", ")
     );
     for ms in &a.methods {
-        let _ = writeln!(w, "  - `{}` ({}): {} — `{}`", ms.label, ms.target, ms.source, ms.kernel);
+        let _ = writeln!(w, "  - `{}` ({}): {} — `{}`", ms.describe, ms.target, ms.source, ms.kernel);
     }
     let _ = writeln!(
         w,
