@@ -337,7 +337,12 @@ impl Case {
                 ));
             }
         }
-        for m in self.maps.iter().flat_map(|m| &m.methods).chain(self.search.iter().flat_map(|s| &s.methods)) {
+        for m in self
+            .maps
+            .iter()
+            .flat_map(|m| &m.methods)
+            .chain(self.search.iter().flat_map(|s| &s.methods))
+        {
             if !self.methods.contains(m) {
                 return Err(format!("maps or search name `{m}`, which is not in `methods`"));
             }

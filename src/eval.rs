@@ -37,7 +37,10 @@ pub fn read_configs(path: &Path) -> anyhow::Result<Vec<Config>> {
             Err(e) => errors.push(format!("{at}: {e}")),
             Ok(mut c) => {
                 if c.orthonormalize_rect().is_some_and(|moved| moved > 1e-9) {
-                    eprintln!("note: {at}: `{}`: rect.normal made perpendicular to the segment (DESIGN §1)", c.id);
+                    eprintln!(
+                        "note: {at}: `{}`: rect.normal made perpendicular to the segment (DESIGN §1)",
+                        c.id
+                    );
                 }
                 if let Err(d) = c.validate() {
                     errors.push(format!("{at}: configuration `{}` is degenerate: {d}", c.id));

@@ -55,8 +55,18 @@ const BUILTIN: &[(&str, &str)] = builtin![
     "line_ltc2017_fwt.wgsl",
     "line_ltc2023.wgsl",
     "line_ltc2023_full.wgsl",
+    "line_ltc2023_fix.wgsl",
     "line_numeric_paper.wgsl",
     "line_numeric.wgsl",
+    "cylinder_numeric_paper.wgsl",
+    "cylinder_numeric.wgsl",
+    "cylinder_line.wgsl",
+    "caps_numeric_paper.wgsl",
+    "caps_point.wgsl",
+    "tube_line.wgsl",
+    "rectangle_numeric.wgsl",
+    "rectangle_line.wgsl",
+    "rectangle_line_fixed.wgsl",
 ];
 
 pub fn builtin_kernels() -> Vec<KernelFile> {

@@ -65,7 +65,12 @@ fn evaluate(
         .map(|(sample, value)| {
             let reference = reference::reference(&sample.config, target)?;
             let score = score(value, &reference, case.floor_for(target, &sample.config));
-            Some(Point { sample, value, reference, score })
+            Some(Point {
+                sample,
+                value,
+                reference,
+                score,
+            })
         })
         .collect())
 }
@@ -85,8 +90,11 @@ pub fn search(
         .filter(|&i| samples[i].material == family && run.method.applies(&samples[i].config))
         .filter(|&i| run.method.supports(&samples[i].config))
         .collect();
-    let ranked =
-        |i: usize| references[i].get(&target).map(|r| score(run.f32[i], r, case.floor_for(target, &samples[i].config)));
+    let ranked = |i: usize| {
+        references[i]
+            .get(&target)
+            .map(|r| score(run.f32[i], r, case.floor_for(target, &samples[i].config)))
+    };
     let mut starts: Vec<(usize, f64)> = members.iter().filter_map(|&i| Some((i, ranked(i)?))).collect();
     if starts.is_empty() {
         return Ok(None);
@@ -106,7 +114,11 @@ pub fn search(
 
     let pipeline = gpu.pipeline(&run.method)?;
     // Seeded per method and family: the same search on every machine.
-    let tag = run.method.label.bytes().fold(case.seed ^ family as u64, |h, b| h.rotate_left(5) ^ b as u64);
+    let tag = run
+        .method
+        .label
+        .bytes()
+        .fold(case.seed ^ family as u64, |h, b| h.rotate_left(5) ^ b as u64);
     let mut rng = ChaCha8Rng::seed_from_u64(tag);
     let mut evaluations = 0;
     for step in 0..spec.steps {
@@ -158,7 +170,10 @@ pub fn search(
             }
         }
     }
-    let worst = current.into_iter().max_by(|a, b| a.score.total_cmp(&b.score)).expect("at least one start");
+    let worst = current
+        .into_iter()
+        .max_by(|a, b| a.score.total_cmp(&b.score))
+        .expect("at least one start");
     let mut config = worst.sample.config;
     config.id = format!("worst-{}-{}", run.method.label, case.materials[family].name);
     Ok(Some(Found {

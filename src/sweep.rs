@@ -60,6 +60,7 @@ pub struct Timing {
     pub references_seconds: f64,
     pub references_evaluated: usize,
     pub search_seconds: f64,
+    pub cost_seconds: f64,
     pub total_seconds: f64,
 }
 
@@ -69,7 +70,15 @@ pub struct Measured {
     pub timing: Timing,
     /// The worst-case search's findings (cases with a `[search]`).
     pub found: Vec<crate::search::Found>,
+    /// Each method's cost: GPU timestamps, CPU f32 port, naga op count (src/bench.rs).
+    pub costs: Vec<crate::bench::Cost>,
 }
+
+/// Configurations per method for the cost measurement: enough to fill the device, few
+/// enough to keep a sweep's timing pass to seconds.
+const COST_CONFIGURATIONS: usize = 16384;
+const COST_WARMUP: usize = 2;
+const COST_REPEATS: usize = 7;
 
 fn bar(len: usize, what: &str) -> ProgressBar {
     let pb = ProgressBar::new(len as u64);
@@ -189,8 +198,30 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
         pb.finish_and_clear();
         timing.search_seconds = t.elapsed().as_secs_f64();
     }
+    // Cost: the first configurations of every family, each method timed in interleaved rounds.
+    let t = Instant::now();
+    let per_family = COST_CONFIGURATIONS.div_ceil(setup.case.materials.len());
+    let cost_configs: Vec<_> = (0..setup.case.materials.len())
+        .flat_map(|m| setup.samples.iter().filter(move |s| s.material == m).take(per_family))
+        .map(|s| s.config.clone())
+        .collect();
+    let pb = bar(
+        setup.methods.len() * (COST_WARMUP + COST_REPEATS),
+        "cost (GPU timestamps)",
+    );
+    let costs = crate::bench::bench_methods_with(
+        gpu,
+        &setup.methods,
+        &cost_configs,
+        COST_WARMUP,
+        COST_REPEATS,
+        &mut |done, _| pb.set_position(done as u64),
+    )?;
+    pb.finish_and_clear();
+    timing.cost_seconds = t.elapsed().as_secs_f64();
     timing.total_seconds = start.elapsed().as_secs_f64();
     Ok(Measured {
+        costs,
         found,
         runs,
         references,

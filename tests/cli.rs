@@ -85,7 +85,11 @@ fn sweep_writes_reports_and_a_verdict() {
 fn failing_tolerance_gives_exit_1_and_says_so() {
     let dir = tempfile::tempdir().unwrap();
     // A tolerance no f32 evaluation can meet.
-    let case = write(dir.path(), "strict.toml", &CASE.replace("max = 1.0\nnan = 0", "max = 1e-30\nnan = 0"));
+    let case = write(
+        dir.path(),
+        "strict.toml",
+        &CASE.replace("max = 1.0\nnan = 0", "max = 1e-30\nnan = 0"),
+    );
     let out = dir.path().join("reports");
     let o = linelight(&[
         "sweep",

@@ -21,11 +21,12 @@ impl Real for f32 {}
 impl Real for f64 {}
 
 /// Method ids with a CPU port in [`evaluate`] (one kernel file each).
-pub const PORTED: [&str; 11] = [
+pub const PORTED: [&str; 12] = [
     "line.ltc2017",
     "line.ltc2017_fwt",
     "line.ltc2023",
     "line.ltc2023_full",
+    "line.ltc2023_fix",
     "line.numeric_paper",
     "line.numeric",
     "cylinder.numeric_paper",
@@ -51,8 +52,9 @@ pub fn evaluate<T: Real>(id: &str, params: &[u32], config: &Config) -> Option<T>
     let value = match id {
         "line.ltc2017" => listing_1_6::I_ltc_line(minv, p1, p2, listing_1_6::Fwt),
         "line.ltc2017_fwt" => listing_1_6::I_ltc_line(minv, p1, p2, listing_1_6::Fwt_2023),
-        "line.ltc2023" => ltc2023::method(minv, p1, p2, ltc2023::ComputeLineWidthFactor),
-        "line.ltc2023_full" => ltc2023::method(minv, p1, p2, ltc2023::ComputeLineWidthFactor_full),
+        "line.ltc2023" => ltc2023::method(minv, p1, p2, ltc2023::ComputeLineWidthFactor, ltc2023::angle_acos),
+        "line.ltc2023_full" => ltc2023::method(minv, p1, p2, ltc2023::ComputeLineWidthFactor_full, ltc2023::angle_acos),
+        "line.ltc2023_fix" => ltc2023::method(minv, p1, p2, ltc2023::ComputeLineWidthFactor_full, ltc2023::angle_atan2),
         "line.numeric_paper" => numeric::I_line_numerical(minv, p1, p2),
         "line.numeric" => {
             let samples = params.first().copied().unwrap_or(numeric::DEFAULT_SAMPLES);
@@ -316,7 +318,20 @@ mod ltc2023 {
     #[allow(clippy::approx_constant)] // deliberately the listing's constant
     pub const INV_PI: f64 = 0.3183098861;
 
-    pub fn I_diffuse_line<T: Real>(C: Vec3<T>, A: Vec3<T>, hl: T) -> T {
+    /// The angle between P1 and P2 as the listing takes it: acos of the clamped cosine.
+    pub fn angle_acos<T: Real>(ns: T, t1: T, t2: T, mr: T, _n: T) -> T {
+        // Guard against numerical errors.
+        let dt = T::one().min((ns + t1 * t2) * mr);
+        dt.acos()
+    }
+
+    /// The fix (`line.ltc2023_fix`): atan2(|P1 × P2|, P1 · P2) = atan2(n (t2 − t1), ns + t1 t2),
+    /// accurate at every angle where acos of a cosine near 1 loses ~ε/Δ².
+    pub fn angle_atan2<T: Real>(ns: T, t1: T, t2: T, _mr: T, n: T) -> T {
+        (n * (t2 - t1)).atan2(ns + t1 * t2)
+    }
+
+    pub fn I_diffuse_line<T: Real>(C: Vec3<T>, A: Vec3<T>, hl: T, angle: fn(T, T, T, T, T) -> T) -> T {
         let zero = T::zero();
         let one = T::one();
 
@@ -351,9 +366,7 @@ mod ltc2023 {
         let r1 = s2 * (mr * mr); // 1/|P1|^2
 
         let i12 = (Nz * t2 - (T_.z * n)) * r2 - (Nz * t1 - (T_.z * n)) * r1;
-        // Guard against numerical errors.
-        let dt = one.min((ns + t1 * t2) * mr);
-        let i3 = dt.acos() * (Nz * nr); // angle * cos(θ) / r^2
+        let i3 = angle(ns, t1, t2, mr, n) * (Nz * nr); // angle * cos(θ) / r^2
 
         // Guard against numerical errors.
         lit::<T>(INV_PI) * zero.max(i12 + i3)
@@ -397,6 +410,7 @@ mod ltc2023 {
         axis: Vec3<T>,
         halfLength: T,
         ComputeLineWidthFactor: fn(Mat3<T>, Vec3<T>, T) -> T,
+        angle: fn(T, T, T, T, T) -> T,
     ) -> T {
         let zero = T::zero();
         let ortho = cross(center, axis);
@@ -420,7 +434,7 @@ mod ltc2023 {
         if !quit {
             let w = ComputeLineWidthFactor(invM, ortho, orthoSq);
 
-            result = I_diffuse_line(C, A, halfLength) * w;
+            result = I_diffuse_line(C, A, halfLength, angle) * w;
         }
 
         result
@@ -432,12 +446,13 @@ mod ltc2023 {
         p1: Vec3<T>,
         p2: Vec3<T>,
         ComputeLineWidthFactor: fn(Mat3<T>, Vec3<T>, T) -> T,
+        angle: fn(T, T, T, T, T) -> T,
     ) -> T {
         let half = lit::<T>(0.5);
         let center = (p1 + p2) * half;
         let axis = normalize(p2 - p1);
         let halfLength = length(p2 - p1) * half;
-        I_ltc_line(minv, center, axis, halfLength, ComputeLineWidthFactor)
+        I_ltc_line(minv, center, axis, halfLength, ComputeLineWidthFactor, angle)
     }
 }
 
@@ -1725,6 +1740,7 @@ mod tests {
             include_str!("../../kernels/line_ltc2017_fwt.wgsl"),
             include_str!("../../kernels/line_ltc2023.wgsl"),
             include_str!("../../kernels/line_ltc2023_full.wgsl"),
+            include_str!("../../kernels/line_ltc2023_fix.wgsl"),
             include_str!("../../kernels/line_numeric_paper.wgsl"),
             include_str!("../../kernels/line_numeric.wgsl"),
         ];
@@ -1733,8 +1749,8 @@ mod tests {
             assert!(has_port(id));
         }
         let params = format!("//! params: SAMPLES={}\n", numeric::DEFAULT_SAMPLES);
-        assert!(kernels[5].contains(&params));
-        assert!(kernels[5].contains(&format!("override SAMPLES: u32 = {};", numeric::DEFAULT_SAMPLES)));
+        assert!(kernels[6].contains(&params));
+        assert!(kernels[6].contains(&format!("override SAMPLES: u32 = {};", numeric::DEFAULT_SAMPLES)));
         assert!(kernels[2].contains(&format!("const INV_PI: f32 = {};", ltc2023::INV_PI)));
         assert!(!has_port("line.user"));
         let c = config(SEGMENTS[0].0, SEGMENTS[0].1, Material::Diffuse);

@@ -326,7 +326,10 @@ pub fn render(input: &ReportInput) -> String {
              search refined the worst starting points (∞: NaN or inf). Every configuration is in \
              `worst.jsonl`; replay with `linelight eval --input worst.jsonl --output out.jsonl`.\n"
         );
-        let _ = writeln!(w, "| method | family | worst in sample | worst found | evaluations | value (f32) | reference | id |");
+        let _ = writeln!(
+            w,
+            "| method | family | worst in sample | worst found | evaluations | value (f32) | reference | id |"
+        );
         let _ = writeln!(w, "|---|---|---:|---:|---:|---:|---:|---|");
         for f in &m.found {
             let _ = writeln!(
@@ -422,6 +425,77 @@ pub fn render(input: &ReportInput) -> String {
         let _ = writeln!(w);
     }
 
+    // Cost and speed against accuracy.
+    if !m.costs.is_empty() {
+        let c0 = &m.costs[0];
+        let _ = writeln!(w, "## Speed against accuracy\n");
+        let _ = writeln!(
+            w,
+            "Cost per evaluation on {} ({} clock), {} configurations per dispatch, {} interleaved repeats \
+             after warm-up; median [min–max]. CPU f32: the same formula as plain Rust on all cores, in the \
+             same rounds. ops: one invocation's operation count from the naga IR (a deterministic cost; \
+             total = arithmetic + other + 8 × transcendental + branches). Timings are measured in this run, \
+             on this machine: compare ratios, not absolute numbers, across machines.\n",
+            m.timing.adapter, c0.clock, c0.configurations, c0.repeats
+        );
+        let _ = writeln!(
+            w,
+            "| method | GPU ns/eval | Mconfigs/s | CPU f32 ns/eval | ops arith / transc / total |"
+        );
+        let _ = writeln!(w, "|---|---:|---:|---:|---:|");
+        for c in &m.costs {
+            let ops = c.ops.as_ref().map_or("—".to_string(), |o| {
+                format!("{} / {} / {}", o.arithmetic, o.transcendental, o.total)
+            });
+            let cpu = c.cpu_f32_ns_per_eval.map_or("—".to_string(), |v| format!("{v:.0}"));
+            let _ = writeln!(
+                w,
+                "| `{}` | {:.0} [{:.0}–{:.0}] | {:.2} | {cpu} | {ops} |",
+                c.label,
+                c.ns_per_eval_median,
+                c.ns_per_eval_min,
+                c.ns_per_eval_max,
+                c.configs_per_second / 1e6
+            );
+        }
+        let _ = writeln!(w);
+        for [x, y] in &case.compare {
+            let (Some(cx), Some(cy)) = (
+                m.costs.iter().find(|c| &c.label == x),
+                m.costs.iter().find(|c| &c.label == y),
+            ) else {
+                continue;
+            };
+            if let Some(r) = crate::bench::gpu_time_ratio(cx, cy) {
+                let cpu = crate::bench::cpu_time_ratio(cx, cy).map_or(String::new(), |c| {
+                    format!("; CPU f32 port {:.2} [{:.2}–{:.2}]", c.median, c.min, c.max)
+                });
+                let _ = writeln!(
+                    w,
+                    "- time of `{x}` over `{y}`, measured in this run: GPU {:.2} [{:.2}–{:.2}] over {} rounds{cpu} \
+                     (above 1: `{y}` is faster).",
+                    r.median, r.min, r.max, r.rounds
+                );
+            }
+        }
+        let _ = writeln!(w);
+        for family in &case.materials {
+            let _ = writeln!(
+                w,
+                "![speed against accuracy, {}]({})\n",
+                family.name,
+                super::chart_file(&family.name)
+            );
+        }
+        for (k, family) in case.materials.iter().enumerate() {
+            let points = super::chart_points(input, k);
+            let front = super::chart::pareto_front(&points, true);
+            let names: Vec<String> = front.iter().map(|&i| format!("`{}`", points[i].label)).collect();
+            let _ = writeln!(w, "- Pareto front by p99 on `{}`: {}.", family.name, names.join(", "));
+        }
+        let _ = writeln!(w);
+    }
+
     // Timing.
     let t = &m.timing;
     let _ = writeln!(w, "## Timing (this run)\n");
@@ -469,7 +543,11 @@ pub fn render(input: &ReportInput) -> String {
         floors.join(", ")
     );
     for ms in &a.methods {
-        let _ = writeln!(w, "  - `{}` ({}): {} — `{}`", ms.describe, ms.target, ms.source, ms.kernel);
+        let _ = writeln!(
+            w,
+            "  - `{}` ({}): {} — `{}`",
+            ms.describe, ms.target, ms.source, ms.kernel
+        );
     }
     let _ = writeln!(
         w,

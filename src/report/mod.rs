@@ -2,9 +2,9 @@
 //! temporary name and renamed into place, so a failed run never leaves half a report
 //! and never destroys the previous one.
 
+pub mod chart;
 mod csv;
 mod findings;
-pub mod chart;
 mod markdown;
 mod svg;
 
@@ -72,13 +72,20 @@ pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<Path
     });
     let mut extra = Vec::new();
     if !input.measured.found.is_empty() {
-        let rows: Vec<_> =
-            input.measured.found.iter().map(|f| serde_json::to_value(&f.config)).collect::<Result<_, _>>()?;
+        let rows: Vec<_> = input
+            .measured
+            .found
+            .iter()
+            .map(|f| serde_json::to_value(&f.config))
+            .collect::<Result<_, _>>()?;
         extra.push(("worst.jsonl".to_string(), crate::eval::to_jsonl(&rows)));
     }
     let nonfinite = nonfinite(input);
     if !nonfinite.is_empty() {
-        let rows: Vec<_> = nonfinite.iter().map(|(c, _)| serde_json::to_value(c)).collect::<Result<_, _>>()?;
+        let rows: Vec<_> = nonfinite
+            .iter()
+            .map(|(c, _)| serde_json::to_value(c))
+            .collect::<Result<_, _>>()?;
         extra.push(("nonfinite.jsonl".to_string(), crate::eval::to_jsonl(&rows)));
     }
     let files = [
@@ -92,6 +99,7 @@ pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<Path
         .into_iter()
         .map(|(n, b)| (n.to_string(), b))
         .chain(heat_maps(input))
+        .chain(speed_charts(input))
         .chain(extra)
     {
         let path = dir.join(&name);
@@ -151,6 +159,62 @@ pub fn nonfinite<'a>(input: &'a ReportInput) -> Vec<(&'a crate::scene::Config, V
                 .map(|r| r.method.label.as_str())
                 .collect();
             (!methods.is_empty()).then_some((&s.config, methods))
+        })
+        .collect()
+}
+
+/// Where a material's speed-against-accuracy chart goes, relative to the report.
+pub fn chart_file(material: &str) -> String {
+    let clean: String = material
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() || c == '.' { c } else { '_' })
+        .collect();
+    format!("speed_accuracy__{clean}.svg")
+}
+
+/// The chart's points for one material: every supported method with a measured cost.
+pub fn chart_points(input: &ReportInput, material: usize) -> Vec<chart::ChartPoint> {
+    input
+        .analysis
+        .methods
+        .iter()
+        .filter_map(|ms| {
+            let mat = &ms.materials[material];
+            let cost = input.measured.costs.iter().find(|c| c.label == ms.label)?;
+            let q = mat.all.rel?;
+            mat.supported.then(|| chart::ChartPoint {
+                label: ms.label.clone(),
+                group: ms.describe.split('@').next().unwrap_or(&ms.describe).to_string(),
+                cost: cost.ns_per_eval_median,
+                median: q.median,
+                p99: if mat.all.nan + mat.all.inf > 0 {
+                    f64::INFINITY
+                } else {
+                    q.p99
+                },
+            })
+        })
+        .collect()
+}
+
+fn speed_charts(input: &ReportInput) -> Vec<(String, Vec<u8>)> {
+    let clock = input.measured.costs.first().map_or("", |c| c.clock.as_str());
+    input
+        .case
+        .materials
+        .iter()
+        .enumerate()
+        .map(|(k, family)| {
+            let svg = chart::speed_accuracy_chart(
+                &format!("Speed against accuracy: {} on {}", input.case.name, family.name),
+                &format!(
+                    "{} ({clock}), f32, {} configurations of {}",
+                    input.measured.timing.adapter, family.count, family.name
+                ),
+                "cost (GPU ns per evaluation, median of interleaved repeats)",
+                &chart_points(input, k),
+            );
+            (chart_file(&family.name), svg.into_bytes())
         })
         .collect()
 }
