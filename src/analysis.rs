@@ -198,7 +198,9 @@ fn method_stats(case: &Case, samples: &[Sample], references: &References, run: &
                     .map(|map| MapStats {
                         x: map.x.clone(),
                         y: map.y.clone(),
+                        // Only the methods a map draws: the others' grids would be read by no one.
                         cells: (0..map.y.edges.len() - 1)
+                            .filter(|_| map.shows(&run.method.label))
                             .map(|ky| {
                                 (0..map.x.edges.len() - 1)
                                     .map(|kx| {

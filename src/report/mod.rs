@@ -90,7 +90,8 @@ pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<Path
     }
     let files = [
         ("report.md", markdown::render(input).into_bytes()),
-        ("summary.json", serde_json::to_vec_pretty(&summary)?),
+        // Compact: a machine-readable record, large for big cases; report.md is for reading.
+        ("summary.json", serde_json::to_vec(&summary)?),
         ("stats.csv", csv::stats(input.analysis).into_bytes()),
         ("comparisons.csv", csv::comparisons(input.analysis).into_bytes()),
     ];
@@ -209,7 +210,10 @@ fn speed_charts(input: &ReportInput) -> Vec<(String, Vec<u8>)> {
                 &format!("Speed against accuracy: {} on {}", input.case.name, family.name),
                 &format!(
                     "{} ({clock}), f32, {} configurations of {}",
-                    input.measured.timing.adapter, family.count, family.name
+                    // The adapter's name without the driver details: the subtitle must fit.
+                    input.measured.timing.adapter.split(" — ").next().unwrap_or_default(),
+                    family.count,
+                    family.name
                 ),
                 "cost (GPU ns per evaluation, median of interleaved repeats)",
                 &chart_points(input, k),

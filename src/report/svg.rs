@@ -134,9 +134,9 @@ pub fn heat_map(map: &MapStats, title: &str) -> String {
 }
 
 /// For each y bin: the largest x edge below which every populated cell, from the first x bin
-/// on, keeps its p99 under `limit` (None: not even the first). Cells without samples are
+/// on, keeps the chosen quantile of its error under `limit` (None: not even the first). Cells without samples are
 /// skipped, not assumed good; NaN/inf in a cell ends the run.
-pub fn valid_up_to(map: &MapStats, limit: f64) -> Vec<Option<f64>> {
+pub fn valid_up_to(map: &MapStats, limit: f64, quantile: fn(&crate::stats::Quantiles) -> f64) -> Vec<Option<f64>> {
     map.cells
         .iter()
         .map(|row| {
@@ -144,7 +144,7 @@ pub fn valid_up_to(map: &MapStats, limit: f64) -> Vec<Option<f64>> {
             for (kx, stats) in row.iter().enumerate() {
                 match stats.rel {
                     None => continue,
-                    Some(q) if q.p99 <= limit && stats.nan + stats.inf == 0 => upto = Some(map.x.edges[kx + 1]),
+                    Some(q) if quantile(&q) <= limit && stats.nan + stats.inf == 0 => upto = Some(map.x.edges[kx + 1]),
                     Some(_) => break,
                 }
             }
