@@ -57,6 +57,9 @@ pub struct Timing {
     pub gpu: Vec<(String, f64, f64)>,
     /// (method label, CPU f64 port seconds on all cores).
     pub f64_ports: Vec<(String, f64)>,
+    /// (method label, CPU f32 port seconds on all cores): beside the GPU seconds, the ratio of
+    /// a plain-Rust evaluation to the dispatch, measured in the same run.
+    pub f32_ports: Vec<(String, f64)>,
     pub references_seconds: f64,
     pub references_evaluated: usize,
     pub search_seconds: f64,
@@ -146,11 +149,13 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
             .map(|c| if m.applies(c) { m.eval_f64(c) } else { None })
             .collect();
         let f64_seconds = t.elapsed().as_secs_f64();
-        timing.f64_ports.push((m.label.clone(), f64_seconds));
+        let t = Instant::now();
         let f32_cpu = configs
             .par_iter()
             .map(|c| if m.applies(c) { m.eval_f32_cpu(c) } else { None })
             .collect();
+        timing.f64_ports.push((m.label.clone(), f64_seconds));
+        timing.f32_ports.push((m.label.clone(), t.elapsed().as_secs_f64()));
         let f32 = out
             .values
             .iter()

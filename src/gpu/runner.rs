@@ -23,7 +23,7 @@ pub struct MethodPipeline {
     pub params: Vec<(String, u32)>,
     /// A composite's inner line method's params, in its header order.
     pub inner_params: Vec<(String, u32)>,
-    pipeline: wgpu::ComputePipeline,
+    pub(crate) pipeline: wgpu::ComputePipeline,
 }
 
 /// A run's raw results, one `f32` per configuration (NaN and infinities kept), and the

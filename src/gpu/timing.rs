@@ -13,10 +13,9 @@
 //! Nothing is read back but the timestamps: the results stay on the device (the kernel
 //! still writes them, so nothing can be optimised away).
 
-use super::compose::{compose_with, inner_name, ENTRY_NAME, WORKGROUP_SIZE};
+use super::compose::WORKGROUP_SIZE;
 use super::device::{scoped, Gpu, GpuError};
 use super::diagnostic::KernelError;
-use crate::kernel::KernelFile;
 use crate::methods::Method;
 use crate::scene::GpuScene;
 use std::fmt;
@@ -271,49 +270,13 @@ impl DispatchTimer<'_> {
         self.chunks.len()
     }
 
-    /// Compiles `method` as [`Gpu::pipeline`] does: its params (those not given keep the
-    /// header's defaults) and a composite's inner line method with its params. Kernel
-    /// errors come back as from `Gpu::pipeline`.
+    /// Compiles `method` exactly as [`Gpu::pipeline`] does for a run (the same composition,
+    /// override names and values), so what is timed is what is measured.
     pub fn pipeline(&self, method: &Method) -> Result<TimedPipeline, KernelError> {
-        // This mirrors `Gpu::pipeline` (runner.rs), whose pipeline handle is private to
-        // the runner: the same composition, the same override names and values.
-        let gpu = self.gpu;
-        let kernel = &method.kernel;
-        let inner = method.inner.as_deref();
-        let composed = compose_with(kernel, inner.map(|m| &m.kernel), gpu.capabilities)?;
-        let params = param_values(kernel, &method.params)?;
-        let inner_params = match (inner, &composed.inner) {
-            (Some(m), _) => param_values(&m.kernel, &m.params)?,
-            (None, Some(default)) => param_values(default, &[])?,
-            (None, None) => Vec::new(),
-        };
-        let constants: Vec<(String, f64)> = params
-            .iter()
-            .map(|(n, v)| (n.clone(), f64::from(*v)))
-            .chain(inner_params.iter().map(|(n, v)| (inner_name(n), f64::from(*v))))
-            .collect();
-        let constants: Vec<(&str, f64)> = constants.iter().map(|(n, v)| (n.as_str(), *v)).collect();
-        let pipeline = scoped(&gpu.device, || {
-            let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(&kernel.path),
-                source: wgpu::ShaderSource::Wgsl(composed.source.as_str().into()),
-            });
-            gpu.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(&kernel.id),
-                layout: Some(&gpu.pipeline_layout),
-                module: &module,
-                entry_point: Some(ENTRY_NAME),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &constants,
-                    ..Default::default()
-                },
-                cache: None,
-            })
-        })
-        .map_err(|e| KernelError::plain(&kernel.path, format!("wgpu rejected the kernel: {e}")))?;
+        let compiled = self.gpu.pipeline(method)?;
         Ok(TimedPipeline {
-            id: method.describe(),
-            pipeline,
+            id: compiled.id,
+            pipeline: compiled.pipeline,
         })
     }
 
@@ -395,28 +358,6 @@ fn read_timestamps(gpu: &Gpu, readback: &wgpu::Buffer) -> Result<[u64; 2], Strin
     Ok(ticks)
 }
 
-/// `values` for `kernel`'s header params, in order; params not given keep their defaults
-/// (as `Gpu::pipeline` sets them).
-fn param_values(kernel: &KernelFile, values: &[u32]) -> Result<Vec<(String, u32)>, KernelError> {
-    if values.len() > kernel.params.len() {
-        return Err(KernelError::plain(
-            &kernel.path,
-            format!(
-                "{} takes {} param(s), {} given",
-                kernel.id,
-                kernel.params.len(),
-                values.len()
-            ),
-        ));
-    }
-    Ok(kernel
-        .params
-        .iter()
-        .enumerate()
-        .map(|(i, (name, default))| (name.clone(), values.get(i).copied().unwrap_or(*default)))
-        .collect())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -436,7 +377,7 @@ mod tests {
                     fn method(scene: Scene) -> f32 { return atan(scene.p1.x) + sqrt(abs(scene.p2.y)); }\n";
         Method {
             label: "test.tiny".to_string(),
-            kernel: KernelFile::parse("tiny.wgsl", text).unwrap(),
+            kernel: crate::kernel::KernelFile::parse("tiny.wgsl", text).unwrap(),
             params: Vec::new(),
             inner: None,
         }
@@ -497,6 +438,9 @@ mod tests {
         let mut m = tiny_method();
         m.params = vec![3];
         let e = timer.pipeline(&m).err().expect("a param the kernel lacks is an error");
-        assert!(e.to_string().contains("takes 0 param(s), 1 given"), "{e}");
+        assert!(
+            e.to_string().contains("takes 0 param(s)") && e.to_string().contains("1 given"),
+            "{e}"
+        );
     }
 }

@@ -522,18 +522,52 @@ pub fn render(input: &ReportInput) -> String {
          is `linelight bench`'s job; these numbers say what the sweep itself spent.\n",
         t.adapter, t.configurations
     );
-    let _ = writeln!(w, "| method | GPU s | configs/s (GPU) | f64 port s |");
-    let _ = writeln!(w, "|---|---:|---:|---:|");
-    for ((label, s, rate), (_, f)) in t.gpu.iter().zip(&t.f64_ports) {
-        let _ = writeln!(w, "| `{label}` | {s:.3} | {rate:.3e} | {f:.3} |");
+    let _ = writeln!(
+        w,
+        "| method | GPU s | configs/s (GPU) | CPU f32 port s (all cores) | CPU f32 / GPU | f64 port s |"
+    );
+    let _ = writeln!(w, "|---|---:|---:|---:|---:|---:|");
+    for (((label, s, rate), (_, f)), (_, c)) in t.gpu.iter().zip(&t.f64_ports).zip(&t.f32_ports) {
+        let _ = writeln!(
+            w,
+            "| `{label}` | {s:.3} | {rate:.3e} | {c:.3} | {:.2} | {f:.3} |",
+            c / s
+        );
     }
     let _ = writeln!(
         w,
-        "\nReferences: {} integrals in {:.2} s ({:.0} per second). Whole sweep: {:.2} s.\n",
+        "\nReferences: {} integrals in {:.2} s ({:.0} per second).\n",
         t.references_evaluated,
         t.references_seconds,
         t.references_evaluated as f64 / t.references_seconds,
-        t.total_seconds
+    );
+    // Harness throughput: where the measuring time went.
+    let gpu: f64 = t.gpu.iter().map(|g| g.1).sum();
+    let ports: f64 = t.f64_ports.iter().chain(&t.f32_ports).map(|p| p.1).sum();
+    let other = (t.total_seconds - gpu - ports - t.references_seconds - t.search_seconds - t.cost_seconds).max(0.0);
+    let pct = |x: f64| 100.0 * x / t.total_seconds;
+    let _ = writeln!(
+        w,
+        "Harness throughput: {} configurations × {} methods measured in {:.2} s, {:.0} configurations per \
+         second end to end (statistics and report writing excluded). Split: GPU runs {:.2} s ({:.0} %), CPU \
+         ports (f64 and f32) {:.2} s ({:.0} %), references {:.2} s ({:.0} %), worst-case search {:.2} s ({:.0} %), \
+         cost measurement {:.2} s ({:.0} %), set-up and the rest {:.2} s ({:.0} %).\n",
+        t.configurations,
+        t.gpu.len(),
+        t.total_seconds,
+        t.configurations as f64 / t.total_seconds,
+        gpu,
+        pct(gpu),
+        ports,
+        pct(ports),
+        t.references_seconds,
+        pct(t.references_seconds),
+        t.search_seconds,
+        pct(t.search_seconds),
+        t.cost_seconds,
+        pct(t.cost_seconds),
+        other,
+        pct(other),
     );
 
     // Definitions.
