@@ -172,3 +172,67 @@ fn eval_references_agree_with_an_independent_quadrature() {
     }
     eprintln!("worst relative disagreement: {worst:e}");
 }
+
+/// `eval` writes the surface references the library computes (whose agreement with an
+/// independent quadrature to 1e-7 is `tests/reference_independent.rs`), with their errors.
+#[test]
+fn eval_writes_cylinder_caps_tube_and_rectangle_references() {
+    use linelight::reference::reference;
+    use linelight::scene::Config;
+    use linelight::target::Target;
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in.jsonl");
+    let output = dir.path().join("out.jsonl");
+    let cs: Vec<serde_json::Value> = configs().into_iter().filter(|c| c["id"] != "design").collect();
+    let with_surfaces: Vec<serde_json::Value> = cs
+        .iter()
+        .map(|c| {
+            let mut c = c.clone();
+            c["radius"] = serde_json::json!(0.02);
+            c["rect"] = serde_json::json!({"normal": [0.0, 0.0, 1.0], "width": 0.03});
+            c
+        })
+        .collect();
+    std::fs::write(
+        &input,
+        with_surfaces.iter().map(|c| c.to_string() + "\n").collect::<String>(),
+    )
+    .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .args([
+            "eval",
+            "--input",
+            input.to_str().unwrap(),
+            "--output",
+            output.to_str().unwrap(),
+            "--methods",
+            "caps.point",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rows: Vec<serde_json::Value> = std::fs::read_to_string(&output)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    for (c, row) in with_surfaces.iter().zip(&rows) {
+        let mut config: Config = serde_json::from_value(c.clone()).unwrap();
+        config.orthonormalize_rect();
+        for t in [Target::Cylinder, Target::Caps, Target::Tube, Target::Rectangle] {
+            let expected = reference(&config, t).unwrap();
+            assert_eq!(
+                row["reference"][t.name()].as_f64().unwrap(),
+                expected.value,
+                "{} {t}",
+                c["id"]
+            );
+            let err = row["reference_error"][t.name()].as_f64().unwrap();
+            assert!(
+                err <= 1e-7 * expected.value.abs().max(1e-12),
+                "{} {t}: error estimate {err:e}",
+                c["id"]
+            );
+        }
+    }
+}
