@@ -118,13 +118,12 @@ fn configs() -> Vec<serde_json::Value> {
     out
 }
 
-#[test]
-fn eval_references_agree_with_an_independent_quadrature() {
+/// Runs `linelight eval` on `configs` with `methods` and returns its output rows.
+fn run_eval(configs: &[serde_json::Value], methods: &str) -> Vec<serde_json::Value> {
     let dir = tempfile::tempdir().unwrap();
     let input = dir.path().join("in.jsonl");
     let output = dir.path().join("out.jsonl");
-    let cs = configs();
-    std::fs::write(&input, cs.iter().map(|c| c.to_string() + "\n").collect::<String>()).unwrap();
+    std::fs::write(&input, configs.iter().map(|c| c.to_string() + "\n").collect::<String>()).unwrap();
     let o = Command::new(env!("CARGO_BIN_EXE_linelight"))
         .args([
             "eval",
@@ -133,16 +132,22 @@ fn eval_references_agree_with_an_independent_quadrature() {
             "--output",
             output.to_str().unwrap(),
             "--methods",
-            "line.ltc2023",
+            methods,
         ])
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let rows: Vec<serde_json::Value> = std::fs::read_to_string(&output)
+    std::fs::read_to_string(&output)
         .unwrap()
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
+        .collect()
+}
+
+#[test]
+fn eval_references_agree_with_an_independent_quadrature() {
+    let cs = configs();
+    let rows = run_eval(&cs, "line.ltc2023");
     assert_eq!(rows.len(), cs.len());
     let v = |x: &serde_json::Value| -> V { [0, 1, 2].map(|i| x[i].as_f64().unwrap()) };
     let mut worst = 0.0f64;
@@ -180,9 +185,6 @@ fn eval_writes_cylinder_caps_tube_and_rectangle_references() {
     use linelight::reference::reference;
     use linelight::scene::Config;
     use linelight::target::Target;
-    let dir = tempfile::tempdir().unwrap();
-    let input = dir.path().join("in.jsonl");
-    let output = dir.path().join("out.jsonl");
     let cs: Vec<serde_json::Value> = configs().into_iter().filter(|c| c["id"] != "design").collect();
     let with_surfaces: Vec<serde_json::Value> = cs
         .iter()
@@ -193,29 +195,7 @@ fn eval_writes_cylinder_caps_tube_and_rectangle_references() {
             c
         })
         .collect();
-    std::fs::write(
-        &input,
-        with_surfaces.iter().map(|c| c.to_string() + "\n").collect::<String>(),
-    )
-    .unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .args([
-            "eval",
-            "--input",
-            input.to_str().unwrap(),
-            "--output",
-            output.to_str().unwrap(),
-            "--methods",
-            "caps.point",
-        ])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let rows: Vec<serde_json::Value> = std::fs::read_to_string(&output)
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
+    let rows = run_eval(&with_surfaces, "caps.point");
     for (c, row) in with_surfaces.iter().zip(&rows) {
         let mut config: Config = serde_json::from_value(c.clone()).unwrap();
         config.orthonormalize_rect();
