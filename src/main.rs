@@ -225,7 +225,10 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                         .filter_map(|t| linelight::reference::reference(c, t).map(|e| (t, e)))
                         .collect();
                     let v32: Vec<f32> = f32s.iter().map(|v| v[i]).collect();
-                    let v64: Vec<Option<f64>> = methods.iter().map(|m| m.eval_f64(c)).collect();
+                    let v64: Vec<Option<f64>> = methods
+                        .iter()
+                        .map(|m| m.applies(c).then(|| m.eval_f64(c)).flatten())
+                        .collect();
                     eval::result_row(c, &refs, &methods, &v32, &v64)
                 })
                 .collect();

@@ -82,7 +82,7 @@ pub fn search(
     samples: &[Sample],
     references: &crate::analysis::References,
     run: &MethodRun,
-    gpu: &Gpu,
+    (gpu, pipeline): (&Gpu, &crate::gpu::MethodPipeline),
     family: usize,
 ) -> anyhow::Result<Option<Found>> {
     let target = run.method.target();
@@ -112,7 +112,6 @@ pub fn search(
         })
         .collect();
 
-    let pipeline = gpu.pipeline(&run.method)?;
     // Seeded per method and family: the same search on every machine.
     let tag = run
         .method
@@ -156,7 +155,7 @@ pub fn search(
             break;
         }
         evaluations += candidates.len();
-        let points = evaluate(case, gpu, &pipeline, run, candidates)?;
+        let points = evaluate(case, gpu, pipeline, run, candidates)?;
         // Each start moves to its best candidate if that is worse (for the method) than where it is.
         let mut best: Vec<Option<Point>> = current.iter().map(|_| None).collect();
         for (p, &k) in points.into_iter().zip(&owner).filter_map(|(p, k)| Some((p?, k))) {

@@ -189,14 +189,24 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
     let mut found = Vec::new();
     if let Some(spec) = &setup.case.search {
         let t = Instant::now();
-        let jobs: Vec<(&MethodRun, usize)> = runs
+        // The pipelines compiled for the runs serve the search too.
+        let jobs: Vec<(&MethodRun, &crate::gpu::MethodPipeline, usize)> = runs
             .iter()
-            .filter(|r| spec.methods.contains(&r.method.label))
-            .flat_map(|r| (0..setup.case.materials.len()).map(move |f| (r, f)))
+            .zip(&pipelines)
+            .filter(|(r, _)| spec.methods.contains(&r.method.label))
+            .flat_map(|(r, p)| (0..setup.case.materials.len()).map(move |f| (r, p, f)))
             .collect();
         let pb = bar(jobs.len(), "worst-case search");
-        for (run, family) in jobs {
-            let f = crate::search::search(&setup.case, spec, &setup.samples, &references, run, gpu, family)?;
+        for (run, pipeline, family) in jobs {
+            let f = crate::search::search(
+                &setup.case,
+                spec,
+                &setup.samples,
+                &references,
+                run,
+                (gpu, pipeline),
+                family,
+            )?;
             found.extend(f);
             pb.inc(1);
         }
