@@ -5,7 +5,7 @@ use crate::case::{BinAxis, Case, Tolerance};
 use crate::methods::Method;
 use crate::reference::Estimate;
 use crate::sampler::Sample;
-use crate::stats::{bin_index, relative_error, BinAccumulator, BinStats, Outcome, Quantiles};
+use crate::stats::{BinAccumulator, BinStats, Outcome, Quantiles};
 use crate::target::Target;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -57,6 +57,46 @@ pub struct MaterialStats {
     /// For `line` methods: the same results judged against `line_upper`, what a real
     /// surface receives (the difference is the leak below the horizon).
     pub against_line_upper: Option<BinStats>,
+}
+
+/// Which statistics of a method on a material a claim reads.
+#[derive(Clone, Debug)]
+pub enum BinStatsRef {
+    All,
+    /// The `line` method judged against `line_upper`.
+    LineUpper,
+    /// The bin of `axis` whose lower edge is `lo`.
+    Bin {
+        axis: String,
+        lo: f64,
+    },
+}
+
+impl std::fmt::Display for BinStatsRef {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            BinStatsRef::All => f.write_str("(all)"),
+            BinStatsRef::LineUpper => f.write_str("against line_upper (only line methods have it)"),
+            BinStatsRef::Bin { axis, lo } => write!(f, "of `{axis}` with lower edge {lo}"),
+        }
+    }
+}
+
+impl MaterialStats {
+    pub fn select(&self, which: &BinStatsRef) -> Option<&BinStats> {
+        match which {
+            BinStatsRef::All => Some(&self.all),
+            BinStatsRef::LineUpper => self.against_line_upper.as_ref(),
+            BinStatsRef::Bin { axis, lo } => self
+                .axes
+                .iter()
+                .find(|a| &a.axis == axis)?
+                .bins
+                .iter()
+                .find(|b| b.lo == *lo)
+                .map(|b| &b.stats),
+        }
+    }
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -117,21 +157,41 @@ pub struct Check {
     pub pass: bool,
 }
 
+/// The verdict of a case's tolerance checks; a case that sets none has no verdict.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    Pass,
+    Fail,
+    NoVerdict,
+}
+
+impl Verdict {
+    pub fn of(checks: &[Check]) -> Verdict {
+        if checks.is_empty() {
+            Verdict::NoVerdict
+        } else if checks.iter().all(|c| c.pass) {
+            Verdict::Pass
+        } else {
+            Verdict::Fail
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Verdict::Pass => "PASS",
+            Verdict::Fail => "FAIL",
+            Verdict::NoVerdict => "no verdict",
+        }
+    }
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct Analysis {
     pub methods: Vec<MethodStats>,
     pub comparisons: Vec<Comparison>,
     pub checks: Vec<Check>,
-    pub pass: bool,
-}
-
-/// Selects, for one material, the configurations a statistic is taken over.
-fn members<'a>(samples: &'a [Sample], material: usize) -> impl Iterator<Item = usize> + 'a {
-    samples
-        .iter()
-        .enumerate()
-        .filter(move |(_, s)| s.material == material)
-        .map(|(i, _)| i)
+    pub verdict: Verdict,
 }
 
 /// The reference a method is judged against on configuration `i`, if it has one.
@@ -139,55 +199,174 @@ fn reference_for(references: &References, i: usize, target: Target) -> Option<Es
     references[i].get(&target).copied()
 }
 
+/// For one material: which bin of every axis each configuration falls in (computed once), and
+/// whether it counts there (natural samples everywhere, top-ups only in their own strata).
+struct Binning {
+    /// Indices of the material's configurations.
+    members: Vec<usize>,
+    /// `bin[a][j]`: the bin of axis `a` that counts configuration `members[j]`, if any.
+    bin: Vec<Vec<Option<usize>>>,
+}
+
+fn binning(case: &Case, samples: &[Sample], material: usize) -> Binning {
+    let members: Vec<usize> = (0..samples.len())
+        .filter(|&i| samples[i].material == material)
+        .collect();
+    let bin = case
+        .bins
+        .iter()
+        .enumerate()
+        .map(|(a, axis)| {
+            members
+                .iter()
+                .map(|&i| {
+                    let s = &samples[i];
+                    let k = axis.index(s.axes.get(&axis.axis))?;
+                    (s.natural() || s.strata.contains(&(a, k))).then_some(k)
+                })
+                .collect()
+        })
+        .collect();
+    Binning { members, bin }
+}
+
+/// One configuration's contribution to a bin.
+#[derive(Clone, Copy)]
+enum Judged {
+    Lit {
+        gpu: Outcome,
+        cpu: Option<Outcome>,
+        f64: Option<Outcome>,
+        reference_rel: f64,
+        below_floor: bool,
+    },
+    /// The reference is exactly 0.
+    Zero { gpu: f32, f64: Option<f64> },
+}
+
+fn push(acc: &mut BinAccumulator, j: Judged) {
+    match j {
+        Judged::Lit {
+            gpu,
+            cpu,
+            f64,
+            reference_rel,
+            below_floor,
+        } => acc.push(gpu, cpu, f64, reference_rel, below_floor),
+        Judged::Zero { gpu, f64 } => acc.push_zero(gpu, f64),
+    }
+}
+
+/// Configuration `i` judged against target `judged`, or None when it has no such reference or
+/// the method does not apply.
+fn judge(
+    case: &Case,
+    samples: &[Sample],
+    references: &References,
+    run: &MethodRun,
+    i: usize,
+    judged: Target,
+) -> Option<Judged> {
+    let r = reference_for(references, i, judged)?;
+    if !run.method.applies(&samples[i].config) {
+        return None;
+    }
+    if r.value == 0.0 {
+        return Some(Judged::Zero {
+            gpu: run.f32[i],
+            f64: run.f64[i],
+        });
+    }
+    let floor = case.floor_for(judged, &samples[i].config);
+    Some(Judged::Lit {
+        gpu: Outcome::of_f32(run.f32[i], r.value, floor),
+        cpu: run.f32_cpu[i].map(|v| Outcome::of_f32(v, r.value, floor)),
+        f64: run.f64[i].map(|v| Outcome::of_f64(v, r.value, floor)),
+        reference_rel: r.error / r.value.abs(),
+        below_floor: r.value.abs() < floor,
+    })
+}
+
 fn method_stats(case: &Case, samples: &[Sample], references: &References, run: &MethodRun) -> MethodStats {
     let target = run.method.target();
-    // One configuration judged against `judged` (the method's target, or `line_upper`).
-    let outcome = |i: usize, judged: Target| -> Option<(Outcome, Option<Outcome>, Option<Outcome>, f64)> {
-        let r = reference_for(references, i, judged)?;
-        if !run.method.applies(&samples[i].config) {
-            return None;
-        }
-        let floor = case.floor_for(judged, &samples[i].config);
-        Some((
-            Outcome::of_f32(run.f32[i], r.value, floor),
-            run.f32_cpu[i].map(|v| Outcome::of_f32(v, r.value, floor)),
-            run.f64[i].map(|v| Outcome::of_f64(v, r.value, floor)),
-            r.error / r.value.abs().max(floor),
-        ))
-    };
     let materials = case
         .materials
         .iter()
         .enumerate()
         .map(|(m, family)| {
-            let idx: Vec<usize> = members(samples, m).collect();
-            let collect_against = |judged: Target, filter: &dyn Fn(usize) -> bool| {
-                let mut acc = BinAccumulator::default();
-                for &i in idx.iter().filter(|&&i| filter(i)) {
-                    if let Some((gpu, cpu, f64, r)) = outcome(i, judged) {
-                        acc.push(gpu, cpu, f64, r);
+            let binning = binning(case, samples, m);
+            let mut all = BinAccumulator::default();
+            let mut upper = BinAccumulator::default();
+            let mut axes: Vec<Vec<BinAccumulator>> = case
+                .bins
+                .iter()
+                .map(|b| vec![BinAccumulator::default(); b.edges.len() - 1])
+                .collect();
+            // Only the methods a map draws: the others' grids would be read by no one.
+            let mut maps: Vec<Vec<Vec<BinAccumulator>>> = case
+                .maps
+                .iter()
+                .map(|map| {
+                    let rows = if map.shows(&run.method.label) {
+                        map.y.edges.len() - 1
+                    } else {
+                        0
+                    };
+                    vec![vec![BinAccumulator::default(); map.x.edges.len() - 1]; rows]
+                })
+                .collect();
+            for (j, &i) in binning.members.iter().enumerate() {
+                let natural = samples[i].natural();
+                if natural && target == Target::Line {
+                    if let Some(u) = judge(case, samples, references, run, i, Target::LineUpper) {
+                        push(&mut upper, u);
                     }
                 }
-                acc.finish()
-            };
-            let collect = |filter: &dyn Fn(usize) -> bool| collect_against(target, filter);
-            let in_bin =
-                |axis: &str, edges: &[f64], k: usize, i: usize| bin_index(edges, samples[i].axes.get(axis)) == Some(k);
-            let supported = idx.first().is_none_or(|&i| run.method.supports(&samples[i].config));
+                let Some(judged) = judge(case, samples, references, run, i, target) else {
+                    continue;
+                };
+                if natural {
+                    push(&mut all, judged);
+                    let axes_of = &samples[i].axes;
+                    for (map, cells) in case.maps.iter().zip(&mut maps) {
+                        if cells.is_empty() {
+                            continue;
+                        }
+                        if let (Some(kx), Some(ky)) = (
+                            map.x.index(axes_of.get(&map.x.axis)),
+                            map.y.index(axes_of.get(&map.y.axis)),
+                        ) {
+                            push(&mut cells[ky][kx], judged);
+                        }
+                    }
+                }
+                for (a, acc) in axes.iter_mut().enumerate() {
+                    if let Some(k) = binning.bin[a][j] {
+                        push(&mut acc[k], judged);
+                    }
+                }
+            }
+            let supported = binning
+                .members
+                .first()
+                .is_none_or(|&i| run.method.supports(&samples[i].config));
             MaterialStats {
                 material: family.name.clone(),
                 supported,
-                all: collect(&|_| true),
+                all: all.finish(),
                 axes: case
                     .bins
                     .iter()
-                    .map(|b| AxisStats {
+                    .zip(axes)
+                    .map(|(b, accs)| AxisStats {
                         axis: b.axis.clone(),
-                        bins: (0..b.edges.len() - 1)
-                            .map(|k| Bin {
+                        bins: accs
+                            .into_iter()
+                            .enumerate()
+                            .map(|(k, acc)| Bin {
                                 lo: b.edges[k],
                                 hi: b.edges[k + 1],
-                                stats: collect(&|i| in_bin(&b.axis, &b.edges, k, i)),
+                                stats: acc.finish(),
                             })
                             .collect(),
                     })
@@ -195,26 +374,17 @@ fn method_stats(case: &Case, samples: &[Sample], references: &References, run: &
                 maps: case
                     .maps
                     .iter()
-                    .map(|map| MapStats {
+                    .zip(maps)
+                    .map(|(map, cells)| MapStats {
                         x: map.x.clone(),
                         y: map.y.clone(),
-                        // Only the methods a map draws: the others' grids would be read by no one.
-                        cells: (0..map.y.edges.len() - 1)
-                            .filter(|_| map.shows(&run.method.label))
-                            .map(|ky| {
-                                (0..map.x.edges.len() - 1)
-                                    .map(|kx| {
-                                        collect(&|i| {
-                                            in_bin(&map.x.axis, &map.x.edges, kx, i)
-                                                && in_bin(&map.y.axis, &map.y.edges, ky, i)
-                                        })
-                                    })
-                                    .collect()
-                            })
+                        cells: cells
+                            .into_iter()
+                            .map(|row| row.into_iter().map(BinAccumulator::finish).collect())
                             .collect(),
                     })
                     .collect(),
-                against_line_upper: (target == Target::Line).then(|| collect_against(Target::LineUpper, &|_| true)),
+                against_line_upper: (target == Target::Line).then(|| upper.finish()),
             }
         })
         .collect();
@@ -228,6 +398,11 @@ fn method_stats(case: &Case, samples: &[Sample], references: &References, run: &
         has_f64: run.f64.iter().any(Option::is_some),
         materials,
     }
+}
+
+/// The configurations of one material.
+fn members(samples: &[Sample], material: usize) -> impl Iterator<Item = usize> + '_ {
+    (0..samples.len()).filter(move |&i| samples[i].material == material)
 }
 
 fn pair_stats(idx: impl Iterator<Item = usize>, diff: &dyn Fn(usize) -> Option<(f64, Option<f64>)>) -> PairStats {
@@ -249,24 +424,27 @@ fn pair_stats(idx: impl Iterator<Item = usize>, diff: &dyn Fn(usize) -> Option<(
 
 fn compare(case: &Case, samples: &[Sample], references: &References, a: &MethodRun, b: &MethodRun) -> Comparison {
     let target = a.method.target();
-    // Differences normalised by the reference, so they read as relative errors; NaN/inf
-    // results are left out here (they are counted in each method's own table).
+    // Differences normalised by the reference (no floor), so they read as relative errors;
+    // zero references and NaN/inf results are left out here (they have their own rows in each
+    // method's table).
     let diff = |i: usize| -> Option<(f64, Option<f64>)> {
         let c = &samples[i].config;
         if !(a.method.supports(c) && b.method.supports(c) && a.method.applies(c) && b.method.applies(c)) {
             return None;
         }
         let r = reference_for(references, i, target)?.value;
-        let floor = case.floor_for(target, c);
+        if r == 0.0 {
+            return None;
+        }
         let (x, y) = (a.f32[i] as f64, b.f32[i] as f64);
         if !(x.is_finite() && y.is_finite()) {
             return None;
         }
         let d64 = match (a.f64[i], b.f64[i]) {
-            (Some(x), Some(y)) if x.is_finite() && y.is_finite() => Some(relative_error(x, y, r.abs().max(floor))),
+            (Some(x), Some(y)) if x.is_finite() && y.is_finite() => Some((x - y).abs() / r.abs()),
             _ => None,
         };
-        Some((relative_error(x, y, r.abs().max(floor)), d64))
+        Some(((x - y).abs() / r.abs(), d64))
     };
     let materials = case
         .materials
@@ -274,19 +452,23 @@ fn compare(case: &Case, samples: &[Sample], references: &References, a: &MethodR
         .enumerate()
         .map(|(m, family)| PairMaterial {
             material: family.name.clone(),
-            all: pair_stats(members(samples, m), &diff),
+            all: pair_stats(members(samples, m).filter(|&i| samples[i].natural()), &diff),
             axes: case
                 .bins
                 .iter()
-                .map(|bin| PairAxis {
+                .enumerate()
+                .map(|(a, bin)| PairAxis {
                     axis: bin.axis.clone(),
                     bins: (0..bin.edges.len() - 1)
                         .map(|k| PairBin {
                             lo: bin.edges[k],
                             hi: bin.edges[k + 1],
                             stats: pair_stats(
-                                members(samples, m)
-                                    .filter(|&i| bin_index(&bin.edges, samples[i].axes.get(&bin.axis)) == Some(k)),
+                                members(samples, m).filter(|&i| {
+                                    let s = &samples[i];
+                                    bin.index(s.axes.get(&bin.axis)) == Some(k)
+                                        && (s.natural() || s.strata.contains(&(a, k)))
+                                }),
                                 &diff,
                             ),
                         })
@@ -309,7 +491,13 @@ fn checks(case: &Case, methods: &[MethodStats]) -> Vec<Check> {
             continue;
         };
         for mat in m.materials.iter().filter(|mat| mat.supported) {
-            let Tolerance { median, p99, max, nan } = tol;
+            let Tolerance {
+                median,
+                p99,
+                max,
+                nan,
+                false_light,
+            } = tol;
             let q = mat.all.rel.unwrap_or_default();
             let mut check = |what: &str, limit: Option<f64>, measured: f64| {
                 if let Some(limit) = limit {
@@ -326,10 +514,16 @@ fn checks(case: &Case, methods: &[MethodStats]) -> Vec<Check> {
             check("median rel. error", *median, q.median);
             check("p99 rel. error", *p99, q.p99);
             check("max rel. error", *max, q.max);
+            // NaN where no light arrives is a NaN pixel all the same.
             check(
                 "NaN/inf count",
                 nan.map(|n| n as f64),
-                (mat.all.nan + mat.all.inf) as f64,
+                (mat.all.nan + mat.all.inf + mat.all.false_light.nonfinite) as f64,
+            );
+            check(
+                "false light (configurations with reference 0 lit)",
+                false_light.map(|n| n as f64),
+                mat.all.false_light.lit as f64,
             );
         }
     }
@@ -337,8 +531,9 @@ fn checks(case: &Case, methods: &[MethodStats]) -> Vec<Check> {
 }
 
 pub fn analyse(case: &Case, samples: &[Sample], references: &References, runs: &[MethodRun]) -> Analysis {
+    use rayon::prelude::*;
     let methods: Vec<MethodStats> = runs
-        .iter()
+        .par_iter()
         .map(|r| method_stats(case, samples, references, r))
         .collect();
     let by_label = |l: &str| {
@@ -352,11 +547,11 @@ pub fn analyse(case: &Case, samples: &[Sample], references: &References, runs: &
         .map(|[a, b]| compare(case, samples, references, by_label(a), by_label(b)))
         .collect();
     let checks = checks(case, &methods);
-    let pass = checks.iter().all(|c| c.pass);
+    let verdict = Verdict::of(&checks);
     Analysis {
         methods,
         comparisons,
         checks,
-        pass,
+        verdict,
     }
 }

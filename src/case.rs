@@ -151,6 +151,26 @@ pub struct BinAxis {
     pub edges: Vec<f64>,
 }
 
+impl BinAxis {
+    /// Which bin holds `x` (the last bin includes its upper edge); None outside or for NaN.
+    pub fn index(&self, x: f64) -> Option<usize> {
+        bin_index(&self.edges, x)
+    }
+}
+
+/// Which bin of `edges` holds `x` (the last bin includes its upper edge); None outside.
+pub fn bin_index(edges: &[f64], x: f64) -> Option<usize> {
+    if !(x >= edges[0] && x <= edges[edges.len() - 1]) {
+        return None;
+    }
+    Some(
+        edges
+            .partition_point(|&e| e <= x)
+            .saturating_sub(1)
+            .min(edges.len() - 2),
+    )
+}
+
 /// The worst-case search (src/search.rs): which methods, and how hard to look.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -203,6 +223,9 @@ pub struct Tolerance {
     pub max: Option<f64>,
     #[serde(default)]
     pub nan: Option<u64>,
+    /// Most configurations with a reference of exactly 0 the method may light.
+    #[serde(default)]
+    pub false_light: Option<u64>,
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -211,10 +234,23 @@ pub struct Case {
     pub name: String,
     pub title: String,
     pub seed: u64,
-    /// Hand-written reasoning shown at the top of the report, above the measured findings.
+    /// Retired: findings are `[[claims]]` now. Present only to say so.
     #[serde(default)]
-    pub notes: String,
+    pub notes: Option<String>,
+    /// Findings computed from the run: expectation plus explanation (src/claims.rs).
+    #[serde(default)]
+    pub claims: Vec<ClaimSpec>,
     pub methods: Vec<String>,
+    /// Every bin of every axis gets at least this many configurations: the natural sample,
+    /// topped up by rejection sampling where it is thinner (src/sampler.rs, `top_up`).
+    #[serde(default = "default_min_per_bin")]
+    pub min_per_bin: usize,
+    /// Top-up draws allowed per family, as a multiple of its count.
+    #[serde(default = "default_topup_draws")]
+    pub topup_draws: usize,
+    /// The disagreement search between compared pairs (on by default when `compare` is set).
+    #[serde(default)]
+    pub disagreements: Option<DisagreeSpec>,
     /// The geometry of every family that does not bring its own.
     #[serde(default)]
     pub geometry: Option<Geometry>,
@@ -236,18 +272,87 @@ pub struct Case {
     pub error_floor: BTreeMap<String, f64>,
 }
 
-/// Derived parameters a bin axis can name.
+/// Derived parameters a bin axis can name (`src/sampler.rs`, `Axes`).
 pub const AXES: &[&str] = &[
     "length",
     "center",
     "elevation",
     "tilt",
     "alpha",
+    "reach_near",
+    "reach_far",
+    "subtended",
+    "height",
+    "reach_near_o",
     "reach_o",
+    "reach_far_o",
+    "subtended_o",
+    "height_o",
+    "tilt_o",
     "radius",
     "width",
     "rect_angle",
 ];
+
+/// A finding: an expectation over the run's analysis and the explanation that holds while it
+/// does (src/claims.rs). The text's `{expression}` placeholders are filled in from the run.
+#[derive(Clone, Debug, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClaimSpec {
+    pub id: String,
+    /// A boolean expression over the analysis, e.g.
+    /// `p99("line.ltc2023", "diffuse") > 100 * p99("line.ltc2017", "diffuse")`.
+    pub expect: String,
+    /// Markdown; `{expression}` is replaced by the expression's value in this run.
+    pub text: String,
+}
+
+/// The disagreement search between compared pairs (src/search.rs).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DisagreeSpec {
+    /// Starting points per pair, direction and family: the sample's largest error ratios.
+    #[serde(default = "default_disagree_restarts")]
+    pub restarts: usize,
+    #[serde(default = "default_disagree_steps")]
+    pub steps: usize,
+    #[serde(default = "default_disagree_population")]
+    pub population: usize,
+    /// The smallest error the ratio err_A / max(err_B, epsilon) divides by.
+    #[serde(default = "default_epsilon")]
+    pub epsilon: f64,
+}
+
+impl Default for DisagreeSpec {
+    fn default() -> Self {
+        DisagreeSpec {
+            restarts: default_disagree_restarts(),
+            steps: default_disagree_steps(),
+            population: default_disagree_population(),
+            epsilon: default_epsilon(),
+        }
+    }
+}
+
+fn default_disagree_restarts() -> usize {
+    4
+}
+fn default_disagree_steps() -> usize {
+    12
+}
+fn default_disagree_population() -> usize {
+    24
+}
+/// One unit in the last place of f32 at 1: below it an f32 result is as exact as f32 allows.
+fn default_epsilon() -> f64 {
+    f32::EPSILON as f64
+}
+fn default_min_per_bin() -> usize {
+    500
+}
+fn default_topup_draws() -> usize {
+    50
+}
 
 impl Case {
     pub fn load(path: &Path) -> anyhow::Result<Case> {
@@ -266,6 +371,19 @@ impl Case {
     }
 
     fn check(&self) -> Result<(), String> {
+        if self.notes.is_some() {
+            return Err(
+                "`notes` is retired: findings are computed from the run now. Write each one as a \
+                        [[claims]] entry with `id`, `expect` (an expression over the analysis) and `text` \
+                        (see docs/claims.md)"
+                    .into(),
+            );
+        }
+        let mut ids: Vec<&str> = self.claims.iter().map(|c| c.id.as_str()).collect();
+        ids.sort();
+        if let Some(w) = ids.windows(2).find(|w| w[0] == w[1]) {
+            return Err(format!("claims: id `{}` appears twice", w[0]));
+        }
         if let Some(g) = &self.geometry {
             g.check("geometry")?;
         }

@@ -9,6 +9,7 @@
 pub mod analysis;
 pub mod bench;
 pub mod case;
+pub mod claims;
 pub mod cost;
 pub mod eval;
 pub mod gpu;

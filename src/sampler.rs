@@ -11,6 +11,13 @@ use rand::{RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 /// The parameters a configuration was drawn from, and ones derived from it, by axis name.
+///
+/// The line axes say which term of Eq. 1.20 dominates and where each antiderivative cancels:
+/// how far along the line the near and far ends reach (in units of the distance d of the
+/// line), the angle the segment subtends, the height of the closest point of the line and the
+/// tilt of the segment. The `_o` axes are the same in the configuration transformed by M⁻¹,
+/// the diffuse configuration the LTC formulas actually integrate (equal to the plain ones for
+/// the diffuse material).
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct Axes {
     pub length: f64,
@@ -19,10 +26,20 @@ pub struct Axes {
     pub tilt: f64,
     /// Lobe roughness; NaN for the diffuse material (such configurations fall in no alpha bin).
     pub alpha: f64,
-    /// max(|l1|, |l2|)/d of the segment transformed by M⁻¹: how far along the line the end
-    /// points are compared with its distance, in the diffuse configuration the LTC formulas
-    /// actually evaluate (the 2017 Fwt cancels worst when this is large).
+    /// |l|/d of the end nearer the closest point of the line (0 when the segment spans it).
+    pub reach_near: f64,
+    /// |l|/d of the farther end.
+    pub reach_far: f64,
+    /// Angle between p1 and p2 seen from the shading point (radians).
+    pub subtended: f64,
+    /// Height of the closest point of the line over d: ω_po.z, in [−1, 1].
+    pub height: f64,
+    pub reach_near_o: f64,
+    /// `reach_far` in the transformed configuration (also named `reach_o`).
     pub reach_o: f64,
+    pub subtended_o: f64,
+    pub height_o: f64,
+    pub tilt_o: f64,
     pub radius: f64,
     pub width: f64,
     /// Angle (degrees) of the rectangle's normal from facing the shading point: 90 is edge-on.
@@ -37,13 +54,52 @@ impl Axes {
             "elevation" => self.elevation,
             "tilt" => self.tilt,
             "alpha" => self.alpha,
-            "reach_o" => self.reach_o,
+            "reach_near" => self.reach_near,
+            "reach_far" => self.reach_far,
+            "subtended" => self.subtended,
+            "height" => self.height,
+            "reach_near_o" => self.reach_near_o,
+            "reach_o" | "reach_far_o" => self.reach_o,
+            "subtended_o" => self.subtended_o,
+            "height_o" => self.height_o,
+            "tilt_o" => self.tilt_o,
             "radius" => self.radius,
             "width" => self.width,
             "rect_angle" => self.rect_angle,
             _ => f64::NAN,
         }
     }
+
+    /// The axes the region of a configuration is stated on (disagreements, claims).
+    pub const REGION: [&'static str; 10] = [
+        "reach_near_o",
+        "reach_o",
+        "subtended_o",
+        "height_o",
+        "tilt_o",
+        "reach_near",
+        "reach_far",
+        "subtended",
+        "height",
+        "tilt",
+    ];
+}
+
+/// The line axes of a segment: (reach of the near end, reach of the far end, subtended angle,
+/// height of the closest point, tilt), lengths in units of the line's distance.
+pub fn line_axes(p1: Vec3, p2: Vec3) -> (f64, f64, f64, f64, f64) {
+    let t = normalize(sub(p2, p1));
+    let (l1, l2) = (dot(p1, t), dot(p2, t));
+    let foot = sub(p1, scale(t, l1));
+    let d = length(foot);
+    let near = if l1 * l2 <= 0.0 {
+        0.0
+    } else {
+        l1.abs().min(l2.abs()) / d
+    };
+    let far = l1.abs().max(l2.abs()) / d;
+    let subtended = libm::atan2(length(cross(p1, p2)), dot(p1, p2));
+    (near, far, subtended, foot[2] / d, t[2].abs())
 }
 
 #[derive(Clone, Debug)]
@@ -54,6 +110,16 @@ pub struct Sample {
     pub axes: Axes,
     /// The uniforms it was drawn from (`sample_from_units` maps them back).
     pub units: Vec<f64>,
+    /// Empty for the case's natural sample. A top-up configuration (see [`top_up`]) lists the
+    /// bins (axis index into `case.bins`, bin index) it was drawn for: it is counted in those
+    /// bins only, never in a whole-material statistic.
+    pub strata: Vec<(usize, usize)>,
+}
+
+impl Sample {
+    pub fn natural(&self) -> bool {
+        self.strata.is_empty()
+    }
 }
 
 /// A source of uniform numbers in [0, 1): the seeded stream when sampling, a stored vector
@@ -143,6 +209,101 @@ pub fn sample_case(case: &Case) -> Vec<Sample> {
     out
 }
 
+/// What topping up did for one family: how many draws it made, how many it kept, and the
+/// bins still below the target when the budget ran out.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct TopUp {
+    pub family: String,
+    pub draws: usize,
+    pub kept: usize,
+    /// (axis, lo, hi, configurations reached) of each bin left below `min_per_bin`.
+    pub thin: Vec<(String, f64, f64, usize)>,
+}
+
+/// Tops up every bin of every axis that the natural sample leaves below `case.min_per_bin`.
+///
+/// The extra configurations are drawn from the case's own distributions (a separate seeded
+/// stream per family) and kept for the bins they fall in that still need them: rejection
+/// sampling, so within a bin they follow the natural distribution conditioned on the bin and
+/// no weights are needed. They are counted only in the bins they were kept for (`strata`),
+/// never in a whole-material statistic. Draws are bounded: `topup_draws` × the family's count.
+pub fn top_up(case: &Case, natural: &[Sample]) -> (Vec<Sample>, Vec<TopUp>) {
+    use rayon::prelude::*;
+    let mut out = Vec::new();
+    let mut reports = Vec::new();
+    for (index, family) in case.materials.iter().enumerate() {
+        let members: Vec<&Sample> = natural.iter().filter(|s| s.material == index).collect();
+        let Some(first) = members.first() else { continue };
+        let mut need: Vec<Vec<usize>> = case
+            .bins
+            .iter()
+            .map(|b| {
+                let mut n = vec![0usize; b.edges.len() - 1];
+                let values = members.iter().map(|s| s.axes.get(&b.axis));
+                // An axis this family has no values on (alpha for diffuse) is not topped up.
+                if !members.iter().any(|s| s.axes.get(&b.axis).is_finite()) {
+                    return n;
+                }
+                for v in values {
+                    if let Some(k) = b.index(v) {
+                        n[k] += 1;
+                    }
+                }
+                n.iter().map(|&c| case.min_per_bin.saturating_sub(c)).collect()
+            })
+            .collect();
+        let mut report = TopUp {
+            family: family.name.clone(),
+            ..TopUp::default()
+        };
+        let budget = family.count.saturating_mul(case.topup_draws);
+        let dims = first.units.len();
+        let stream = case.seed ^ (index as u64 + 1).wrapping_mul(0xD1B5_4A32_D192_ED03) ^ 0x7070_7570;
+        let mut source = Stream(ChaCha8Rng::seed_from_u64(stream));
+        const BATCH: usize = 16384;
+        while report.draws < budget && need.iter().flatten().any(|&n| n > 0) {
+            let batch = BATCH.min(budget - report.draws);
+            let units: Vec<Vec<f64>> = (0..batch).map(|_| (0..dims).map(|_| source.unit()).collect()).collect();
+            let drawn: Vec<Option<Sample>> = units
+                .par_iter()
+                .map(|u| sample_from_units(case, index, u, String::new()))
+                .collect();
+            report.draws += batch;
+            for s in drawn.into_iter().flatten() {
+                let strata: Vec<(usize, usize)> = case
+                    .bins
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(a, b)| {
+                        let k = b.index(s.axes.get(&b.axis))?;
+                        (need[a][k] > 0).then_some((a, k))
+                    })
+                    .collect();
+                if strata.is_empty() {
+                    continue;
+                }
+                for &(a, k) in &strata {
+                    need[a][k] -= 1;
+                }
+                let mut s = Sample { strata, ..s };
+                s.config.id = format!("{}-topup-{}", family.name, report.kept);
+                report.kept += 1;
+                out.push(s);
+            }
+        }
+        for (a, b) in case.bins.iter().enumerate() {
+            for (k, &n) in need[a].iter().enumerate() {
+                if n > 0 {
+                    let reached = case.min_per_bin - n;
+                    report.thin.push((b.axis.clone(), b.edges[k], b.edges[k + 1], reached));
+                }
+            }
+        }
+        reports.push(report);
+    }
+    (out, reports)
+}
+
 /// The configuration a vector of uniforms stands for in a family (the search moves in these);
 /// None when it is degenerate.
 pub fn sample_from_units(case: &Case, family: usize, units: &[f64], id: String) -> Option<Sample> {
@@ -225,9 +386,8 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
     let (material_value, alpha) = sample_material(source, family);
     let minv = material_value.minv();
     let (p1o, p2o) = (mat_vec(&minv, p1), mat_vec(&minv, p2));
-    let t_o = normalize(sub(p2o, p1o));
-    let d_o = length(cross(p1o, t_o));
-    let reach_o = dot(p1o, t_o).abs().max(dot(p2o, t_o).abs()) / d_o;
+    let (reach_near, reach_far, subtended, height, _) = line_axes(p1, p2);
+    let (reach_near_o, reach_o, subtended_o, height_o, tilt_o) = line_axes(p1o, p2o);
 
     Sample {
         config: Config {
@@ -240,13 +400,22 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
         },
         material,
         units: Vec::new(),
+        strata: Vec::new(),
         axes: Axes {
             length: length_over_d,
             center,
             elevation,
             tilt: w_t[2].abs(),
             alpha,
+            reach_near,
+            reach_far,
+            subtended,
+            height,
+            reach_near_o,
             reach_o,
+            subtended_o,
+            height_o,
+            tilt_o,
             radius: radius.map_or(f64::NAN, |r| r / d),
             width: rect_width.map_or(f64::NAN, |w| w / d),
             rect_angle: if rect_width.is_some() { rect_angle_deg } else { f64::NAN },

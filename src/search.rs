@@ -1,15 +1,19 @@
-//! Worst-case search: for a method and a family, the configuration of largest error.
-//! Random restarts are the family's own random sample (its worst configurations); local
-//! refinement is a (1, λ) hill climb in the family's uniforms (the dimensionless parameters
-//! the sampler draws from), with a shrinking step. Every candidate batch is one GPU dispatch.
+//! Searches in a family's dimensionless parameters (the uniforms the sampler draws from):
+//! - the worst case of one method: the configuration of largest relative error;
+//! - the disagreements of a compared pair: the configurations that maximise
+//!   err_A / max(err_B, ε), searched both ways.
+//!
+//! Random restarts are the family's own random sample (its highest-scoring configurations);
+//! local refinement is a (1, λ) hill climb in the uniforms with a shrinking step. Every
+//! candidate batch is one GPU dispatch per method; references run on all cores. Errors are
+//! relative with no floor, over configurations whose reference is not 0 (DESIGN §4).
 
-use crate::analysis::MethodRun;
-use crate::case::{Case, SearchSpec};
-use crate::gpu::Gpu;
+use crate::analysis::{MethodRun, References};
+use crate::case::{Case, DisagreeSpec, SearchSpec};
+use crate::gpu::{Gpu, MethodPipeline};
 use crate::reference::{self, Estimate};
-use crate::sampler::{sample_from_units, Sample};
+use crate::sampler::{sample_from_units, Axes, Sample};
 use crate::scene::{Config, GpuScene};
-use crate::stats::relative_error;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
@@ -31,43 +35,82 @@ pub struct Found {
     pub evaluations: usize,
 }
 
-/// Relative error as the search ranks it: NaN and ±inf rank above every finite error.
-fn score(value: f32, r: &Estimate, floor: f64) -> f64 {
-    if value.is_finite() {
-        relative_error(value as f64, r.value, floor)
+/// One configuration where method `a` is much less accurate than method `b`.
+#[derive(Clone, Debug, Serialize)]
+pub struct Disagreement {
+    pub a: String,
+    pub b: String,
+    pub family: String,
+    /// err_a / max(err_b, ε) (∞ when a is NaN/inf and b is finite).
+    pub ratio: f64,
+    /// The largest ratio in the family's random sample, where the search started.
+    pub sample_ratio: f64,
+    pub err_a: f64,
+    pub err_b: f64,
+    pub value_a: f32,
+    pub value_b: f32,
+    /// The same formulas in f64, where a CPU evaluation exists.
+    pub f64_a: Option<f64>,
+    pub f64_b: Option<f64>,
+    pub reference: Estimate,
+    pub axes: Axes,
+    pub config: Config,
+}
+
+/// Relative error with no floor; NaN and ±inf rank above every finite error. None where the
+/// reference is 0 (no relative error there).
+pub fn rel_error(value: f32, r: &Estimate) -> Option<f64> {
+    if r.value == 0.0 {
+        return None;
+    }
+    Some(if value.is_finite() {
+        (value as f64 - r.value).abs() / r.value.abs()
     } else {
         f64::INFINITY
+    })
+}
+
+/// How much less accurate a is than b: err_a / max(err_b, ε); a NaN/inf b scores 0.
+pub fn disagreement_ratio(err_a: f64, err_b: f64, epsilon: f64) -> f64 {
+    if err_b.is_infinite() {
+        0.0
+    } else {
+        err_a / err_b.max(epsilon)
     }
 }
 
+/// A candidate scored: its sample, each method's value, its reference and its score.
 struct Point {
     sample: Sample,
-    value: f32,
+    values: Vec<f32>,
     reference: Estimate,
     score: f64,
 }
 
-/// Evaluates candidates: the method on the GPU (one dispatch), references on all cores.
-/// One result per candidate, in order (None where the target has no reference).
+/// Evaluates candidates: each method on the GPU (one dispatch each), references on all cores,
+/// then `score` on (values, reference). One result per candidate, in order.
 fn evaluate(
-    case: &Case,
     gpu: &Gpu,
-    pipeline: &crate::gpu::MethodPipeline,
-    run: &MethodRun,
+    methods: &[(&MethodRun, &MethodPipeline)],
     candidates: Vec<Sample>,
+    score: &(dyn Fn(&[f32], &Estimate) -> Option<f64> + Sync),
 ) -> anyhow::Result<Vec<Option<Point>>> {
-    let target = run.method.target();
+    let target = methods[0].0.method.target();
     let scenes: Vec<GpuScene> = candidates.iter().map(|s| GpuScene::from(&s.config)).collect();
-    let values = gpu.run(pipeline, &scenes, 0, &mut |_| {})?.values;
+    let mut per_method = Vec::new();
+    for (_, pipeline) in methods {
+        per_method.push(gpu.run(pipeline, &scenes, 0, &mut |_| {})?.values);
+    }
     Ok(candidates
         .into_par_iter()
-        .zip(values)
-        .map(|(sample, value)| {
+        .enumerate()
+        .map(|(k, sample)| {
             let reference = reference::reference(&sample.config, target)?;
-            let score = score(value, &reference, case.floor_for(target, &sample.config));
+            let values: Vec<f32> = per_method.iter().map(|v| v[k]).collect();
+            let score = score(&values, &reference)?;
             Some(Point {
                 sample,
-                value,
+                values,
                 reference,
                 score,
             })
@@ -75,61 +118,35 @@ fn evaluate(
         .collect())
 }
 
-/// Searches one method over one family, starting from the sweep's own sample of it.
-pub fn search(
-    case: &Case,
-    spec: &SearchSpec,
-    samples: &[Sample],
-    references: &crate::analysis::References,
-    run: &MethodRun,
-    (gpu, pipeline): (&Gpu, &crate::gpu::MethodPipeline),
-    family: usize,
-) -> anyhow::Result<Option<Found>> {
-    let target = run.method.target();
-    let members: Vec<usize> = (0..samples.len())
-        .filter(|&i| samples[i].material == family && run.method.applies(&samples[i].config))
-        .filter(|&i| run.method.supports(&samples[i].config))
-        .collect();
-    let ranked = |i: usize| {
-        references[i]
-            .get(&target)
-            .map(|r| score(run.f32[i], r, case.floor_for(target, &samples[i].config)))
-    };
-    let mut starts: Vec<(usize, f64)> = members.iter().filter_map(|&i| Some((i, ranked(i)?))).collect();
-    if starts.is_empty() {
-        return Ok(None);
-    }
-    starts.sort_by(|a, b| b.1.total_cmp(&a.1));
-    let sample_worst = starts[0].1;
-    let mut current: Vec<Point> = starts
-        .iter()
-        .take(spec.restarts)
-        .map(|&(i, s)| Point {
-            sample: samples[i].clone(),
-            value: run.f32[i],
-            reference: references[i][&target],
-            score: s,
-        })
-        .collect();
+/// How hard a hill climb looks.
+struct Climb {
+    steps: usize,
+    population: usize,
+    seed: u64,
+}
 
-    // Seeded per method and family: the same search on every machine.
-    let tag = run
-        .method
-        .label
-        .bytes()
-        .fold(case.seed ^ family as u64, |h, b| h.rotate_left(5) ^ b as u64);
-    let mut rng = ChaCha8Rng::seed_from_u64(tag);
+/// Moves every start to the best-scoring candidate near it, step after step; returns the final
+/// points (one per start) and the number of candidates evaluated.
+fn climb(
+    case: &Case,
+    family: usize,
+    mut current: Vec<Point>,
+    how: &Climb,
+    accept: &dyn Fn(&Config) -> bool,
+    eval: &mut dyn FnMut(Vec<Sample>) -> anyhow::Result<Vec<Option<Point>>>,
+) -> anyhow::Result<(Vec<Point>, usize)> {
+    let mut rng = ChaCha8Rng::seed_from_u64(how.seed);
     let mut evaluations = 0;
-    for step in 0..spec.steps {
+    for step in 0..how.steps {
         let sigma = 0.2 * 0.8f64.powi(step as i32);
         let mut candidates = Vec::new();
         let mut owner = Vec::new();
         for (k, p) in current.iter().enumerate() {
-            // Once a start has reached NaN/inf there is nothing worse to find.
+            // Once a start has reached an infinite score there is nothing higher to find.
             if p.score.is_infinite() {
                 continue;
             }
-            for _ in 0..spec.population {
+            for _ in 0..how.population {
                 let units: Vec<f64> = p
                     .sample
                     .units
@@ -144,7 +161,7 @@ pub fn search(
                     .collect();
                 let id = format!("{}-search-{}", case.materials[family].name, candidates.len());
                 if let Some(s) = sample_from_units(case, family, &units, id) {
-                    if run.method.supports(&s.config) {
+                    if accept(&s.config) {
                         candidates.push(s);
                         owner.push(k);
                     }
@@ -155,8 +172,7 @@ pub fn search(
             break;
         }
         evaluations += candidates.len();
-        let points = evaluate(case, gpu, pipeline, run, candidates)?;
-        // Each start moves to its best candidate if that is worse (for the method) than where it is.
+        let points = eval(candidates)?;
         let mut best: Vec<Option<Point>> = current.iter().map(|_| None).collect();
         for (p, &k) in points.into_iter().zip(&owner).filter_map(|(p, k)| Some((p?, k))) {
             if best[k].as_ref().is_none_or(|b| p.score > b.score) {
@@ -169,7 +185,69 @@ pub fn search(
             }
         }
     }
-    let worst = current
+    Ok((current, evaluations))
+}
+
+/// A seed from a tag and the case's seed: the same search on every machine.
+fn seed_of(case: &Case, family: usize, tag: &str) -> u64 {
+    tag.bytes()
+        .fold(case.seed ^ family as u64, |h, b| h.rotate_left(5) ^ b as u64)
+}
+
+/// The family's configurations a search may start from, with their score, best first.
+fn starts(
+    samples: &[Sample],
+    family: usize,
+    accept: &dyn Fn(&Config) -> bool,
+    score: &dyn Fn(usize) -> Option<f64>,
+) -> Vec<(usize, f64)> {
+    let mut s: Vec<(usize, f64)> = (0..samples.len())
+        .filter(|&i| samples[i].material == family && accept(&samples[i].config))
+        .filter_map(|i| Some((i, score(i)?)))
+        .collect();
+    s.sort_by(|a, b| b.1.total_cmp(&a.1));
+    s
+}
+
+/// Searches one method over one family for its largest error, starting from the sweep's sample.
+pub fn search(
+    case: &Case,
+    spec: &SearchSpec,
+    samples: &[Sample],
+    references: &References,
+    run: &MethodRun,
+    (gpu, pipeline): (&Gpu, &MethodPipeline),
+    family: usize,
+) -> anyhow::Result<Option<Found>> {
+    let target = run.method.target();
+    let accept = |c: &Config| run.method.applies(c) && run.method.supports(c);
+    let starts = starts(samples, family, &accept, &|i| {
+        rel_error(run.f32[i], references[i].get(&target)?)
+    });
+    if starts.is_empty() || spec.restarts == 0 {
+        return Ok(None);
+    }
+    let sample_worst = starts[0].1;
+    let current: Vec<Point> = starts
+        .iter()
+        .take(spec.restarts)
+        .map(|&(i, s)| Point {
+            sample: samples[i].clone(),
+            values: vec![run.f32[i]],
+            reference: references[i][&target],
+            score: s,
+        })
+        .collect();
+    let how = Climb {
+        steps: spec.steps,
+        population: spec.population,
+        seed: seed_of(case, family, &run.method.label),
+    };
+    let score = |v: &[f32], r: &Estimate| rel_error(v[0], r);
+    let (points, evaluations) = climb(case, family, current, &how, &accept, &mut |c| {
+        evaluate(gpu, &[(run, pipeline)], c, &score)
+    })?;
+    let worst = points
         .into_iter()
         .max_by(|a, b| a.score.total_cmp(&b.score))
         .expect("at least one start");
@@ -180,9 +258,99 @@ pub fn search(
         family: case.materials[family].name.clone(),
         sample_worst,
         worst: worst.score,
-        value: worst.value,
+        value: worst.values[0],
         reference: worst.reference,
         config,
         evaluations,
     }))
+}
+
+/// Searches one family for the configurations where `a` is least accurate relative to `b`:
+/// every restart's final point, best first. Returns them and the candidates evaluated.
+pub fn disagreements(
+    case: &Case,
+    spec: &DisagreeSpec,
+    (samples, references): (&[Sample], &References),
+    gpu: &Gpu,
+    (a, pa): (&MethodRun, &MethodPipeline),
+    (b, pb): (&MethodRun, &MethodPipeline),
+    family: usize,
+) -> anyhow::Result<(Vec<Disagreement>, usize)> {
+    let target = a.method.target();
+    let eps = spec.epsilon;
+    let accept =
+        |c: &Config| a.method.applies(c) && b.method.applies(c) && a.method.supports(c) && b.method.supports(c);
+    let ratio_of = |va: f32, vb: f32, r: &Estimate| -> Option<f64> {
+        Some(disagreement_ratio(rel_error(va, r)?, rel_error(vb, r)?, eps))
+    };
+    let starts = starts(samples, family, &accept, &|i| {
+        ratio_of(a.f32[i], b.f32[i], references[i].get(&target)?)
+    });
+    if starts.is_empty() || spec.restarts == 0 {
+        return Ok((Vec::new(), 0));
+    }
+    let sample_ratio = starts[0].1;
+    let current: Vec<Point> = starts
+        .iter()
+        .take(spec.restarts)
+        .map(|&(i, s)| Point {
+            sample: samples[i].clone(),
+            values: vec![a.f32[i], b.f32[i]],
+            reference: references[i][&target],
+            score: s,
+        })
+        .collect();
+    let how = Climb {
+        steps: spec.steps,
+        population: spec.population,
+        seed: seed_of(case, family, &format!("{}/{}", a.method.label, b.method.label)),
+    };
+    let score = |v: &[f32], r: &Estimate| ratio_of(v[0], v[1], r);
+    let (mut points, evaluations) = climb(case, family, current, &how, &accept, &mut |c| {
+        evaluate(gpu, &[(a, pa), (b, pb)], c, &score)
+    })?;
+    points.sort_by(|x, y| y.score.total_cmp(&x.score));
+    let name = &case.materials[family].name;
+    let found = points
+        .into_iter()
+        .enumerate()
+        .filter(|(_, p)| p.score > 1.0)
+        .map(|(k, p)| {
+            let mut config = p.sample.config;
+            config.id = format!("disagree-{}-worse-than-{}-{name}-{k}", a.method.label, b.method.label);
+            let err = |v: f32| rel_error(v, &p.reference).unwrap_or(f64::NAN);
+            Disagreement {
+                a: a.method.label.clone(),
+                b: b.method.label.clone(),
+                family: name.clone(),
+                ratio: p.score,
+                sample_ratio,
+                err_a: err(p.values[0]),
+                err_b: err(p.values[1]),
+                value_a: p.values[0],
+                value_b: p.values[1],
+                f64_a: a.method.eval_f64(&config),
+                f64_b: b.method.eval_f64(&config),
+                reference: p.reference,
+                axes: p.sample.axes,
+                config,
+            }
+        })
+        .collect();
+    Ok((found, evaluations))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ratio_ranks_nan_above_and_divides_by_at_least_epsilon() {
+        let r = Estimate { value: 1.0, error: 0.0 };
+        assert_eq!(rel_error(f32::NAN, &r), Some(f64::INFINITY));
+        assert_eq!(rel_error(1.0, &Estimate { value: 0.0, error: 0.0 }), None);
+        assert_eq!(disagreement_ratio(1e-3, 0.0, 1e-7), 1e4);
+        assert_eq!(disagreement_ratio(1e-3, 1e-4, 1e-7), 10.0);
+        assert_eq!(disagreement_ratio(1e-3, f64::INFINITY, 1e-7), 0.0);
+    }
 }

@@ -19,13 +19,21 @@ use std::time::Instant;
 pub struct Setup {
     pub case: Case,
     pub methods: Vec<Method>,
+    /// The natural sample first, then the top-ups (`Sample::strata`).
     pub samples: Vec<Sample>,
+    /// What topping up thin bins did, per family.
+    pub topups: Vec<sampler::TopUp>,
+    /// `--count`, when it overrode the case's counts (such a run is not the gate).
+    pub count_override: Option<usize>,
 }
 
 /// Loads and checks everything a sweep needs, without touching the GPU.
 pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> anyhow::Result<Setup> {
     let mut case = case;
     if let Some(n) = count {
+        // The bins' minimum shrinks with the counts, so a quick run stays quick.
+        let largest = case.materials.iter().map(|m| m.count).max().unwrap_or(1).max(1);
+        case.min_per_bin = (case.min_per_bin * n).div_ceil(largest).min(case.min_per_bin);
         for m in &mut case.materials {
             m.count = n;
         }
@@ -44,8 +52,16 @@ pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> an
             );
         }
     }
-    let samples = sampler::sample_case(&case);
-    Ok(Setup { case, methods, samples })
+    let mut samples = sampler::sample_case(&case);
+    let (extra, topups) = sampler::top_up(&case, &samples);
+    samples.extend(extra);
+    Ok(Setup {
+        case,
+        methods,
+        samples,
+        topups,
+        count_override: count,
+    })
 }
 
 /// Wall-clock time of each stage, measured in this run.
@@ -63,6 +79,9 @@ pub struct Timing {
     pub references_seconds: f64,
     pub references_evaluated: usize,
     pub search_seconds: f64,
+    /// The disagreement search between compared pairs, and the candidates it evaluated.
+    pub disagree_seconds: f64,
+    pub disagree_evaluations: usize,
     pub cost_seconds: f64,
     pub total_seconds: f64,
 }
@@ -73,6 +92,8 @@ pub struct Measured {
     pub timing: Timing,
     /// The worst-case search's findings (cases with a `[search]`).
     pub found: Vec<crate::search::Found>,
+    /// Per compared pair, both ways: where one method is least accurate relative to the other.
+    pub disagreements: Vec<crate::search::Disagreement>,
     /// Each method's cost: GPU timestamps, CPU f32 port, naga op count (src/bench.rs).
     pub costs: Vec<crate::bench::Cost>,
 }
@@ -213,11 +234,54 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
         pb.finish_and_clear();
         timing.search_seconds = t.elapsed().as_secs_f64();
     }
+    // Disagreements: every compared pair, both ways, in every family.
+    let mut disagreements = Vec::new();
+    if !setup.case.compare.is_empty() {
+        let spec = setup.case.disagreements.clone().unwrap_or_default();
+        let t = Instant::now();
+        let index = |l: &String| {
+            setup
+                .methods
+                .iter()
+                .position(|m| &m.label == l)
+                .expect("case checked compare labels")
+        };
+        let jobs: Vec<(usize, usize, usize)> = setup
+            .case
+            .compare
+            .iter()
+            .flat_map(|[a, b]| [(index(a), index(b)), (index(b), index(a))])
+            .flat_map(|(a, b)| (0..setup.case.materials.len()).map(move |f| (a, b, f)))
+            .collect();
+        let pb = bar(jobs.len(), "disagreement search");
+        for (a, b, family) in jobs {
+            let (found, evaluations) = crate::search::disagreements(
+                &setup.case,
+                &spec,
+                (&setup.samples, &references),
+                gpu,
+                (&runs[a], &pipelines[a]),
+                (&runs[b], &pipelines[b]),
+                family,
+            )?;
+            disagreements.extend(found);
+            timing.disagree_evaluations += evaluations;
+            pb.inc(1);
+        }
+        pb.finish_and_clear();
+        timing.disagree_seconds = t.elapsed().as_secs_f64();
+    }
     // Cost: the first configurations of every family, each method timed in interleaved rounds.
     let t = Instant::now();
     let per_family = COST_CONFIGURATIONS.div_ceil(setup.case.materials.len());
     let cost_configs: Vec<_> = (0..setup.case.materials.len())
-        .flat_map(|m| setup.samples.iter().filter(move |s| s.material == m).take(per_family))
+        .flat_map(|m| {
+            setup
+                .samples
+                .iter()
+                .filter(move |s| s.material == m && s.natural())
+                .take(per_family)
+        })
         .map(|s| s.config.clone())
         .collect();
     let pb = bar(
@@ -238,6 +302,7 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
     Ok(Measured {
         costs,
         found,
+        disagreements,
         runs,
         references,
         timing,

@@ -78,7 +78,18 @@ fn sweep_writes_reports_and_a_verdict() {
     }
     let report = std::fs::read_to_string(out.join("tiny/report.md")).unwrap();
     assert!(report.contains("**Verdict: PASS**") && report.contains("`line.ltc2017` against `line.ltc2023`"));
-    assert_eq!(std::fs::read_to_string(&raw).unwrap().lines().count(), 600);
+    // The natural sample, then the configurations drawn to fill thin bins, each marked.
+    let rows: Vec<serde_json::Value> = std::fs::read_to_string(&raw)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let natural = rows
+        .iter()
+        .filter(|r| r["strata"].as_array().unwrap().is_empty())
+        .count();
+    assert_eq!(natural, 600);
+    assert!(rows.len() > natural && report.contains("## Sampling"));
 }
 
 #[test]

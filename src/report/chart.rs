@@ -603,7 +603,7 @@ impl<'a> Chart<'a> {
         let cy = 0.5 * (p.y0 + p.y1);
         let _ = writeln!(
             s,
-            r##"<text x="18" y="{cy:.1}" text-anchor="middle" font-size="12" fill="#111" transform="rotate(-90 18 {cy:.1})">relative error (● median, ○ p99; lower is better)</text>"##
+            r##"<text x="18" y="{cy:.1}" text-anchor="middle" font-size="12" fill="#111" transform="rotate(-90 18 {cy:.1})">relative error, no floor, reference ≠ 0 (● median, ○ p99; lower is better)</text>"##
         );
     }
 

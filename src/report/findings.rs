@@ -144,29 +144,3 @@ pub fn leak(input: &ReportInput) -> Vec<Leak> {
         })
         .collect()
 }
-
-/// For a `line` method and a material: (configurations wholly below the horizon that the
-/// method gives a value above 1e-9 relative to `line`, configurations wholly below).
-pub fn lit_from_below(input: &ReportInput, label: &str, material: &str) -> (usize, usize) {
-    let Some(run) = input.measured.runs.iter().find(|r| r.method.label == label) else {
-        return (0, 0);
-    };
-    let Some(m) = input.case.materials.iter().position(|f| f.name == material) else {
-        return (0, 0);
-    };
-    let mut below = 0;
-    let mut lit = 0;
-    for (i, s) in input.setup.samples.iter().enumerate().filter(|(_, s)| s.material == m) {
-        let r = &input.measured.references[i];
-        let (Some(line), Some(upper)) = (r.get(&Target::Line), r.get(&Target::LineUpper)) else {
-            continue;
-        };
-        if upper.value == 0.0 && run.method.applies(&s.config) {
-            below += 1;
-            if (run.f32[i] as f64).abs() > 1e-9 * line.value.abs() {
-                lit += 1;
-            }
-        }
-    }
-    (lit, below)
-}

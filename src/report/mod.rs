@@ -52,10 +52,13 @@ pub fn sci(x: Option<f64>) -> String {
 /// Everything a report is made from.
 pub struct ReportInput<'a> {
     pub case_path: &'a str,
+    /// The command line that made this run, as typed (shell-quoted).
+    pub command_line: &'a str,
     pub case: &'a Case,
     pub setup: &'a Setup,
     pub measured: &'a Measured,
     pub analysis: &'a Analysis,
+    pub claims: &'a [crate::claims::ClaimResult],
 }
 
 /// Writes `report.md`, `summary.json`, `stats.csv` and `comparisons.csv` into `dir`.
@@ -65,9 +68,15 @@ pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<Path
         "case_file": input.case_path,
         "seed": input.case.seed,
         "configurations": input.setup.samples.len(),
+        "command_line": input.command_line,
+        "count_override": input.setup.count_override,
+        "statistic": "relative error |value − reference| / |reference|, no floor, over configurations whose reference is not 0; reference-0 configurations in `false_light`; `rel_floored` uses `error_floor`",
         "error_floor": input.case.error_floor,
+        "topups": input.setup.topups,
         "timing": input.measured.timing,
         "leak": findings::leak(input),
+        "claims": input.claims,
+        "disagreements": input.measured.disagreements,
         "analysis": input.analysis,
     });
     let mut extra = Vec::new();
@@ -79,6 +88,16 @@ pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<Path
             .map(|f| serde_json::to_value(&f.config))
             .collect::<Result<_, _>>()?;
         extra.push(("worst.jsonl".to_string(), crate::eval::to_jsonl(&rows)));
+    }
+    if !input.measured.disagreements.is_empty() {
+        // The eval input format (DESIGN §3) and nothing else: replayable with `linelight eval`.
+        let rows: Vec<_> = input
+            .measured
+            .disagreements
+            .iter()
+            .map(|d| serde_json::to_value(&d.config))
+            .collect::<Result<_, _>>()?;
+        extra.push(("disagreements.jsonl".to_string(), crate::eval::to_jsonl(&rows)));
     }
     let nonfinite = nonfinite(input);
     if !nonfinite.is_empty() {
@@ -183,16 +202,14 @@ pub fn chart_points(input: &ReportInput, material: usize) -> Vec<chart::ChartPoi
             let mat = &ms.materials[material];
             let cost = input.measured.costs.iter().find(|c| c.label == ms.label)?;
             let q = mat.all.rel?;
+            // NaN where no light arrives is a NaN pixel too.
+            let nonfinite = mat.all.nan + mat.all.inf + mat.all.false_light.nonfinite;
             mat.supported.then(|| chart::ChartPoint {
                 label: ms.label.clone(),
                 group: ms.describe.split('@').next().unwrap_or(&ms.describe).to_string(),
                 cost: cost.ns_per_eval_median,
                 median: q.median,
-                p99: if mat.all.nan + mat.all.inf > 0 {
-                    f64::INFINITY
-                } else {
-                    q.p99
-                },
+                p99: if nonfinite > 0 { f64::INFINITY } else { q.p99 },
             })
         })
         .collect()
