@@ -135,6 +135,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             count,
             gpu,
         } => {
+            let started = std::time::Instant::now();
             let case_path = case.display().to_string();
             let command_line = shell_words::join(std::env::args());
             let setup = sweep::prepare(Case::load(&case)?, &gpu.kernels, count)?;
@@ -152,7 +153,6 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             let measured = sweep::measure(&setup, &device, gpu.chunk)?;
             let t = std::time::Instant::now();
             let analysis = analyse(&setup.case, &setup.samples, &measured.references, &measured.runs);
-            eprintln!("analysis: {:.2} s", t.elapsed().as_secs_f64());
             let facts = claims::Facts {
                 analysis: Some(analysis.clone()),
                 configurations: setup.samples.iter().filter(|s| s.natural()).count(),
@@ -162,6 +162,10 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 ..claims::dry_facts(&setup.case, setup.methods.iter().map(|m| m.label.clone()).collect())
             };
             let claim_results = claims::evaluate(&setup.case.claims, facts);
+            let stages = report::Stages {
+                analysis_seconds: t.elapsed().as_secs_f64(),
+                until_report_seconds: started.elapsed().as_secs_f64(),
+            };
             let dir = out.join(&setup.case.name);
             let input = ReportInput {
                 case_path: &case_path,
@@ -171,12 +175,11 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 measured: &measured,
                 analysis: &analysis,
                 claims: &claim_results,
+                stages,
             };
-            let t = std::time::Instant::now();
             for path in report::write_reports(&dir, &input)? {
                 eprintln!("wrote {}", path.display());
             }
-            eprintln!("reports: {:.2} s", t.elapsed().as_secs_f64());
             if let Some(raw) = raw {
                 let rows: Vec<_> = setup
                     .samples

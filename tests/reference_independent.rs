@@ -389,3 +389,53 @@ fn surfaces_agree_with_area_quadrature() {
         .reduce(|| [0; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]]);
     assert!(nonzero.iter().all(|&n| n >= 15), "too few see the light: {nonzero:?}");
 }
+
+/// The committed `reports/line_fwt/disagreements.jsonl` holds configurations where the 2017
+/// Fwt is at least 30× less accurate in f32 than the 2023 one, and others where the reverse
+/// holds: replayed with `linelight eval` and judged against this file's own quadrature.
+#[test]
+fn committed_fwt_disagreements_hold_against_an_independent_reference() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("reports/line_fwt/disagreements.jsonl");
+    let text = std::fs::read_to_string(&path).expect("committed disagreements");
+    let dir = tempfile::tempdir().unwrap();
+    let (input, output) = (dir.path().join("in.jsonl"), dir.path().join("out.jsonl"));
+    let prefixes = [
+        "disagree-line.ltc2017-worse-than-line.ltc2017_fwt-",
+        "disagree-line.ltc2017_fwt-worse-than-line.ltc2017-",
+    ];
+    let lines: Vec<&str> = text
+        .lines()
+        .filter(|l| prefixes.iter().any(|p| l.contains(&format!("\"id\":\"{p}"))))
+        .collect();
+    std::fs::write(&input, lines.join("\n")).unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .args([
+            "eval",
+            "--input",
+            input.to_str().unwrap(),
+            "--output",
+            output.to_str().unwrap(),
+        ])
+        .args(["--methods", "line.ltc2017,line.ltc2017_fwt"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut best = [0.0f64; 2];
+    for (row, line) in std::fs::read_to_string(&output).unwrap().lines().zip(&lines) {
+        let r: serde_json::Value = serde_json::from_str(row).unwrap();
+        let c: Config = serde_json::from_str(line).unwrap();
+        let independent = self::line(&c, false);
+        check(&c, Target::Line, independent, 1e-8);
+        let err = |m: &str| {
+            let v = r["methods"][m]["f32"].as_f64().unwrap_or(f64::INFINITY);
+            (v - independent).abs() / independent.abs()
+        };
+        let (e17, e23) = (err("line.ltc2017"), err("line.ltc2017_fwt"));
+        let eps = f32::EPSILON as f64;
+        let k = if c.id.starts_with(prefixes[0]) { 0 } else { 1 };
+        let ratio = if k == 0 { e17 / e23.max(eps) } else { e23 / e17.max(eps) };
+        best[k] = best[k].max(ratio);
+    }
+    assert!(best[0] >= 30.0, "2017 Fwt at most {}× worse", best[0]);
+    assert!(best[1] >= 30.0, "2023 Fwt at most {}× worse", best[1]);
+}

@@ -656,6 +656,14 @@ pub fn render(input: &ReportInput) -> String {
         pct(other),
     );
 
+    let _ = writeln!(
+        w,
+        "The whole sweep, from the command's start to this report (sampling, top-ups, GPU runs, CPU \
+         evaluations, references, searches, statistics and claims; writing the files excluded): {:.1} s, of \
+         which statistics and claims {:.2} s.\n",
+        input.stages.until_report_seconds, input.stages.analysis_seconds
+    );
+
     // Definitions.
     let floors: Vec<String> = a
         .methods

@@ -49,6 +49,16 @@ pub fn sci(x: Option<f64>) -> String {
     }
 }
 
+/// Wall-clock seconds of the stages after measuring, for the report's timing section.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct Stages {
+    /// Statistics, comparisons, verdict and claims.
+    pub analysis_seconds: f64,
+    /// From the start of the command to the report being written: set-up, sampling, measuring,
+    /// searches, analysis (report writing itself excluded).
+    pub until_report_seconds: f64,
+}
+
 /// Everything a report is made from.
 pub struct ReportInput<'a> {
     pub case_path: &'a str,
@@ -59,6 +69,7 @@ pub struct ReportInput<'a> {
     pub measured: &'a Measured,
     pub analysis: &'a Analysis,
     pub claims: &'a [crate::claims::ClaimResult],
+    pub stages: Stages,
 }
 
 /// Writes `report.md`, `summary.json`, `stats.csv` and `comparisons.csv` into `dir`.
@@ -74,6 +85,7 @@ pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<Path
         "error_floor": input.case.error_floor,
         "topups": input.setup.topups,
         "timing": input.measured.timing,
+        "stages": input.stages,
         "leak": findings::leak(input),
         "claims": input.claims,
         "disagreements": input.measured.disagreements,

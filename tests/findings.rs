@@ -1,0 +1,269 @@
+//! Findings computed from the data: the claim engine flags an expectation that fails, the
+//! false-light row catches light where none arrives, and the disagreement search finds the
+//! region where a pair was built to differ.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn linelight(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .args(args)
+        .output()
+        .expect("linelight runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// A built-in kernel under a new id, its `method` renamed to `inner` so a test can wrap it.
+fn wrapped(builtin: &str, id: &str, method: &str) -> String {
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("kernels").join(builtin)).unwrap();
+    let (header, body): (Vec<&str>, Vec<&str>) = text.lines().partition(|l| l.starts_with("//!"));
+    let header: Vec<String> = header
+        .iter()
+        .map(|l| {
+            if l.starts_with("//! id:") {
+                format!("//! id: {id}")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    format!(
+        "{}\n{}\n{method}\n",
+        header.join("\n"),
+        body.join("\n")
+            .replace("fn method(scene: Scene) -> f32", "fn inner(scene: Scene) -> f32")
+    )
+}
+
+const CASE: &str = r#"
+name = "claimed"
+title = "claims"
+seed = 11
+methods = ["line.ltc2017", "line.ltc2023"]
+compare = [["line.ltc2017", "line.ltc2023"]]
+min_per_bin = 0
+[disagreements]
+restarts = 2
+steps = 3
+population = 8
+[geometry]
+elevation = { dist = "uniform", min = -30.0, max = 90.0 }
+tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
+length = { dist = "log_uniform", min = 0.01, max = 10.0 }
+center = { dist = "signed_log_uniform", min = 0.01, max = 100.0 }
+[[materials]]
+name = "diffuse"
+kind = "diffuse"
+count = 400
+"#;
+
+#[test]
+fn a_claim_whose_expectation_fails_is_stale_and_exits_3() {
+    let dir = tempfile::tempdir().unwrap();
+    let claims = r#"
+[[claims]]
+id = "true-one"
+expect = 'p99("line.ltc2023", "diffuse") > 0.0'
+text = "p99 of 2023 is {sci(p99(\"line.ltc2023\", \"diffuse\"))} over {configurations()} configurations."
+[[claims]]
+id = "false-one"
+expect = 'p99("line.ltc2023", "diffuse") < 0.0'
+text = "a relative error below zero: {p99(\"line.ltc2023\", \"diffuse\")}"
+"#;
+    let case = write(dir.path(), "c.toml", &format!("{CASE}{claims}"));
+    let out = dir.path().join("reports");
+    let o = linelight(&["sweep", case.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("STALE: false-one"));
+    let report = std::fs::read_to_string(out.join("claimed/report.md")).unwrap();
+    let stale = report.find("## STALE findings").expect("STALE section");
+    assert!(stale < report.find("## At a glance").unwrap(), "STALE comes first");
+    assert!(report.contains("**STALE `false-one`**"));
+    assert!(!report.contains("**STALE `true-one`**"));
+    // The true claim's numbers are this run's: the configuration count is filled in.
+    assert!(report.contains("over 400 configurations."), "{report}");
+    assert!(
+        report.contains("**No verdict**"),
+        "a case without checks has no verdict"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("claimed/summary.json")).unwrap()).unwrap();
+    let holds: Vec<bool> = summary["claims"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["holds"].as_bool().unwrap())
+        .collect();
+    assert_eq!(holds, [true, false]);
+}
+
+#[test]
+fn a_claim_naming_what_the_case_lacks_is_bad_input_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let claims = "\n[[claims]]\nid = \"x\"\nexpect = 'p99(\"line.nope\", \"diffuse\") > 0.0'\ntext = \"t\"\n";
+    let case = write(dir.path(), "c.toml", &format!("{CASE}{claims}"));
+    let out = dir.path().join("reports");
+    let o = linelight(&["sweep", case.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("claim `x`") && stderr(&o).contains("line.nope"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists(), "nothing is written");
+    // A case file still carrying hand-typed `notes` says how to update.
+    let case = write(
+        dir.path(),
+        "n.toml",
+        &CASE.replace("seed = 11", "seed = 11\nnotes = \"old\""),
+    );
+    let o = linelight(&["sweep", case.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("[[claims]]"), "{}", stderr(&o));
+}
+
+#[test]
+fn light_where_none_arrives_shows_in_the_false_light_row_only() {
+    let dir = tempfile::tempdir().unwrap();
+    // Exactly `line.numeric@64` where light arrives; a constant where the segment lies wholly
+    // below the horizon, where the diffuse reference is exactly 0.
+    let kernel = wrapped(
+        "line_numeric.wgsl",
+        "test.false_light",
+        "fn method(scene: Scene) -> f32 {\n    if (scene.p1.z <= 0.0 && scene.p2.z <= 0.0) { return 0.125; }\n    return inner(scene);\n}",
+    );
+    let kernel = write(dir.path(), "false_light.wgsl", &kernel);
+    let case = CASE
+        .replace(
+            r#"methods = ["line.ltc2017", "line.ltc2023"]"#,
+            r#"methods = ["line.numeric", "test.false_light"]"#,
+        )
+        .replace(r#"compare = [["line.ltc2017", "line.ltc2023"]]"#, "");
+    let case = write(dir.path(), "c.toml", &case);
+    let out = dir.path().join("reports");
+    let o = linelight(&[
+        "sweep",
+        case.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--kernel",
+        kernel.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("claimed/summary.json")).unwrap()).unwrap();
+    let all = |label: &str| {
+        summary["analysis"]["methods"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["label"] == label)
+            .unwrap()["materials"][0]["all"]
+            .clone()
+    };
+    let (plain, lit) = (all("line.numeric"), all("test.false_light"));
+    let zero = plain["false_light"]["configurations"].as_u64().unwrap();
+    assert!(
+        zero > 20,
+        "the sample has configurations wholly below the horizon: {zero}"
+    );
+    assert_eq!(plain["false_light"]["lit"], 0);
+    assert_eq!(lit["false_light"]["configurations"].as_u64(), Some(zero));
+    assert_eq!(lit["false_light"]["lit"].as_u64(), Some(zero), "every one is lit");
+    assert_eq!(lit["false_light"]["value"]["max"], 0.125);
+    // Where light arrives the two are the same method: the error statistics do not move.
+    assert_eq!(plain["rel"], lit["rel"]);
+    assert_eq!(plain["count"], lit["count"]);
+    let report = std::fs::read_to_string(out.join("claimed/report.md")).unwrap();
+    let row = report
+        .lines()
+        .find(|l| l.starts_with("| `test.false_light` | `diffuse` |"))
+        .expect("false-light row");
+    assert!(row.contains(&format!("| {zero} | {zero} (100.0 %) |")), "{row}");
+}
+
+#[test]
+fn the_disagreement_search_finds_the_region_built_in() {
+    let dir = tempfile::tempdir().unwrap();
+    // `line.ltc2023_fix`, off by 1e-3 relative where the segment starts at positive x.
+    let kernel = wrapped(
+        "line_ltc2023_fix.wgsl",
+        "test.off_at_positive_x",
+        "fn method(scene: Scene) -> f32 {\n    let v = inner(scene);\n    if (scene.p1.x > 0.0) { return v * 1.001; }\n    return v;\n}",
+    );
+    let kernel = write(dir.path(), "off.wgsl", &kernel);
+    let case = CASE
+        .replace(
+            r#"methods = ["line.ltc2017", "line.ltc2023"]"#,
+            r#"methods = ["line.ltc2023_fix", "test.off_at_positive_x"]"#,
+        )
+        .replace(
+            r#"compare = [["line.ltc2017", "line.ltc2023"]]"#,
+            r#"compare = [["line.ltc2023_fix", "test.off_at_positive_x"]]"#,
+        )
+        // Well-conditioned lights, so that 1e-3 stands far above the f32 rounding of the fix.
+        .replace("min = 0.01, max = 100.0", "min = 0.01, max = 1.0")
+        .replace("min = -30.0, max = 90.0", "min = 20.0, max = 90.0")
+        .replace("restarts = 2", "restarts = 4");
+    let case = write(dir.path(), "c.toml", &case);
+    let out = dir.path().join("reports");
+    let o = linelight(&[
+        "sweep",
+        case.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--kernel",
+        kernel.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = std::fs::read_to_string(out.join("claimed/disagreements.jsonl")).unwrap();
+    let configs: Vec<serde_json::Value> = text.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    // Eval input format and nothing else.
+    for c in &configs {
+        let keys: Vec<&String> = c.as_object().unwrap().keys().collect();
+        assert!(keys
+            .iter()
+            .all(|k| ["id", "p1", "p2", "material", "radius", "rect"].contains(&k.as_str())));
+    }
+    let off_worse: Vec<&serde_json::Value> = configs
+        .iter()
+        .filter(|c| {
+            c["id"]
+                .as_str()
+                .unwrap()
+                .starts_with("disagree-test.off_at_positive_x-worse-than-line.ltc2023_fix")
+        })
+        .collect();
+    assert!(!off_worse.is_empty(), "found where the built-in error is");
+    for c in &off_worse {
+        assert!(c["p1"][0].as_f64().unwrap() > 0.0, "outside the region: {c}");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("claimed/summary.json")).unwrap()).unwrap();
+    let best = summary["disagreements"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|d| d["a"] == "test.off_at_positive_x")
+        .map(|d| d["ratio"].as_f64().unwrap())
+        .fold(0.0, f64::max);
+    assert!(best >= 100.0, "1e-3 against an f32-accurate method: ratio {best}");
+    // The other way there is nothing built in: no ratio anywhere near it.
+    let reverse = summary["disagreements"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|d| d["a"] == "line.ltc2023_fix")
+        .map(|d| d["ratio"].as_f64().unwrap())
+        .fold(0.0, f64::max);
+    assert!(reverse < best / 10.0, "reverse {reverse} against {best}");
+}
