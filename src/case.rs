@@ -290,6 +290,7 @@ pub const AXES: &[&str] = &[
     "height_o",
     "tilt_o",
     "radius",
+    "cap_straddle",
     "width",
     "rect_angle",
 ];

@@ -41,6 +41,10 @@ pub struct Axes {
     pub height_o: f64,
     pub tilt_o: f64,
     pub radius: f64,
+    /// 1 when an end cap (disk of radius R at an end point, normal along the segment) straddles
+    /// the horizon or the LTC lobe's support plane (M⁻¹ row 3 · ω = 0), 0 when neither does;
+    /// NaN without a radius. A point-light cap is all or nothing exactly there.
+    pub cap_straddle: f64,
     pub width: f64,
     /// Angle (degrees) of the rectangle's normal from facing the shading point: 90 is edge-on.
     pub rect_angle: f64,
@@ -64,6 +68,7 @@ impl Axes {
             "height_o" => self.height_o,
             "tilt_o" => self.tilt_o,
             "radius" => self.radius,
+            "cap_straddle" => self.cap_straddle,
             "width" => self.width,
             "rect_angle" => self.rect_angle,
             _ => f64::NAN,
@@ -417,6 +422,22 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
             height_o,
             tilt_o,
             radius: radius.map_or(f64::NAN, |r| r / d),
+            cap_straddle: radius.map_or(f64::NAN, |r| {
+                let w_t = normalize(sub(p2, p1));
+                let crosses = |m: Vec3, p: Vec3| {
+                    let m = normalize(m);
+                    let c = dot(m, w_t);
+                    dot(m, p).abs() < r * (1.0 - c * c).max(0.0).sqrt()
+                };
+                let any = [[0.0, 0.0, 1.0], minv[2]]
+                    .into_iter()
+                    .any(|m| crosses(m, p1) || crosses(m, p2));
+                if any {
+                    1.0
+                } else {
+                    0.0
+                }
+            }),
             width: rect_width.map_or(f64::NAN, |w| w / d),
             rect_angle: if rect_width.is_some() { rect_angle_deg } else { f64::NAN },
         },

@@ -242,6 +242,15 @@ pub fn render(input: &ReportInput) -> String {
         let _ = writeln!(w);
         // Per-axis view: p99 (f32 / f64) of every method in every bin.
         for (ax, axis) in case.bins.iter().enumerate() {
+            let populated = a.methods.first().is_some_and(|ms| {
+                ms.materials[k].axes[ax]
+                    .bins
+                    .iter()
+                    .any(|b| b.stats.configurations() > 0)
+            });
+            if !populated {
+                continue; // an axis this material has no values on (alpha for diffuse)
+            }
             let _ = writeln!(
                 w,
                 "p99 relative error by `{}` (f32 / f64), material `{}`; n counts every configuration in the \
