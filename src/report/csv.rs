@@ -1,4 +1,6 @@
-//! CSV tables: one row per method × material × bin (the whole sample is bin `all`).
+//! CSV tables: one row per method × material × bin (the whole sample is bin `all`). `rel_*` is
+//! the relative error with no floor over non-zero references; `floored_*` the labelled variant;
+//! `zero_reference`/`false_*` the configurations whose reference is 0 (false light).
 
 use crate::analysis::{Analysis, PairStats};
 use crate::stats::{BinStats, Quantiles};
@@ -22,6 +24,11 @@ fn stats_row(s: &BinStats) -> String {
     cols.extend(s.within.map(|w| format!("{w}")));
     cols.extend(q(s.reference_rel).into_iter().skip(3)); // the worst reference error
     cols.push(s.reference_flag.to_string());
+    cols.extend(q(s.rel_floored));
+    cols.push(s.below_floor.to_string());
+    let f = &s.false_light;
+    cols.extend([f.configurations, f.lit, f.nonfinite, f.lit_f64].map(|n| n.to_string()));
+    cols.push(f.value.map_or(String::new(), |q| format!("{:e}", q.max)));
     cols.join(",")
 }
 
@@ -30,7 +37,9 @@ pub fn stats(analysis: &Analysis) -> String {
         "method,target,material,supported,axis,bin_lo,bin_hi,count,nan,inf,\
          rel_median,rel_p90,rel_p99,rel_max,abs_median,abs_p90,abs_p99,abs_max,\
          cpu_f32_rel_median,cpu_f32_rel_p90,cpu_f32_rel_p99,cpu_f32_rel_max,f64_rel_median,f64_rel_p90,f64_rel_p99,f64_rel_max,f64_nan,\
-         bits_median,bits_p90,bits_p99,bits_max,within_1e-3,within_1e-2,within_1e-1,reference_rel_max,reference_flag\n",
+         bits_median,bits_p90,bits_p99,bits_max,within_1e-3,within_1e-2,within_1e-1,reference_rel_max,reference_flag,\
+         floored_rel_median,floored_rel_p90,floored_rel_p99,floored_rel_max,below_floor,\
+         zero_reference,false_lit,false_nonfinite,false_lit_f64,false_value_max\n",
     );
     for m in &analysis.methods {
         for mat in &m.materials {
