@@ -503,13 +503,15 @@ pub fn render(bench: &BenchRun) -> String {
         if let Some(c) = cpu_time_ratio(a, b) {
             let _ = write!(out, ", CPU f32 {} [{}–{}]", sig3(c.median), sig3(c.min), sig3(c.max));
         }
-        let _ = writeln!(
-            out,
-            ": on the GPU {} runs {}× as fast as {}",
-            b.label,
-            sig3(g.median),
-            a.label
-        );
+        // The noise rule: a ratio whose per-round range includes 1 is no measurable difference.
+        let verdict = if g.min <= 1.0 && 1.0 <= g.max {
+            "no measurable difference on the GPU (the per-round range includes 1)".to_string()
+        } else if g.min > 1.0 {
+            format!("on the GPU {} is faster in every round", b.label)
+        } else {
+            format!("on the GPU {} is faster in every round", a.label)
+        };
+        let _ = writeln!(out, ": {verdict}");
     }
     out
 }
