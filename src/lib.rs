@@ -18,6 +18,7 @@ pub mod methods;
 pub mod reference;
 pub mod report;
 pub mod sampler;
+pub mod scan;
 pub mod scene;
 pub mod search;
 pub mod stats;

@@ -93,6 +93,30 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// Stability scan on the GPU: configurations generated on the device from the case's seed,
+    /// only the counts of NaN, inf, negative and above-bound values read back; the first
+    /// offending configurations captured for `linelight eval`.
+    Scan {
+        /// Case file whose families' distributions are scanned.
+        case: PathBuf,
+        /// Configurations per method, split evenly over the case's families (`1e9` is allowed).
+        #[arg(long, default_value = "1e6")]
+        count: String,
+        /// Comma-separated method specs (default: the case's line methods).
+        #[arg(long, value_delimiter = ',')]
+        methods: Vec<String>,
+        /// Offending configurations to capture per method and family.
+        #[arg(long, default_value_t = 64)]
+        capture: usize,
+        /// Also count values above this bound (units where d = 1).
+        #[arg(long)]
+        bound: Option<f64>,
+        /// The scan's report goes to OUT/<case name>-scan/.
+        #[arg(long, default_value = "reports")]
+        out: PathBuf,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
     /// List the Vulkan adapters wgpu can see.
     Adapters,
     /// Compose and validate kernel files with naga (no GPU needed).
@@ -118,6 +142,18 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// A count as typed: `1000000`, `1e9` or `1_000_000`; a positive whole number.
+fn parse_count(text: &str) -> anyhow::Result<u64> {
+    let clean = text.replace('_', "");
+    let v: f64 = clean
+        .parse()
+        .map_err(|_| anyhow::anyhow!("--count `{text}`: not a number (write e.g. 1000000 or 1e9)"))?;
+    if !(v >= 1.0 && v <= 1e15 && v.fract() == 0.0) {
+        anyhow::bail!("--count `{text}`: need a whole number from 1 to 1e15");
+    }
+    Ok(v as u64)
 }
 
 fn open_gpu(args: &GpuArgs) -> anyhow::Result<Gpu> {
@@ -298,6 +334,82 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 json,
             };
             linelight::bench::run(&options)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Scan {
+            case,
+            count,
+            methods: specs,
+            capture,
+            bound,
+            out,
+            gpu,
+        } => {
+            let command_line = shell_words::join(std::env::args());
+            let count = parse_count(&count)?;
+            let case = Case::load(&case)?;
+            let kernels = methods::kernel_set(&gpu.kernels)?;
+            let specs: Vec<String> = if specs.is_empty() { case.methods.clone() } else { specs };
+            let mut chosen = Vec::new();
+            for s in &specs {
+                let m = methods::resolve(s, &kernels)?;
+                if matches!(
+                    m.target(),
+                    linelight::target::Target::Line | linelight::target::Target::LineUpper
+                ) {
+                    chosen.push(m);
+                } else if !specs.is_empty() && specs.len() == 1 {
+                    anyhow::bail!(
+                        "scan generates line configurations only: `{s}` approximates `{}`",
+                        m.target()
+                    );
+                }
+            }
+            if chosen.is_empty() {
+                anyhow::bail!("no line method to scan in {}", specs.join(", "));
+            }
+            let device = open_gpu(&gpu)?;
+            let families = case.materials.len() as u64;
+            let per_family = count.div_ceil(families);
+            let pb = indicatif::ProgressBar::new(per_family * families * chosen.len() as u64);
+            pb.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{msg:>40} [{bar:30}] {human_pos}/{human_len} ({per_sec}, eta {eta})",
+                )
+                .expect("valid template")
+                .progress_chars("=> "),
+            );
+            let mut results = Vec::new();
+            let mut finished = 0u64;
+            for m in &chosen {
+                for f in 0..case.materials.len() {
+                    let r =
+                        linelight::scan::scan(&device, &case, m, f, per_family, capture, bound, &mut |done, bad| {
+                            pb.set_position(finished + done);
+                            pb.set_message(format!(
+                                "{} {}: rate {:.1e}",
+                                m.label,
+                                case.materials[f].name,
+                                bad as f64 / done as f64
+                            ));
+                        })?;
+                    finished += per_family;
+                    results.push(r);
+                }
+            }
+            pb.finish_and_clear();
+            let dir = out.join(format!("{}-scan", case.name));
+            let text = linelight::scan::report::markdown(&case, &command_line, &device.adapter.to_string(), &results);
+            print!("{}", linelight::scan::report::table(&results));
+            let rows: Vec<_> = results
+                .iter()
+                .flat_map(|r| &r.captured)
+                .map(serde_json::to_value)
+                .collect::<Result<_, _>>()?;
+            write_atomic(&dir.join("scan.md"), text.as_bytes())?;
+            write_atomic(&dir.join("scan.json"), &serde_json::to_vec_pretty(&results)?)?;
+            write_atomic(&dir.join("offending.jsonl"), &eval::to_jsonl(&rows))?;
+            eprintln!("wrote {}", dir.display());
             Ok(ExitCode::SUCCESS)
         }
         Command::Adapters => {

@@ -22,8 +22,10 @@ mod timing;
 mod tests;
 
 pub use compose::{compose, compose_with, entry_point, Composed, GLUE_PATH};
+pub(crate) use device::scoped;
 pub use device::{list_adapters, AdapterSummary, Gpu, GpuError};
 pub use diagnostic::{KernelError, ENTRY_PATH};
 pub use driver_env::quiet_driver_environment;
+pub(crate) use runner::override_constants;
 pub use runner::{MethodPipeline, RunOutput, DEFAULT_CHUNK};
 pub use timing::{Clock, DispatchTimer, DispatchTiming, TimedPipeline};

@@ -41,18 +41,7 @@ impl Gpu {
         let kernel = &method.kernel;
         let inner = method.inner.as_deref();
         let composed = compose_with(kernel, inner.map(|m| &m.kernel), self.capabilities)?;
-        let params = param_values(kernel, &method.params)?;
-        let inner_params = match (inner, &composed.inner) {
-            (Some(m), _) => param_values(&m.kernel, &m.params)?,
-            (None, Some(default)) => param_values(default, &[])?,
-            (None, None) => Vec::new(),
-        };
-        // The inner's overrides were renamed in composition (compose.rs).
-        let constants: Vec<(String, f64)> = params
-            .iter()
-            .map(|(n, v)| (n.clone(), f64::from(*v)))
-            .chain(inner_params.iter().map(|(n, v)| (inner_name(n), f64::from(*v))))
-            .collect();
+        let (params, inner_params, constants) = override_constants(method, &composed)?;
         let constants: Vec<(&str, f64)> = constants.iter().map(|(n, v)| (n.as_str(), *v)).collect();
 
         let pipeline = scoped(&self.device, || {
@@ -233,6 +222,27 @@ impl ChunkBuffers {
 }
 
 /// `values` for `kernel`'s header params, in order; params not given keep their defaults.
+/// A method's params, its inner's, and the pipeline-overridable constants they set (the inner's
+/// overrides renamed in composition, compose.rs).
+#[allow(clippy::type_complexity)]
+pub(crate) fn override_constants(
+    method: &Method,
+    composed: &super::compose::Composed,
+) -> Result<(Vec<(String, u32)>, Vec<(String, u32)>, Vec<(String, f64)>), KernelError> {
+    let params = param_values(&method.kernel, &method.params)?;
+    let inner_params = match (method.inner.as_deref(), &composed.inner) {
+        (Some(m), _) => param_values(&m.kernel, &m.params)?,
+        (None, Some(default)) => param_values(default, &[])?,
+        (None, None) => Vec::new(),
+    };
+    let constants = params
+        .iter()
+        .map(|(n, v)| (n.clone(), f64::from(*v)))
+        .chain(inner_params.iter().map(|(n, v)| (inner_name(n), f64::from(*v))))
+        .collect();
+    Ok((params, inner_params, constants))
+}
+
 fn param_values(kernel: &KernelFile, values: &[u32]) -> Result<Vec<(String, u32)>, KernelError> {
     if values.len() > kernel.params.len() {
         let names: Vec<_> = kernel.params.iter().map(|(n, _)| n.as_str()).collect();
