@@ -383,16 +383,20 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             let mut finished = 0u64;
             for m in &chosen {
                 for f in 0..case.materials.len() {
-                    let r =
-                        linelight::scan::scan(&device, &case, m, f, per_family, capture, bound, &mut |done, bad| {
-                            pb.set_position(finished + done);
-                            pb.set_message(format!(
-                                "{} {}: rate {:.1e}",
-                                m.label,
-                                case.materials[f].name,
-                                bad as f64 / done as f64
-                            ));
-                        })?;
+                    let size = linelight::scan::ScanSize {
+                        count: per_family,
+                        capture,
+                        bound,
+                    };
+                    let r = linelight::scan::scan(&device, &case, m, f, size, &mut |done, bad| {
+                        pb.set_position(finished + done);
+                        pb.set_message(format!(
+                            "{} {}: rate {:.1e}",
+                            m.label,
+                            case.materials[f].name,
+                            bad as f64 / done as f64
+                        ));
+                    })?;
                     finished += per_family;
                     results.push(r);
                 }
