@@ -150,7 +150,7 @@ fn parse_count(text: &str) -> anyhow::Result<u64> {
     let v: f64 = clean
         .parse()
         .map_err(|_| anyhow::anyhow!("--count `{text}`: not a number (write e.g. 1000000 or 1e9)"))?;
-    if !(v >= 1.0 && v <= 1e15 && v.fract() == 0.0) {
+    if !((1.0..=1e15).contains(&v) && v.fract() == 0.0) {
         anyhow::bail!("--count `{text}`: need a whole number from 1 to 1e15");
     }
     Ok(v as u64)
