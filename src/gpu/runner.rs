@@ -38,6 +38,12 @@ impl Gpu {
     /// Compiles `method`: its kernel with its params (those not given keep the header's
     /// defaults), and for a composite its inner line method with the inner's params.
     pub fn pipeline(&self, method: &Method) -> Result<MethodPipeline, KernelError> {
+        self.check_loops(method)?;
+        self.pipeline_unchecked(method)
+    }
+
+    /// [`Gpu::pipeline`] without the loop-limit check (the probe's own pipeline).
+    pub(crate) fn pipeline_unchecked(&self, method: &Method) -> Result<MethodPipeline, KernelError> {
         let kernel = &method.kernel;
         let inner = method.inner.as_deref();
         let composed = compose_with(kernel, inner.map(|m| &m.kernel), self.capabilities)?;

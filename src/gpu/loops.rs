@@ -1,0 +1,86 @@
+//! The driver's loop limit. lavapipe (gallivm) stops every loop after 65,535 body
+//! executions per invocation, counted per nesting depth across the loops at that depth, and
+//! returns whatever the truncated loop computed. The limit is probed once per device with
+//! a tiny kernel (a counted loop of [`PROBE_TRIPS`] trips whose bound is read from the
+//! scene, so no compiler folds it), and every method is checked against it before its
+//! pipeline is made: a method whose static loop-body executions (`cost::OpCount::loop_trips`,
+//! every loop of one invocation together: an upper bound of any depth's count) exceed the
+//! limit is refused with both numbers.
+
+use super::device::Gpu;
+use super::diagnostic::KernelError;
+use crate::kernel::KernelFile;
+use crate::methods::Method;
+use crate::scene::{Config, GpuScene, Material};
+
+/// Trips the probe asks for; a result below it is the limit.
+pub const PROBE_TRIPS: u64 = 1 << 22;
+
+const PROBE: &str = "//! id: ll.loop_probe
+//! target: line
+fn method(scene: Scene) -> f32 {
+    let n = u32(scene.radius);
+    var c = 0u;
+    for (var i = 0u; i < n; i++) {
+        c += 1u;
+    }
+    return f32(c);
+}
+";
+
+impl Gpu {
+    /// The most loop-body executions a loop completes on this device (None: no limit below
+    /// [`PROBE_TRIPS`]). Probed on first use, then kept for the device's lifetime.
+    pub fn loop_limit(&self) -> Result<Option<u64>, KernelError> {
+        if let Some(l) = self.loop_limit.get() {
+            return Ok(*l);
+        }
+        let kernel = KernelFile::parse("<linelight loop probe>", PROBE).expect("probe header is valid");
+        let method = Method {
+            label: kernel.id.clone(),
+            kernel,
+            params: Vec::new(),
+            inner: None,
+        };
+        let pipeline = self.pipeline_unchecked(&method)?;
+        let config = Config {
+            id: "probe".into(),
+            p1: [0.0, 0.0, 1.0],
+            p2: [1.0, 0.0, 1.0],
+            radius: None,
+            rect: None,
+            material: Material::Diffuse,
+        };
+        let mut scene = GpuScene::from(&config);
+        scene.radius = PROBE_TRIPS as f32;
+        let out = self
+            .run(&pipeline, &[scene], 0, &mut |_| {})
+            .map_err(|e| KernelError::plain("<linelight loop probe>", e.to_string()))?;
+        let done = out.values.first().copied().unwrap_or(0.0) as u64;
+        let limit = (done < PROBE_TRIPS).then_some(done);
+        Ok(*self.loop_limit.get_or_init(|| limit))
+    }
+
+    /// Refuses a method whose loops would run past the device's limit.
+    pub(crate) fn check_loops(&self, method: &Method) -> Result<(), KernelError> {
+        let Some(limit) = self.loop_limit()? else {
+            return Ok(());
+        };
+        let Ok(cost) = crate::cost::method_cost_of(method) else {
+            return Ok(());
+        };
+        match cost.loop_trips {
+            Some(trips) if trips > limit => Err(KernelError::plain(
+                &method.kernel.path,
+                format!(
+                    "`{}` executes {trips} loop-body iterations per configuration, more than the {limit} \
+                     this device ({}) runs before it silently stops a loop: its results would be wrong; \
+                     lower its parameters (e.g. fewer samples)",
+                    crate::case_values::clip(&method.label),
+                    self.adapter.name
+                ),
+            )),
+            _ => Ok(()),
+        }
+    }
+}
