@@ -195,7 +195,7 @@ fn resolve_plain(spec: &str, head: &str, kernels: &[KernelFile]) -> anyhow::Resu
             let spec = crate::case_values::clip(spec);
             let v_shown = crate::case_values::clip(v);
             *slot = match v.parse::<u64>() {
-                Ok(0) => anyhow::bail!("`{spec}`: parameter `{v_shown}` must be at least 1"),
+                Ok(0) => anyhow::bail!("`{spec}`: parameter `{v_shown}` is not a positive integer (at least 1)"),
                 Ok(n) => u32::try_from(n).map_err(|_| {
                     anyhow::anyhow!(
                         "`{spec}`: parameter `{v_shown}` is larger than {} (the largest a kernel takes)",
