@@ -202,7 +202,7 @@ impl Config {
     /// configuration outside can be scaled by the user; it is refused, not silently NaN.)
     fn representable(&self) -> Result<(), Degenerate> {
         let scale = length(self.p1).max(length(self.p2));
-        if !(scale <= F32_SCALE && scale >= 1.0 / F32_SCALE) {
+        if !(1.0 / F32_SCALE..=F32_SCALE).contains(&scale) {
             return Err(Degenerate::NotRepresentable(format!(
                 "the segment's size max(|p1|, |p2|) = {scale:e} is outside [{:e}, {F32_SCALE:e}], \
                  where its squares fit in f32: scale the configuration",
