@@ -93,6 +93,35 @@ pub fn eval_estimate(configurations: u64, methods: u64) -> Bytes {
     Bytes(configurations.saturating_mul(400 + 16 * methods))
 }
 
+/// Bytes of private and function-local memory one invocation of a kernel holds: every
+/// `var<private>` and every local `var` of every function (an upper bound: not all live at
+/// once). None when naga cannot lay the types out.
+pub fn kernel_invocation_bytes(module: &naga::Module) -> Option<u64> {
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).ok()?;
+    let size = |ty: naga::Handle<naga::Type>| u64::from(layouter[ty].size);
+    let private: u64 = module
+        .global_variables
+        .iter()
+        .filter(|(_, g)| g.space == naga::AddressSpace::Private)
+        .map(|(_, g)| size(g.ty))
+        .sum();
+    let locals: u64 = module
+        .functions
+        .iter()
+        .map(|(_, f)| f)
+        .chain(module.entry_points.iter().map(|e| &e.function))
+        .flat_map(|f| f.local_variables.iter().map(|(_, v)| size(v.ty)))
+        .sum();
+    Some(private.saturating_add(locals))
+}
+
+/// Invocations whose private memory a CPU driver holds at once: a workgroup per core.
+pub fn invocations_in_flight() -> u64 {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get() as u64);
+    u64::from(crate::gpu::WORKGROUP_SIZE) * cores
+}
+
 /// Refuses an estimate above the limit, with both numbers and what to change.
 pub fn check(what: &str, estimate: Bytes, limit: Bytes) -> Result<(), String> {
     if estimate > limit {

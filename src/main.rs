@@ -385,7 +385,14 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 println!("no Vulkan adapter found (on Debian/Ubuntu: apt-get install mesa-vulkan-drivers)");
             }
             for a in adapters {
-                println!("{a}");
+                // The loop limit is probed on the device (src/gpu/loops.rs).
+                let limit = match Gpu::new(Some(&a.name)).map(|g| g.loop_limit()) {
+                    Ok(Ok(Some(l))) => format!("loops stop after {l} iterations"),
+                    Ok(Ok(None)) => format!("no loop limit below {}", gpu::PROBE_TRIPS),
+                    Ok(Err(e)) => format!("loop limit not probed: {e}"),
+                    Err(e) => format!("loop limit not probed: {e}"),
+                };
+                println!("{a}; {limit}");
             }
             Ok(ExitCode::SUCCESS)
         }

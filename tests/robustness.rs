@@ -382,7 +382,7 @@ fn class7_memory_is_estimated_and_limited() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--max-memory"), "{}", stderr(&o));
-    only_changed(&before, &snapshot(d), &["case.toml"]);
+    only_changed(&before, &snapshot(d), &["case.toml", "big.wgsl"]);
 }
 
 #[test]

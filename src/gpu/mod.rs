@@ -23,9 +23,10 @@ mod timing;
 #[cfg(test)]
 mod tests;
 
-pub use compose::{compose, compose_with, entry_point, Composed, GLUE_PATH};
+pub use compose::{compose, compose_with, entry_point, Composed, GLUE_PATH, WORKGROUP_SIZE};
 pub use device::{kernel_capabilities, list_adapters, AdapterSummary, Gpu, GpuError};
 pub use diagnostic::{KernelError, ENTRY_PATH};
 pub use driver_env::quiet_driver_environment;
+pub use loops::PROBE_TRIPS;
 pub use runner::{MethodPipeline, RunOutput, DEFAULT_CHUNK};
 pub use timing::{Clock, DispatchTimer, DispatchTiming, TimedPipeline};

@@ -240,6 +240,20 @@ pub fn validate_kernel(path: &std::path::Path, others: &[KernelFile]) -> anyhow:
     if let Some(other) = others.iter().find(|o| o.id == k.id) {
         anyhow::bail!("{}: id `{}` is already defined by {}", k.path, k.id, other.path);
     }
-    crate::gpu::compose_with(&k, None, crate::gpu::kernel_capabilities())?;
+    let composed = crate::gpu::compose_with(&k, None, crate::gpu::kernel_capabilities())?;
+    // Private arrays are per invocation: a large one times the invocations in flight.
+    if let Some(bytes) = crate::limits::kernel_invocation_bytes(&composed.module) {
+        let in_flight = crate::limits::invocations_in_flight();
+        crate::limits::check(
+            &format!(
+                "{}: its private and local variables ({} per invocation, × {in_flight} invocations in flight)",
+                k.path,
+                crate::limits::Bytes(bytes)
+            ),
+            crate::limits::Bytes(bytes.saturating_mul(in_flight)),
+            crate::limits::max_memory(),
+        )
+        .map_err(anyhow::Error::msg)?;
+    }
     Ok(k)
 }
