@@ -147,12 +147,51 @@ fn check_creatable(flag: &str, target: &Path) -> Result<(), OutputError> {
     )))
 }
 
-/// Writes an output file through `write`: see the module doc for what happens to each kind
-/// of path. The closure writes into a buffered writer.
+/// An output written but not yet in place: [`Staged::commit`] renames it over its path,
+/// dropping it removes it. (A FIFO or device is written through at once: there is nothing
+/// to replace.)
+#[must_use = "a staged output is removed unless committed"]
+pub struct Staged {
+    tmp: Option<PathBuf>,
+    target: PathBuf,
+}
+
+impl Staged {
+    /// Puts the output in place (one rename).
+    pub fn commit(mut self) -> Result<(), OutputError> {
+        if let Some(tmp) = self.tmp.take() {
+            if let Err(e) = fs::rename(&tmp, &self.target) {
+                let _ = fs::remove_file(&tmp);
+                return Err(fail(format!("cannot write {}: {e}", self.target.display())));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if let Some(tmp) = self.tmp.take() {
+            let _ = fs::remove_file(tmp);
+        }
+    }
+}
+
+/// Writes an output file through `write` and puts it in place: see the module doc for
+/// what happens to each kind of path.
 pub fn write_output(
     path: &Path,
     write: &mut dyn FnMut(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), OutputError> {
+    stage_output(path, write)?.commit()
+}
+
+/// Writes an output next to its path without replacing it yet ([`Staged`]), so that
+/// several outputs can be put in place together once all are complete.
+pub fn stage_output(
+    path: &Path,
+    write: &mut dyn FnMut(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<Staged, OutputError> {
     let err = |e: std::io::Error| fail(format!("cannot write {}: {e}", path.display()));
     if let Ok(m) = fs::metadata(path) {
         if m.is_dir() {
@@ -163,7 +202,11 @@ pub fn write_output(
             let f = fs::OpenOptions::new().write(true).open(path).map_err(err)?;
             let mut w = std::io::BufWriter::new(f);
             write(&mut w).map_err(err)?;
-            return w.flush().map_err(err);
+            w.flush().map_err(err)?;
+            return Ok(Staged {
+                tmp: None,
+                target: path.to_path_buf(),
+            });
         }
     }
     // A symlink: the file it names is replaced; the link stays.
@@ -182,6 +225,10 @@ pub fn write_output(
         target.file_name().map_or("out".into(), |n| n.to_string_lossy()),
         std::process::id()
     ));
+    let staged = Staged {
+        tmp: Some(tmp.clone()),
+        target: target.clone(),
+    };
     let result = (|| -> std::io::Result<()> {
         let f = fs::File::create(&tmp)?;
         let mut w = std::io::BufWriter::new(f);
@@ -191,14 +238,11 @@ pub fn write_output(
         if let Ok(old) = fs::metadata(&target) {
             f.set_permissions(old.permissions())?;
         }
-        f.sync_all()?;
-        fs::rename(&tmp, &target)
+        f.sync_all()
     })();
-    if let Err(e) = result {
-        let _ = fs::remove_file(&tmp);
-        return Err(err(e));
-    }
-    Ok(())
+    // On an error `staged` drops and removes the temporary.
+    result.map_err(err)?;
+    Ok(staged)
 }
 
 /// Writes `bytes` to `path` (see [`write_output`]).
@@ -388,6 +432,26 @@ mod tests {
             .map(|e| e.file_name())
             .collect();
         assert_eq!(left, vec![std::ffi::OsString::from("case")], "temporaries left");
+    }
+
+    #[test]
+    fn an_error_partway_leaves_the_old_set_and_no_temporary() {
+        let t = tempfile::tempdir().unwrap();
+        let dir = t.path().join("case");
+        write_set(&dir, &[("summary.json".into(), b"old".to_vec())]).unwrap();
+        // `a` as a file, then `a/b` needs it as a folder: the second write fails.
+        let files = vec![
+            ("summary.json".to_string(), b"new".to_vec()),
+            ("a".to_string(), vec![]),
+            ("a/b".to_string(), vec![]),
+        ];
+        assert!(write_set(&dir, &files).is_err());
+        assert_eq!(fs::read(dir.join("summary.json")).unwrap(), b"old");
+        assert_eq!(fs::read_dir(t.path()).unwrap().count(), 1, "a temporary was left");
+        // A staged output that is never committed leaves nothing either.
+        let out = t.path().join("raw.jsonl");
+        drop(stage_output(&out, &mut |w| w.write_all(b"x")).unwrap());
+        assert_eq!(fs::read_dir(t.path()).unwrap().count(), 1);
     }
 
     #[test]

@@ -87,6 +87,12 @@ pub fn sweep_estimate(configurations: u64, methods: u64, targets: u64, raw: bool
     Bytes(configurations.saturating_mul(per))
 }
 
+/// Estimated peak bytes of one step of the worst-case search: each candidate's sample,
+/// GPU scene, value and reference.
+pub fn search_estimate(candidates: u64) -> Bytes {
+    Bytes(candidates.saturating_mul(2000))
+}
+
 /// Estimated peak bytes of an eval: the configurations kept, each method's GPU values, one
 /// block of output rows at a time.
 pub fn eval_estimate(configurations: u64, methods: u64) -> Bytes {

@@ -5,7 +5,7 @@ use linelight::analysis::{analyse, Verdict};
 use linelight::case::Case;
 use linelight::claims;
 use linelight::gpu::{self, Gpu};
-use linelight::io::{check_output, check_set, write_output};
+use linelight::io::{check_output, check_set, stage_output, write_output};
 use linelight::report::{self, ReportInput};
 use linelight::{eval, limits, methods, sweep};
 use rayon::prelude::*;
@@ -225,12 +225,12 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 claims: &claim_results,
                 stages,
             };
-            for path in report::write_reports(&dir, &input)? {
-                eprintln!("wrote {}", path.display());
-            }
-            if let Some(raw) = raw {
+            // --raw is staged first and put in place after the report set: on an error
+            // neither replaces anything.
+            let staged = match &raw {
+                None => None,
                 // Streamed a block at a time: the rows never all sit in memory.
-                write_output(&raw, &mut |w| {
+                Some(raw) => Some(stage_output(raw, &mut |w| {
                     for (block, samples) in setup.samples.chunks(eval::ROW_BLOCK).enumerate() {
                         let rows: Vec<_> = samples
                             .par_iter()
@@ -252,7 +252,13 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                         w.write_all(&eval::to_jsonl(&rows))?;
                     }
                     Ok(())
-                })?;
+                })?),
+            };
+            for path in report::write_reports(&dir, &input)? {
+                eprintln!("wrote {}", path.display());
+            }
+            if let (Some(staged), Some(raw)) = (staged, &raw) {
+                staged.commit()?;
                 eprintln!("wrote {}", raw.display());
             }
             let failed = analysis.checks.iter().filter(|c| !c.pass).count();

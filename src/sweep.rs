@@ -74,6 +74,19 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
         crate::limits::max_memory(),
     )
     .map_err(anyhow::Error::msg)?;
+    if let Some(search) = &case.search {
+        // One step's candidates (samples, scenes, references) at a time.
+        let batch = (search.restarts as u64).saturating_mul(search.population as u64);
+        crate::limits::check(
+            &format!(
+                "case `{}`: [search] with {} × {} candidates per step",
+                case.name, search.restarts, search.population
+            ),
+            crate::limits::search_estimate(batch),
+            crate::limits::max_memory(),
+        )
+        .map_err(anyhow::Error::msg)?;
+    }
     let (mut samples, draws) =
         sampler::sample_case_counted(&case).map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?;
     let (extra, topups) = sampler::top_up(&case, &samples);

@@ -273,7 +273,25 @@ fn class3_loops_past_the_driver_limit_are_refused() {
         &[],
     );
     refused(&o, &["cylinder.numeric@512x1024", "loop limit", "not reported"]);
-    only_changed(&before, &snapshot(d), &["case.toml"]);
+    let rect = write(
+        d,
+        "rect.jsonl",
+        &(CONFIG.replace(
+            "\"material\"",
+            "\"rect\":{\"normal\":[0.0,0.0,1.0],\"width\":0.05},\"material\"",
+        ) + "\n"),
+    );
+    let o = linelight(&[
+        "eval",
+        "--input",
+        s(&rect),
+        "--output",
+        s(&output),
+        "--methods",
+        "rectangle.numeric@256x4096",
+    ]);
+    refused(&o, &["rectangle.numeric@256x4096", "loop"]);
+    only_changed(&before, &snapshot(d), &["case.toml", "rect.jsonl"]);
     assert!(!d.join("reports").exists());
 }
 
@@ -345,6 +363,9 @@ fn class6_no_panic_is_reachable_from_input() {
     let big = format!("{CASE}[search]\nmethods = [\"line.ltc2023\"]\nrestarts = 100000\npopulation = 100000\n");
     let o = sweep(d, &big, &[]);
     refused(&o, &["`search.restarts` × `search.population`"]);
+    let wide = format!("{CASE}[search]\nmethods = [\"line.ltc2023\"]\nrestarts = 1000\npopulation = 1000\n");
+    let o = sweep(d, &wide, &["--max-memory", "100M"]);
+    refused(&o, &["[search] with 1000 × 1000 candidates", "needs an estimated"]);
     only_changed(&before, &snapshot(d), &["case.toml"]);
     assert!(!d.join("reports").exists());
 }
@@ -636,4 +657,23 @@ fn class13_messages_say_what_and_where_and_stay_short() {
     let o = linelight(&["eval", "--input", s(&huge), "--output", s(&output)]);
     refused(&o, &["huge.jsonl:1:", "p1 and p2 coincide"]);
     only_changed(&before, &snapshot(d), &[]);
+}
+
+#[test]
+fn committed_cases_pass_the_value_checks_and_sample_within_the_redraw_limit() {
+    for e in std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/cases"))
+        .unwrap()
+        .flatten()
+    {
+        let case = linelight::case::Case::load(&e.path()).unwrap_or_else(|e| panic!("{e}"));
+        let (samples, draws) =
+            linelight::sampler::sample_case_counted(&case).unwrap_or_else(|e| panic!("{}: {e}", case.name));
+        assert_eq!(samples.len(), case.materials.iter().map(|m| m.count).sum::<usize>());
+        for d in draws {
+            eprintln!(
+                "{}: {} rejected of {} drawn: {:?}",
+                d.family, d.rejected, d.drawn, d.reasons
+            );
+        }
+    }
 }
