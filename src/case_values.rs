@@ -166,12 +166,51 @@ pub fn check(case: &Case) -> Result<(), String> {
                 s.restarts, s.population
             ));
         }
-        if s.steps > 10_000 {
-            return Err(format!("`search.steps` = {}: at most 10000", s.steps));
+        if s.steps > MAX_STEPS {
+            return Err(format!("`search.steps` = {}: at most {MAX_STEPS}", s.steps));
         }
+    }
+    if let Some(s) = &case.disagreements {
+        if s.restarts == 0 || s.population == 0 {
+            return Err(format!(
+                "`disagreements.restarts` = {}, `disagreements.population` = {}: both must be at least 1",
+                s.restarts, s.population
+            ));
+        }
+        if s.restarts
+            .checked_mul(s.population)
+            .is_none_or(|b| b > MAX_SEARCH_BATCH)
+        {
+            return Err(format!(
+                "`disagreements.restarts` × `disagreements.population` = {} × {}: more than {MAX_SEARCH_BATCH} \
+                 candidates per step",
+                s.restarts, s.population
+            ));
+        }
+        if s.steps > MAX_STEPS {
+            return Err(format!("`disagreements.steps` = {}: at most {MAX_STEPS}", s.steps));
+        }
+        if !(s.epsilon > 0.0 && s.epsilon.is_finite()) {
+            return Err(format!(
+                "`disagreements.epsilon` = {}: the smallest error a ratio divides by must be a finite number > 0",
+                s.epsilon
+            ));
+        }
+    }
+    if case.topup_draws > MAX_TOPUP_DRAWS {
+        return Err(format!(
+            "`topup_draws` = {}: at most {MAX_TOPUP_DRAWS} (top-up draws per family, as a multiple of its count)",
+            case.topup_draws
+        ));
     }
     Ok(())
 }
+
+/// Refinement steps a search may take.
+pub const MAX_STEPS: usize = 10_000;
+
+/// The top-up budget's largest multiple of a family's count.
+pub const MAX_TOPUP_DRAWS: usize = 1000;
 
 /// A parameter that only makes sense when positive (a length, a roughness).
 fn positive(key: &str, d: &Dist) -> Result<(), String> {

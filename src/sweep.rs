@@ -62,10 +62,12 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
         }
     }
     // Memory before the sample is allocated: counts are the user's (`--count`).
-    let total = case
-        .materials
-        .iter()
-        .fold(0u64, |t, m| t.saturating_add(m.count as u64));
+    // Top-ups add at most `min_per_bin` per bin of each family.
+    let bins: u64 = case.bins.iter().map(|b| b.edges.len().saturating_sub(1) as u64).sum();
+    let total = case.materials.iter().fold(0u64, |t, m| {
+        t.saturating_add(m.count as u64)
+            .saturating_add(bins.saturating_mul(case.min_per_bin as u64))
+    });
     let estimate =
         crate::limits::sweep_estimate(total, methods.len() as u64, needed_targets(&methods).len() as u64, raw);
     crate::limits::check(

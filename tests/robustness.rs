@@ -363,6 +363,10 @@ fn class6_no_panic_is_reachable_from_input() {
     let big = format!("{CASE}[search]\nmethods = [\"line.ltc2023\"]\nrestarts = 100000\npopulation = 100000\n");
     let o = sweep(d, &big, &[]);
     refused(&o, &["`search.restarts` × `search.population`"]);
+    let disagree = format!("{CASE}[disagreements]\nrestarts = 0\n");
+    refused(&sweep(d, &disagree, &[]), &["`disagreements.restarts` = 0"]);
+    let topup = CASE.replace("seed = 7", "seed = 7\ntopup_draws = 1000000000000");
+    refused(&sweep(d, &topup, &[]), &["`topup_draws` = 1000000000000"]);
     let wide = format!("{CASE}[search]\nmethods = [\"line.ltc2023\"]\nrestarts = 1000\npopulation = 1000\n");
     let o = sweep(d, &wide, &["--max-memory", "100M"]);
     refused(&o, &["[search] with 1000 × 1000 candidates", "needs an estimated"]);
