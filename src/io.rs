@@ -9,8 +9,9 @@
 //! - an output that is one of the run's inputs, or lies inside a report folder, is refused
 //!   before any work ([`check_output`]), as is one the user cannot write;
 //! - a report set is written into a sibling temporary directory and swapped in whole
-//!   ([`write_set`]): a report folder only ever holds one run's files, and temporaries of
-//!   killed runs are removed by the next run.
+//!   ([`write_set`]): a report folder only ever holds one run's files;
+//! - temporaries of killed runs (sets and single files) are removed by the next run that
+//!   writes the same path.
 
 use std::collections::BTreeSet;
 use std::ffi::CString;
@@ -220,11 +221,11 @@ pub fn stage_output(
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     fs::create_dir_all(dir).map_err(|e| fail(format!("cannot create {}: {e}", dir.display())))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp-{}",
-        target.file_name().map_or("out".into(), |n| n.to_string_lossy()),
-        std::process::id()
-    ));
+    let name = target
+        .file_name()
+        .map_or("out".into(), |n| n.to_string_lossy().into_owned());
+    clean_stale(dir, &name);
+    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
     let staged = Staged {
         tmp: Some(tmp.clone()),
         target: target.clone(),
@@ -290,7 +291,8 @@ fn process_alive(pid: u32) -> bool {
     Path::new(&format!("/proc/{pid}")).exists()
 }
 
-/// Removes temporaries of report sets left by runs that are no longer running.
+/// Removes temporaries of report sets (folders) or outputs (files) named `.<name>.tmp-<pid>`
+/// (or `.old-<pid>`) that runs no longer running left in `parent`.
 fn clean_stale(parent: &Path, name: &str) {
     let Ok(entries) = fs::read_dir(parent) else {
         return;
@@ -306,7 +308,12 @@ fn clean_stale(parent: &Path, name: &str) {
             .or_else(|| rest.strip_prefix("old-"))
             .and_then(|p| p.parse::<u32>().ok());
         if pid.is_some_and(|p| !process_alive(p)) {
-            let _ = fs::remove_dir_all(e.path());
+            let path = e.path();
+            let _ = if path.is_dir() {
+                fs::remove_dir_all(path)
+            } else {
+                fs::remove_file(path)
+            };
         }
     }
 }

@@ -223,10 +223,26 @@ impl Config {
                 }
             }
         }
-        if let Some(e) = self.radius.and_then(|r| big("radius", r)) {
+        // A radius or width that f32 cannot tell from 0 beside the segment's size.
+        let small = |what: &str, v: f64| {
+            (v > 0.0 && v < scale / F32_SCALE).then(|| {
+                Degenerate::NotRepresentable(format!(
+                    "{what} = {v:e} is below the segment's size {scale:e} / {F32_SCALE:e}, which f32 cannot \
+                     resolve"
+                ))
+            })
+        };
+        if let Some(e) = self
+            .radius
+            .and_then(|r| big("radius", r).or_else(|| small("radius", r)))
+        {
             return Err(e);
         }
-        if let Some(e) = self.rect.as_ref().and_then(|r| big("rect.width", r.width)) {
+        if let Some(e) = self
+            .rect
+            .as_ref()
+            .and_then(|r| big("rect.width", r.width).or_else(|| small("rect.width", r.width)))
+        {
             return Err(e);
         }
         Ok(())
