@@ -232,6 +232,23 @@ pub fn parameters_behind(d: &crate::scene::Degenerate) -> &'static str {
     }
 }
 
+/// A rejection's reason without its numbers, so that equal reasons are counted together.
+pub fn reason_of(d: &crate::scene::Degenerate) -> &'static str {
+    use crate::scene::Degenerate as D;
+    match d {
+        D::NotFinite => "a coordinate not finite",
+        D::NotRepresentable(_) => "not representable in f32",
+        D::ZeroLength => "zero length",
+        D::PointOnLight(_) => "shading point on the light",
+        D::InsideTube { .. } => "shading point inside the tube",
+        D::BadRadius(_) => "radius not > 0",
+        D::BadWidth(_) => "width not > 0",
+        D::BadRectNormal { .. } => "rect normal not perpendicular",
+        D::PointOnRectangle => "shading point on the rectangle",
+        D::SingularMinv(_) => "M⁻¹ singular",
+    }
+}
+
 /// All configurations of a case, family after family, in a fixed order.
 pub fn sample_case(case: &Case) -> Vec<Sample> {
     sample_case_counted(case).unwrap_or_else(|e| panic!("{e}")).0
@@ -267,9 +284,7 @@ pub fn sample_case_counted(case: &Case) -> Result<(Vec<Sample>, Vec<Draws>), Str
                 }
                 Err(d) => {
                     draws.rejected += 1;
-                    let reason = d.to_string();
-                    let reason: String = reason.split(" (").next().unwrap_or(&reason).into();
-                    *draws.reasons.entry(reason).or_default() += 1;
+                    *draws.reasons.entry(reason_of(&d).to_string()).or_default() += 1;
                     if draws.rejected > redraw_limit(family.count) {
                         return Err(format!(
                             "materials `{}`: {} of {} draws were degenerate (more than the {} redraws \

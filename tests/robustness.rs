@@ -273,8 +273,9 @@ fn class2_some_degenerate_draws_are_redrawn_and_reported() {
     assert_eq!(summary["draws"][0]["drawn"].as_u64().unwrap(), 2000 + rejected);
     let report = std::fs::read_to_string(d.join("reports/tiny/report.md")).unwrap();
     let line = format!(
-        "Degenerate draws, redrawn: `diffuse` {rejected} of {} draws",
-        2000 + rejected
+        "Degenerate draws, redrawn: `diffuse` {rejected} of {} draws ({:.2} %: {rejected} not representable in f32).",
+        2000 + rejected,
+        100.0 * rejected as f64 / (2000 + rejected) as f64
     );
     assert!(report.contains(&line), "{line} not in the report");
 }
