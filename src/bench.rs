@@ -284,6 +284,7 @@ pub fn run(options: &BenchOptions) -> anyhow::Result<BenchRun> {
     }
     let mut case = Case::load(&options.case)?;
     if !options.methods.is_empty() {
+        crate::methods::check_unique(&options.methods, "--methods")?;
         case.methods = options.methods.clone();
     }
     let materials = case.materials.len();

@@ -305,6 +305,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             } else {
                 specs
             };
+            methods::check_unique(&specs, "--methods")?;
             let methods = specs
                 .iter()
                 .map(|s| methods::resolve(s, &kernels))

@@ -690,6 +690,11 @@ fn class13_messages_say_what_and_where_and_stay_short() {
         &["--count must be at least 1"],
     );
     refused(&sweep(d, CASE, &["--count", "0"]), &["--count must be at least 1"]);
+    let twice = ["--methods", "line.ltc2023,line.ltc2017,line.ltc2023"];
+    let o = linelight(&[&["eval", "--input", s(&four), "--output", s(&output)][..], &twice[..]].concat());
+    refused(&o, &["--methods: `line.ltc2023` is listed twice (entries 1 and 3)"]);
+    let o = linelight(&[&["bench", s(&case), "--count", "8"][..], &twice[..]].concat());
+    refused(&o, &["--methods: `line.ltc2023` is listed twice"]);
     let o = linelight(&["eval", "--input", s(&huge), "--output", s(&output)]);
     refused(&o, &["huge.jsonl:1:", "p1 and p2 coincide"]);
     only_changed(&before, &snapshot(d), &[]);

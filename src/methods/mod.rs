@@ -220,6 +220,22 @@ fn resolve_plain(spec: &str, head: &str, kernels: &[KernelFile]) -> anyhow::Resu
     })
 }
 
+/// Refuses a method listed twice (`--methods`, a bench's override): its results would be
+/// merged under one label.
+pub fn check_unique(specs: &[String], flag: &str) -> anyhow::Result<()> {
+    for (i, s) in specs.iter().enumerate() {
+        if let Some(j) = specs[..i].iter().position(|o| o == s) {
+            anyhow::bail!(
+                "{flag}: `{}` is listed twice (entries {} and {})",
+                crate::case_values::clip(s),
+                j + 1,
+                i + 1
+            );
+        }
+    }
+    Ok(())
+}
+
 /// All kernels a run can name: the built-ins and the user's `--kernel` files.
 /// A user kernel may not reuse a built-in id (results would be ambiguous). Every file is
 /// validated whole ([`validate_kernel`]), whether a method uses it or not.
