@@ -110,3 +110,56 @@ pub(crate) fn counting_source(source: &str) -> String {
         )
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counting_variant_counts_every_loop_body() {
+        let src = "fn f() { for (var i = 0u; i < 3u; i++) { x(); } while (a > b) { y(); } loop { if c { break; } continuing { z(); } } }\n\
+                   ll_results[ll_i] = method(ll_scene);";
+        let counted = counting_source(src);
+        assert_eq!(counted.matches("ll_trips += 1u;").count(), 3, "{counted}");
+        assert!(counted.contains("i++) { ll_trips += 1u;"), "{counted}");
+        assert!(counted.contains("ll_results[ll_i] = f32(ll_trips);"), "{counted}");
+        assert!(counted.contains("var<private> ll_trips: u32;"));
+    }
+
+    #[test]
+    fn gpu_lavapipe_loop_limit_is_probed_and_a_truncating_run_is_refused() {
+        crate::gpu::quiet_driver_environment();
+        let gpu = Gpu::new(None).expect("lavapipe");
+        let limit = gpu.loop_limit().unwrap().expect("lavapipe stops long loops");
+        assert!(limit > 1000 && limit < PROBE_TRIPS, "{limit}");
+        // A data-dependent loop: fine below half the limit, refused at it.
+        let kernel = KernelFile::parse(
+            "dyn.wgsl",
+            "//! id: line.dyn\n//! target: line\nfn method(scene: Scene) -> f32 {\n    var c = 0u;\n    \
+             for (var i = 0u; i < u32(scene.radius); i++) { c += 1u; }\n    return f32(c);\n}\n",
+        )
+        .unwrap();
+        let method = Method {
+            label: "line.dyn".into(),
+            kernel,
+            params: Vec::new(),
+            inner: None,
+        };
+        let pipeline = gpu.pipeline(&method).unwrap();
+        let config = Config {
+            id: "c".into(),
+            p1: [0.0, 0.0, 1.0],
+            p2: [1.0, 0.0, 1.0],
+            radius: None,
+            rect: None,
+            material: Material::Diffuse,
+        };
+        let mut scene = GpuScene::from(&config);
+        scene.radius = 100.0;
+        let out = gpu.run(&pipeline, &[scene], 0, &mut |_| {}).unwrap();
+        assert_eq!(out.values, vec![100.0]);
+        scene.radius = (limit + 10) as f32;
+        let e = gpu.run(&pipeline, &[scene], 0, &mut |_| {}).unwrap_err().to_string();
+        assert!(e.contains("not reported"), "{e}");
+    }
+}
