@@ -276,8 +276,15 @@ pub struct BenchRun {
 pub fn run(options: &BenchOptions) -> anyhow::Result<BenchRun> {
     anyhow::ensure!(options.count > 0, "--count must be at least 1");
     anyhow::ensure!(options.repeats > 0, "--repeats must be at least 1");
+    if let Some(json) = &options.json {
+        // Refused before any work: the case file or a kernel as the output.
+        let mut inputs = vec![("the case file", options.case.as_path())];
+        inputs.extend(options.kernels.iter().map(|k| ("--kernel", k.as_path())));
+        crate::io::check_output("--json", json, &inputs, &[])?;
+    }
     let mut case = Case::load(&options.case)?;
     if !options.methods.is_empty() {
+        crate::methods::check_unique(&options.methods, "--methods")?;
         case.methods = options.methods.clone();
     }
     let materials = case.materials.len();

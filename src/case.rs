@@ -263,13 +263,30 @@ pub struct Case {
     #[serde(default)]
     pub search: Option<SearchSpec>,
     /// Pairs of methods whose results are compared configuration by configuration.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "pairs")]
     pub compare: Vec<[String; 2]>,
     #[serde(default)]
     pub tolerances: BTreeMap<String, Tolerance>,
     /// Absolute floor of the relative error's denominator, per target, in units where d = 1.
     #[serde(default)]
     pub error_floor: BTreeMap<String, f64>,
+}
+
+/// `compare` entries are pairs: a third name is an error, not dropped.
+fn pairs<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<[String; 2]>, D::Error> {
+    let lists = Vec::<Vec<String>>::deserialize(d)?;
+    lists
+        .into_iter()
+        .enumerate()
+        .map(|(i, l)| {
+            <[String; 2]>::try_from(l.clone()).map_err(|_| {
+                serde::de::Error::custom(format!(
+                    "compare[{i}] = {l:?}: each entry names exactly two methods, got {}",
+                    l.len()
+                ))
+            })
+        })
+        .collect()
 }
 
 /// Derived parameters a bin axis can name (`src/sampler.rs`, `Axes`).
@@ -363,11 +380,14 @@ impl Case {
     }
 
     pub fn parse(path: &str, text: &str) -> anyhow::Result<Case> {
+        // A byte-order mark (some editors write one) is not part of the TOML.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let case: Case = toml::from_str(text).map_err(|e| {
             // toml's message carries the line, column and a caret under the offending key.
             anyhow::anyhow!("{path}: malformed case file:\n{e}")
         })?;
         case.check().map_err(|e| anyhow::anyhow!("{path}: {e}"))?;
+        crate::case_values::check(&case).map_err(|e| anyhow::anyhow!("{path}: {e}"))?;
         Ok(case)
     }
 
@@ -436,12 +456,7 @@ impl Case {
                 }
             }
         }
-        let mut names: Vec<_> = self.materials.iter().map(|m| &m.name).collect();
-        names.sort();
-        names.dedup();
-        if names.len() != self.materials.len() {
-            return Err("material names must be unique".into());
-        }
+        // Names, duplicates and the values' ranges: `crate::case_values`.
         if self.methods.is_empty() {
             return Err("no methods".into());
         }

@@ -69,6 +69,18 @@ const BUILTIN: &[(&str, &str)] = builtin![
     "rectangle_line_fixed.wgsl",
 ];
 
+/// The longest id a kernel may have.
+pub const MAX_ID: usize = 100;
+
+/// A kernel id: what a method spec can name without ambiguity.
+pub fn valid_id(id: &str) -> bool {
+    !id.is_empty()
+        && id.len() <= MAX_ID
+        && id
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-'))
+}
+
 pub fn builtin_kernels() -> Vec<KernelFile> {
     BUILTIN
         .iter()
@@ -91,11 +103,15 @@ impl KernelFile {
         };
         let (mut id, mut target, mut source, mut minv, mut params) = (None, None, None, None, Vec::new());
         let mut uses_line = false;
+        // Each key once: with two `id` lines the last would silently win.
+        let mut seen: Vec<(String, usize)> = Vec::new();
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         for (i, raw) in text.lines().enumerate() {
             let Some(rest) = raw.trim_start().strip_prefix("//!") else {
                 continue;
             };
             let lineno = i + 1;
+            let raw = &crate::case_values::clip(raw);
             let Some((key, value)) = rest.split_once(':') else {
                 return Err(err(
                     lineno,
@@ -103,13 +119,25 @@ impl KernelFile {
                 ));
             };
             let value = value.trim();
-            match key.trim() {
+            let key_name = key.trim();
+            if let Some((_, first)) = seen.iter().find(|(k, _)| k == key_name) {
+                return Err(err(
+                    lineno,
+                    format!("`//! {key_name}:` appears twice (first on line {first})"),
+                ));
+            }
+            seen.push((key_name.to_string(), lineno));
+            let value_shown = crate::case_values::clip(value);
+            let value_shown = value_shown.as_str();
+            match key_name {
                 "id" => id = Some(value.to_string()),
                 "target" => {
                     target = Some(Target::from_name(value).ok_or_else(|| {
                         err(
                             lineno,
-                            format!("unknown target `{value}` (line, line_upper, cylinder, caps, tube, rectangle)"),
+                            format!(
+                                "unknown target `{value_shown}` (line, line_upper, cylinder, caps, tube, rectangle)"
+                            ),
                         )
                     })?)
                 }
@@ -118,7 +146,12 @@ impl KernelFile {
                     minv = Some(match value {
                         "full" => MinvSupport::Full,
                         "sparse" => MinvSupport::Sparse,
-                        _ => return Err(err(lineno, format!("minv must be `full` or `sparse`, got `{value}`"))),
+                        _ => {
+                            return Err(err(
+                                lineno,
+                                format!("minv must be `full` or `sparse`, got `{value_shown}`"),
+                            ))
+                        }
                     })
                 }
                 "params" => {
@@ -126,33 +159,45 @@ impl KernelFile {
                         let parsed = item
                             .split_once('=')
                             .and_then(|(name, v)| Some((name.to_string(), v.parse::<u32>().ok()?)));
-                        params.push(
-                            parsed.ok_or_else(|| {
-                                err(lineno, format!("params must be `NAME=integer ...`, got `{item}`"))
-                            })?,
-                        );
+                        params.push(parsed.ok_or_else(|| {
+                            err(
+                                lineno,
+                                format!(
+                                    "params must be `NAME=integer ...` (an identifier, then 1 to 4294967295), got `{}`",
+                                    crate::case_values::clip(item)
+                                ),
+                            )
+                        })?);
                     }
                 }
                 "uses" => {
                     if value != "line" {
-                        return Err(err(lineno, format!("uses must be `line`, got `{value}`")));
+                        return Err(err(lineno, format!("uses must be `line`, got `{value_shown}`")));
                     }
                     uses_line = true;
                 }
                 other => {
                     return Err(err(
                         lineno,
-                        format!("unknown header key `{other}` (id, target, source, minv, params, uses)"),
+                        format!(
+                            "unknown header key `{}` (id, target, source, minv, params, uses)",
+                            crate::case_values::clip(other)
+                        ),
                     ))
                 }
             }
         }
         let missing = |what: &str| err(1, format!("missing `//! {what}: ...` header line"));
-        let id = id.ok_or_else(|| missing("id"))?;
-        if id.is_empty() || id.contains(['@', ',', ' ']) {
+        let id: String = id.ok_or_else(|| missing("id"))?;
+        let id_line = seen.iter().find(|(k, _)| k == "id").map_or(1, |(_, l)| *l);
+        if !valid_id(&id) {
             return Err(err(
-                1,
-                format!("id `{id}` must be non-empty without '@', ',' or spaces"),
+                id_line,
+                format!(
+                    "id `{}` must be 1–{MAX_ID} letters, digits, '.', '_' or '-' (no '@', ',', brackets or spaces: \
+                     they separate parameters and inner methods in a method spec)",
+                    crate::case_values::clip(&id)
+                ),
             ));
         }
         Ok(KernelFile {

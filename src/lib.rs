@@ -9,11 +9,14 @@
 pub mod analysis;
 pub mod bench;
 pub mod case;
+pub mod case_values;
 pub mod claims;
 pub mod cost;
 pub mod eval;
 pub mod gpu;
+pub mod io;
 pub mod kernel;
+pub mod limits;
 pub mod methods;
 pub mod reference;
 pub mod report;

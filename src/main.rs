@@ -5,8 +5,9 @@ use linelight::analysis::{analyse, Verdict};
 use linelight::case::Case;
 use linelight::claims;
 use linelight::gpu::{self, Gpu};
-use linelight::report::{self, write_atomic, ReportInput};
-use linelight::{eval, methods, sweep};
+use linelight::io::{check_output, check_set, stage_output, write_output};
+use linelight::report::{self, ReportInput};
+use linelight::{eval, limits, methods, sweep};
 use rayon::prelude::*;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -20,6 +21,10 @@ use std::process::ExitCode;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Refuse a run whose estimated memory exceeds this (bytes, or with K, M, G, T);
+    /// default: half of the machine's memory.
+    #[arg(long, global = true, value_name = "SIZE", value_parser = limits::parse_memory)]
+    max_memory: Option<limits::Bytes>,
 }
 
 #[derive(clap::Args)]
@@ -133,7 +138,7 @@ fn main() -> ExitCode {
         Ok(code) => code,
         Err(e) => {
             // Kernel diagnostics arrive formatted by naga, already starting with `error`.
-            let message = format!("{e:#}");
+            let message = bounded(&format!("{e:#}"));
             if message.starts_with("error") {
                 eprintln!("{message}");
             } else {
@@ -156,6 +161,35 @@ fn parse_count(text: &str) -> anyhow::Result<u64> {
     Ok(v as u64)
 }
 
+/// A message stays readable whatever the input: long lines (a 100 MB id, a minified JSON
+/// line) are cut, and past a screenful of lines the rest is counted.
+fn bounded(message: &str) -> String {
+    const LINE: usize = 400;
+    const LINES: usize = 40;
+    let lines: Vec<&str> = message.lines().collect();
+    let mut out: Vec<String> = lines
+        .iter()
+        .take(LINES)
+        .map(|l| {
+            if l.chars().count() > LINE {
+                let head: String = l.chars().take(LINE).collect();
+                format!("{head}… ({} more bytes)", l.len() - head.len())
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    if lines.len() > LINES {
+        out.push(format!("… and {} more lines", lines.len() - LINES));
+    }
+    out.join("\n")
+}
+
+/// `--kernel` files as inputs an output may not be.
+fn kernel_inputs(kernels: &[PathBuf]) -> Vec<(&'static str, &std::path::Path)> {
+    kernels.iter().map(|k| ("--kernel", k.as_path())).collect()
+}
+
 fn open_gpu(args: &GpuArgs) -> anyhow::Result<Gpu> {
     let gpu = Gpu::new(args.adapter.as_deref())?;
     eprintln!("adapter: {}", gpu.adapter);
@@ -163,6 +197,9 @@ fn open_gpu(args: &GpuArgs) -> anyhow::Result<Gpu> {
 }
 
 fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    if let Some(limit) = cli.max_memory {
+        limits::set_max_memory(limit);
+    }
     match cli.command {
         Command::Sweep {
             case,
@@ -173,8 +210,20 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         } => {
             let started = std::time::Instant::now();
             let case_path = case.display().to_string();
+            if count == Some(0) {
+                anyhow::bail!("--count must be at least 1");
+            }
+            let loaded = Case::load(&case)?;
+            // Every output is checked before any work: the report folder, then --raw.
+            let dir = out.join(&loaded.name);
+            check_set(&dir)?;
+            if let Some(raw) = &raw {
+                let mut inputs = vec![("the case file", case.as_path())];
+                inputs.extend(kernel_inputs(&gpu.kernels));
+                check_output("--raw", raw, &inputs, &[&dir])?;
+            }
             let command_line = shell_words::join(std::env::args());
-            let setup = sweep::prepare(Case::load(&case)?, &gpu.kernels, count)?;
+            let setup = sweep::prepare_with(loaded, &gpu.kernels, count, raw.is_some())?;
             // A claim that names what the case does not have is bad input, found before measuring.
             let labels = setup.methods.iter().map(|m| m.label.clone()).collect();
             claims::check(&setup.case.claims, claims::dry_facts(&setup.case, labels))
@@ -202,7 +251,6 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 analysis_seconds: t.elapsed().as_secs_f64(),
                 until_report_seconds: started.elapsed().as_secs_f64(),
             };
-            let dir = out.join(&setup.case.name);
             let input = ReportInput {
                 case_path: &case_path,
                 command_line: &command_line,
@@ -213,28 +261,40 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 claims: &claim_results,
                 stages,
             };
+            // --raw is staged first and put in place after the report set: on an error
+            // neither replaces anything.
+            let staged = match &raw {
+                None => None,
+                // Streamed a block at a time: the rows never all sit in memory.
+                Some(raw) => Some(stage_output(raw, &mut |w| {
+                    for (block, samples) in setup.samples.chunks(eval::ROW_BLOCK).enumerate() {
+                        let rows: Vec<_> = samples
+                            .par_iter()
+                            .enumerate()
+                            .map(|(j, s)| {
+                                let i = block * eval::ROW_BLOCK + j;
+                                let f32s: Vec<f32> = measured.runs.iter().map(|r| r.f32[i]).collect();
+                                let f64s: Vec<Option<f64>> = measured.runs.iter().map(|r| r.f64[i]).collect();
+                                let mut row =
+                                    eval::result_row(&s.config, &measured.references[i], &setup.methods, &f32s, &f64s);
+                                row["material"] = setup.case.materials[s.material].name.clone().into();
+                                row["axes"] = serde_json::to_value(&s.axes).expect("axes serialise");
+                                // Empty for the natural sample; a top-up lists the (axis, bin) it fills.
+                                row["strata"] = serde_json::to_value(&s.strata).expect("strata serialise");
+                                row["config"] = serde_json::to_value(&s.config).expect("config serialises");
+                                row
+                            })
+                            .collect();
+                        w.write_all(&eval::to_jsonl(&rows))?;
+                    }
+                    Ok(())
+                })?),
+            };
             for path in report::write_reports(&dir, &input)? {
                 eprintln!("wrote {}", path.display());
             }
-            if let Some(raw) = raw {
-                let rows: Vec<_> = setup
-                    .samples
-                    .par_iter()
-                    .enumerate()
-                    .map(|(i, s)| {
-                        let f32s: Vec<f32> = measured.runs.iter().map(|r| r.f32[i]).collect();
-                        let f64s: Vec<Option<f64>> = measured.runs.iter().map(|r| r.f64[i]).collect();
-                        let mut row =
-                            eval::result_row(&s.config, &measured.references[i], &setup.methods, &f32s, &f64s);
-                        row["material"] = setup.case.materials[s.material].name.clone().into();
-                        row["axes"] = serde_json::to_value(&s.axes).expect("axes serialise");
-                        // Empty for the natural sample; a top-up lists the (axis, bin) it fills.
-                        row["strata"] = serde_json::to_value(&s.strata).expect("strata serialise");
-                        row["config"] = serde_json::to_value(&s.config).expect("config serialises");
-                        row
-                    })
-                    .collect();
-                write_atomic(&raw, &eval::to_jsonl(&rows))?;
+            if let (Some(staged), Some(raw)) = (staged, &raw) {
+                staged.commit()?;
                 eprintln!("wrote {}", raw.display());
             }
             let failed = analysis.checks.iter().filter(|c| !c.pass).count();
@@ -272,17 +332,28 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             methods: specs,
             gpu,
         } => {
-            let configs = eval::read_configs(&input)?;
+            let mut inputs = vec![("--input", input.as_path())];
+            inputs.extend(kernel_inputs(&gpu.kernels));
+            check_output("--output", &output, &inputs, &[])?;
             let kernels = methods::kernel_set(&gpu.kernels)?;
             let specs = if specs.is_empty() {
                 kernels.iter().map(|k| k.id.clone()).collect()
             } else {
                 specs
             };
+            methods::check_unique(&specs, "--methods")?;
             let methods = specs
                 .iter()
                 .map(|s| methods::resolve(s, &kernels))
                 .collect::<anyhow::Result<Vec<_>>>()?;
+            let lines = eval::count_lines(&input)?;
+            limits::check(
+                &format!("eval of {} ({lines} lines)", input.display()),
+                limits::eval_estimate(lines, methods.len() as u64),
+                limits::max_memory(),
+            )
+            .map_err(anyhow::Error::msg)?;
+            let configs = eval::read_configs(&input)?;
             let device = open_gpu(&gpu)?;
             let pipelines = methods
                 .iter()
@@ -293,24 +364,39 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             for p in &pipelines {
                 f32s.push(device.run(p, &scenes, gpu.chunk, &mut |_| {})?.values);
             }
-            let rows: Vec<_> = configs
+            drop(scenes);
+            // References first, all of them: one that cannot be computed is an error, and
+            // nothing is written.
+            let references: Vec<_> = configs
                 .par_iter()
-                .enumerate()
-                .map(|(i, c)| {
-                    let refs = eval::targets_of(c)
+                .map(|c| {
+                    eval::targets_of(c)
                         .into_iter()
                         .filter_map(|t| linelight::reference::reference(c, t).map(|e| (t, e)))
-                        .collect();
-                    let v32: Vec<f32> = f32s.iter().map(|v| v[i]).collect();
-                    let v64: Vec<Option<f64>> = methods
-                        .iter()
-                        .map(|m| m.applies(c).then(|| m.eval_f64(c)).flatten())
-                        .collect();
-                    eval::result_row(c, &refs, &methods, &v32, &v64)
+                        .collect::<std::collections::BTreeMap<_, _>>()
                 })
                 .collect();
-            write_atomic(&output, &eval::to_jsonl(&rows))?;
-            eprintln!("wrote {} results to {}", rows.len(), output.display());
+            eval::check_references(&input, &configs, &references)?;
+            write_output(&output, &mut |w| {
+                for (block, part) in configs.chunks(eval::ROW_BLOCK).enumerate() {
+                    let rows: Vec<_> = part
+                        .par_iter()
+                        .enumerate()
+                        .map(|(j, c)| {
+                            let i = block * eval::ROW_BLOCK + j;
+                            let v32: Vec<f32> = f32s.iter().map(|v| v[i]).collect();
+                            let v64: Vec<Option<f64>> = methods
+                                .iter()
+                                .map(|m| m.applies(c).then(|| m.eval_f64(c)).flatten())
+                                .collect();
+                            eval::result_row(c, &references[i], &methods, &v32, &v64)
+                        })
+                        .collect();
+                    w.write_all(&eval::to_jsonl(&rows))?;
+                }
+                Ok(())
+            })?;
+            eprintln!("wrote {} results to {}", configs.len(), output.display());
             Ok(ExitCode::SUCCESS)
         }
         Command::Bench {
@@ -348,6 +434,8 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             let command_line = shell_words::join(std::env::args());
             let count = parse_count(&count)?;
             let case = Case::load(&case)?;
+            let dir = out.join(format!("{}-scan", case.name));
+            check_set(&dir)?;
             let kernels = methods::kernel_set(&gpu.kernels)?;
             let specs: Vec<String> = if specs.is_empty() { case.methods.clone() } else { specs };
             let mut chosen = Vec::new();
@@ -402,7 +490,6 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 }
             }
             pb.finish_and_clear();
-            let dir = out.join(format!("{}-scan", case.name));
             let text = linelight::scan::report::markdown(&case, &command_line, &device.adapter.to_string(), &results);
             print!("{}", linelight::scan::report::table(&results));
             let rows: Vec<_> = results
@@ -410,9 +497,12 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 .flat_map(|r| &r.captured)
                 .map(serde_json::to_value)
                 .collect::<Result<_, _>>()?;
-            write_atomic(&dir.join("scan.md"), text.as_bytes())?;
-            write_atomic(&dir.join("scan.json"), &serde_json::to_vec_pretty(&results)?)?;
-            write_atomic(&dir.join("offending.jsonl"), &eval::to_jsonl(&rows))?;
+            let files = vec![
+                ("scan.md".to_string(), text.into_bytes()),
+                ("summary.json".to_string(), serde_json::to_vec_pretty(&results)?),
+                ("offending.jsonl".to_string(), eval::to_jsonl(&rows)),
+            ];
+            linelight::io::write_set(&dir, &files)?;
             eprintln!("wrote {}", dir.display());
             Ok(ExitCode::SUCCESS)
         }
@@ -422,19 +512,29 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 println!("no Vulkan adapter found (on Debian/Ubuntu: apt-get install mesa-vulkan-drivers)");
             }
             for a in adapters {
-                println!("{a}");
+                // The loop limit is probed on the device (src/gpu/loops.rs).
+                let limit = match Gpu::new(Some(&a.name)).map(|g| g.loop_limit()) {
+                    Ok(Ok(Some(l))) => format!("loops stop after {l} iterations"),
+                    Ok(Ok(None)) => format!("no loop limit below {}", gpu::PROBE_TRIPS),
+                    Ok(Err(e)) => format!("loop limit not probed: {e}"),
+                    Err(e) => format!("loop limit not probed: {e}"),
+                };
+                println!("{a}; {limit}");
             }
             Ok(ExitCode::SUCCESS)
         }
         Command::Check { kernels } => {
             let mut bad = 0;
+            let mut known = linelight::kernel::builtin_kernels();
             for path in &kernels {
-                let result = linelight::kernel::KernelFile::read(path)
-                    .and_then(|k| gpu::compose(&k).map(|_| k).map_err(anyhow::Error::from));
-                match result {
-                    Ok(k) => println!("{}: ok ({} → {})", path.display(), k.id, k.target),
+                // The same validation eval, sweep and bench give a --kernel file.
+                match methods::validate_kernel(path, &known) {
+                    Ok(k) => {
+                        println!("{}: ok ({} → {})", path.display(), k.id, k.target);
+                        known.push(k);
+                    }
                     Err(e) => {
-                        eprintln!("{e}");
+                        eprintln!("{}", bounded(&format!("{e:#}")));
                         bad += 1;
                     }
                 }

@@ -189,13 +189,85 @@ fn draw_opt(source: &mut dyn Uniforms, d: &Option<Dist>, default: f64) -> f64 {
     d.as_ref().map_or(default, |d| draw(source, d))
 }
 
+/// How one family's draws went: every degenerate draw is redrawn, counted here, and shown
+/// in the report (`summary.json` `draws`, one line in the report header).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct Draws {
+    pub family: String,
+    /// Draws made, accepted and rejected.
+    pub drawn: usize,
+    pub rejected: usize,
+    /// Why draws were rejected: the reason and how often.
+    pub reasons: std::collections::BTreeMap<String, usize>,
+}
+
+impl Draws {
+    pub fn rate(&self) -> f64 {
+        if self.drawn == 0 {
+            0.0
+        } else {
+            self.rejected as f64 / self.drawn as f64
+        }
+    }
+}
+
+/// Redraws allowed per family: 1 % of its count (and a few for tiny counts). Beyond that the
+/// redraws would change the distribution the case asks for, so the case is refused.
+pub fn redraw_limit(count: usize) -> usize {
+    count / 100 + 10
+}
+
+/// The case parameters that make a configuration degenerate in a given way (for messages).
+pub fn parameters_behind(d: &crate::scene::Degenerate) -> &'static str {
+    use crate::scene::Degenerate as D;
+    match d {
+        D::NotFinite | D::NotRepresentable(_) | D::SingularMinv(_) => {
+            "distance, length, center or the lobe's alpha, aspect, peak, shear"
+        }
+        D::ZeroLength => "length (or endpoint_height)",
+        D::PointOnLight(_) => "distance, length, center or endpoint_height",
+        D::InsideTube { .. } | D::BadRadius(_) => "radius",
+        D::BadWidth(_) | D::PointOnRectangle => "rect_width or rect_angle",
+        D::BadRectNormal { .. } => "rect_angle",
+    }
+}
+
+/// A rejection's reason without its numbers, so that equal reasons are counted together.
+pub fn reason_of(d: &crate::scene::Degenerate) -> &'static str {
+    use crate::scene::Degenerate as D;
+    match d {
+        D::NotFinite => "a coordinate not finite",
+        D::NotRepresentable(_) => "not representable in f32",
+        D::ZeroLength => "zero length",
+        D::PointOnLight(_) => "shading point on the light",
+        D::InsideTube { .. } => "shading point inside the tube",
+        D::BadRadius(_) => "radius not > 0",
+        D::BadWidth(_) => "width not > 0",
+        D::BadRectNormal { .. } => "rect normal not perpendicular",
+        D::PointOnRectangle => "shading point on the rectangle",
+        D::SingularMinv(_) => "M⁻¹ singular",
+    }
+}
+
 /// All configurations of a case, family after family, in a fixed order.
 pub fn sample_case(case: &Case) -> Vec<Sample> {
-    let mut out = Vec::with_capacity(case.materials.iter().map(|m| m.count).sum());
+    sample_case_counted(case).unwrap_or_else(|e| panic!("{e}")).0
+}
+
+/// All configurations of a case with each family's draw counts. Degenerate draws are
+/// redrawn at most [`redraw_limit`] times per family; past that the case is refused with a
+/// message naming the family, the reason and the parameters behind it.
+pub fn sample_case_counted(case: &Case) -> Result<(Vec<Sample>, Vec<Draws>), String> {
+    let mut out = Vec::new();
+    let mut all_draws = Vec::new();
     for (index, family) in case.materials.iter().enumerate() {
         // One stream per family: the seed mixed with the family's index.
         let stream = case.seed ^ (index as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
         let mut source = Stream(ChaCha8Rng::seed_from_u64(stream));
+        let mut draws = Draws {
+            family: family.name.clone(),
+            ..Draws::default()
+        };
         let mut n = 0;
         while n < family.count {
             let mut recorder = Recorder {
@@ -204,14 +276,34 @@ pub fn sample_case(case: &Case) -> Vec<Sample> {
             };
             let s = sample_one(&mut recorder, case, index, format!("{}-{n}", family.name));
             let units = recorder.units;
-            // The distributions keep d = distance > radius, so this is a guard, not a filter.
-            if s.config.validate().is_ok() {
-                out.push(Sample { units, ..s });
-                n += 1;
+            draws.drawn += 1;
+            match s.config.validate() {
+                Ok(()) => {
+                    out.push(Sample { units, ..s });
+                    n += 1;
+                }
+                Err(d) => {
+                    draws.rejected += 1;
+                    *draws.reasons.entry(reason_of(&d).to_string()).or_default() += 1;
+                    if draws.rejected > redraw_limit(family.count) {
+                        return Err(format!(
+                            "materials `{}`: {} of {} draws were degenerate (more than the {} redraws \
+                             allowed for count {}, which would change the distribution), e.g. {d}; \
+                             check {}",
+                            family.name,
+                            draws.rejected,
+                            draws.drawn,
+                            redraw_limit(family.count),
+                            family.count,
+                            parameters_behind(&d)
+                        ));
+                    }
+                }
             }
         }
+        all_draws.push(draws);
     }
-    out
+    Ok((out, all_draws))
 }
 
 /// What topping up did for one family: how many draws it made, how many it kept, and the

@@ -23,8 +23,35 @@ pub enum Material {
 #[serde(deny_unknown_fields)]
 struct RawMaterial {
     kind: String,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "mat3_opt")]
     minv: Option<Mat3>,
+}
+
+/// Reads `[x, y, z]` with a message that says how many numbers came (serde's own says
+/// "trailing characters" for a fourth).
+fn vec3<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
+    let v = Vec::<f64>::deserialize(d)?;
+    <[f64; 3]>::try_from(v.as_slice())
+        .map_err(|_| serde::de::Error::custom(format!("expected 3 numbers [x, y, z], got {}", v.len())))
+}
+
+fn mat3_opt<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Mat3>, D::Error> {
+    let rows = Vec::<Vec<f64>>::deserialize(d)?;
+    let bad = || {
+        serde::de::Error::custom(format!(
+            "minv must be 3 rows of 3 numbers, got {} row(s) of {:?} numbers",
+            rows.len(),
+            rows.iter().map(Vec::len).collect::<Vec<_>>()
+        ))
+    };
+    if rows.len() != 3 {
+        return Err(bad());
+    }
+    let mut m = [[0.0; 3]; 3];
+    for (row, r) in m.iter_mut().zip(&rows) {
+        *row = <[f64; 3]>::try_from(r.as_slice()).map_err(|_| bad())?;
+    }
+    Ok(Some(m))
 }
 
 impl TryFrom<RawMaterial> for Material {
@@ -61,6 +88,7 @@ impl Material {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Rect {
+    #[serde(deserialize_with = "vec3")]
     pub normal: Vec3,
     pub width: f64,
 }
@@ -70,7 +98,9 @@ pub struct Rect {
 #[serde(deny_unknown_fields)]
 pub struct Config {
     pub id: String,
+    #[serde(deserialize_with = "vec3")]
     pub p1: Vec3,
+    #[serde(deserialize_with = "vec3")]
     pub p2: Vec3,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radius: Option<f64>,
@@ -84,6 +114,8 @@ pub struct Config {
 pub enum Degenerate {
     #[error("a coordinate is not finite")]
     NotFinite,
+    #[error("{0}")]
+    NotRepresentable(String),
     #[error("p1 and p2 coincide: the segment has no length")]
     ZeroLength,
     #[error(
@@ -103,6 +135,10 @@ pub enum Degenerate {
     #[error("minv is singular or not finite (det = {0:.3e})")]
     SingularMinv(f64),
 }
+
+/// 2^60: lengths up to this (and down to its inverse) square without overflow or
+/// underflow in f32 (f32 spans 2^±126 for normal numbers).
+pub const F32_SCALE: f64 = 1_152_921_504_606_846_976.0;
 
 pub fn sub(a: Vec3, b: Vec3) -> Vec3 {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
@@ -160,6 +196,58 @@ impl Config {
         Some(length(sub(rect.normal, n)))
     }
 
+    /// Checks that the kernels can evaluate the configuration in f32: they square lengths,
+    /// so the segment's scale max(|p1|, |p2|) must lie within [`F32_SCALE`]^±1, and M⁻¹'s
+    /// entries, the radius and the width below it. (Every target is scale-free, so a
+    /// configuration outside can be scaled by the user; it is refused, not silently NaN.)
+    fn representable(&self) -> Result<(), Degenerate> {
+        let scale = length(self.p1).max(length(self.p2));
+        if !(1.0 / F32_SCALE..=F32_SCALE).contains(&scale) {
+            return Err(Degenerate::NotRepresentable(format!(
+                "the segment's size max(|p1|, |p2|) = {scale:e} is outside [{:e}, {F32_SCALE:e}], \
+                 where its squares fit in f32: scale the configuration",
+                1.0 / F32_SCALE
+            )));
+        }
+        let big = |what: &str, v: f64| {
+            (v.abs() > F32_SCALE).then(|| {
+                Degenerate::NotRepresentable(format!(
+                    "{what} = {v:e} exceeds {F32_SCALE:e}, where its square fits in f32"
+                ))
+            })
+        };
+        for row in self.material.minv() {
+            for v in row {
+                if let Some(e) = big("an entry of minv", v) {
+                    return Err(e);
+                }
+            }
+        }
+        // A radius or width that f32 cannot tell from 0 beside the segment's size.
+        let small = |what: &str, v: f64| {
+            (v > 0.0 && v < scale / F32_SCALE).then(|| {
+                Degenerate::NotRepresentable(format!(
+                    "{what} = {v:e} is below the segment's size {scale:e} / {F32_SCALE:e}, which f32 cannot \
+                     resolve"
+                ))
+            })
+        };
+        if let Some(e) = self
+            .radius
+            .and_then(|r| big("radius", r).or_else(|| small("radius", r)))
+        {
+            return Err(e);
+        }
+        if let Some(e) = self
+            .rect
+            .as_ref()
+            .and_then(|r| big("rect.width", r.width).or_else(|| small("rect.width", r.width)))
+        {
+            return Err(e);
+        }
+        Ok(())
+    }
+
     /// Checks the configuration is one the targets are defined on (DESIGN §1):
     /// degenerate ones are reported, never silently evaluated.
     pub fn validate(&self) -> Result<(), Degenerate> {
@@ -175,6 +263,7 @@ impl Config {
         if all.iter().any(|v| !v.is_finite()) {
             return Err(Degenerate::NotFinite);
         }
+        self.representable()?;
         let e = sub(self.p2, self.p1);
         let len = length(e);
         if len == 0.0 {

@@ -25,11 +25,20 @@ pub struct Setup {
     pub topups: Vec<sampler::TopUp>,
     /// `--count`, when it overrode the case's counts (such a run is not the gate).
     pub count_override: Option<usize>,
+    /// Each family's draws, rejected ones included (shown in the report).
+    pub draws: Vec<sampler::Draws>,
 }
 
 /// Loads and checks everything a sweep needs, without touching the GPU.
 pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> anyhow::Result<Setup> {
+    prepare_with(case, user_kernels, count, false)
+}
+
+/// [`prepare`], with `raw` telling whether every configuration's values are also kept for
+/// `--raw` (counted in the memory estimate).
+pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, raw: bool) -> anyhow::Result<Setup> {
     let mut case = case;
+    anyhow::ensure!(count != Some(0), "--count must be at least 1");
     if let Some(n) = count {
         // The bins' minimum shrinks with the counts, so a quick run stays quick.
         let largest = case.materials.iter().map(|m| m.count).max().unwrap_or(1).max(1);
@@ -52,7 +61,36 @@ pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> an
             );
         }
     }
-    let mut samples = sampler::sample_case(&case);
+    // Memory before the sample is allocated: counts are the user's (`--count`).
+    // Top-ups add at most `min_per_bin` per bin of each family.
+    let bins: u64 = case.bins.iter().map(|b| b.edges.len().saturating_sub(1) as u64).sum();
+    let total = case.materials.iter().fold(0u64, |t, m| {
+        t.saturating_add(m.count as u64)
+            .saturating_add(bins.saturating_mul(case.min_per_bin as u64))
+    });
+    let estimate =
+        crate::limits::sweep_estimate(total, methods.len() as u64, needed_targets(&methods).len() as u64, raw);
+    crate::limits::check(
+        &format!("case `{}` with {total} configurations", case.name),
+        estimate,
+        crate::limits::max_memory(),
+    )
+    .map_err(anyhow::Error::msg)?;
+    if let Some(search) = &case.search {
+        // One step's candidates (samples, scenes, references) at a time.
+        let batch = (search.restarts as u64).saturating_mul(search.population as u64);
+        crate::limits::check(
+            &format!(
+                "case `{}`: [search] with {} × {} candidates per step",
+                case.name, search.restarts, search.population
+            ),
+            crate::limits::search_estimate(batch),
+            crate::limits::max_memory(),
+        )
+        .map_err(anyhow::Error::msg)?;
+    }
+    let (mut samples, draws) =
+        sampler::sample_case_counted(&case).map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?;
     let (extra, topups) = sampler::top_up(&case, &samples);
     samples.extend(extra);
     Ok(Setup {
@@ -61,6 +99,7 @@ pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> an
         samples,
         topups,
         count_override: count,
+        draws,
     })
 }
 
@@ -206,6 +245,12 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
     pb.finish_and_clear();
     timing.references_seconds = t.elapsed().as_secs_f64();
     timing.references_evaluated = references.iter().map(BTreeMap::len).sum();
+    // A reference that cannot be computed is an error, never a NaN row in the report.
+    crate::eval::check_references(
+        std::path::Path::new(&format!("case `{}`", setup.case.name)),
+        &configs,
+        &references,
+    )?;
 
     let mut found = Vec::new();
     if let Some(spec) = &setup.case.search {

@@ -22,7 +22,7 @@ fn scan_counts_and_captures_offenders_that_replay() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let out = dir.path().join("line_fwt-scan");
     let results: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("scan.json")).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     let results = results.as_array().unwrap();
     assert_eq!(results.len(), 6, "two methods × three families");
     for r in results {

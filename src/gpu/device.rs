@@ -110,6 +110,8 @@ pub struct Gpu {
     pub(crate) pipeline_layout: wgpu::PipelineLayout,
     pub(crate) bind_group_layout: wgpu::BindGroupLayout,
     pub(crate) capabilities: Capabilities,
+    /// The loop limit, once probed (loops.rs).
+    pub(crate) loop_limit: std::sync::OnceLock<Option<u64>>,
 }
 
 impl Gpu {
@@ -152,6 +154,7 @@ impl Gpu {
         Ok(Gpu {
             adapter: summary,
             capabilities: naga_capabilities(device.features()),
+            loop_limit: std::sync::OnceLock::new(),
             device,
             queue,
             pipeline_layout,
@@ -229,6 +232,13 @@ pub(crate) fn scoped<T>(device: &wgpu::Device, f: impl FnOnce() -> T) -> Result<
         Some(e) => Err(e),
         None => Ok(value),
     }
+}
+
+/// The shader capabilities kernels are checked with before any device is open: those of
+/// every feature linelight requests when the adapter has it. A device without one of them
+/// then refuses the kernel when its pipeline is made, naming the device.
+pub fn kernel_capabilities() -> Capabilities {
+    naga_capabilities(OPTIONAL_FEATURES)
 }
 
 /// The shader capabilities the requested features grant (as wgpu maps them), so naga

@@ -8,12 +8,14 @@
 //! - `rename`: the token pass that renames the inner line method's identifiers.
 //! - `diagnostic`: kernel errors mapped back to the file and line that caused them.
 //! - `runner`: pipelines with their override params, chunked runs.
+//! - `loops`: the driver's loop limit, probed once, checked for every method.
 //! - `timing`: one method's dispatch timed by GPU timestamps (or the wall clock).
 
 mod compose;
 mod device;
 mod diagnostic;
 mod driver_env;
+mod loops;
 mod rename;
 mod runner;
 mod timing;
@@ -21,11 +23,12 @@ mod timing;
 #[cfg(test)]
 mod tests;
 
-pub use compose::{compose, compose_with, entry_point, Composed, GLUE_PATH};
+pub use compose::{compose, compose_with, entry_point, Composed, GLUE_PATH, WORKGROUP_SIZE};
 pub(crate) use device::scoped;
-pub use device::{list_adapters, AdapterSummary, Gpu, GpuError};
+pub use device::{kernel_capabilities, list_adapters, AdapterSummary, Gpu, GpuError};
 pub use diagnostic::{KernelError, ENTRY_PATH};
 pub use driver_env::quiet_driver_environment;
+pub use loops::PROBE_TRIPS;
 pub(crate) use runner::override_constants;
 pub use runner::{MethodPipeline, RunOutput, DEFAULT_CHUNK};
 pub use timing::{Clock, DispatchTimer, DispatchTiming, TimedPipeline};

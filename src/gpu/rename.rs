@@ -75,6 +75,37 @@ pub(crate) fn rename_identifiers(text: &str, renames: &[(&str, String)]) -> (Str
     (out, edits)
 }
 
+/// Inserts `statement` at the start of every loop body (`for (…) {`, `while … {`,
+/// `loop {`): the counting variant of a kernel (loops.rs).
+pub(crate) fn instrument_loops(text: &str, statement: &str) -> String {
+    let mut out = String::with_capacity(text.len() + 64);
+    let mut copied = 0;
+    let (mut pending, mut parens) = (false, 0i32);
+    let mut prev: Option<Token> = None;
+    for token in tokens(text) {
+        let member = prev.is_some_and(|p| p.kind == Kind::Punct && (p.text == "." || p.text == "@"));
+        match (token.kind, token.text) {
+            (Kind::Ident, "for" | "while" | "loop") if !member => {
+                pending = true;
+                parens = 0;
+            }
+            (Kind::Punct, "(") if pending => parens += 1,
+            (Kind::Punct, ")") if pending => parens -= 1,
+            (Kind::Punct, "{") if pending && parens == 0 => {
+                let end = token.start + 1;
+                out.push_str(&text[copied..end]);
+                out.push_str(statement);
+                copied = end;
+                pending = false;
+            }
+            _ => {}
+        }
+        prev = Some(token);
+    }
+    out.push_str(&text[copied..]);
+    out
+}
+
 /// Where `text` declares a function `name` (`fn name`), as the range of the name.
 pub(crate) fn find_fn(text: &str, name: &str) -> Option<Range<usize>> {
     let tokens = tokens(text);

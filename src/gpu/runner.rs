@@ -24,6 +24,9 @@ pub struct MethodPipeline {
     /// A composite's inner line method's params, in its header order.
     pub inner_params: Vec<(String, u32)>,
     pub(crate) pipeline: wgpu::ComputePipeline,
+    /// For a method with loops of no static trip count on a device with a loop limit: the
+    /// variant that counts loop trips, and the limit (loops.rs).
+    pub(crate) counter: Option<(Box<MethodPipeline>, u64)>,
 }
 
 /// A run's raw results, one `f32` per configuration (NaN and infinities kept), and the
@@ -38,9 +41,29 @@ impl Gpu {
     /// Compiles `method`: its kernel with its params (those not given keep the header's
     /// defaults), and for a composite its inner line method with the inner's params.
     pub fn pipeline(&self, method: &Method) -> Result<MethodPipeline, KernelError> {
+        // The kernel's own errors first, then its loops against the driver's limit.
+        let mut pipeline = self.build(method, false)?;
+        if let Some(limit) = self.check_loops(method)? {
+            // Loops without a static trip count: every run also counts their trips.
+            pipeline.counter = Some((Box::new(self.build(method, true)?), limit));
+        }
+        Ok(pipeline)
+    }
+
+    /// [`Gpu::pipeline`] without the loop-limit check (the probe's own pipeline).
+    pub(crate) fn pipeline_unchecked(&self, method: &Method) -> Result<MethodPipeline, KernelError> {
+        self.build(method, false)
+    }
+
+    /// The method's pipeline, or with `counting` its variant that returns, per
+    /// configuration, the loop-body executions of one invocation (loops.rs).
+    fn build(&self, method: &Method, counting: bool) -> Result<MethodPipeline, KernelError> {
         let kernel = &method.kernel;
         let inner = method.inner.as_deref();
-        let composed = compose_with(kernel, inner.map(|m| &m.kernel), self.capabilities)?;
+        let mut composed = compose_with(kernel, inner.map(|m| &m.kernel), self.capabilities)?;
+        if counting {
+            composed.source = super::loops::counting_source(&composed.source);
+        }
         let (params, inner_params, constants) = override_constants(method, &composed)?;
         let constants: Vec<(&str, f64)> = constants.iter().map(|(n, v)| (n.as_str(), *v)).collect();
 
@@ -75,6 +98,7 @@ impl Gpu {
             params,
             inner_params,
             pipeline,
+            counter: None,
         })
     }
 
@@ -108,10 +132,24 @@ impl Gpu {
             self.run_chunk(pipeline, &buffers, part, &mut values).map_err(fail)?;
             progress(values.len());
         }
-        Ok(RunOutput {
-            values,
-            wall: start.elapsed(),
-        })
+        // The method's own time: the trip count below is a check, not part of its cost.
+        let wall = start.elapsed();
+        if let Some((counter, limit)) = &pipeline.counter {
+            // A value whose loops reached the driver's limit was cut short: never a result.
+            let trips = self.run(counter, scenes, chunk, &mut |_| {})?.values;
+            let cut: Vec<usize> = (0..trips.len()).filter(|&i| trips[i] >= *limit as f32).collect();
+            if let Some(&first) = cut.first() {
+                return Err(fail(format!(
+                    "on {} of {} configurations (the first is number {}) its loops ran {limit} or more iterations, \
+                     half this device's loop limit, near which the driver silently stops loops: those results \
+                     may be truncated and are not reported; lower the method's parameters",
+                    cut.len(),
+                    trips.len(),
+                    first + 1
+                )));
+            }
+        }
+        Ok(RunOutput { values, wall })
     }
 
     fn run_chunk(

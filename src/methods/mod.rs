@@ -169,7 +169,11 @@ fn resolve_plain(spec: &str, head: &str, kernels: &[KernelFile]) -> anyhow::Resu
     };
     let kernel = kernels.iter().find(|k| k.id == id).ok_or_else(|| {
         let known: Vec<_> = kernels.iter().map(|k| k.id.as_str()).collect();
-        anyhow::anyhow!("unknown method `{id}` (known: {})", known.join(", "))
+        anyhow::anyhow!(
+            "unknown method `{}` (known: {})",
+            crate::case_values::clip(id),
+            known.join(", ")
+        )
     })?;
     let mut params: Vec<u32> = kernel.params.iter().map(|(_, v)| *v).collect();
     if let Some(args) = args {
@@ -188,11 +192,24 @@ fn resolve_plain(spec: &str, head: &str, kernels: &[KernelFile]) -> anyhow::Resu
             );
         }
         for (slot, v) in params.iter_mut().zip(values) {
-            *slot = v
-                .parse::<u32>()
-                .ok()
-                .filter(|&n| n > 0)
-                .ok_or_else(|| anyhow::anyhow!("`{spec}`: parameter `{v}` is not a positive integer"))?;
+            let spec = crate::case_values::clip(spec);
+            let v_shown = crate::case_values::clip(v);
+            *slot = match v.parse::<u64>() {
+                Ok(0) => anyhow::bail!("`{spec}`: parameter `{v_shown}` is not a positive integer (at least 1)"),
+                Ok(n) => u32::try_from(n).map_err(|_| {
+                    anyhow::anyhow!(
+                        "`{spec}`: parameter `{v_shown}` is larger than {} (the largest a kernel takes)",
+                        u32::MAX
+                    )
+                })?,
+                Err(_) if !v.is_empty() && v.bytes().all(|b| b.is_ascii_digit()) => {
+                    anyhow::bail!(
+                        "`{spec}`: parameter `{v_shown}` is larger than {} (the largest a kernel takes)",
+                        u32::MAX
+                    )
+                }
+                Err(_) => anyhow::bail!("`{spec}`: parameter `{v_shown}` is not a positive integer"),
+            };
         }
     }
     Ok(Method {
@@ -203,16 +220,56 @@ fn resolve_plain(spec: &str, head: &str, kernels: &[KernelFile]) -> anyhow::Resu
     })
 }
 
+/// Refuses a method listed twice (`--methods`, a bench's override): its results would be
+/// merged under one label.
+pub fn check_unique(specs: &[String], flag: &str) -> anyhow::Result<()> {
+    for (i, s) in specs.iter().enumerate() {
+        if let Some(j) = specs[..i].iter().position(|o| o == s) {
+            anyhow::bail!(
+                "{flag}: `{}` is listed twice (entries {} and {})",
+                crate::case_values::clip(s),
+                j + 1,
+                i + 1
+            );
+        }
+    }
+    Ok(())
+}
+
 /// All kernels a run can name: the built-ins and the user's `--kernel` files.
-/// A user kernel may not reuse a built-in id (results would be ambiguous).
+/// A user kernel may not reuse a built-in id (results would be ambiguous). Every file is
+/// validated whole ([`validate_kernel`]), whether a method uses it or not.
 pub fn kernel_set(user: &[std::path::PathBuf]) -> anyhow::Result<Vec<KernelFile>> {
     let mut kernels = crate::kernel::builtin_kernels();
     for path in user {
-        let k = KernelFile::read(path)?;
-        if let Some(other) = kernels.iter().find(|o| o.id == k.id) {
-            anyhow::bail!("{}: id `{}` is already defined by {}", k.path, k.id, other.path);
-        }
+        let k = validate_kernel(path, &kernels)?;
         kernels.push(k);
     }
     Ok(kernels)
+}
+
+/// Reads a kernel file and validates it the one way every command does (`check`, `eval`,
+/// `sweep`, `bench`): its header, an id no other kernel has, and the composed module
+/// through naga with every shader capability linelight asks a device for.
+pub fn validate_kernel(path: &std::path::Path, others: &[KernelFile]) -> anyhow::Result<KernelFile> {
+    let k = KernelFile::read(path)?;
+    if let Some(other) = others.iter().find(|o| o.id == k.id) {
+        anyhow::bail!("{}: id `{}` is already defined by {}", k.path, k.id, other.path);
+    }
+    let composed = crate::gpu::compose_with(&k, None, crate::gpu::kernel_capabilities())?;
+    // Private arrays are per invocation: a large one times the invocations in flight.
+    if let Some(bytes) = crate::limits::kernel_invocation_bytes(&composed.module) {
+        let in_flight = crate::limits::invocations_in_flight();
+        crate::limits::check(
+            &format!(
+                "{}: its private and local variables ({} per invocation, × {in_flight} invocations in flight)",
+                k.path,
+                crate::limits::Bytes(bytes)
+            ),
+            crate::limits::Bytes(bytes.saturating_mul(in_flight)),
+            crate::limits::max_memory(),
+        )
+        .map_err(anyhow::Error::msg)?;
+    }
+    Ok(k)
 }

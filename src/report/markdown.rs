@@ -59,6 +59,7 @@ fn head(w: &mut String, input: &ReportInput) {
         m.timing.adapter,
         input.command_line,
     );
+    let _ = writeln!(w, "{}\n", super::draws_line(&input.setup.draws));
     if let Some(n) = input.setup.count_override {
         let _ = writeln!(
             w,

@@ -1,6 +1,6 @@
-//! Reports: Markdown for people, CSV and JSON for tools. Every file is written to a
-//! temporary name and renamed into place, so a failed run never leaves half a report
-//! and never destroys the previous one.
+//! Reports: Markdown for people, CSV and JSON for tools. The set is written as one
+//! (`crate::io::write_set`): a failed run never leaves half a report and never destroys
+//! the previous one, and a report folder only ever holds one run's files.
 
 pub mod chart;
 mod csv;
@@ -11,32 +11,11 @@ mod svg;
 use crate::analysis::Analysis;
 use crate::case::Case;
 use crate::sweep::{Measured, Setup};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Writes `contents` to `path` atomically (temporary file in the same directory, then rename).
+/// Writes `contents` to `path` without destroying anything (see `crate::io`).
 pub fn write_atomic(path: &Path, contents: &[u8]) -> anyhow::Result<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp-{}",
-        path.file_name().and_then(|n| n.to_str()).unwrap_or("out"),
-        std::process::id()
-    ));
-    let result = (|| -> std::io::Result<()> {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(contents)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        anyhow::bail!("cannot write {}: {e}", path.display());
-    }
-    Ok(())
+    Ok(crate::io::write_bytes(path, contents)?)
 }
 
 /// Formats a non-negative statistic compactly: `3.1e-07`, `0`, or `—` when absent.
@@ -57,6 +36,30 @@ pub struct Stages {
     /// From the start of the command to the report being written: set-up, sampling, measuring,
     /// searches, analysis (report writing itself excluded).
     pub until_report_seconds: f64,
+}
+
+/// The report header's line on degenerate draws: how many were redrawn, per family.
+pub fn draws_line(draws: &[crate::sampler::Draws]) -> String {
+    let rejected: usize = draws.iter().map(|d| d.rejected).sum();
+    if rejected == 0 {
+        return "Degenerate draws: none (no configuration was redrawn).".into();
+    }
+    let parts: Vec<String> = draws
+        .iter()
+        .filter(|d| d.rejected > 0)
+        .map(|d| {
+            let reasons: Vec<String> = d.reasons.iter().map(|(r, n)| format!("{n} {r}")).collect();
+            format!(
+                "`{}` {} of {} draws ({:.2} %: {})",
+                d.family,
+                d.rejected,
+                d.drawn,
+                100.0 * d.rate(),
+                reasons.join("; ")
+            )
+        })
+        .collect();
+    format!("Degenerate draws, redrawn: {}.", parts.join(", "))
 }
 
 /// Everything a report is made from.
@@ -82,6 +85,8 @@ pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<Path
         "command_line": input.command_line,
         "count_override": input.setup.count_override,
         "statistic": "relative error |value − reference| / |reference|, no floor, over configurations whose reference is not 0; reference-0 configurations in `false_light`; `rel_floored` uses `error_floor`",
+        // Degenerate draws redrawn, per family (bounded: src/sampler.rs).
+        "draws": input.setup.draws,
         "error_floor": input.case.error_floor,
         "topups": input.setup.topups,
         "timing": input.measured.timing,
@@ -126,19 +131,14 @@ pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<Path
         ("stats.csv", csv::stats(input.analysis).into_bytes()),
         ("comparisons.csv", csv::comparisons(input.analysis).into_bytes()),
     ];
-    let mut written = Vec::new();
-    for (name, bytes) in files
+    let files: Vec<(String, Vec<u8>)> = files
         .into_iter()
         .map(|(n, b)| (n.to_string(), b))
         .chain(heat_maps(input))
         .chain(speed_charts(input))
         .chain(extra)
-    {
-        let path = dir.join(&name);
-        write_atomic(&path, &bytes)?;
-        written.push(path);
-    }
-    Ok(written)
+        .collect();
+    Ok(crate::io::write_set(dir, &files)?)
 }
 
 /// Where a map's SVG goes, relative to the report.
