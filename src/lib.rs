@@ -13,6 +13,7 @@ pub mod claims;
 pub mod cost;
 pub mod eval;
 pub mod gpu;
+pub mod interp;
 pub mod kernel;
 pub mod methods;
 pub mod reference;

@@ -21,6 +21,7 @@ mod timing;
 #[cfg(test)]
 mod tests;
 
+pub(crate) use compose::inner_name;
 pub use compose::{compose, compose_with, entry_point, Composed, GLUE_PATH};
 pub use device::{list_adapters, AdapterSummary, Gpu, GpuError};
 pub use diagnostic::{KernelError, ENTRY_PATH};
