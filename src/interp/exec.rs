@@ -16,7 +16,16 @@ use naga::{
     UnaryOperator as U,
 };
 
-pub(super) type Lanes = Vec<f64>;
+/// One scalar component over the lanes, shared until written (copy on write).
+pub(super) type Lanes = std::rc::Rc<Vec<f64>>;
+
+/// Collects lanes into a shared component.
+trait CollectLanes: Iterator<Item = f64> + Sized {
+    fn lanes(self) -> Lanes {
+        std::rc::Rc::new(self.collect())
+    }
+}
+impl<I: Iterator<Item = f64>> CollectLanes for I {}
 
 /// A value: its scalar components in declaration order (matrices column by column).
 #[derive(Clone, Debug)]
@@ -55,6 +64,9 @@ pub(super) struct Exec<'p> {
     pub(super) errors: LineErrors,
     line: u32,
     mask: Vec<bool>,
+    /// Per function, its constant expressions' values (filled on its first call).
+    consts: Vec<Option<Vec<Option<Slot>>>>,
+    zero_lanes: Lanes,
 }
 
 struct Frame {
@@ -115,14 +127,15 @@ impl<'p> Exec<'p> {
             errors: vec![None; p.lines.len()],
             line: NO_LINE,
             mask: vec![true; n],
+            consts: vec![None; p.module.functions.len()],
+            zero_lanes: std::rc::Rc::new(vec![0.0; n]),
         }
     }
 
     /// A constant: `v32` on the f32 lanes, `v64` on the f64 lanes.
     fn fill(&self, v32: f64, v64: f64) -> Lanes {
-        let mut l = vec![v64; self.n];
-        l[..self.split].fill(v32);
-        l
+        let s = self.split;
+        (0..self.n).map(|i| if i < s { v32 } else { v64 }).lanes()
     }
 
     /// A module constant; its written digits are needed only when there are f64 lanes.
@@ -138,7 +151,7 @@ impl<'p> Exec<'p> {
     /// branch, select and index as the f32 lanes do.
     fn follow(&self, l: &mut Lanes) {
         if self.shadow {
-            let (a, b) = l.split_at_mut(self.split);
+            let (a, b) = std::rc::Rc::make_mut(l).split_at_mut(self.split);
             b.copy_from_slice(a);
         }
     }
@@ -159,9 +172,14 @@ impl<'p> Exec<'p> {
     /// A float operation of one argument, component by component.
     fn f1(&mut self, a: &[f64], f64f: impl Fn(f64) -> f64, f32f: impl Fn(f32) -> f32, rounding: bool) -> Lanes {
         let s = self.split;
-        let mut out: Lanes = Vec::with_capacity(self.n);
-        out.extend(a[..s].iter().map(|&x| f32f(x as f32) as f64));
-        out.extend(a[s..].iter().map(|&x| f64f(x)));
+        let mut v = vec![0.0; self.n];
+        for (o, &x) in v[..s].iter_mut().zip(&a[..s]) {
+            *o = f32f(x as f32) as f64;
+        }
+        for (o, &x) in v[s..].iter_mut().zip(&a[s..]) {
+            *o = f64f(x);
+        }
+        let out: Lanes = std::rc::Rc::new(v);
         if self.shadow && rounding {
             for i in s..self.n {
                 self.record(i, f32f(a[i] as f32), out[i]);
@@ -179,14 +197,14 @@ impl<'p> Exec<'p> {
         rounding: bool,
     ) -> Lanes {
         let s = self.split;
-        let mut out: Lanes = Vec::with_capacity(self.n);
-        out.extend(
-            a[..s]
-                .iter()
-                .zip(&b[..s])
-                .map(|(&x, &y)| f32f(x as f32, y as f32) as f64),
-        );
-        out.extend(a[s..].iter().zip(&b[s..]).map(|(&x, &y)| f64f(x, y)));
+        let mut v = vec![0.0; self.n];
+        for ((o, &x), &y) in v[..s].iter_mut().zip(&a[..s]).zip(&b[..s]) {
+            *o = f32f(x as f32, y as f32) as f64;
+        }
+        for ((o, &x), &y) in v[s..].iter_mut().zip(&a[s..]).zip(&b[s..]) {
+            *o = f64f(x, y);
+        }
+        let out: Lanes = std::rc::Rc::new(v);
         if self.shadow && rounding {
             for i in s..self.n {
                 self.record(i, f32f(a[i] as f32, b[i] as f32), out[i]);
@@ -206,13 +224,15 @@ impl<'p> Exec<'p> {
         rounding: bool,
     ) -> Lanes {
         let s = self.split;
-        let mut out: Lanes = Vec::with_capacity(self.n);
-        for i in 0..s {
-            out.push(f32f(a[i] as f32, b[i] as f32, c[i] as f32) as f64);
-        }
-        for i in s..self.n {
-            out.push(f64f(a[i], b[i], c[i]));
-        }
+        let out: Lanes = (0..self.n)
+            .map(|i| {
+                if i < s {
+                    f32f(a[i] as f32, b[i] as f32, c[i] as f32) as f64
+                } else {
+                    f64f(a[i], b[i], c[i])
+                }
+            })
+            .lanes();
         if self.shadow && rounding {
             for i in s..self.n {
                 self.record(i, f32f(a[i] as f32, b[i] as f32, c[i] as f32), out[i]);
@@ -247,7 +267,7 @@ impl<'p> Exec<'p> {
     }
 
     /// Runs `method` on `scene` (one value per lane) and returns its result.
-    pub(super) fn run(&mut self, scene: Val) -> Result<Lanes> {
+    pub(super) fn run(&mut self, scene: Val) -> Result<Vec<f64>> {
         let p = self.p;
         for (h, g) in p.module.global_variables.iter() {
             if g.space != naga::AddressSpace::Private {
@@ -272,12 +292,12 @@ impl<'p> Exec<'p> {
         }
         let mask = vec![true; self.n];
         let v = self.call(p.method, vec![Slot::Val(scene)], &mask)?;
-        let mut v = v.ok_or_else(|| anyhow!("`method` returned nothing"))?;
-        Ok(std::mem::take(&mut v.0[0]))
+        let v = v.ok_or_else(|| anyhow!("`method` returned nothing"))?;
+        Ok(v.0[0].to_vec())
     }
 
     fn zero(&self, ty: Handle<naga::Type>) -> Val {
-        Val(vec![vec![0.0; self.n]; self.p.flat[ty.index()]])
+        Val(vec![self.zero_lanes.clone(); self.p.flat[ty.index()]])
     }
 
     fn inner(&self, fun: Handle<naga::Function>, h: Handle<naga::Expression>) -> &'p TypeInner {
@@ -299,9 +319,15 @@ impl<'p> Exec<'p> {
             self.heap.push(self.zero(lv.ty));
         }
         let fp = &p.funs[fun.index()];
-        // Expressions no `Emit` covers (literals, constants, arguments, variables) first.
+        // Expressions no `Emit` covers (literals, constants, arguments, variables) first;
+        // the constant ones once per chunk.
+        let cached = self.consts[fun.index()].take();
         for (h, e) in f.expressions.iter() {
             if fp.emitted[h.index()] || matches!(e, E::CallResult(_)) {
+                continue;
+            }
+            if let (Some(c), true) = (&cached, fp.constant[h.index()]) {
+                fr.vals[h.index()] = c[h.index()].clone();
                 continue;
             }
             let v = match e {
@@ -319,6 +345,11 @@ impl<'p> Exec<'p> {
             };
             fr.vals[h.index()] = Some(v);
         }
+        self.consts[fun.index()] = Some(cached.unwrap_or_else(|| {
+            (0..fr.vals.len())
+                .map(|i| if fp.constant[i] { fr.vals[i].clone() } else { None })
+                .collect()
+        }));
         for (lv, v) in f.local_variables.iter() {
             if let Some(init) = v.init {
                 let val = self.val(&fr, init)?.clone();
@@ -377,8 +408,8 @@ impl<'p> Exec<'p> {
                     reject,
                 } => {
                     let c = &self.val(fr, *condition)?.0[0];
-                    let mut yes: Vec<bool> = mask.iter().zip(c).map(|(&m, &c)| m && c != 0.0).collect();
-                    let mut no: Vec<bool> = mask.iter().zip(c).map(|(&m, &c)| m && c == 0.0).collect();
+                    let mut yes: Vec<bool> = mask.iter().zip(c.iter()).map(|(&m, &c)| m && c != 0.0).collect();
+                    let mut no: Vec<bool> = mask.iter().zip(c.iter()).map(|(&m, &c)| m && c == 0.0).collect();
                     if any(&yes) {
                         self.block(fr, accept, &mut yes, ctl)?;
                     }
@@ -488,11 +519,7 @@ impl<'p> Exec<'p> {
                             .as_mut()
                             .ok_or_else(|| anyhow!("return value in a void function"))?;
                         for (r, x) in ret.0.iter_mut().zip(&v.0) {
-                            for i in 0..self.n {
-                                if mask[i] {
-                                    r[i] = x[i];
-                                }
-                            }
+                            assign(r, x, mask);
                         }
                     }
                     mask.fill(false);
@@ -501,14 +528,19 @@ impl<'p> Exec<'p> {
                     let ptr = self.ptr(fr, *pointer)?.clone();
                     let v = self.val(fr, *value)?;
                     let slot = &mut self.heap[ptr.slot];
-                    for c in 0..ptr.len {
-                        for i in 0..self.n {
-                            if mask[i] {
-                                let off = match &ptr.off {
-                                    Off::Uniform(o) => *o,
-                                    Off::PerLane(o) => o[i],
-                                };
-                                slot.0[off + c][i] = v.0[c][i];
+                    match &ptr.off {
+                        Off::Uniform(o) => {
+                            for c in 0..ptr.len {
+                                assign(&mut slot.0[o + c], &v.0[c], mask);
+                            }
+                        }
+                        Off::PerLane(o) => {
+                            for c in 0..ptr.len {
+                                for i in 0..self.n {
+                                    if mask[i] {
+                                        std::rc::Rc::make_mut(&mut slot.0[o[i] + c])[i] = v.0[c][i];
+                                    }
+                                }
                             }
                         }
                     }
@@ -644,7 +676,7 @@ impl<'p> Exec<'p> {
                             .map(|c| {
                                 (0..self.n)
                                     .map(|i| v.0[(idx[i].max(0.0) as usize).min(count - 1) * stride + c][i])
-                                    .collect()
+                                    .lanes()
                             })
                             .collect();
                         Slot::Val(Val(out))
@@ -667,7 +699,7 @@ impl<'p> Exec<'p> {
                 let out = match &ptr.off {
                     Off::Uniform(o) => src.0[*o..*o + ptr.len].to_vec(),
                     Off::PerLane(o) => (0..ptr.len)
-                        .map(|c| (0..self.n).map(|i| src.0[o[i] + c][i]).collect())
+                        .map(|c| (0..self.n).map(|i| src.0[o[i] + c][i]).lanes())
                         .collect(),
                 };
                 Slot::Val(Val(out))
@@ -677,12 +709,12 @@ impl<'p> Exec<'p> {
                 let out =
                     a.0.iter()
                         .map(|l| match (op, float) {
-                            (U::Negate, true) => l.iter().map(|x| -x).collect(),
-                            (U::Negate, false) => l.iter().map(|x| -(*x as i64 as i32 as f64)).collect(),
-                            (U::LogicalNot, _) => l.iter().map(|&x| (x == 0.0) as u8 as f64).collect(),
+                            (U::Negate, true) => l.iter().map(|x| -x).lanes(),
+                            (U::Negate, false) => l.iter().map(|x| -(*x as i64 as i32 as f64)).lanes(),
+                            (U::LogicalNot, _) => l.iter().map(|&x| (x == 0.0) as u8 as f64).lanes(),
                             (U::BitwiseNot, _) => match kind(ty) {
-                                Some(ScalarKind::Sint) => l.iter().map(|&x| !(x as i32) as f64).collect(),
-                                _ => l.iter().map(|&x| !(x as u32) as f64).collect(),
+                                Some(ScalarKind::Sint) => l.iter().map(|&x| !(x as i32) as f64).lanes(),
+                                _ => l.iter().map(|&x| !(x as u32) as f64).lanes(),
                             },
                         })
                         .collect();
@@ -691,9 +723,8 @@ impl<'p> Exec<'p> {
             E::Binary { op, left, right } => {
                 let lt = self.inner(fun, *left);
                 let rt = self.inner(fun, *right);
-                let a = self.val(fr, *left)?.clone();
-                let b = self.val(fr, *right)?.clone();
-                Slot::Val(self.binary(*op, lt, rt, &a, &b).map_err(|m| self.at(fun, h, &m))?)
+                let (a, b) = (self.val(fr, *left)?, self.val(fr, *right)?);
+                Slot::Val(self.binary(*op, lt, rt, a, b).map_err(|m| self.at(fun, h, &m))?)
             }
             E::Select {
                 condition,
@@ -708,7 +739,7 @@ impl<'p> Exec<'p> {
                         let ck = &c.0[k.min(c.0.len() - 1)];
                         (0..self.n)
                             .map(|i| if ck[i] != 0.0 { a.0[k][i] } else { r.0[k][i] })
-                            .collect()
+                            .lanes()
                     })
                     .collect();
                 Slot::Val(Val(out))
@@ -719,21 +750,21 @@ impl<'p> Exec<'p> {
                     naga::RelationalFunction::All => {
                         vec![(0..self.n)
                             .map(|i| a.0.iter().all(|l| l[i] != 0.0) as u8 as f64)
-                            .collect()]
+                            .lanes()]
                     }
                     naga::RelationalFunction::Any => {
                         vec![(0..self.n)
                             .map(|i| a.0.iter().any(|l| l[i] != 0.0) as u8 as f64)
-                            .collect()]
+                            .lanes()]
                     }
                     naga::RelationalFunction::IsNan => {
                         a.0.iter()
-                            .map(|l| l.iter().map(|x| x.is_nan() as u8 as f64).collect())
+                            .map(|l| l.iter().map(|x| x.is_nan() as u8 as f64).lanes())
                             .collect()
                     }
                     naga::RelationalFunction::IsInf => {
                         a.0.iter()
-                            .map(|l| l.iter().map(|x| x.is_infinite() as u8 as f64).collect())
+                            .map(|l| l.iter().map(|x| x.is_infinite() as u8 as f64).lanes())
                             .collect()
                     }
                 };
@@ -746,14 +777,11 @@ impl<'p> Exec<'p> {
                 arg2,
                 ..
             } => {
-                let a = self.val(fr, *arg)?.clone();
-                let b = arg1.map(|x| self.val(fr, x).cloned()).transpose()?;
-                let c = arg2.map(|x| self.val(fr, x).cloned()).transpose()?;
+                let a = self.val(fr, *arg)?;
+                let b = arg1.map(|x| self.val(fr, x)).transpose()?;
+                let c = arg2.map(|x| self.val(fr, x)).transpose()?;
                 let at = self.inner(fun, *arg);
-                Slot::Val(
-                    self.math(*mf, at, &a, b.as_ref(), c.as_ref())
-                        .map_err(|m| self.at(fun, h, &m))?,
-                )
+                Slot::Val(self.math(*mf, at, a, b, c).map_err(|m| self.at(fun, h, &m))?)
             }
             E::As {
                 expr,
@@ -764,7 +792,7 @@ impl<'p> Exec<'p> {
                     return Err(self.at(fun, h, "bitcast is not supported"));
                 }
                 let from = kind(self.inner(fun, *expr));
-                let a = self.val(fr, *expr)?.clone();
+                let a = self.val(fr, *expr)?;
                 let mut out = Vec::new();
                 for l in &a.0 {
                     out.push(match (to, from) {
@@ -774,19 +802,15 @@ impl<'p> Exec<'p> {
                             .iter()
                             .map(|&x| x.trunc().clamp(0.0, u32::MAX as f64))
                             .map(nan0)
-                            .collect(),
+                            .lanes(),
                         (ScalarKind::Sint, Some(ScalarKind::Float)) => l
                             .iter()
                             .map(|&x| x.trunc().clamp(i32::MIN as f64, i32::MAX as f64))
                             .map(nan0)
-                            .collect(),
-                        (ScalarKind::Uint, Some(ScalarKind::Sint)) => {
-                            l.iter().map(|&x| x as i32 as u32 as f64).collect()
-                        }
-                        (ScalarKind::Sint, Some(ScalarKind::Uint)) => {
-                            l.iter().map(|&x| x as u32 as i32 as f64).collect()
-                        }
-                        (ScalarKind::Bool, _) => l.iter().map(|&x| (x != 0.0) as u8 as f64).collect(),
+                            .lanes(),
+                        (ScalarKind::Uint, Some(ScalarKind::Sint)) => l.iter().map(|&x| x as i32 as u32 as f64).lanes(),
+                        (ScalarKind::Sint, Some(ScalarKind::Uint)) => l.iter().map(|&x| x as u32 as i32 as f64).lanes(),
+                        (ScalarKind::Bool, _) => l.iter().map(|&x| (x != 0.0) as u8 as f64).lanes(),
                         _ => l.clone(),
                     });
                 }
@@ -861,8 +885,9 @@ impl<'p> Exec<'p> {
         let mut out = Vec::with_capacity(len);
         for i in 0..len {
             let (x, y) = (&a.0[pick(a, i)], &b.0[pick(b, i)]);
-            let cmp =
-                |f: fn(f64, f64) -> bool| -> Lanes { x.iter().zip(y).map(|(&p, &q)| f(p, q) as u8 as f64).collect() };
+            let cmp = |f: fn(f64, f64) -> bool| -> Lanes {
+                x.iter().zip(y.iter()).map(|(&p, &q)| f(p, q) as u8 as f64).lanes()
+            };
             let l = match op {
                 B::Add if float => self.add(x, y),
                 B::Subtract if float => self.sub(x, y),
@@ -880,7 +905,7 @@ impl<'p> Exec<'p> {
                 | B::ShiftLeft
                 | B::ShiftRight => {
                     let signed = k == Some(ScalarKind::Sint);
-                    x.iter().zip(y).map(|(&p, &q)| int_op(op, p, q, signed)).collect()
+                    x.iter().zip(y.iter()).map(|(&p, &q)| int_op(op, p, q, signed)).lanes()
                 }
                 B::Equal => cmp(|p, q| p == q),
                 B::NotEqual => cmp(|p, q| p != q),
@@ -1079,6 +1104,20 @@ impl<'p> Exec<'p> {
             }
             other => return Err(format!("math function {other:?} is not supported")),
         })
+    }
+}
+
+/// `dst = src` on the lanes in `mask`; shares `src` when every lane is.
+fn assign(dst: &mut Lanes, src: &Lanes, mask: &[bool]) {
+    if mask.iter().all(|&m| m) {
+        *dst = src.clone();
+        return;
+    }
+    let d = std::rc::Rc::make_mut(dst);
+    for (i, &m) in mask.iter().enumerate() {
+        if m {
+            d[i] = src[i];
+        }
     }
 }
 

@@ -32,7 +32,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 pub use exec::ulp_bits;
 
 /// Configurations per chunk: enough lanes to amortise the per-operation dispatch.
-const CHUNK: usize = 256;
+const CHUNK: usize = 1024;
 const NO_LINE: u32 = u32::MAX;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -55,6 +55,8 @@ pub struct Line {
 struct FunMeta {
     /// Expressions some `Emit` evaluates (the others are evaluated on entry).
     emitted: Vec<bool>,
+    /// Expressions whose value is the same on every call (literals, constants, globals).
+    constant: Vec<bool>,
     /// An f32 literal's written digits (or why they cannot be read).
     lit64: Vec<Result<f64, String>>,
     /// Index into [`Program::lines`] of each expression, or `NO_LINE`.
@@ -241,7 +243,17 @@ impl Program {
             mark_emitted(&f.body, &mut emitted);
             let mut lit = Vec::new();
             let mut line = Vec::new();
+            let mut constant = vec![false; f.expressions.len()];
             for (h, e) in f.expressions.iter() {
+                constant[h.index()] = !emitted[h.index()]
+                    && match e {
+                        E::Literal(_) | E::Constant(_) | E::Override(_) | E::ZeroValue(_) | E::GlobalVariable(_) => {
+                            true
+                        }
+                        E::Compose { components, .. } => components.iter().all(|c| constant[c.index()]),
+                        E::Splat { value, .. } => constant[value.index()],
+                        _ => false,
+                    };
                 let span = f.expressions.get_span(h);
                 lit.push(match e {
                     E::Literal(naga::Literal::F32(x)) => lit64(&c, m, &global_consts, text(span), *x),
@@ -264,6 +276,7 @@ impl Program {
             }
             funs.push(FunMeta {
                 emitted,
+                constant,
                 lit64: lit,
                 line,
             });
@@ -384,7 +397,7 @@ impl Program {
                 }
             }
         }
-        exec::Val(comps)
+        exec::Val(comps.into_iter().map(Into::into).collect())
     }
 
     fn chunk(&self, configs: &[&Config], mode: Mode) -> Result<Vec<f64>> {
@@ -519,7 +532,19 @@ fn scene_member(c: &Config, name: &str) -> Option<Vec<f64>> {
         "radius" => vec![c.radius.unwrap_or(0.0)],
         "rect_width" => vec![rect.map_or(0.0, |r| r.width)],
         "rect_normal" => rect.map_or(vec![0.0; 3], |r| r.normal.to_vec()),
-        "flags" => vec![f64::from(crate::scene::GpuScene::from(c).flags)],
+        "flags" => {
+            use crate::scene::{FLAG_LTC, FLAG_RADIUS, FLAG_RECT};
+            let ltc = matches!(c.material, crate::scene::Material::Ltc { .. });
+            let flags = [
+                (ltc, FLAG_LTC),
+                (c.radius.is_some(), FLAG_RADIUS),
+                (rect.is_some(), FLAG_RECT),
+            ]
+            .iter()
+            .filter(|(on, _)| *on)
+            .fold(0, |f, (_, bit)| f | bit);
+            vec![f64::from(flags)]
+        }
         "minv" => {
             let m = c.material.minv();
             (0..3).flat_map(|j| (0..3).map(move |i| m[i][j])).collect()

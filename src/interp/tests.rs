@@ -221,3 +221,36 @@ fn libm_f32_accuracy() {
     eprintln!("libm atan2f: max error {worst:.3} ulp");
     assert!(worst < 2.5, "atan2f: {worst} ulp");
 }
+
+/// `cargo test --release interp::tests::speed -- --ignored --nocapture`: evaluator time
+/// per configuration against the port, one thread.
+#[test]
+#[ignore]
+fn speed() {
+    let kernels = kernel_set(&[]).unwrap();
+    let count: usize = std::env::var("SPEEDN").map_or(4096, |v| v.parse().unwrap());
+    let cs = configs(count);
+    let refs: Vec<&Config> = cs.iter().collect();
+    for spec in std::env::var("SPEEDSPECS")
+        .unwrap_or("line.ltc2017,line.numeric@64".into())
+        .split(",")
+    {
+        let m = resolve(spec, &kernels).unwrap();
+        let p = program(&m).unwrap();
+        let t = std::time::Instant::now();
+        for c in refs.chunks(CHUNK) {
+            std::hint::black_box(p.chunk(c, Mode::F32).unwrap());
+        }
+        let e = t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
+        for c in &cs {
+            std::hint::black_box(m.eval_f32_cpu(c));
+        }
+        let q = t.elapsed().as_secs_f64();
+        eprintln!(
+            "{spec}: evaluator {:.0} ns/config, port {:.0} ns/config",
+            e * 1e9 / count as f64,
+            q * 1e9 / count as f64
+        );
+    }
+}

@@ -60,6 +60,18 @@ impl Method {
         }
     }
 
+    /// The kernel's `f64` (or `cpu_f32`) column on `configs` from the CPU evaluator
+    /// (src/interp): None where the method does not apply to a configuration.
+    pub fn cpu_column(&self, configs: &[Config], mode: crate::interp::Mode) -> anyhow::Result<Vec<Option<f64>>> {
+        let program = crate::interp::program(self)?;
+        let applies: Vec<&Config> = configs.iter().filter(|c| self.applies(c)).collect();
+        let mut values = program.eval(&applies, mode)?.into_iter();
+        Ok(configs
+            .iter()
+            .map(|c| if self.applies(c) { values.next() } else { None })
+            .collect())
+    }
+
     /// The same formula in double precision, when a CPU port exists (for a composite:
     /// for it and its inner method).
     pub fn eval_f64(&self, config: &Config) -> Option<f64> {
