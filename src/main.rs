@@ -62,6 +62,10 @@ enum Command {
         /// Comma-separated method ids (`id` or `id@N`); default: every built-in and --kernel method.
         #[arg(long, value_delimiter = ',')]
         methods: Vec<String>,
+        /// Also give each line the kernel source lines where f32 rounding loses bits
+        /// (local error per operation, DESIGN §3 `attribution`).
+        #[arg(long)]
+        attribution: bool,
         #[command(flatten)]
         gpu: GpuArgs,
     },
@@ -188,8 +192,16 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                     .map(|(i, s)| {
                         let f32s: Vec<f32> = measured.runs.iter().map(|r| r.f32[i]).collect();
                         let f64s: Vec<Option<f64>> = measured.runs.iter().map(|r| r.f64[i]).collect();
-                        let mut row =
-                            eval::result_row(&s.config, &measured.references[i], &setup.methods, &f32s, &f64s);
+                        let c32s: Vec<Option<f64>> =
+                            measured.runs.iter().map(|r| r.f32_cpu[i].map(f64::from)).collect();
+                        let mut row = eval::result_row(
+                            &s.config,
+                            &measured.references[i],
+                            &setup.methods,
+                            &f32s,
+                            &f64s,
+                            &c32s,
+                        );
                         row["material"] = setup.case.materials[s.material].name.clone().into();
                         row["axes"] = serde_json::to_value(&s.axes).expect("axes serialise");
                         // Empty for the natural sample; a top-up lists the (axis, bin) it fills.
@@ -234,6 +246,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             input,
             output,
             methods: specs,
+            attribution,
             gpu,
         } => {
             let configs = eval::read_configs(&input)?;
@@ -257,22 +270,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             for p in &pipelines {
                 f32s.push(device.run(p, &scenes, gpu.chunk, &mut |_| {})?.values);
             }
-            let rows: Vec<_> = configs
-                .par_iter()
-                .enumerate()
-                .map(|(i, c)| {
-                    let refs = eval::targets_of(c)
-                        .into_iter()
-                        .filter_map(|t| linelight::reference::reference(c, t).map(|e| (t, e)))
-                        .collect();
-                    let v32: Vec<f32> = f32s.iter().map(|v| v[i]).collect();
-                    let v64: Vec<Option<f64>> = methods
-                        .iter()
-                        .map(|m| m.applies(c).then(|| m.eval_f64(c)).flatten())
-                        .collect();
-                    eval::result_row(c, &refs, &methods, &v32, &v64)
-                })
-                .collect();
+            let rows = eval::rows(&configs, &methods, &f32s, attribution)?;
             write_atomic(&output, &eval::to_jsonl(&rows))?;
             eprintln!("wrote {} results to {}", rows.len(), output.display());
             Ok(ExitCode::SUCCESS)

@@ -1,4 +1,5 @@
-//! A sweep, measured: case → configurations → GPU results, f64 ports, references.
+//! A sweep, measured: case → configurations → GPU results, CPU evaluator columns (f64,
+//! cpu_f32), references.
 //! Everything that can fail on bad input (case file, kernels, adapter) fails before any
 //! measuring starts and before any report is written.
 
@@ -71,13 +72,11 @@ pub struct Timing {
     pub adapter: String,
     /// (method label, GPU seconds incl. upload and readback, configurations per second).
     pub gpu: Vec<(String, f64, f64)>,
-    /// (method label, CPU f64 port seconds on all cores).
+    /// (method label, seconds of the CPU evaluator's f64 column on all cores).
     pub f64_ports: Vec<(String, f64)>,
-    /// (method label, CPU f32 port seconds on all cores): beside the GPU seconds, the ratio of
-    /// a plain-Rust evaluation to the dispatch, measured in the same run.
+    /// (method label, seconds of the CPU evaluator's f32 column on all cores): beside the
+    /// GPU seconds, the same kernel on the CPU, measured in the same run.
     pub f32_ports: Vec<(String, f64)>,
-    /// (method label, CPU port seconds f64 + f32, CPU evaluator seconds f64 + f32).
-    pub ports_vs_evaluator: Vec<(String, f64, f64)>,
     pub references_seconds: f64,
     pub references_evaluated: usize,
     pub search_seconds: f64,
@@ -166,45 +165,18 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
         let gpu_seconds = out.wall.as_secs_f64();
         timing.gpu.push((m.label.clone(), gpu_seconds, n as f64 / gpu_seconds));
 
+        // The kernel's f64 and cpu_f32 columns, from the CPU evaluator.
         let t = Instant::now();
-        let f64: Vec<Option<f64>> = configs
-            .par_iter()
-            .map(|c| if m.applies(c) { m.eval_f64(c) } else { None })
-            .collect();
+        let f64 = m.cpu_column(&configs, crate::interp::Mode::F64)?;
         let f64_seconds = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let f32_cpu: Vec<Option<f32>> = configs
-            .par_iter()
-            .map(|c| if m.applies(c) { m.eval_f32_cpu(c) } else { None })
+        let f32_cpu: Vec<Option<f32>> = m
+            .cpu_column(&configs, crate::interp::Mode::F32)?
+            .into_iter()
+            .map(|v| v.map(|x| x as f32))
             .collect();
-        let f32_seconds = t.elapsed().as_secs_f64();
         timing.f64_ports.push((m.label.clone(), f64_seconds));
-        timing.f32_ports.push((m.label.clone(), f32_seconds));
-        // The CPU evaluator on the same columns, timed in the same run (issue 9: measured
-        // against the ports before they go).
-        let t = Instant::now();
-        let e64 = m.cpu_column(&configs, crate::interp::Mode::F64)?;
-        let e64_seconds = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let e32 = m.cpu_column(&configs, crate::interp::Mode::F32)?;
-        let e32_seconds = t.elapsed().as_secs_f64();
-        let differ64 = e64
-            .iter()
-            .zip(&f64)
-            .filter(|(a, b)| a.map(f64::to_bits) != b.map(f64::to_bits))
-            .count();
-        let differ32 = e32
-            .iter()
-            .zip(&f32_cpu)
-            .filter(|(a, b)| a.map(f64::to_bits) != b.map(|x: f32| f64::from(x).to_bits()))
-            .count();
-        eprintln!(
-            "CPU columns {:24} ports f64 {f64_seconds:.3} s + f32 {f32_seconds:.3} s; evaluator f64 {e64_seconds:.3} s + f32 {e32_seconds:.3} s; values not bit-equal: f64 {differ64}, f32 {differ32} of {n}",
-            m.label
-        );
-        timing
-            .ports_vs_evaluator
-            .push((m.label.clone(), f64_seconds + f32_seconds, e64_seconds + e32_seconds));
+        timing.f32_ports.push((m.label.clone(), t.elapsed().as_secs_f64()));
         let f32 = out
             .values
             .iter()
@@ -327,26 +299,6 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
     pb.finish_and_clear();
     timing.cost_seconds = t.elapsed().as_secs_f64();
     timing.total_seconds = start.elapsed().as_secs_f64();
-    for ((label, _, e), cost) in timing.ports_vs_evaluator.iter().zip(&costs) {
-        if let Some(ops) = &cost.ops {
-            let scalar = ops.arithmetic + ops.transcendental + ops.other_math;
-            eprintln!(
-                "evaluator {label:24} {:.1} ns per configuration (f64 + f32), {scalar} scalar ops: {:.2} ns per op per configuration per mode",
-                e * 1e9 / n as f64,
-                e * 1e9 / n as f64 / scalar as f64 / 2.0
-            );
-        }
-    }
-    let ports: f64 = timing.ports_vs_evaluator.iter().map(|r| r.1).sum();
-    let evaluator: f64 = timing.ports_vs_evaluator.iter().map(|r| r.2).sum();
-    let rest = timing.total_seconds - ports - evaluator;
-    eprintln!(
-        "sweep wall time {:.1} s: with the ports alone {:.1} s, with the evaluator alone {:.1} s ({:.2}×)",
-        timing.total_seconds,
-        rest + ports,
-        rest + evaluator,
-        (rest + evaluator) / (rest + ports)
-    );
     Ok(Measured {
         costs,
         found,

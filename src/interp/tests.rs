@@ -1,4 +1,5 @@
-//! The evaluator against the hand ports (while they exist), its libm, its constants.
+//! The evaluator's constants, its libm, its attribution. (Its agreement with the hand
+//! ports it replaced, run just before they were deleted: docs/evaluator-agreement.txt.)
 
 use super::*;
 use crate::methods::{kernel_set, resolve};
@@ -13,20 +14,6 @@ fn config(p1: [f64; 3], p2: [f64; 3], material: Material) -> Config {
         rect: None,
         material,
     }
-}
-
-#[test]
-fn line_ltc2023_runs() {
-    let kernels = kernel_set(&[]).unwrap();
-    let m = resolve("line.ltc2023", &kernels).unwrap();
-    let p = program(&m).unwrap();
-    let c = config([0.3, -0.2, 1.0], [0.9, 0.4, 1.6], Material::Diffuse);
-    let v32 = p.eval(&[&c], Mode::F32).unwrap()[0];
-    let v64 = p.eval(&[&c], Mode::F64).unwrap()[0];
-    let port32 = crate::methods::ports::evaluate::<f32>("line.ltc2023", &[], &c).unwrap() as f64;
-    let port64 = crate::methods::ports::evaluate::<f64>("line.ltc2023", &[], &c).unwrap();
-    eprintln!("{v32} {port32} {v64} {port64}");
-    assert!((v64 - port64).abs() < 1e-14 * port64.abs());
 }
 
 /// Seeded configurations over the materials the ports handle: diffuse, sparse and full
@@ -69,73 +56,6 @@ fn configs(n: usize) -> Vec<Config> {
         }
     }
     out
-}
-
-/// Every built-in (and each composite with every plain line method as inner) on the
-/// evaluator and on its hand port, in f32 and f64: the distribution of relative
-/// differences, with bounds set from what the ports are (see the asserts' notes).
-#[test]
-fn evaluator_agrees_with_the_ports_on_every_builtin() {
-    let kernels = kernel_set(&[]).unwrap();
-    let cs = configs(120);
-    let refs: Vec<&Config> = cs.iter().collect();
-    let lines: Vec<&str> = kernels
-        .iter()
-        .filter(|k| k.target == crate::target::Target::Line)
-        .map(|k| k.id.as_str())
-        .collect();
-    let mut specs: Vec<String> = Vec::new();
-    for k in &kernels {
-        if k.uses_line {
-            specs.extend(lines.iter().map(|l| format!("{}[{l}]", k.id)));
-        } else {
-            specs.push(k.id.clone());
-        }
-    }
-    let rel = |a: f64, b: f64| {
-        if a == b || (a.is_nan() && b.is_nan()) {
-            0.0
-        } else {
-            (a - b).abs() / a.abs().max(b.abs()).max(1e-30)
-        }
-    };
-    let mut failures = Vec::new();
-    for spec in &specs {
-        let m = resolve(spec, &kernels).unwrap();
-        let p = program(&m).unwrap();
-        for mode in [Mode::F64, Mode::F32] {
-            let ours = p.eval(&refs, mode).unwrap();
-            let mut d: Vec<f64> = cs
-                .iter()
-                .zip(&ours)
-                .map(|(c, &v)| {
-                    let port = match mode {
-                        Mode::F64 => m.eval_f64(c).unwrap(),
-                        Mode::F32 => m.eval_f32_cpu(c).unwrap() as f64,
-                    };
-                    rel(v, port)
-                })
-                .collect();
-            d.sort_by(f64::total_cmp);
-            let (median, p90, max) = (d[d.len() / 2], d[d.len() * 9 / 10], d[d.len() - 1]);
-            eprintln!("{spec:50} {mode:?}: relative difference median {median:.1e} p90 {p90:.1e} max {max:.1e}");
-            // The ports of cylinder.numeric and rectangle.numeric take atan2 where the
-            // kernels have a polynomial atan (Cephes atanf, 3e-7 relative): in f64 the
-            // evaluator computes the kernel's polynomial, the port does not.
-            let atan2_port = spec == "cylinder.numeric" || spec == "rectangle.numeric";
-            // f64 maxima: op-order differences of 1e-16 amplified by the Fwt cancellation
-            // of the 2017 listing on steep segments (its finding), up to ~1e-8.
-            let (p90_bound, max_bound) = match (mode, atan2_port) {
-                (Mode::F64, false) => (1e-12, 1e-8),
-                (Mode::F64, true) => (1e-7, 1e-6),
-                (Mode::F32, _) => (1e-6, 2e-4),
-            };
-            if p90 > p90_bound || max > max_bound {
-                failures.push(format!("{spec} {mode:?}: p90 {p90:e} max {max:e}"));
-            }
-        }
-    }
-    assert!(failures.is_empty(), "{failures:#?}");
 }
 
 /// The 2023 listing's `INV_PI = 0.3183098861` is 2.6e-10 off 1/π: the f64 evaluation
@@ -222,35 +142,3 @@ fn libm_f32_accuracy() {
     assert!(worst < 2.5, "atan2f: {worst} ulp");
 }
 
-/// `cargo test --release interp::tests::speed -- --ignored --nocapture`: evaluator time
-/// per configuration against the port, one thread.
-#[test]
-#[ignore]
-fn speed() {
-    let kernels = kernel_set(&[]).unwrap();
-    let count: usize = std::env::var("SPEEDN").map_or(4096, |v| v.parse().unwrap());
-    let cs = configs(count);
-    let refs: Vec<&Config> = cs.iter().collect();
-    for spec in std::env::var("SPEEDSPECS")
-        .unwrap_or("line.ltc2017,line.numeric@64".into())
-        .split(",")
-    {
-        let m = resolve(spec, &kernels).unwrap();
-        let p = program(&m).unwrap();
-        let t = std::time::Instant::now();
-        for c in refs.chunks(CHUNK) {
-            std::hint::black_box(p.chunk(c, Mode::F32).unwrap());
-        }
-        let e = t.elapsed().as_secs_f64();
-        let t = std::time::Instant::now();
-        for c in &cs {
-            std::hint::black_box(m.eval_f32_cpu(c));
-        }
-        let q = t.elapsed().as_secs_f64();
-        eprintln!(
-            "{spec}: evaluator {:.0} ns/config, port {:.0} ns/config",
-            e * 1e9 / count as f64,
-            q * 1e9 / count as f64
-        );
-    }
-}
