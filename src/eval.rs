@@ -115,7 +115,12 @@ pub fn result_row(
 /// Every output line of `linelight eval`: `f32s[m][i]` is method m's GPU value on
 /// configuration i; the `f64` and `cpu_f32` columns come from the CPU evaluator, and with
 /// `attribution` each line gets its methods' source lines by bits lost (DESIGN §3).
-pub fn rows(configs: &[Config], methods: &[Method], f32s: &[Vec<f32>], attribution: bool) -> anyhow::Result<Vec<Value>> {
+pub fn rows(
+    configs: &[Config],
+    methods: &[Method],
+    f32s: &[Vec<f32>],
+    attribution: bool,
+) -> anyhow::Result<Vec<Value>> {
     use rayon::prelude::*;
     let mut f64s = Vec::new();
     let mut cpu32s = Vec::new();

@@ -194,14 +194,8 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                         let f64s: Vec<Option<f64>> = measured.runs.iter().map(|r| r.f64[i]).collect();
                         let c32s: Vec<Option<f64>> =
                             measured.runs.iter().map(|r| r.f32_cpu[i].map(f64::from)).collect();
-                        let mut row = eval::result_row(
-                            &s.config,
-                            &measured.references[i],
-                            &setup.methods,
-                            &f32s,
-                            &f64s,
-                            &c32s,
-                        );
+                        let mut row =
+                            eval::result_row(&s.config, &measured.references[i], &setup.methods, &f32s, &f64s, &c32s);
                         row["material"] = setup.case.materials[s.material].name.clone().into();
                         row["axes"] = serde_json::to_value(&s.axes).expect("axes serialise");
                         // Empty for the natural sample; a top-up lists the (axis, bin) it fills.

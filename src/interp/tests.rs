@@ -141,4 +141,3 @@ fn libm_f32_accuracy() {
     eprintln!("libm atan2f: max error {worst:.3} ulp");
     assert!(worst < 2.5, "atan2f: {worst} ulp");
 }
-
