@@ -97,6 +97,41 @@ pub struct Measured {
     pub disagreements: Vec<crate::search::Disagreement>,
     /// Each method's cost: GPU timestamps, CPU f32 port, naga op count (src/bench.rs).
     pub costs: Vec<crate::bench::Cost>,
+    /// Where each method's f32 rounding loses bits, on a subset (src/interp attribution).
+    pub attribution: Vec<MethodAttribution>,
+}
+
+/// One method's local f32 rounding error per kernel source line.
+#[derive(Clone, Debug)]
+pub struct MethodAttribution {
+    pub label: String,
+    /// Configurations the attribution ran on (every k-th of those the method applies to).
+    pub configurations: usize,
+    /// Most bits first.
+    pub lines: Vec<crate::interp::LineSummary>,
+}
+
+/// Configurations per method for the attribution (a shadow f64 evaluation beside the f32
+/// one costs about three plain evaluations; a spread subset keeps it to a fraction of a
+/// second per method).
+pub const ATTRIBUTION_CONFIGURATIONS: usize = 2048;
+
+/// Attribution of every method on an evenly spread subset of the configurations.
+fn attribute(methods: &[Method], configs: &[crate::scene::Config]) -> anyhow::Result<Vec<MethodAttribution>> {
+    methods
+        .iter()
+        .map(|m| {
+            let applies: Vec<&crate::scene::Config> = configs.iter().filter(|c| m.applies(c)).collect();
+            let step = applies.len().div_ceil(ATTRIBUTION_CONFIGURATIONS).max(1);
+            let subset: Vec<&crate::scene::Config> = applies.into_iter().step_by(step).collect();
+            let a = crate::interp::program(m)?.attribute(&subset)?;
+            Ok(MethodAttribution {
+                label: m.label.clone(),
+                configurations: subset.len(),
+                lines: a.summary(),
+            })
+        })
+        .collect()
 }
 
 /// Configurations per method for the cost measurement: enough to fill the device, few
@@ -298,8 +333,10 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
     )?;
     pb.finish_and_clear();
     timing.cost_seconds = t.elapsed().as_secs_f64();
+    let attribution = attribute(&setup.methods, &configs)?;
     timing.total_seconds = start.elapsed().as_secs_f64();
     Ok(Measured {
+        attribution,
         costs,
         found,
         disagreements,

@@ -2,6 +2,7 @@
 //! temporary name and renamed into place, so a failed run never leaves half a report
 //! and never destroys the previous one.
 
+mod attribution;
 pub mod chart;
 mod csv;
 mod findings;
