@@ -103,6 +103,9 @@ enum Command {
     Check {
         #[arg(required = true)]
         kernels: Vec<PathBuf>,
+        /// Print each composed WGSL module (prelude + kernel + entry point) to stdout.
+        #[arg(long)]
+        emit: bool,
     },
 }
 
@@ -302,13 +305,35 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Command::Check { kernels } => {
+        Command::Check { kernels, emit } => {
             let mut bad = 0;
             for path in &kernels {
                 let result = linelight::kernel::KernelFile::read(path)
-                    .and_then(|k| gpu::compose(&k).map(|_| k).map_err(anyhow::Error::from));
+                    .and_then(|k| gpu::compose(&k).map(|c| (k, c)).map_err(anyhow::Error::from));
                 match result {
-                    Ok(k) => println!("{}: ok ({} → {})", path.display(), k.id, k.target),
+                    Ok((k, composed)) => {
+                        // The CPU evaluator gives the kernel its f64 and cpu_f32 columns.
+                        // (A composite with the default line method, as it is composed here.)
+                        let mut set = vec![k.clone()];
+                        set.extend(
+                            linelight::kernel::builtin_kernels()
+                                .into_iter()
+                                .filter(|b| b.id != k.id),
+                        );
+                        let cpu = match methods::resolve(&k.id, &set)
+                            .and_then(|m| linelight::interp::program(&m).map(|_| ()))
+                        {
+                            Ok(()) => "CPU evaluator: ok".to_string(),
+                            Err(e) => format!("CPU evaluator: no f64/cpu_f32 values: {e:#}"),
+                        };
+                        let line = format!("{}: ok ({} → {}; {cpu})", path.display(), k.id, k.target);
+                        if emit {
+                            eprintln!("{line}");
+                            print!("{}", composed.source);
+                        } else {
+                            println!("{line}");
+                        }
+                    }
                     Err(e) => {
                         eprintln!("{e}");
                         bad += 1;

@@ -199,3 +199,27 @@ fn eval_gives_a_user_kernel_f64_cpu_f32_and_attribution() {
         .as_array()
         .is_some_and(|a| !a.is_empty()));
 }
+
+#[test]
+fn check_emit_prints_the_composed_kernel_and_says_the_evaluator_runs_it() {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .args(["check", "--emit", "kernels/cylinder_line.wgsl"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let (out, err) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(err.contains("cylinder.line → cylinder; CPU evaluator: ok"), "{err}");
+    // Prelude, the default inner line method renamed, the glue, the kernel, the entry point.
+    for part in [
+        "struct Scene",
+        "fn ll_line_method(",
+        "fn I_line(",
+        "fn I_cylinder_approx(",
+        "fn ll_main(",
+    ] {
+        assert!(out.contains(part), "{part}");
+    }
+    // It is what naga validates: it parses again.
+    naga::front::wgsl::parse_str(&out).unwrap();
+}
