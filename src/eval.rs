@@ -3,6 +3,7 @@
 //! and `cpu_f32` values and the attribution come from the CPU evaluator (src/interp).
 
 use crate::methods::Method;
+use anyhow::Context;
 use crate::reference::Estimate;
 use crate::scene::Config;
 use crate::target::Target;
@@ -25,7 +26,7 @@ pub fn number(x: f64) -> Value {
 
 /// Reads a JSONL file of configurations; every bad line is reported with its number.
 pub fn read_configs(path: &Path) -> anyhow::Result<Vec<Config>> {
-    let text = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut configs = Vec::new();
     let mut errors = Vec::new();
     let mut ids = BTreeSet::new();

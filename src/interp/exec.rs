@@ -172,13 +172,9 @@ impl<'p> Exec<'p> {
     /// A float operation of one argument, component by component.
     fn f1(&mut self, a: &[f64], f64f: impl Fn(f64) -> f64, f32f: impl Fn(f32) -> f32, rounding: bool) -> Lanes {
         let s = self.split;
-        let mut v = vec![0.0; self.n];
-        for (o, &x) in v[..s].iter_mut().zip(&a[..s]) {
-            *o = f32f(x as f32) as f64;
-        }
-        for (o, &x) in v[s..].iter_mut().zip(&a[s..]) {
-            *o = f64f(x);
-        }
+        let mut v = Vec::with_capacity(self.n);
+        v.extend(a[..s].iter().map(|&x| f32f(x as f32) as f64));
+        v.extend(a[s..].iter().map(|&x| f64f(x)));
         let out: Lanes = std::rc::Rc::new(v);
         if self.shadow && rounding {
             for i in s..self.n {
@@ -197,13 +193,9 @@ impl<'p> Exec<'p> {
         rounding: bool,
     ) -> Lanes {
         let s = self.split;
-        let mut v = vec![0.0; self.n];
-        for ((o, &x), &y) in v[..s].iter_mut().zip(&a[..s]).zip(&b[..s]) {
-            *o = f32f(x as f32, y as f32) as f64;
-        }
-        for ((o, &x), &y) in v[s..].iter_mut().zip(&a[s..]).zip(&b[s..]) {
-            *o = f64f(x, y);
-        }
+        let mut v = Vec::with_capacity(self.n);
+        v.extend(a[..s].iter().zip(&b[..s]).map(|(&x, &y)| f32f(x as f32, y as f32) as f64));
+        v.extend(a[s..].iter().zip(&b[s..]).map(|(&x, &y)| f64f(x, y)));
         let out: Lanes = std::rc::Rc::new(v);
         if self.shadow && rounding {
             for i in s..self.n {
