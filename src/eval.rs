@@ -3,10 +3,10 @@
 //! and `cpu_f32` values and the attribution come from the CPU evaluator (src/interp).
 
 use crate::methods::Method;
-use anyhow::Context;
 use crate::reference::Estimate;
 use crate::scene::Config;
 use crate::target::Target;
+use anyhow::Context;
 use serde_json::{json, Map, Value};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;

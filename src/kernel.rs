@@ -79,8 +79,7 @@ pub fn builtin_kernels() -> Vec<KernelFile> {
 
 impl KernelFile {
     pub fn read(path: &Path) -> anyhow::Result<KernelFile> {
-        let text =
-            std::fs::read_to_string(path).with_context(|| format!("cannot read kernel {}", path.display()))?;
+        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read kernel {}", path.display()))?;
         Ok(KernelFile::parse(&path.display().to_string(), &text)?)
     }
 

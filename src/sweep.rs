@@ -77,6 +77,8 @@ pub struct Timing {
     /// (method label, seconds of the CPU evaluator's f32 column on all cores): beside the
     /// GPU seconds, the same kernel on the CPU, measured in the same run.
     pub f32_ports: Vec<(String, f64)>,
+    /// Seconds of the "where the bits go" attribution (a subset, `ATTRIBUTION_CONFIGURATIONS`).
+    pub attribution_seconds: f64,
     pub references_seconds: f64,
     pub references_evaluated: usize,
     pub search_seconds: f64,
@@ -333,7 +335,9 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
     )?;
     pb.finish_and_clear();
     timing.cost_seconds = t.elapsed().as_secs_f64();
+    let t = Instant::now();
     let attribution = attribute(&setup.methods, &configs)?;
+    timing.attribution_seconds = t.elapsed().as_secs_f64();
     timing.total_seconds = start.elapsed().as_secs_f64();
     Ok(Measured {
         attribution,

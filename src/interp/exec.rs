@@ -194,7 +194,12 @@ impl<'p> Exec<'p> {
     ) -> Lanes {
         let s = self.split;
         let mut v = Vec::with_capacity(self.n);
-        v.extend(a[..s].iter().zip(&b[..s]).map(|(&x, &y)| f32f(x as f32, y as f32) as f64));
+        v.extend(
+            a[..s]
+                .iter()
+                .zip(&b[..s])
+                .map(|(&x, &y)| f32f(x as f32, y as f32) as f64),
+        );
         v.extend(a[s..].iter().zip(&b[s..]).map(|(&x, &y)| f64f(x, y)));
         let out: Lanes = std::rc::Rc::new(v);
         if self.shadow && rounding {
