@@ -326,7 +326,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                             Ok(()) => "CPU evaluator: ok".to_string(),
                             Err(e) => format!("CPU evaluator: no f64/cpu_f32 values: {e:#}"),
                         };
-                        let line = format!("{}: ok ({} → {}; {cpu})", path.display(), k.id, k.target);
+                        let line = format!("{}: ok ({} → {}); {cpu}", path.display(), k.id, k.target);
                         if emit {
                             eprintln!("{line}");
                             print!("{}", composed.source);

@@ -209,7 +209,10 @@ fn check_emit_prints_the_composed_kernel_and_says_the_evaluator_runs_it() {
         .unwrap();
     assert!(o.status.success());
     let (out, err) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
-    assert!(err.contains("cylinder.line → cylinder; CPU evaluator: ok"), "{err}");
+    assert!(
+        err.contains("ok (cylinder.line → cylinder); CPU evaluator: ok"),
+        "{err}"
+    );
     // Prelude, the default inner line method renamed, the glue, the kernel, the entry point.
     for part in [
         "struct Scene",
