@@ -27,9 +27,8 @@
 use crate::case::Case;
 use crate::cost::OpCount;
 use crate::gpu::{Clock, Gpu};
-use crate::methods::{ports, Method};
+use crate::methods::Method;
 use crate::scene::{Config, GpuScene};
-use rayon::prelude::*;
 use std::fmt::Write as _;
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -133,9 +132,10 @@ impl Spread {
     }
 }
 
-/// Whether `method` (and a composite's inner line method) has a CPU port.
+/// Whether the CPU evaluator runs `method` (every kernel it can compose and evaluate:
+/// built-in or user's).
 pub fn has_cpu_port(method: &Method) -> bool {
-    ports::has_port(method.id()) && method.inner.as_deref().is_none_or(has_cpu_port)
+    crate::interp::program(method).is_ok()
 }
 
 /// Measures every method on `configs`: `warmup` untimed rounds, then `repeats` timed
@@ -232,12 +232,11 @@ pub fn bench_methods_with(
     Ok(costs)
 }
 
-/// Wall-clock ns of the method's CPU f32 port over every configuration, on all cores.
+/// Wall-clock ns of the method's kernel in f32 on the CPU evaluator over every
+/// configuration, on all cores.
 fn time_cpu_port(method: &Method, configs: &[Config]) -> f64 {
     let start = Instant::now();
-    configs.par_iter().for_each(|c| {
-        black_box(method.eval_f32_cpu(black_box(c)));
-    });
+    black_box(method.cpu_column(black_box(configs), crate::interp::Mode::F32).ok());
     start.elapsed().as_nanos() as f64
 }
 
@@ -611,7 +610,7 @@ mod tests {
     }
 
     #[test]
-    fn a_user_kernel_has_no_cpu_port() {
+    fn a_user_kernel_is_timed_on_the_cpu_too() {
         let text = "//! id: user.half\n//! target: line\nfn method(scene: Scene) -> f32 { return 0.5 * scene.p1.z; }\n";
         let m = Method {
             label: "user.half".to_string(),
@@ -619,15 +618,13 @@ mod tests {
             params: Vec::new(),
             inner: None,
         };
-        assert!(!has_cpu_port(&m));
+        assert!(has_cpu_port(&m));
         let costs = bench_methods(gpu(), &[m], &configs(64), 0, 2).unwrap();
-        assert_eq!(costs[0].cpu_f32_ns_per_eval, None);
-        assert_eq!(costs[0].gpu_cpu_speed_ratio, None);
-        assert!(costs[0].cpu_f32_ns_per_eval_runs.is_empty());
+        assert!(costs[0].cpu_f32_ns_per_eval.is_some());
+        assert_eq!(costs[0].cpu_f32_ns_per_eval_runs.len(), 2);
         assert_eq!(costs[0].gpu_ns_per_eval.len(), 2);
         assert!(bench_methods(gpu(), &[], &configs(64), 0, 0).is_err(), "zero repeats");
     }
-
     #[test]
     fn statistics_and_ratios() {
         assert_eq!(

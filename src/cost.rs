@@ -142,8 +142,7 @@ fn count_composed(
     inner: Option<(&KernelFile, &[u32])>,
 ) -> anyhow::Result<OpCount> {
     // Every capability: the count should not refuse a kernel a device accepts.
-    let composed = crate::gpu::compose_with(kernel, inner.map(|(k, _)| k), naga::valid::Capabilities::all())
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let composed = crate::gpu::compose_with(kernel, inner.map(|(k, _)| k), naga::valid::Capabilities::all())?;
     let mut constants = naga::back::PipelineConstants::default();
     for (name, value) in param_values(kernel, params)? {
         constants.insert(name, f64::from(value));

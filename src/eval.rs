@@ -1,5 +1,6 @@
 //! `linelight eval`: explicit configurations in (JSONL), references and method values
-//! out (JSONL, DESIGN §3). Input is checked whole before the GPU is touched.
+//! out (JSONL, DESIGN §3). Input is checked whole before the GPU is touched. The `f64`
+//! and `cpu_f32` values and the attribution come from the CPU evaluator (src/interp).
 
 use crate::methods::Method;
 use crate::reference::Estimate;
@@ -170,6 +171,7 @@ pub fn result_row(
     methods: &[Method],
     f32_values: &[f32],
     f64_values: &[Option<f64>],
+    cpu_f32_values: &[Option<f64>],
 ) -> Value {
     let mut reference = Map::new();
     let mut reference_error = Map::new();
@@ -178,13 +180,14 @@ pub fn result_row(
         reference_error.insert(t.name().into(), number(e.error));
     }
     let mut values = Map::new();
-    for ((m, &v32), &v64) in methods.iter().zip(f32_values).zip(f64_values) {
+    for (((m, &v32), &v64), &c32) in methods.iter().zip(f32_values).zip(f64_values).zip(cpu_f32_values) {
         if !m.applies(c) {
             continue;
         }
         let mut entry = Map::new();
         entry.insert("f32".into(), number(v32 as f64));
         entry.insert("f64".into(), v64.map_or(Value::Null, number));
+        entry.insert("cpu_f32".into(), c32.map_or(Value::Null, number));
         if !m.supports(c) {
             // Outside the matrices the method claims to handle: shown, flagged.
             entry.insert("supported".into(), json!(false));
@@ -197,6 +200,77 @@ pub fn result_row(
         row["rect"] = json!({"normal": rect.normal, "width": rect.width});
     }
     row
+}
+
+/// Every output line of `linelight eval`: `f32s[m][i]` is method m's GPU value on
+/// configuration i; the `f64` and `cpu_f32` columns come from the CPU evaluator, and with
+/// `attribution` each line gets its methods' source lines by bits lost (DESIGN §3).
+pub fn rows(
+    configs: &[Config],
+    methods: &[Method],
+    f32s: &[&[f32]],
+    references: &[BTreeMap<Target, Estimate>],
+    attribution: bool,
+) -> anyhow::Result<Vec<Value>> {
+    use rayon::prelude::*;
+    let mut f64s = Vec::new();
+    let mut cpu32s = Vec::new();
+    let mut attributions = Vec::new();
+    for m in methods {
+        f64s.push(m.cpu_column_or_none(configs, crate::interp::Mode::F64));
+        cpu32s.push(m.cpu_column_or_none(configs, crate::interp::Mode::F32));
+        if attribution {
+            attributions.push(attribution_column(m, configs)?);
+        }
+    }
+    Ok(configs
+        .par_iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let v32: Vec<f32> = f32s.iter().map(|v| v[i]).collect();
+            let v64: Vec<Option<f64>> = f64s.iter().map(|v| v[i]).collect();
+            let c32: Vec<Option<f64>> = cpu32s.iter().map(|v| v[i]).collect();
+            let mut row = result_row(c, &references[i], methods, &v32, &v64, &c32);
+            if attribution {
+                let mut per = Map::new();
+                for (m, a) in methods.iter().zip(&attributions) {
+                    if let Some(lines) = &a[i] {
+                        per.insert(m.label.clone(), lines.clone());
+                    }
+                }
+                row["attribution"] = Value::Object(per);
+            }
+            row
+        })
+        .collect())
+}
+
+/// Per configuration (None where the method does not apply): the kernel's source lines
+/// with the local error of their f32 operations, most bits first (src/interp).
+fn attribution_column(m: &Method, configs: &[Config]) -> anyhow::Result<Vec<Option<Value>>> {
+    let program = crate::interp::program(m)?;
+    let applies: Vec<&Config> = configs.iter().filter(|c| m.applies(c)).collect();
+    let a = program.attribute(&applies)?;
+    let mut per = a.per_config.into_iter();
+    Ok(configs
+        .iter()
+        .map(|c| {
+            if !m.applies(c) {
+                return None;
+            }
+            let lines = per.next().unwrap_or_default();
+            Some(Value::Array(
+                lines
+                    .iter()
+                    .map(|b| {
+                        let l = &a.lines[b.line];
+                        json!({"file": l.path, "line": l.line, "source": l.text.trim(),
+                               "bits_mean": number(b.mean), "bits_max": number(b.max)})
+                    })
+                    .collect(),
+            ))
+        })
+        .collect())
 }
 
 /// Serialises rows as JSONL.

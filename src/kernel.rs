@@ -3,6 +3,7 @@
 //! read from disk and goes through the same path (kernels/README.md).
 
 use crate::target::Target;
+use anyhow::Context;
 use std::path::Path;
 
 /// Which LTC matrices a method handles.
@@ -90,8 +91,7 @@ pub fn builtin_kernels() -> Vec<KernelFile> {
 
 impl KernelFile {
     pub fn read(path: &Path) -> anyhow::Result<KernelFile> {
-        let text =
-            std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("cannot read kernel {}: {e}", path.display()))?;
+        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read kernel {}", path.display()))?;
         Ok(KernelFile::parse(&path.display().to_string(), &text)?)
     }
 

@@ -14,6 +14,7 @@ pub mod claims;
 pub mod cost;
 pub mod eval;
 pub mod gpu;
+pub mod interp;
 pub mod io;
 pub mod kernel;
 pub mod limits;

@@ -67,6 +67,10 @@ enum Command {
         /// Comma-separated method ids (`id` or `id@N`); default: every built-in and --kernel method.
         #[arg(long, value_delimiter = ',')]
         methods: Vec<String>,
+        /// Also give each line the kernel source lines where f32 rounding loses bits
+        /// (local error per operation, DESIGN §3 `attribution`).
+        #[arg(long)]
+        attribution: bool,
         #[command(flatten)]
         gpu: GpuArgs,
     },
@@ -128,6 +132,9 @@ enum Command {
     Check {
         #[arg(required = true)]
         kernels: Vec<PathBuf>,
+        /// Print each composed WGSL module (prelude + kernel + entry point) to stdout.
+        #[arg(long)]
+        emit: bool,
     },
 }
 
@@ -275,8 +282,16 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                                 let i = block * eval::ROW_BLOCK + j;
                                 let f32s: Vec<f32> = measured.runs.iter().map(|r| r.f32[i]).collect();
                                 let f64s: Vec<Option<f64>> = measured.runs.iter().map(|r| r.f64[i]).collect();
-                                let mut row =
-                                    eval::result_row(&s.config, &measured.references[i], &setup.methods, &f32s, &f64s);
+                                let c32s: Vec<Option<f64>> =
+                                    measured.runs.iter().map(|r| r.f32_cpu[i].map(f64::from)).collect();
+                                let mut row = eval::result_row(
+                                    &s.config,
+                                    &measured.references[i],
+                                    &setup.methods,
+                                    &f32s,
+                                    &f64s,
+                                    &c32s,
+                                );
                                 row["material"] = setup.case.materials[s.material].name.clone().into();
                                 row["axes"] = serde_json::to_value(&s.axes).expect("axes serialise");
                                 // Empty for the natural sample; a top-up lists the (axis, bin) it fills.
@@ -330,6 +345,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             input,
             output,
             methods: specs,
+            attribution,
             gpu,
         } => {
             let mut inputs = vec![("--input", input.as_path())];
@@ -379,19 +395,10 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             eval::check_references(&input, &configs, &references)?;
             write_output(&output, &mut |w| {
                 for (block, part) in configs.chunks(eval::ROW_BLOCK).enumerate() {
-                    let rows: Vec<_> = part
-                        .par_iter()
-                        .enumerate()
-                        .map(|(j, c)| {
-                            let i = block * eval::ROW_BLOCK + j;
-                            let v32: Vec<f32> = f32s.iter().map(|v| v[i]).collect();
-                            let v64: Vec<Option<f64>> = methods
-                                .iter()
-                                .map(|m| m.applies(c).then(|| m.eval_f64(c)).flatten())
-                                .collect();
-                            eval::result_row(c, &references[i], &methods, &v32, &v64)
-                        })
-                        .collect();
+                    let at = block * eval::ROW_BLOCK..block * eval::ROW_BLOCK + part.len();
+                    let values: Vec<&[f32]> = f32s.iter().map(|v| &v[at.clone()]).collect();
+                    let rows = eval::rows(part, &methods, &values, &references[at], attribution)
+                        .map_err(std::io::Error::other)?;
                     w.write_all(&eval::to_jsonl(&rows))?;
                 }
                 Ok(())
@@ -523,14 +530,31 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Command::Check { kernels } => {
+        Command::Check { kernels, emit } => {
             let mut bad = 0;
             let mut known = linelight::kernel::builtin_kernels();
             for path in &kernels {
                 // The same validation eval, sweep and bench give a --kernel file.
                 match methods::validate_kernel(path, &known) {
                     Ok(k) => {
-                        println!("{}: ok ({} → {})", path.display(), k.id, k.target);
+                        // The CPU evaluator gives the kernel its f64 and cpu_f32 columns.
+                        // (A composite with the default line method, as it is composed here.)
+                        let mut set = vec![k.clone()];
+                        set.extend(known.iter().filter(|b| b.id != k.id).cloned());
+                        let cpu = match methods::resolve(&k.id, &set)
+                            .and_then(|m| linelight::interp::program(&m).map(|_| ()))
+                        {
+                            Ok(()) => "CPU evaluator: ok".to_string(),
+                            Err(e) => format!("CPU evaluator: no f64/cpu_f32 values: {e:#}"),
+                        };
+                        let line = format!("{}: ok ({} → {}); {cpu}", path.display(), k.id, k.target);
+                        if emit {
+                            eprintln!("{line}");
+                            let composed = gpu::compose_with(&k, None, gpu::kernel_capabilities())?;
+                            print!("{}", composed.source);
+                        } else {
+                            println!("{line}");
+                        }
                         known.push(k);
                     }
                     Err(e) => {

@@ -1,4 +1,5 @@
-//! A sweep, measured: case → configurations → GPU results, f64 ports, references.
+//! A sweep, measured: case → configurations → GPU results, CPU evaluator columns (f64,
+//! cpu_f32), references.
 //! Everything that can fail on bad input (case file, kernels, adapter) fails before any
 //! measuring starts and before any report is written.
 
@@ -110,11 +111,13 @@ pub struct Timing {
     pub adapter: String,
     /// (method label, GPU seconds incl. upload and readback, configurations per second).
     pub gpu: Vec<(String, f64, f64)>,
-    /// (method label, CPU f64 port seconds on all cores).
+    /// (method label, seconds of the CPU evaluator's f64 column on all cores).
     pub f64_ports: Vec<(String, f64)>,
-    /// (method label, CPU f32 port seconds on all cores): beside the GPU seconds, the ratio of
-    /// a plain-Rust evaluation to the dispatch, measured in the same run.
+    /// (method label, seconds of the CPU evaluator's f32 column on all cores): beside the
+    /// GPU seconds, the same kernel on the CPU, measured in the same run.
     pub f32_ports: Vec<(String, f64)>,
+    /// Seconds of the "where the bits go" attribution (a subset, `ATTRIBUTION_CONFIGURATIONS`).
+    pub attribution_seconds: f64,
     pub references_seconds: f64,
     pub references_evaluated: usize,
     pub search_seconds: f64,
@@ -135,6 +138,41 @@ pub struct Measured {
     pub disagreements: Vec<crate::search::Disagreement>,
     /// Each method's cost: GPU timestamps, CPU f32 port, naga op count (src/bench.rs).
     pub costs: Vec<crate::bench::Cost>,
+    /// Where each method's f32 rounding loses bits, on a subset (src/interp attribution).
+    pub attribution: Vec<MethodAttribution>,
+}
+
+/// One method's local f32 rounding error per kernel source line.
+#[derive(Clone, Debug)]
+pub struct MethodAttribution {
+    pub label: String,
+    /// Configurations the attribution ran on (every k-th of those the method applies to).
+    pub configurations: usize,
+    /// Most bits first.
+    pub lines: Vec<crate::interp::LineSummary>,
+}
+
+/// Configurations per method for the attribution (a shadow f64 evaluation beside the f32
+/// one costs about three plain evaluations; a spread subset keeps it to a fraction of a
+/// second per method).
+pub const ATTRIBUTION_CONFIGURATIONS: usize = 2048;
+
+/// Attribution of every method on an evenly spread subset of the configurations.
+fn attribute(methods: &[Method], configs: &[crate::scene::Config]) -> anyhow::Result<Vec<MethodAttribution>> {
+    methods
+        .iter()
+        .map(|m| {
+            let applies: Vec<&crate::scene::Config> = configs.iter().filter(|c| m.applies(c)).collect();
+            let step = applies.len().div_ceil(ATTRIBUTION_CONFIGURATIONS).max(1);
+            let subset: Vec<&crate::scene::Config> = applies.into_iter().step_by(step).collect();
+            let a = crate::interp::program(m)?.attribute(&subset)?;
+            Ok(MethodAttribution {
+                label: m.label.clone(),
+                configurations: subset.len(),
+                lines: a.summary(),
+            })
+        })
+        .collect()
 }
 
 /// Configurations per method for the cost measurement: enough to fill the device, few
@@ -203,16 +241,15 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
         let gpu_seconds = out.wall.as_secs_f64();
         timing.gpu.push((m.label.clone(), gpu_seconds, n as f64 / gpu_seconds));
 
+        // The kernel's f64 and cpu_f32 columns, from the CPU evaluator.
         let t = Instant::now();
-        let f64: Vec<Option<f64>> = configs
-            .par_iter()
-            .map(|c| if m.applies(c) { m.eval_f64(c) } else { None })
-            .collect();
+        let f64 = m.cpu_column_or_none(&configs, crate::interp::Mode::F64);
         let f64_seconds = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let f32_cpu = configs
-            .par_iter()
-            .map(|c| if m.applies(c) { m.eval_f32_cpu(c) } else { None })
+        let f32_cpu: Vec<Option<f32>> = m
+            .cpu_column_or_none(&configs, crate::interp::Mode::F32)
+            .into_iter()
+            .map(|v| v.map(|x| x as f32))
             .collect();
         timing.f64_ports.push((m.label.clone(), f64_seconds));
         timing.f32_ports.push((m.label.clone(), t.elapsed().as_secs_f64()));
@@ -343,8 +380,12 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
     )?;
     pb.finish_and_clear();
     timing.cost_seconds = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let attribution = attribute(&setup.methods, &configs)?;
+    timing.attribution_seconds = t.elapsed().as_secs_f64();
     timing.total_seconds = start.elapsed().as_secs_f64();
     Ok(Measured {
+        attribution,
         costs,
         found,
         disagreements,

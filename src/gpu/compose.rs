@@ -83,6 +83,14 @@ pub struct Composed {
     pub info: naga::valid::ModuleInfo,
     /// The line method a composite was composed with (given or [`DEFAULT_INNER`]).
     pub inner: Option<KernelFile>,
+    map: SourceMap,
+}
+
+impl Composed {
+    /// The file, line and line text of byte `offset` of [`Composed::source`].
+    pub fn locate(&self, offset: usize) -> (String, usize, String) {
+        self.map.locate(offset)
+    }
 }
 
 /// Composes and validates `kernel` with naga's default capabilities; a composite with
@@ -170,6 +178,7 @@ pub(crate) fn compose_parts(
         module,
         info,
         inner,
+        map: c.map,
     })
 }
 

@@ -130,6 +130,16 @@ impl SourceMap {
         (seg, Span::from(clamp(range.start)..clamp(range.end)))
     }
 
+    /// The file, 1-based line and text of that line holding byte `offset` of the
+    /// composed source (for the CPU evaluator's per-line attribution).
+    pub(crate) fn locate(&self, offset: usize) -> (String, usize, String) {
+        let (seg, span) = self.local(Span::from(offset..offset));
+        let at = span.to_range().map_or(0, |r| r.start);
+        let line = seg.text[..at].matches('\n').count() + 1;
+        let text = seg.text.lines().nth(line - 1).unwrap_or("").to_string();
+        (seg.path.clone(), line, text)
+    }
+
     pub(crate) fn parse_error(&self, e: &naga::front::wgsl::ParseError) -> KernelError {
         let labels = e.labels().map(|(span, label)| (span, label.to_string())).collect();
         self.diagnose(e.message(), labels, e.notes().map(str::to_string).collect())

@@ -23,6 +23,7 @@ mod timing;
 #[cfg(test)]
 mod tests;
 
+pub(crate) use compose::inner_name;
 pub use compose::{compose, compose_with, entry_point, Composed, GLUE_PATH, WORKGROUP_SIZE};
 pub(crate) use device::scoped;
 pub use device::{kernel_capabilities, list_adapters, AdapterSummary, Gpu, GpuError};

@@ -1,13 +1,10 @@
-//! Methods under test: a kernel file, the values of its parameters, the inner line method
-//! of a composite (`cylinder.line[line.ltc2023]`), and (for built-ins) a CPU port of the
-//! same formula for the f64 column.
-
-pub mod ports;
+//! Methods under test: a kernel file, the values of its parameters and the inner line
+//! method of a composite (`cylinder.line[line.ltc2023]`). Its `f64` and `cpu_f32` columns
+//! come from the same kernel on the CPU evaluator (src/interp).
 
 use crate::kernel::{KernelFile, MinvSupport};
 use crate::scene::Config;
 use crate::target::Target;
-use std::cell::Cell;
 
 /// The line method a composite uses when its spec names none: it handles every M⁻¹.
 pub const DEFAULT_INNER: &str = "line.ltc2023_full";
@@ -60,41 +57,51 @@ impl Method {
         }
     }
 
-    /// The same formula in double precision, when a CPU port exists (for a composite:
-    /// for it and its inner method).
+    /// The kernel's `f64` (or `cpu_f32`) column on `configs` from the CPU evaluator
+    /// (src/interp): None where the method does not apply to a configuration.
+    pub fn cpu_column(&self, configs: &[Config], mode: crate::interp::Mode) -> anyhow::Result<Vec<Option<f64>>> {
+        let program = crate::interp::program(self)?;
+        let applies: Vec<&Config> = configs.iter().filter(|c| self.applies(c)).collect();
+        let mut values = program.eval(&applies, mode)?.into_iter();
+        Ok(configs
+            .iter()
+            .map(|c| if self.applies(c) { values.next() } else { None })
+            .collect())
+    }
+
+    /// [`Method::cpu_column`], or where the evaluator cannot run this kernel (an `f16` kernel,
+    /// an IR construct it lacks) no values, with a note on stderr once per method: the GPU
+    /// column still stands.
+    pub fn cpu_column_or_none(&self, configs: &[Config], mode: crate::interp::Mode) -> Vec<Option<f64>> {
+        match self.cpu_column(configs, mode) {
+            Ok(v) => v,
+            Err(e) => {
+                static NOTED: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+                let mut noted = NOTED.lock().unwrap_or_else(|p| p.into_inner());
+                if !noted.contains(&self.label) {
+                    noted.push(self.label.clone());
+                    eprintln!("note: `{}` has no f64/cpu_f32 values: {e:#}", self.label);
+                }
+                vec![None; configs.len()]
+            }
+        }
+    }
+
+    /// The kernel's own formula in double precision (the CPU evaluator, src/interp), for
+    /// one configuration; None when the evaluator cannot run this kernel (the reason is
+    /// in [`Method::cpu_column`]'s error).
     pub fn eval_f64(&self, config: &Config) -> Option<f64> {
-        self.eval_cpu::<f64>(config)
+        self.cpu_one(config, crate::interp::Mode::F64)
     }
 
-    /// The same formula in single precision on the CPU (cross-checks the GPU port).
+    /// The kernel in IEEE single precision on the CPU (beside the GPU's f32).
     pub fn eval_f32_cpu(&self, config: &Config) -> Option<f32> {
-        self.eval_cpu::<f32>(config)
+        self.cpu_one(config, crate::interp::Mode::F32).map(|v| v as f32)
     }
 
-    fn eval_cpu<T: ports::Real>(&self, config: &Config) -> Option<T> {
-        let Some(inner) = &self.inner else {
-            return ports::evaluate::<T>(self.id(), &self.params, config);
-        };
-        // The inner port sees the configuration with the segment replaced, as the GPU
-        // glue does. T → f64 is exact for f32 and f64.
-        let unported = Cell::new(false);
-        let i_line = |p1: [T; 3], p2: [T; 3]| {
-            let f64s = |p: [T; 3]| p.map(|x| x.to_f64().unwrap_or(f64::NAN));
-            let segment = Config {
-                id: String::new(),
-                p1: f64s(p1),
-                p2: f64s(p2),
-                radius: config.radius,
-                rect: config.rect.clone(),
-                material: config.material.clone(),
-            };
-            inner.eval_cpu::<T>(&segment).unwrap_or_else(|| {
-                unported.set(true);
-                T::nan()
-            })
-        };
-        let value = ports::evaluate_composite::<T>(self.id(), &self.params, config, &i_line)?;
-        (!unported.get()).then_some(value)
+    fn cpu_one(&self, config: &Config, mode: crate::interp::Mode) -> Option<f64> {
+        let program = crate::interp::program(self).ok()?;
+        program.eval(&[config], mode).ok()?.first().copied()
     }
 }
 
@@ -253,7 +260,15 @@ pub fn kernel_set(user: &[std::path::PathBuf]) -> anyhow::Result<Vec<KernelFile>
 /// through naga with every shader capability linelight asks a device for.
 pub fn validate_kernel(path: &std::path::Path, others: &[KernelFile]) -> anyhow::Result<KernelFile> {
     let k = KernelFile::read(path)?;
-    if let Some(other) = others.iter().find(|o| o.id == k.id) {
+    // A built-in's own file (`linelight check kernels/x.wgsl`) is that built-in, not a clash.
+    let same_file = |o: &KernelFile| {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        match (std::fs::canonicalize(path), std::fs::canonicalize(root.join(&o.path))) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => false,
+        }
+    };
+    if let Some(other) = others.iter().find(|o| o.id == k.id && !same_file(o)) {
         anyhow::bail!("{}: id `{}` is already defined by {}", k.path, k.id, other.path);
     }
     let composed = crate::gpu::compose_with(&k, None, crate::gpu::kernel_capabilities())?;

@@ -602,6 +602,8 @@ pub fn render(input: &ReportInput) -> String {
         let _ = writeln!(w);
     }
 
+    let _ = write!(w, "{}", super::attribution::render(&m.attribution));
+
     // Timing.
     let t = &m.timing;
     let _ = writeln!(w, "## Timing (this run)\n");

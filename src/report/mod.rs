@@ -2,6 +2,7 @@
 //! (`crate::io::write_set`): a failed run never leaves half a report and never destroys
 //! the previous one, and a report folder only ever holds one run's files.
 
+mod attribution;
 pub mod chart;
 mod csv;
 mod findings;

@@ -1,0 +1,1172 @@
+//! The lane engine: one naga IR operation at a time over a chunk of configurations
+//! (structure of arrays, one `Vec<f64>` per scalar component), execution masks for
+//! divergent control flow, as a GPU runs a workgroup.
+//!
+//! Every value is held as f64. Lanes `[0, split)` are f32 lanes: each float operation
+//! there is done in `f32` (Rust's IEEE, correctly rounded `+ − × ÷ √ fma`; the `libm`
+//! crate's f32 functions for transcendentals). Lanes `[split, n)` are f64 lanes (the
+//! kernel promoted to double). With a shadow (attribution), lane `split + i` is the f64
+//! shadow of f32 lane `i`: it follows lane i's control flow (every non-float value is
+//! copied from the f32 half) and each float operation's local error is recorded there.
+
+use super::{Program, NO_LINE};
+use anyhow::{anyhow, bail, Result};
+use naga::{
+    BinaryOperator as B, Expression as E, Handle, MathFunction as M, ScalarKind, Statement as S, TypeInner,
+    UnaryOperator as U,
+};
+
+/// One scalar component over the lanes, shared until written (copy on write).
+pub(super) type Lanes = std::rc::Rc<Vec<f64>>;
+
+/// Collects lanes into a shared component.
+trait CollectLanes: Iterator<Item = f64> + Sized {
+    fn lanes(self) -> Lanes {
+        std::rc::Rc::new(self.collect())
+    }
+}
+impl<I: Iterator<Item = f64>> CollectLanes for I {}
+
+/// A value: its scalar components in declaration order (matrices column by column).
+#[derive(Clone, Debug)]
+pub(super) struct Val(pub Vec<Lanes>);
+
+#[derive(Clone, Debug)]
+enum Off {
+    Uniform(usize),
+    PerLane(Vec<usize>),
+}
+
+/// A pointer: into heap slot `slot`, at component offset `off`, `len` components.
+#[derive(Clone, Debug)]
+struct Ptr {
+    slot: usize,
+    off: Off,
+    len: usize,
+}
+
+#[derive(Clone, Debug)]
+enum Slot {
+    Val(Val),
+    Ptr(Ptr),
+}
+
+/// Local error per source line, for the f32 lane of each shadow: (sum, count, max) bits.
+pub(super) type LineErrors = Vec<Option<Vec<(f64, u32, f64)>>>;
+
+pub(super) struct Exec<'p> {
+    p: &'p Program,
+    n: usize,
+    split: usize,
+    shadow: bool,
+    heap: Vec<Val>,
+    globals: Vec<Option<usize>>,
+    pub(super) errors: LineErrors,
+    line: u32,
+    mask: Vec<bool>,
+    /// Per function, its constant expressions' values (filled on its first call).
+    consts: Vec<Option<Vec<Option<Slot>>>>,
+    zero_lanes: Lanes,
+}
+
+struct Frame {
+    fun: Handle<naga::Function>,
+    vals: Vec<Option<Slot>>,
+    ret: Option<Val>,
+}
+
+/// Where `break` and `continue` go.
+struct Ctl {
+    is_loop: bool,
+    brk: Vec<bool>,
+    cont: Vec<bool>,
+}
+
+fn any(m: &[bool]) -> bool {
+    m.iter().any(|&b| b)
+}
+
+fn or_into(a: &mut [bool], b: &[bool]) {
+    for (x, &y) in a.iter_mut().zip(b) {
+        *x |= y;
+    }
+}
+
+/// log2(1 + ulp distance) between two f32 values (DESIGN §4 bits); 32 when one is NaN.
+pub fn ulp_bits(a: f32, b: f32) -> f64 {
+    if a == b || (a.is_nan() && b.is_nan()) {
+        return 0.0;
+    }
+    if a.is_nan() || b.is_nan() {
+        return 32.0;
+    }
+    let ord = |x: f32| {
+        let i = x.to_bits() as i32;
+        if i < 0 {
+            -((i & 0x7fff_ffff) as i64)
+        } else {
+            i as i64
+        }
+    };
+    ((ord(a) - ord(b)).unsigned_abs() as f64 + 1.0).log2()
+}
+
+fn kind(inner: &TypeInner) -> Option<ScalarKind> {
+    inner.scalar_kind()
+}
+
+impl<'p> Exec<'p> {
+    pub(super) fn new(p: &'p Program, n: usize, split: usize, shadow: bool) -> Exec<'p> {
+        Exec {
+            p,
+            n,
+            split,
+            shadow,
+            heap: Vec::new(),
+            globals: vec![None; p.module.global_variables.len()],
+            errors: vec![None; p.lines.len()],
+            line: NO_LINE,
+            mask: vec![true; n],
+            consts: vec![None; p.module.functions.len()],
+            zero_lanes: std::rc::Rc::new(vec![0.0; n]),
+        }
+    }
+
+    /// A constant: `v32` on the f32 lanes, `v64` on the f64 lanes.
+    fn fill(&self, v32: f64, v64: f64) -> Lanes {
+        let s = self.split;
+        (0..self.n).map(|i| if i < s { v32 } else { v64 }).lanes()
+    }
+
+    /// A module constant; its written digits are needed only when there are f64 lanes.
+    fn constant(&self, (v32, v64): &super::Const) -> Result<Val, String> {
+        if self.split == self.n {
+            return Ok(Val(v32.iter().map(|&a| self.fill(a, a)).collect()));
+        }
+        let v64 = v64.as_ref().map_err(Clone::clone)?;
+        Ok(Val(v32.iter().zip(v64).map(|(&a, &b)| self.fill(a, b)).collect()))
+    }
+
+    /// Non-float results: the shadow lanes take the f32 lanes' values, so that they
+    /// branch, select and index as the f32 lanes do.
+    fn follow(&self, l: &mut Lanes) {
+        if self.shadow {
+            let (a, b) = std::rc::Rc::make_mut(l).split_at_mut(self.split);
+            b.copy_from_slice(a);
+        }
+    }
+
+    fn record(&mut self, i: usize, local: f32, exact: f64) {
+        if self.line == NO_LINE || !self.mask[i] {
+            return;
+        }
+        let bits = ulp_bits(local, exact as f32);
+        let cfg = i - self.split;
+        let slot = self.errors[self.line as usize].get_or_insert_with(|| vec![(0.0, 0, 0.0); self.split]);
+        let e = &mut slot[cfg];
+        e.0 += bits;
+        e.1 += 1;
+        e.2 = e.2.max(bits);
+    }
+
+    /// A float operation of one argument, component by component.
+    fn f1(&mut self, a: &[f64], f64f: impl Fn(f64) -> f64, f32f: impl Fn(f32) -> f32, rounding: bool) -> Lanes {
+        let s = self.split;
+        let mut v = Vec::with_capacity(self.n);
+        v.extend(a[..s].iter().map(|&x| f32f(x as f32) as f64));
+        v.extend(a[s..].iter().map(|&x| f64f(x)));
+        let out: Lanes = std::rc::Rc::new(v);
+        if self.shadow && rounding {
+            for i in s..self.n {
+                self.record(i, f32f(a[i] as f32), out[i]);
+            }
+        }
+        out
+    }
+
+    fn f2(
+        &mut self,
+        a: &[f64],
+        b: &[f64],
+        f64f: impl Fn(f64, f64) -> f64,
+        f32f: impl Fn(f32, f32) -> f32,
+        rounding: bool,
+    ) -> Lanes {
+        let s = self.split;
+        let mut v = Vec::with_capacity(self.n);
+        v.extend(
+            a[..s]
+                .iter()
+                .zip(&b[..s])
+                .map(|(&x, &y)| f32f(x as f32, y as f32) as f64),
+        );
+        v.extend(a[s..].iter().zip(&b[s..]).map(|(&x, &y)| f64f(x, y)));
+        let out: Lanes = std::rc::Rc::new(v);
+        if self.shadow && rounding {
+            for i in s..self.n {
+                self.record(i, f32f(a[i] as f32, b[i] as f32), out[i]);
+            }
+        }
+        out
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn f3(
+        &mut self,
+        a: &[f64],
+        b: &[f64],
+        c: &[f64],
+        f64f: impl Fn(f64, f64, f64) -> f64,
+        f32f: impl Fn(f32, f32, f32) -> f32,
+        rounding: bool,
+    ) -> Lanes {
+        let s = self.split;
+        let out: Lanes = (0..self.n)
+            .map(|i| {
+                if i < s {
+                    f32f(a[i] as f32, b[i] as f32, c[i] as f32) as f64
+                } else {
+                    f64f(a[i], b[i], c[i])
+                }
+            })
+            .lanes();
+        if self.shadow && rounding {
+            for i in s..self.n {
+                self.record(i, f32f(a[i] as f32, b[i] as f32, c[i] as f32), out[i]);
+            }
+        }
+        out
+    }
+
+    fn add(&mut self, a: &[f64], b: &[f64]) -> Lanes {
+        self.f2(a, b, |x, y| x + y, |x, y| x + y, true)
+    }
+    fn sub(&mut self, a: &[f64], b: &[f64]) -> Lanes {
+        self.f2(a, b, |x, y| x - y, |x, y| x - y, true)
+    }
+    fn mul(&mut self, a: &[f64], b: &[f64]) -> Lanes {
+        self.f2(a, b, |x, y| x * y, |x, y| x * y, true)
+    }
+    fn div(&mut self, a: &[f64], b: &[f64]) -> Lanes {
+        self.f2(a, b, |x, y| x / y, |x, y| x / y, true)
+    }
+    fn dot(&mut self, a: &[Lanes], b: &[Lanes]) -> Lanes {
+        let mut acc = self.mul(&a[0], &b[0]);
+        for k in 1..a.len() {
+            let t = self.mul(&a[k], &b[k]);
+            acc = self.add(&acc, &t);
+        }
+        acc
+    }
+    fn rsqrt(&mut self, a: &[f64]) -> Lanes {
+        // Correctly rounded in f32 (the f64 quotient of an f32 argument, rounded once).
+        self.f1(a, |x| 1.0 / x.sqrt(), |x| (1.0 / (x as f64).sqrt()) as f32, true)
+    }
+
+    /// Runs `method` on `scene` (one value per lane) and returns its result.
+    pub(super) fn run(&mut self, scene: Val) -> Result<Vec<f64>> {
+        let p = self.p;
+        for (h, g) in p.module.global_variables.iter() {
+            if g.space != naga::AddressSpace::Private {
+                continue;
+            }
+            let v = match g.init {
+                Some(init) => self.constant(&p.global_consts[init.index()]).map_err(|e| anyhow!(e))?,
+                None => self.zero(g.ty),
+            };
+            self.globals[h.index()] = Some(self.heap.len());
+            self.heap.push(v);
+            // What the entry point does before calling `method` (compose.rs).
+            let slot = self.heap.len() - 1;
+            match g.name.as_deref() {
+                Some("ll_scene") => self.heap[slot] = scene.clone(),
+                Some("Minv") => {
+                    let (off, len) = p.scene_minv;
+                    self.heap[slot] = Val(scene.0[off..off + len].to_vec());
+                }
+                _ => {}
+            }
+        }
+        let mask = vec![true; self.n];
+        let v = self.call(p.method, vec![Slot::Val(scene)], &mask)?;
+        let v = v.ok_or_else(|| anyhow!("`method` returned nothing"))?;
+        Ok(v.0[0].to_vec())
+    }
+
+    fn zero(&self, ty: Handle<naga::Type>) -> Val {
+        Val(vec![self.zero_lanes.clone(); self.p.flat[ty.index()]])
+    }
+
+    fn inner(&self, fun: Handle<naga::Function>, h: Handle<naga::Expression>) -> &'p TypeInner {
+        self.p.info[fun][h].ty.inner_with(&self.p.module.types)
+    }
+
+    fn call(&mut self, fun: Handle<naga::Function>, args: Vec<Slot>, mask: &[bool]) -> Result<Option<Val>> {
+        let p = self.p;
+        let f = &p.module.functions[fun];
+        let heap_top = self.heap.len();
+        let mut fr = Frame {
+            fun,
+            vals: vec![None; f.expressions.len()],
+            ret: f.result.as_ref().map(|r| self.zero(r.ty)),
+        };
+        let mut locals = Vec::with_capacity(f.local_variables.len());
+        for (_, lv) in f.local_variables.iter() {
+            locals.push(self.heap.len());
+            self.heap.push(self.zero(lv.ty));
+        }
+        let fp = &p.funs[fun.index()];
+        // Expressions no `Emit` covers (literals, constants, arguments, variables) first;
+        // the constant ones once per chunk.
+        let cached = self.consts[fun.index()].take();
+        for (h, e) in f.expressions.iter() {
+            if fp.emitted[h.index()] || matches!(e, E::CallResult(_)) {
+                continue;
+            }
+            if let (Some(c), true) = (&cached, fp.constant[h.index()]) {
+                fr.vals[h.index()] = c[h.index()].clone();
+                continue;
+            }
+            let v = match e {
+                E::FunctionArgument(i) => args[*i as usize].clone(),
+                E::LocalVariable(lv) => Slot::Ptr(Ptr {
+                    slot: locals[lv.index()],
+                    off: Off::Uniform(0),
+                    len: p.flat[f.local_variables[*lv].ty.index()],
+                }),
+                _ => {
+                    self.line = NO_LINE;
+                    self.eval(&mut fr, h)?;
+                    continue;
+                }
+            };
+            fr.vals[h.index()] = Some(v);
+        }
+        self.consts[fun.index()] = Some(cached.unwrap_or_else(|| {
+            (0..fr.vals.len())
+                .map(|i| if fp.constant[i] { fr.vals[i].clone() } else { None })
+                .collect()
+        }));
+        for (lv, v) in f.local_variables.iter() {
+            if let Some(init) = v.init {
+                let val = self.val(&fr, init)?.clone();
+                self.heap[locals[lv.index()]] = val;
+            }
+        }
+        let mut m = mask.to_vec();
+        let mut ctl = Vec::new();
+        self.block(&mut fr, &f.body, &mut m, &mut ctl)?;
+        self.heap.truncate(heap_top);
+        Ok(fr.ret)
+    }
+
+    fn val<'f>(&self, fr: &'f Frame, h: Handle<naga::Expression>) -> Result<&'f Val> {
+        match fr.vals[h.index()].as_ref() {
+            Some(Slot::Val(v)) => Ok(v),
+            Some(Slot::Ptr(_)) => bail!("internal: expression {h:?} is a pointer"),
+            None => Err(self.at(fr.fun, h, "value used before it is computed")),
+        }
+    }
+
+    fn ptr<'f>(&self, fr: &'f Frame, h: Handle<naga::Expression>) -> Result<&'f Ptr> {
+        match fr.vals[h.index()].as_ref() {
+            Some(Slot::Ptr(p)) => Ok(p),
+            _ => Err(self.at(fr.fun, h, "not a pointer")),
+        }
+    }
+
+    fn at(&self, fun: Handle<naga::Function>, h: Handle<naga::Expression>, msg: &str) -> anyhow::Error {
+        let line = self.p.funs[fun.index()].line[h.index()];
+        match self.p.lines.get(line as usize) {
+            Some(l) => anyhow!("{}:{}: CPU evaluator: {msg} (`{}`)", l.path, l.line, l.text.trim()),
+            None => anyhow!("CPU evaluator: {msg}"),
+        }
+    }
+
+    fn block(&mut self, fr: &mut Frame, block: &naga::Block, mask: &mut Vec<bool>, ctl: &mut Vec<Ctl>) -> Result<()> {
+        for st in block.iter() {
+            if !any(mask) {
+                return Ok(());
+            }
+            match st {
+                S::Emit(range) => {
+                    if self.shadow {
+                        self.mask.clone_from(mask);
+                    }
+                    for h in range.clone() {
+                        self.line = self.p.funs[fr.fun.index()].line[h.index()];
+                        self.eval(fr, h)?;
+                    }
+                }
+                S::Block(b) => self.block(fr, b, mask, ctl)?,
+                S::If {
+                    condition,
+                    accept,
+                    reject,
+                } => {
+                    let c = &self.val(fr, *condition)?.0[0];
+                    let mut yes: Vec<bool> = mask.iter().zip(c.iter()).map(|(&m, &c)| m && c != 0.0).collect();
+                    let mut no: Vec<bool> = mask.iter().zip(c.iter()).map(|(&m, &c)| m && c == 0.0).collect();
+                    if any(&yes) {
+                        self.block(fr, accept, &mut yes, ctl)?;
+                    }
+                    if any(&no) {
+                        self.block(fr, reject, &mut no, ctl)?;
+                    }
+                    or_into(&mut yes, &no);
+                    *mask = yes;
+                }
+                S::Switch { selector, cases } => {
+                    let sel = self.val(fr, *selector)?.0[0].clone();
+                    let value = |v: &naga::SwitchValue| match v {
+                        naga::SwitchValue::I32(i) => Some(*i as f64),
+                        naga::SwitchValue::U32(u) => Some(*u as f64),
+                        naga::SwitchValue::Default => None,
+                    };
+                    let listed: Vec<f64> = cases.iter().filter_map(|c| value(&c.value)).collect();
+                    ctl.push(Ctl {
+                        is_loop: false,
+                        brk: vec![false; self.n],
+                        cont: vec![false; self.n],
+                    });
+                    let mut out = vec![false; self.n];
+                    let mut carry = vec![false; self.n];
+                    for case in cases {
+                        let mut m: Vec<bool> = (0..self.n)
+                            .map(|i| {
+                                mask[i]
+                                    && match value(&case.value) {
+                                        Some(v) => sel[i] == v,
+                                        None => !listed.contains(&sel[i]),
+                                    }
+                            })
+                            .collect();
+                        or_into(&mut m, &carry);
+                        if any(&m) {
+                            self.block(fr, &case.body, &mut m, ctl)?;
+                        }
+                        if case.fall_through {
+                            carry = m;
+                        } else {
+                            or_into(&mut out, &m);
+                            carry = vec![false; self.n];
+                        }
+                    }
+                    let c = ctl.pop().expect("pushed above");
+                    or_into(&mut out, &c.brk);
+                    if let Some(outer) = ctl.iter_mut().rev().find(|c| c.is_loop) {
+                        or_into(&mut outer.cont, &c.cont);
+                    }
+                    *mask = out;
+                }
+                S::Loop {
+                    body,
+                    continuing,
+                    break_if,
+                } => {
+                    ctl.push(Ctl {
+                        is_loop: true,
+                        brk: vec![false; self.n],
+                        cont: vec![false; self.n],
+                    });
+                    let mut active = mask.clone();
+                    let mut iterations = 0u64;
+                    while any(&active) {
+                        iterations += 1;
+                        if iterations > 1 << 24 {
+                            bail!("CPU evaluator: a loop ran more than 2^24 iterations");
+                        }
+                        self.block(fr, body, &mut active, ctl)?;
+                        let top = ctl.last_mut().expect("pushed above");
+                        or_into(&mut active, &top.cont);
+                        top.cont.fill(false);
+                        self.block(fr, continuing, &mut active, ctl)?;
+                        if let Some(b) = break_if {
+                            let c = &self.val(fr, *b)?.0[0];
+                            let top = ctl.last_mut().expect("pushed above");
+                            for i in 0..self.n {
+                                if active[i] && c[i] != 0.0 {
+                                    active[i] = false;
+                                    top.brk[i] = true;
+                                }
+                            }
+                        }
+                    }
+                    *mask = ctl.pop().expect("pushed above").brk;
+                }
+                S::Break => {
+                    let top = ctl.last_mut().ok_or_else(|| anyhow!("`break` outside a loop"))?;
+                    or_into(&mut top.brk, mask);
+                    mask.fill(false);
+                }
+                S::Continue => {
+                    let top = ctl
+                        .iter_mut()
+                        .rev()
+                        .find(|c| c.is_loop)
+                        .ok_or_else(|| anyhow!("`continue` outside a loop"))?;
+                    or_into(&mut top.cont, mask);
+                    mask.fill(false);
+                }
+                S::Return { value } => {
+                    if let Some(v) = value {
+                        let v = self.val(fr, *v)?.clone();
+                        let ret = fr
+                            .ret
+                            .as_mut()
+                            .ok_or_else(|| anyhow!("return value in a void function"))?;
+                        for (r, x) in ret.0.iter_mut().zip(&v.0) {
+                            assign(r, x, mask);
+                        }
+                    }
+                    mask.fill(false);
+                }
+                S::Store { pointer, value } => {
+                    let ptr = self.ptr(fr, *pointer)?.clone();
+                    let v = self.val(fr, *value)?;
+                    let slot = &mut self.heap[ptr.slot];
+                    match &ptr.off {
+                        Off::Uniform(o) => {
+                            for c in 0..ptr.len {
+                                assign(&mut slot.0[o + c], &v.0[c], mask);
+                            }
+                        }
+                        Off::PerLane(o) => {
+                            for c in 0..ptr.len {
+                                for i in 0..self.n {
+                                    if mask[i] {
+                                        std::rc::Rc::make_mut(&mut slot.0[o[i] + c])[i] = v.0[c][i];
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+                S::Call {
+                    function,
+                    arguments,
+                    result,
+                } => {
+                    let args = arguments
+                        .iter()
+                        .map(|a| {
+                            fr.vals[a.index()]
+                                .clone()
+                                .ok_or_else(|| anyhow!("argument not computed"))
+                        })
+                        .collect::<Result<Vec<_>>>()?;
+                    let r = self.call(*function, args, mask)?;
+                    if let (Some(h), Some(r)) = (result, r) {
+                        fr.vals[h.index()] = Some(Slot::Val(r));
+                    }
+                }
+                other => bail!("CPU evaluator: unsupported statement {other:?}"),
+            }
+        }
+        Ok(())
+    }
+
+    fn eval(&mut self, fr: &mut Frame, h: Handle<naga::Expression>) -> Result<()> {
+        let p = self.p;
+        let fun = fr.fun;
+        let f = &p.module.functions[fun];
+        let e = &f.expressions[h];
+        let ty = self.inner(fun, h);
+        let float = kind(ty) == Some(ScalarKind::Float);
+        let slot = match e {
+            E::Literal(l) => {
+                let v = match *l {
+                    naga::Literal::F32(x) => {
+                        let v64 = match self.split == self.n {
+                            true => x as f64,
+                            false => p.funs[fun.index()].lit64[h.index()]
+                                .clone()
+                                .map_err(|m| self.at(fun, h, &m))?,
+                        };
+                        self.fill(x as f64, v64)
+                    }
+                    naga::Literal::U32(x) => self.fill(x as f64, x as f64),
+                    naga::Literal::I32(x) => self.fill(x as f64, x as f64),
+                    naga::Literal::Bool(x) => self.fill(x as u8 as f64, x as u8 as f64),
+                    other => return Err(self.at(fun, h, &format!("unsupported literal {other:?}"))),
+                };
+                Slot::Val(Val(vec![v]))
+            }
+            E::Constant(c) => {
+                let init = p.module.constants[*c].init;
+                Slot::Val(
+                    self.constant(&p.global_consts[init.index()])
+                        .map_err(|m| self.at(fun, h, &m))?,
+                )
+            }
+            E::Override(o) => {
+                let v = p.overrides[o.index()];
+                Slot::Val(Val(vec![self.fill(v, v)]))
+            }
+            E::ZeroValue(t) => Slot::Val(self.zero(*t)),
+            E::Compose { components, .. } => {
+                let mut out = Vec::new();
+                for c in components {
+                    out.extend(self.val(fr, *c)?.0.iter().cloned());
+                }
+                Slot::Val(Val(out))
+            }
+            E::Splat { size, value } => {
+                let v = &self.val(fr, *value)?.0[0];
+                Slot::Val(Val(vec![v.clone(); *size as usize]))
+            }
+            E::Swizzle { size, vector, pattern } => {
+                let v = self.val(fr, *vector)?;
+                Slot::Val(Val(pattern[..*size as usize]
+                    .iter()
+                    .map(|c| v.0[*c as usize].clone())
+                    .collect()))
+            }
+            E::AccessIndex { base, index } => {
+                let bty = self.inner(fun, *base);
+                match fr.vals[base.index()].as_ref() {
+                    Some(Slot::Ptr(ptr)) => {
+                        let (off, len) = p.child(&p.pointee(bty), *index as usize);
+                        let off = match &ptr.off {
+                            Off::Uniform(o) => Off::Uniform(o + off),
+                            Off::PerLane(o) => Off::PerLane(o.iter().map(|x| x + off).collect()),
+                        };
+                        Slot::Ptr(Ptr {
+                            slot: ptr.slot,
+                            off,
+                            len,
+                        })
+                    }
+                    Some(Slot::Val(v)) => {
+                        let (off, len) = p.child(bty, *index as usize);
+                        Slot::Val(Val(v.0[off..off + len].to_vec()))
+                    }
+                    None => return Err(self.at(fun, h, "base not computed")),
+                }
+            }
+            E::Access { base, index } => {
+                let bty = self.inner(fun, *base);
+                let idx = self.val(fr, *index)?.0[0].clone();
+                match fr.vals[base.index()].as_ref() {
+                    Some(Slot::Ptr(ptr)) => {
+                        let inner = p.pointee(bty);
+                        let (count, stride) = p.elements(&inner);
+                        let off = (0..self.n)
+                            .map(|i| {
+                                let k = (idx[i].max(0.0) as usize).min(count - 1);
+                                k * stride
+                                    + match &ptr.off {
+                                        Off::Uniform(o) => *o,
+                                        Off::PerLane(o) => o[i],
+                                    }
+                            })
+                            .collect();
+                        Slot::Ptr(Ptr {
+                            slot: ptr.slot,
+                            off: Off::PerLane(off),
+                            len: stride,
+                        })
+                    }
+                    Some(Slot::Val(v)) => {
+                        let (count, stride) = p.elements(bty);
+                        let out = (0..stride)
+                            .map(|c| {
+                                (0..self.n)
+                                    .map(|i| v.0[(idx[i].max(0.0) as usize).min(count - 1) * stride + c][i])
+                                    .lanes()
+                            })
+                            .collect();
+                        Slot::Val(Val(out))
+                    }
+                    None => return Err(self.at(fun, h, "base not computed")),
+                }
+            }
+            E::GlobalVariable(g) => {
+                let slot = self.globals[g.index()]
+                    .ok_or_else(|| self.at(fun, h, "only private globals can be read on the CPU"))?;
+                Slot::Ptr(Ptr {
+                    slot,
+                    off: Off::Uniform(0),
+                    len: p.flat[p.module.global_variables[*g].ty.index()],
+                })
+            }
+            E::Load { pointer } => {
+                let ptr = self.ptr(fr, *pointer)?;
+                let src = &self.heap[ptr.slot];
+                let out = match &ptr.off {
+                    Off::Uniform(o) => src.0[*o..*o + ptr.len].to_vec(),
+                    Off::PerLane(o) => (0..ptr.len)
+                        .map(|c| (0..self.n).map(|i| src.0[o[i] + c][i]).lanes())
+                        .collect(),
+                };
+                Slot::Val(Val(out))
+            }
+            E::Unary { op, expr } => {
+                let a = self.val(fr, *expr)?;
+                let out =
+                    a.0.iter()
+                        .map(|l| match (op, float) {
+                            (U::Negate, true) => l.iter().map(|x| -x).lanes(),
+                            (U::Negate, false) => l.iter().map(|x| -(*x as i64 as i32 as f64)).lanes(),
+                            (U::LogicalNot, _) => l.iter().map(|&x| (x == 0.0) as u8 as f64).lanes(),
+                            (U::BitwiseNot, _) => match kind(ty) {
+                                Some(ScalarKind::Sint) => l.iter().map(|&x| !(x as i32) as f64).lanes(),
+                                _ => l.iter().map(|&x| !(x as u32) as f64).lanes(),
+                            },
+                        })
+                        .collect();
+                Slot::Val(Val(out))
+            }
+            E::Binary { op, left, right } => {
+                let lt = self.inner(fun, *left);
+                let rt = self.inner(fun, *right);
+                let (a, b) = (self.val(fr, *left)?, self.val(fr, *right)?);
+                Slot::Val(self.binary(*op, lt, rt, a, b).map_err(|m| self.at(fun, h, &m))?)
+            }
+            E::Select {
+                condition,
+                accept,
+                reject,
+            } => {
+                let c = self.val(fr, *condition)?;
+                let a = self.val(fr, *accept)?;
+                let r = self.val(fr, *reject)?;
+                let out = (0..a.0.len())
+                    .map(|k| {
+                        let ck = &c.0[k.min(c.0.len() - 1)];
+                        (0..self.n)
+                            .map(|i| if ck[i] != 0.0 { a.0[k][i] } else { r.0[k][i] })
+                            .lanes()
+                    })
+                    .collect();
+                Slot::Val(Val(out))
+            }
+            E::Relational { fun: rf, argument } => {
+                let a = self.val(fr, *argument)?;
+                let out = match rf {
+                    naga::RelationalFunction::All => {
+                        vec![(0..self.n)
+                            .map(|i| a.0.iter().all(|l| l[i] != 0.0) as u8 as f64)
+                            .lanes()]
+                    }
+                    naga::RelationalFunction::Any => {
+                        vec![(0..self.n)
+                            .map(|i| a.0.iter().any(|l| l[i] != 0.0) as u8 as f64)
+                            .lanes()]
+                    }
+                    naga::RelationalFunction::IsNan => {
+                        a.0.iter()
+                            .map(|l| l.iter().map(|x| x.is_nan() as u8 as f64).lanes())
+                            .collect()
+                    }
+                    naga::RelationalFunction::IsInf => {
+                        a.0.iter()
+                            .map(|l| l.iter().map(|x| x.is_infinite() as u8 as f64).lanes())
+                            .collect()
+                    }
+                };
+                Slot::Val(Val(out))
+            }
+            E::Math {
+                fun: mf,
+                arg,
+                arg1,
+                arg2,
+                ..
+            } => {
+                let a = self.val(fr, *arg)?;
+                let b = arg1.map(|x| self.val(fr, x)).transpose()?;
+                let c = arg2.map(|x| self.val(fr, x)).transpose()?;
+                let at = self.inner(fun, *arg);
+                Slot::Val(self.math(*mf, at, a, b, c).map_err(|m| self.at(fun, h, &m))?)
+            }
+            E::As {
+                expr,
+                kind: to,
+                convert,
+            } => {
+                if convert.is_none() {
+                    return Err(self.at(fun, h, "bitcast is not supported"));
+                }
+                let from = kind(self.inner(fun, *expr));
+                let a = self.val(fr, *expr)?;
+                let mut out = Vec::new();
+                for l in &a.0 {
+                    out.push(match (to, from) {
+                        (ScalarKind::Float, Some(ScalarKind::Float)) => l.clone(),
+                        (ScalarKind::Float, _) => self.f1(l, |x| x, |x| x, false),
+                        (ScalarKind::Uint, Some(ScalarKind::Float)) => l
+                            .iter()
+                            .map(|&x| x.trunc().clamp(0.0, u32::MAX as f64))
+                            .map(nan0)
+                            .lanes(),
+                        (ScalarKind::Sint, Some(ScalarKind::Float)) => l
+                            .iter()
+                            .map(|&x| x.trunc().clamp(i32::MIN as f64, i32::MAX as f64))
+                            .map(nan0)
+                            .lanes(),
+                        (ScalarKind::Uint, Some(ScalarKind::Sint)) => l.iter().map(|&x| x as i32 as u32 as f64).lanes(),
+                        (ScalarKind::Sint, Some(ScalarKind::Uint)) => l.iter().map(|&x| x as u32 as i32 as f64).lanes(),
+                        (ScalarKind::Bool, _) => l.iter().map(|&x| (x != 0.0) as u8 as f64).lanes(),
+                        _ => l.clone(),
+                    });
+                }
+                Slot::Val(Val(out))
+            }
+            E::CallResult(_) => return Err(self.at(fun, h, "call result read before the call")),
+            other => return Err(self.at(fun, h, &format!("unsupported expression {other:?}"))),
+        };
+        let slot = match slot {
+            Slot::Val(mut v) if !float && self.shadow => {
+                for l in &mut v.0 {
+                    self.follow(l);
+                }
+                Slot::Val(v)
+            }
+            s => s,
+        };
+        fr.vals[h.index()] = Some(slot);
+        Ok(())
+    }
+
+    fn binary(&mut self, op: B, lt: &TypeInner, rt: &TypeInner, a: &Val, b: &Val) -> Result<Val, String> {
+        use TypeInner as T;
+        let k = kind(lt);
+        let float = k == Some(ScalarKind::Float);
+        match (op, lt, rt) {
+            (B::Multiply, T::Matrix { columns, rows, .. }, T::Vector { .. }) => {
+                let r = *rows as usize;
+                let mut out = Vec::new();
+                for i in 0..r {
+                    let mut acc = self.mul(&a.0[i], &b.0[0]);
+                    for j in 1..*columns as usize {
+                        let t = self.mul(&a.0[j * r + i], &b.0[j]);
+                        acc = self.add(&acc, &t);
+                    }
+                    out.push(acc);
+                }
+                return Ok(Val(out));
+            }
+            (B::Multiply, T::Vector { .. }, T::Matrix { columns, rows, .. }) => {
+                let r = *rows as usize;
+                let out = (0..*columns as usize)
+                    .map(|j| self.dot(&a.0, &b.0[j * r..(j + 1) * r]))
+                    .collect();
+                return Ok(Val(out));
+            }
+            (
+                B::Multiply,
+                T::Matrix {
+                    columns: ac, rows: ar, ..
+                },
+                T::Matrix { columns: bc, .. },
+            ) => {
+                let (ar, ac) = (*ar as usize, *ac as usize);
+                let mut out = Vec::new();
+                for j in 0..*bc as usize {
+                    for i in 0..ar {
+                        let mut acc = self.mul(&a.0[i], &b.0[j * ac]);
+                        for kk in 1..ac {
+                            let t = self.mul(&a.0[kk * ar + i], &b.0[j * ac + kk]);
+                            acc = self.add(&acc, &t);
+                        }
+                        out.push(acc);
+                    }
+                }
+                return Ok(Val(out));
+            }
+            _ => {}
+        }
+        let len = a.0.len().max(b.0.len());
+        let pick = |v: &Val, i: usize| if v.0.len() == 1 { 0 } else { i };
+        let mut out = Vec::with_capacity(len);
+        for i in 0..len {
+            let (x, y) = (&a.0[pick(a, i)], &b.0[pick(b, i)]);
+            let cmp = |f: fn(f64, f64) -> bool| -> Lanes {
+                x.iter().zip(y.iter()).map(|(&p, &q)| f(p, q) as u8 as f64).lanes()
+            };
+            let l = match op {
+                B::Add if float => self.add(x, y),
+                B::Subtract if float => self.sub(x, y),
+                B::Multiply if float => self.mul(x, y),
+                B::Divide if float => self.div(x, y),
+                B::Modulo if float => self.f2(x, y, |p, q| p % q, |p, q| p % q, true),
+                B::Add
+                | B::Subtract
+                | B::Multiply
+                | B::Divide
+                | B::Modulo
+                | B::And
+                | B::InclusiveOr
+                | B::ExclusiveOr
+                | B::ShiftLeft
+                | B::ShiftRight => {
+                    let signed = k == Some(ScalarKind::Sint);
+                    x.iter().zip(y.iter()).map(|(&p, &q)| int_op(op, p, q, signed)).lanes()
+                }
+                B::Equal => cmp(|p, q| p == q),
+                B::NotEqual => cmp(|p, q| p != q),
+                B::Less => cmp(|p, q| p < q),
+                B::LessEqual => cmp(|p, q| p <= q),
+                B::Greater => cmp(|p, q| p > q),
+                B::GreaterEqual => cmp(|p, q| p >= q),
+                B::LogicalAnd => cmp(|p, q| p != 0.0 && q != 0.0),
+                B::LogicalOr => cmp(|p, q| p != 0.0 || q != 0.0),
+            };
+            out.push(l);
+        }
+        Ok(Val(out))
+    }
+
+    fn math(&mut self, f: M, at: &TypeInner, a: &Val, b: Option<&Val>, c: Option<&Val>) -> Result<Val, String> {
+        let float = kind(at) == Some(ScalarKind::Float);
+        let need = |v: Option<&Val>| v.ok_or_else(|| format!("{f:?}: missing argument")).cloned();
+        // Component by component, a scalar argument standing for every component.
+        let each1 = |s: &mut Self, g: &dyn Fn(&mut Self, &[f64]) -> Lanes| Val(a.0.iter().map(|l| g(s, l)).collect());
+        let pick = |v: &Val, i: usize| v.0[if v.0.len() == 1 { 0 } else { i }].clone();
+        Ok(match f {
+            M::Abs => each1(self, &|s, l| s.f1(l, f64::abs, f32::abs, false)),
+            M::Sqrt => each1(self, &|s, l| s.f1(l, f64::sqrt, f32::sqrt, true)),
+            M::InverseSqrt => each1(self, &|s, l| s.rsqrt(l)),
+            M::Sin => each1(self, &|s, l| s.f1(l, libm::sin, libm::sinf, true)),
+            M::Cos => each1(self, &|s, l| s.f1(l, libm::cos, libm::cosf, true)),
+            M::Tan => each1(self, &|s, l| s.f1(l, libm::tan, libm::tanf, true)),
+            M::Asin => each1(self, &|s, l| s.f1(l, libm::asin, libm::asinf, true)),
+            M::Acos => each1(self, &|s, l| s.f1(l, libm::acos, libm::acosf, true)),
+            M::Atan => each1(self, &|s, l| s.f1(l, libm::atan, libm::atanf, true)),
+            M::Exp => each1(self, &|s, l| s.f1(l, libm::exp, libm::expf, true)),
+            M::Exp2 => each1(self, &|s, l| s.f1(l, libm::exp2, libm::exp2f, true)),
+            M::Log => each1(self, &|s, l| s.f1(l, libm::log, libm::logf, true)),
+            M::Log2 => each1(self, &|s, l| s.f1(l, libm::log2, libm::log2f, true)),
+            M::Floor => each1(self, &|s, l| s.f1(l, f64::floor, f32::floor, false)),
+            M::Ceil => each1(self, &|s, l| s.f1(l, f64::ceil, f32::ceil, false)),
+            M::Trunc => each1(self, &|s, l| s.f1(l, f64::trunc, f32::trunc, false)),
+            M::Round => each1(self, &|s, l| s.f1(l, f64::round_ties_even, f32::round_ties_even, false)),
+            M::Fract => each1(self, &|s, l| s.f1(l, |x| x - x.floor(), |x| x - x.floor(), true)),
+            M::Saturate => each1(self, &|s, l| {
+                s.f1(l, |x| x.clamp(0.0, 1.0), |x| x.clamp(0.0, 1.0), false)
+            }),
+            M::Sign => each1(self, &|s, l| {
+                s.f1(
+                    l,
+                    |x| {
+                        if x > 0.0 {
+                            1.0
+                        } else if x < 0.0 {
+                            -1.0
+                        } else {
+                            0.0
+                        }
+                    },
+                    |x| {
+                        if x > 0.0 {
+                            1.0
+                        } else if x < 0.0 {
+                            -1.0
+                        } else {
+                            0.0
+                        }
+                    },
+                    false,
+                )
+            }),
+            M::Min | M::Max | M::Atan2 | M::Pow | M::Step => {
+                let b = need(b)?;
+                let out = (0..a.0.len())
+                    .map(|i| {
+                        let (x, y) = (pick(a, i), pick(&b, i));
+                        match f {
+                            // WGSL min/max of a NaN: either; IEEE minNum here.
+                            M::Min => self.f2(&x, &y, f64::min, f32::min, false),
+                            M::Max => self.f2(&x, &y, f64::max, f32::max, false),
+                            M::Atan2 => self.f2(&x, &y, libm::atan2, libm::atan2f, true),
+                            M::Pow => self.f2(&x, &y, libm::pow, libm::powf, true),
+                            _ => self.f2(
+                                &x,
+                                &y,
+                                |e, v| (v >= e) as u8 as f64,
+                                |e, v| (v >= e) as u8 as f32,
+                                false,
+                            ),
+                        }
+                    })
+                    .collect();
+                Val(out)
+            }
+            M::Clamp | M::Fma | M::Mix => {
+                let (b, c) = (need(b)?, need(c)?);
+                let out = (0..a.0.len())
+                    .map(|i| {
+                        let (x, y, z) = (pick(a, i), pick(&b, i), pick(&c, i));
+                        match f {
+                            M::Clamp => self.f3(
+                                &x,
+                                &y,
+                                &z,
+                                |v, lo, hi| v.max(lo).min(hi),
+                                |v, lo, hi| v.max(lo).min(hi),
+                                false,
+                            ),
+                            M::Fma => self.f3(&x, &y, &z, f64::mul_add, f32::mul_add, true),
+                            _ => {
+                                // mix(x, y, t) = x·(1 − t) + y·t
+                                let one = vec![1.0; self.n];
+                                let u = self.sub(&one, &z);
+                                let p = self.mul(&x, &u);
+                                let q = self.mul(&y, &z);
+                                self.add(&p, &q)
+                            }
+                        }
+                    })
+                    .collect();
+                Val(out)
+            }
+            M::Dot => {
+                let b = need(b)?;
+                Val(vec![self.dot(&a.0, &b.0)])
+            }
+            M::Cross => {
+                let b = need(b)?;
+                let (x, y) = (&a.0, &b.0);
+                let mut out = Vec::new();
+                for (i, j) in [(1, 2), (2, 0), (0, 1)] {
+                    let p = self.mul(&x[i], &y[j]);
+                    let q = self.mul(&x[j], &y[i]);
+                    out.push(self.sub(&p, &q));
+                }
+                Val(out)
+            }
+            M::Length => {
+                if !float {
+                    return Err("length of a non-float".into());
+                }
+                let d = if a.0.len() == 1 {
+                    self.f1(&a.0[0], f64::abs, f32::abs, false)
+                } else {
+                    let d = self.dot(&a.0, &a.0);
+                    self.f1(&d, f64::sqrt, f32::sqrt, true)
+                };
+                Val(vec![d])
+            }
+            M::Distance => {
+                let b = need(b)?;
+                let diff: Vec<Lanes> = (0..a.0.len()).map(|i| self.sub(&a.0[i], &b.0[i])).collect();
+                let d = self.dot(&diff, &diff);
+                Val(vec![self.f1(&d, f64::sqrt, f32::sqrt, true)])
+            }
+            M::Normalize => {
+                // v · inverseSqrt(v·v), as drivers lower it.
+                let d = self.dot(&a.0, &a.0);
+                let r = self.rsqrt(&d);
+                Val(a.0.iter().map(|l| self.mul(l, &r)).collect())
+            }
+            M::Determinant => {
+                let m = &a.0;
+                match m.len() {
+                    4 => {
+                        let p = self.mul(&m[0], &m[3]);
+                        let q = self.mul(&m[2], &m[1]);
+                        Val(vec![self.sub(&p, &q)])
+                    }
+                    9 => {
+                        // m[c][r] = m[3c + r]; cofactor expansion along the first column.
+                        let e = |c: usize, r: usize| &m[3 * c + r];
+                        let minor = |s: &mut Self, c1: usize, c2: usize, r1: usize, r2: usize| {
+                            let p = s.mul(e(c1, r1), e(c2, r2));
+                            let q = s.mul(e(c2, r1), e(c1, r2));
+                            s.sub(&p, &q)
+                        };
+                        let m0 = minor(self, 1, 2, 1, 2);
+                        let m1 = minor(self, 1, 2, 0, 2);
+                        let m2 = minor(self, 1, 2, 0, 1);
+                        let t0 = self.mul(e(0, 0), &m0);
+                        let t1 = self.mul(e(0, 1), &m1);
+                        let t2 = self.mul(e(0, 2), &m2);
+                        let s = self.sub(&t0, &t1);
+                        Val(vec![self.add(&s, &t2)])
+                    }
+                    n => return Err(format!("determinant of a {n}-component matrix")),
+                }
+            }
+            M::Transpose => {
+                let TypeInner::Matrix { columns, rows, .. } = at else {
+                    return Err("transpose of a non-matrix".into());
+                };
+                let (c, r) = (*columns as usize, *rows as usize);
+                // The result has r columns of c rows: out[i][j] = in[j][i].
+                Val((0..r)
+                    .flat_map(|i| (0..c).map(move |j| (i, j)))
+                    .map(|(i, j)| a.0[j * r + i].clone())
+                    .collect())
+            }
+            other => return Err(format!("math function {other:?} is not supported")),
+        })
+    }
+}
+
+/// `dst = src` on the lanes in `mask`; shares `src` when every lane is.
+fn assign(dst: &mut Lanes, src: &Lanes, mask: &[bool]) {
+    if mask.iter().all(|&m| m) {
+        *dst = src.clone();
+        return;
+    }
+    let d = std::rc::Rc::make_mut(dst);
+    for (i, &m) in mask.iter().enumerate() {
+        if m {
+            d[i] = src[i];
+        }
+    }
+}
+
+fn nan0(x: f64) -> f64 {
+    if x.is_nan() {
+        0.0
+    } else {
+        x
+    }
+}
+
+/// WGSL integer arithmetic: wrapping, `x / 0 = x`, `x % 0 = 0`; also bool `&`, `|`, `^`.
+fn int_op(op: B, p: f64, q: f64, signed: bool) -> f64 {
+    if signed {
+        let (a, b) = (p as i64 as i32, q as i64 as i32);
+        (match op {
+            B::Add => a.wrapping_add(b),
+            B::Subtract => a.wrapping_sub(b),
+            B::Multiply => a.wrapping_mul(b),
+            B::Divide => {
+                if b == 0 {
+                    a
+                } else {
+                    a.wrapping_div(b)
+                }
+            }
+            B::Modulo => {
+                if b == 0 {
+                    0
+                } else {
+                    a.wrapping_rem(b)
+                }
+            }
+            B::And => a & b,
+            B::InclusiveOr => a | b,
+            B::ExclusiveOr => a ^ b,
+            B::ShiftLeft => a.wrapping_shl(b as u32),
+            _ => a.wrapping_shr(b as u32),
+        }) as f64
+    } else {
+        let (a, b) = (p as i64 as u32, q as i64 as u32);
+        (match op {
+            B::Add => a.wrapping_add(b),
+            B::Subtract => a.wrapping_sub(b),
+            B::Multiply => a.wrapping_mul(b),
+            B::Divide => a.checked_div(b).unwrap_or(a),
+            B::Modulo => a.checked_rem(b).unwrap_or(0),
+            B::And => a & b,
+            B::InclusiveOr => a | b,
+            B::ExclusiveOr => a ^ b,
+            B::ShiftLeft => a.wrapping_shl(b),
+            _ => a.wrapping_shr(b),
+        }) as f64
+    }
+}

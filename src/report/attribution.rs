@@ -1,0 +1,76 @@
+//! "Where the bits go": per method, the kernel source lines whose f32 operations lose the
+//! most bits (local error, src/interp), as a short Markdown table. Kept apart from
+//! `markdown.rs`, which only calls [`render`].
+
+use crate::sweep::MethodAttribution;
+use std::fmt::Write;
+
+/// Lines shown per method.
+const TOP: usize = 5;
+
+pub fn render(methods: &[MethodAttribution]) -> String {
+    let mut o = String::new();
+    if methods.is_empty() {
+        return o;
+    }
+    let _ = writeln!(o, "## Where the bits go\n");
+    let _ = writeln!(
+        o,
+        "Local f32 rounding error per kernel source line (the CPU evaluator in f32 with an f64 shadow; each \
+         operation in f32 on the shadow's arguments rounded to f32, against the exact operation; bits = \
+         log2(1 + ULP distance)). Per configuration a line's bits are the mean and the max over its operations; \
+         the table gives the mean of the means and the p99 of the maxima over the configurations the line ran \
+         on. The {TOP} lines with the most bits per method, on an evenly spread subset of the configurations \
+         (count per method).\n"
+    );
+    for m in methods {
+        let _ = writeln!(o, "`{}` ({} configurations):\n", m.label, m.configurations);
+        let _ = writeln!(o, "| file:line | source | mean bits | p99 bits |");
+        let _ = writeln!(o, "|---|---|---:|---:|");
+        for l in m.lines.iter().take(TOP) {
+            let _ = writeln!(
+                o,
+                "| `{}:{}` | `{}` | {:.2} | {:.2} |",
+                l.line.path,
+                l.line.line,
+                l.line.text.trim().replace('|', "\\|"),
+                l.mean,
+                l.p99
+            );
+        }
+        let _ = writeln!(o);
+    }
+    o
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::interp::{Line, LineSummary};
+
+    #[test]
+    fn a_table_per_method_top_lines_first() {
+        let line = |n: usize, text: &str, mean: f64| LineSummary {
+            line: Line {
+                path: "kernels/k.wgsl".into(),
+                line: n,
+                text: text.into(),
+            },
+            mean,
+            p99: 2.0 * mean,
+            max: 3.0 * mean,
+            configs: 10,
+        };
+        let m = MethodAttribution {
+            label: "line.k".into(),
+            configurations: 10,
+            lines: (0..7).map(|i| line(i + 1, "let a = b | c;", 7.0 - i as f64)).collect(),
+        };
+        let text = render(&[m]);
+        assert!(text.contains("## Where the bits go"));
+        assert!(text.contains("`line.k` (10 configurations)"));
+        assert!(text.contains("| `kernels/k.wgsl:1` | `let a = b \\| c;` | 7.00 | 14.00 |"));
+        assert_eq!(text.matches("kernels/k.wgsl:").count(), TOP);
+        assert_eq!(render(&[]), "");
+    }
+}
