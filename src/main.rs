@@ -1,4 +1,4 @@
-//! The `linelight` command line: sweep, eval, adapters, check.
+//! The `linelight` command line: sweep, eval, bench, fit, chain, adapters, check.
 
 use clap::{Parser, Subcommand};
 use linelight::analysis::{analyse, Verdict};
@@ -92,6 +92,30 @@ enum Command {
         /// Also write the costs (one object per method) as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
+    },
+    /// Fit the isotropic GGX LTC table (f64, Nelder–Mead; deterministic) and write it.
+    Fit {
+        /// Table file (CSV, docs/ggx.md); a run record goes beside it (`.run.json`).
+        #[arg(long, default_value = "data/ltc_ggx_iso.csv")]
+        out: PathBuf,
+        /// Entries per axis (roughness × view angle).
+        #[arg(long, default_value_t = 64)]
+        size: usize,
+    },
+    /// The GGX error chain (fit, table, storage, formula, rounding, driver) of a case of ggx
+    /// materials, beside the published table: writes OUT/chain.{md,csv,json}.
+    Chain {
+        /// Case file with ggx materials, e.g. cases/ggx.toml.
+        #[arg(default_value = "cases/ggx.toml")]
+        case: PathBuf,
+        /// Output folder (default: reports/<case name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Override every material's count (quick runs).
+        #[arg(long)]
+        count: Option<usize>,
+        #[command(flatten)]
+        gpu: GpuArgs,
     },
     /// List the Vulkan adapters wgpu can see.
     Adapters,
@@ -298,6 +322,21 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 json,
             };
             linelight::bench::run(&options)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Fit { out, size } => {
+            linelight::ltc::fit_command(&out, size)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Chain { case, out, count, gpu } => {
+            let case_path = case.display().to_string();
+            let case = Case::load(&case)?;
+            let device = open_gpu(&gpu)?;
+            let run = linelight::chain::measure(&case, &device, count, gpu.chunk)?;
+            let dir = out.unwrap_or_else(|| PathBuf::from("reports").join(&case.name));
+            for path in linelight::chain::write(&dir, &case_path, &case, &run)? {
+                eprintln!("wrote {}", path.display());
+            }
             Ok(ExitCode::SUCCESS)
         }
         Command::Adapters => {

@@ -71,7 +71,19 @@ impl Method {
         self.eval_cpu::<f32>(config)
     }
 
+    /// For a `ggx` configuration the port sees the fed (rotated, `ltc`) configuration and its
+    /// result is multiplied by the magnitude in T, as a shader multiplies in f32.
     fn eval_cpu<T: ports::Real>(&self, config: &Config) -> Option<T> {
+        let (fed, magnitude) = config.fed();
+        let value = self.eval_cpu_ltc::<T>(&fed)?;
+        Some(if config.material.fed().is_some() {
+            value * T::from_f64(magnitude).expect("a magnitude is finite")
+        } else {
+            value
+        })
+    }
+
+    fn eval_cpu_ltc<T: ports::Real>(&self, config: &Config) -> Option<T> {
         let Some(inner) = &self.inner else {
             return ports::evaluate::<T>(self.id(), &self.params, config);
         };
@@ -88,7 +100,7 @@ impl Method {
                 rect: config.rect.clone(),
                 material: config.material.clone(),
             };
-            inner.eval_cpu::<T>(&segment).unwrap_or_else(|| {
+            inner.eval_cpu_ltc::<T>(&segment).unwrap_or_else(|| {
                 unported.set(true);
                 T::nan()
             })
