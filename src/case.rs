@@ -451,11 +451,16 @@ impl Case {
                              (aspect, peak, shear and rotation are for synthetic LTC lobes)"
                         ));
                     }
-                    let alpha = m.alpha.as_ref().ok_or_else(|| format!("{name}: a ggx material needs `alpha`"))?;
+                    let alpha = m
+                        .alpha
+                        .as_ref()
+                        .ok_or_else(|| format!("{name}: a ggx material needs `alpha`"))?;
                     alpha.check(&format!("{name}.alpha"))?;
                     let (lo, hi) = alpha.bounds();
                     if !(lo > 0.0 && hi <= 1.0) {
-                        return Err(format!("{name}.alpha: GGX roughness must be in (0, 1], got [{lo}, {hi}]"));
+                        return Err(format!(
+                            "{name}.alpha: GGX roughness must be in (0, 1], got [{lo}, {hi}]"
+                        ));
                     }
                     let view = m
                         .view_angle

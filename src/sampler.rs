@@ -469,8 +469,12 @@ fn sample_material(source: &mut dyn Uniforms, family: &MaterialFamily) -> (Mater
             };
             let (st, ct) = (libm::sin(deg(theta)), libm::cos(deg(theta)));
             let view = [st * libm::cos(phi), st * libm::sin(phi), ct];
-            let material = Material::ggx(roughness, view, family.ltc.as_deref())
-                .unwrap_or_else(|e| panic!("materials `{}`: {e} (the case check admits only valid ones)", family.name));
+            let material = Material::ggx(roughness, view, family.ltc.as_deref()).unwrap_or_else(|e| {
+                panic!(
+                    "materials `{}`: {e} (the case check admits only valid ones)",
+                    family.name
+                )
+            });
             (material, alpha, theta, k)
         }
         MaterialKind::LtcSparse | MaterialKind::LtcFull => {

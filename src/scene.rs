@@ -64,7 +64,10 @@ impl Material {
             return Err(format!("ggx view must be a unit vector (|view| = {len:.9})"));
         }
         if !(view[2] > 0.0) {
-            return Err(format!("ggx view must be above the surface (view.z = {} <= 0)", view[2]));
+            return Err(format!(
+                "ggx view must be above the surface (view.z = {} <= 0)",
+                view[2]
+            ));
         }
         let feed = match ltc {
             Some(name) => crate::ltc::Feed::parse(name)?,

@@ -11,7 +11,11 @@ use linelight::target::Target;
 
 fn config(view_azimuth: f64, alpha: Roughness, ltc: &str) -> Config {
     let theta = 50f64.to_radians();
-    let view = [theta.sin() * view_azimuth.cos(), theta.sin() * view_azimuth.sin(), theta.cos()];
+    let view = [
+        theta.sin() * view_azimuth.cos(),
+        theta.sin() * view_azimuth.sin(),
+        theta.cos(),
+    ];
     // The segment crosses the mirror direction at distance 1.5.
     let m = [-view[0] * 1.5, -view[1] * 1.5, view[2] * 1.5];
     let t = [view_azimuth.sin(), -view_azimuth.cos(), 0.3];
@@ -55,7 +59,9 @@ fn ggx_json_is_strict() {
 fn fed_configuration_is_rotated_and_scaled() {
     let c = config(1.1, Roughness::Iso(0.3), "table");
     let (fed, magnitude) = c.fed();
-    let Material::Ltc { minv } = fed.material else { panic!("fed as ltc") };
+    let Material::Ltc { minv } = fed.material else {
+        panic!("fed as ltc")
+    };
     // The isotropic table's sparsity survives because the view is rotated into the xz-plane.
     assert!(fed.material.is_sparse() && c.material.is_sparse(), "{minv:?}");
     assert!(magnitude > 0.5 && magnitude < 1.0, "{magnitude}");
@@ -100,7 +106,10 @@ fn gpu_applies_the_magnitude_like_the_cpu_port() {
             let f64v = m.eval_f64(c).unwrap();
             assert!(f64v > 0.0, "{spec} {c:?}");
             assert!(((v - cpu) / cpu).abs() < 1e-3, "{spec}: GPU {v} CPU f32 {cpu}");
-            assert!(((f64::from(v) - f64v) / f64v).abs() < 1e-2, "{spec}: GPU {v} f64 {f64v}");
+            assert!(
+                ((f64::from(v) - f64v) / f64v).abs() < 1e-2,
+                "{spec}: GPU {v} f64 {f64v}"
+            );
         }
     }
 }

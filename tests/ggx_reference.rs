@@ -2,7 +2,8 @@
 //! alone: its own GGX D (normalised half vector, Λ as written), composite Gauss–Legendre on
 //! equal panels in the parametrisations of `reference_independent.rs`, and the lobe's peak
 //! found by a dense search of the integrand (not from the mirror direction the reference
-//! uses), with cuts graded geometrically around it. Accuracy: 1e-7 relative, α down to 0.01.
+//! uses), with cuts graded geometrically around it. Lines to 1e-8, surfaces (rectangle,
+//! cylinder, caps, tube) to 1e-7, α down to 0.01, isotropic and anisotropic.
 
 use linelight::reference::reference;
 use linelight::scene::{Config, Material, Rect, Roughness, Vec3};
@@ -47,7 +48,8 @@ fn ggx_d(alpha: [f64; 2], v: Vec3, w: Vec3) -> f64 {
     let h = unit(add(v, w));
     let k = (h[0] / ax).powi(2) + (h[1] / ay).powi(2) + h[2] * h[2];
     let ndf = 1.0 / (PI * ax * ay * k * k);
-    let lambda = |u: Vec3| (-1.0 + (1.0 + (ax * ax * u[0] * u[0] + ay * ay * u[1] * u[1]) / (u[2] * u[2])).sqrt()) / 2.0;
+    let lambda =
+        |u: Vec3| (-1.0 + (1.0 + (ax * ax * u[0] * u[0] + ay * ay * u[1] * u[1]) / (u[2] * u[2])).sqrt()) / 2.0;
     ndf / (1.0 + lambda(v) + lambda(w)) / (4.0 * v[2])
 }
 
@@ -95,7 +97,7 @@ fn composite(f: &dyn Fn(f64) -> f64, a: f64, b: f64, cuts: &[f64], per: usize) -
 
 /// The argmax of g over [a, b] on a dense grid, and cuts at it and at (b − a)·2⁻ᵏ either side.
 fn peak_cuts(g: &dyn Fn(f64) -> f64, a: f64, b: f64) -> Vec<f64> {
-    let n = 4000;
+    let n = 1500;
     let x = (0..=n)
         .map(|i| a + (b - a) * i as f64 / n as f64)
         .max_by(|x, y| g(*x).total_cmp(&g(*y)))
@@ -196,6 +198,138 @@ fn rectangle(c: &Config) -> f64 {
     composite(&f, a, b, &cuts, 2)
 }
 
+/// ∫∫ f(x, y) dy dx over x ∈ [a, b], y ∈ [lo(x), hi(x)], each direction cut at `cuts_x` /
+/// `cuts_y(x)` and graded about the peak of f (the outer one from a coarse look along y).
+fn nested(
+    f: &(dyn Fn(f64, f64) -> f64 + Sync),
+    (a, b): (f64, f64),
+    range_y: &dyn Fn(f64) -> (f64, f64),
+    cuts_x: &[f64],
+    cuts_y: &dyn Fn(f64) -> Vec<f64>,
+) -> f64 {
+    let inner = |x: f64| {
+        let (lo, hi) = range_y(x);
+        if !(hi > lo) {
+            return 0.0;
+        }
+        let g = |y: f64| f(x, y);
+        let mut cuts = peak_cuts(&g, lo, hi);
+        cuts.extend(cuts_y(x));
+        composite(&g, lo, hi, &cuts, 2)
+    };
+    let coarse = |x: f64| {
+        let (lo, hi) = range_y(x);
+        (0..=64)
+            .map(|k| f(x, lo + (hi - lo) * k as f64 / 64.0))
+            .fold(0.0, f64::max)
+    };
+    let mut cuts = peak_cuts(&coarse, a, b);
+    cuts.extend_from_slice(cuts_x);
+    composite(&inner, a, b, &cuts, 2)
+}
+
+/// The solutions φ ∈ [−2π, 4π) of a + b cos φ + c sin φ = 0 (every period a caller may use).
+fn trig_roots(a: f64, b: f64, c: f64) -> Vec<f64> {
+    let r = b.hypot(c);
+    if r == 0.0 || a.abs() > r {
+        return Vec::new();
+    }
+    let (g, h) = (c.atan2(b), (-a / r).acos());
+    [g - h, g + h]
+        .iter()
+        .flat_map(|x| [x - 2.0 * PI, *x, x + 2.0 * PI])
+        .collect()
+}
+
+/// Two unit vectors completing ω_t to an orthonormal basis.
+fn basis(t: Vec3) -> (Vec3, Vec3) {
+    let helper = if t[2].abs() < 0.9 {
+        [0.0, 0.0, 1.0]
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    let e1 = unit(cross(helper, t));
+    (e1, cross(t, e1))
+}
+
+/// `cylinder` per Eq. 1.2 in (l, φ) over the arc that faces the origin.
+fn cylinder(c: &Config) -> f64 {
+    let (alpha, v) = material(c);
+    let r = c.radius.unwrap();
+    let e = sub(c.p2, c.p1);
+    let len = norm(e);
+    let t = mul(e, 1.0 / len);
+    let (e1, e2) = basis(t);
+    let wn = |phi: f64| add(mul(e1, phi.cos()), mul(e2, phi.sin()));
+    let (a, b) = (dot(c.p1, e1), dot(c.p1, e2));
+    let rho = a.hypot(b);
+    if rho <= r {
+        return 0.0;
+    }
+    let half = (r / rho).acos();
+    let centre = b.atan2(a) + PI;
+    let f = |l: f64, phi: f64| {
+        let n = wn(phi);
+        let p = add(add(c.p1, mul(t, l)), mul(n, r));
+        let w = unit(p);
+        ggx_d(alpha, v, w) * (-dot(w, n)).max(0.0) / dot(p, p) * r
+    };
+    // The horizon crosses a generator where p.z = 0.
+    let horizon = |phi: f64| -> Vec<f64> {
+        let p0 = add(c.p1, mul(wn(phi), r));
+        if t[2] != 0.0 {
+            vec![-p0[2] / t[2]]
+        } else {
+            vec![]
+        }
+    };
+    // Outer φ, inner l (the horizon cut is along l); the outer kinks where that cut passes
+    // an end of the tube.
+    let mut outer = Vec::new();
+    for end in [c.p1, c.p2] {
+        outer.extend(trig_roots(end[2], r * e1[2], r * e2[2]));
+    }
+    nested(
+        &|phi, l| f(l, phi),
+        (centre - half, centre + half),
+        &|_| (0.0, len),
+        &outer,
+        &horizon,
+    )
+}
+
+/// `caps` per Eq. 1.29 in each disk's polar coordinates (φ outer, r inner), one-sided.
+fn caps(c: &Config) -> f64 {
+    let (alpha, v) = material(c);
+    let radius = c.radius.unwrap();
+    let t = unit(sub(c.p2, c.p1));
+    let (e1, e2) = basis(t);
+    let mut total = 0.0;
+    for (centre, normal) in [(c.p1, t), (c.p2, mul(t, -1.0))] {
+        if dot(centre, normal) <= 0.0 {
+            continue;
+        }
+        let u = |phi: f64| add(mul(e1, phi.cos()), mul(e2, phi.sin()));
+        let f = |phi: f64, rr: f64| {
+            let p = add(centre, mul(u(phi), rr));
+            let w = unit(p);
+            rr * ggx_d(alpha, v, w) * dot(w, normal).max(0.0) / dot(p, p)
+        };
+        let horizon = |phi: f64| -> Vec<f64> {
+            let uz = u(phi)[2];
+            if uz != 0.0 {
+                vec![-centre[2] / uz]
+            } else {
+                vec![]
+            }
+        };
+        // The outer kinks where the horizon crosses the rim.
+        let outer = trig_roots(centre[2], radius * e1[2], radius * e2[2]);
+        total += nested(&f, (0.0, 2.0 * PI), &|_| (0.0, radius), &outer, &horizon);
+    }
+    total
+}
+
 fn ggx(rng: &mut ChaCha8Rng, i: usize) -> Material {
     let a = 10f64.powf(rng.random_range(-2.0..0.0));
     let alpha = if i.is_multiple_of(2) {
@@ -206,7 +340,9 @@ fn ggx(rng: &mut ChaCha8Rng, i: usize) -> Material {
     let theta = rng.random_range(0.0..85.0f64).to_radians();
     let phi = rng.random_range(0.0..2.0 * PI);
     let view = [theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()];
-    Material::ggx(alpha, view, Some("table")).or_else(|_| Material::ggx(alpha, view, Some("fit"))).unwrap()
+    Material::ggx(alpha, view, Some("table"))
+        .or_else(|_| Material::ggx(alpha, view, Some("fit")))
+        .unwrap()
 }
 
 /// A configuration whose segment passes near the mirror direction (every other one), so
@@ -259,14 +395,17 @@ fn check(c: &Config, target: Target, independent: f64, tol: f64) -> f64 {
         "{target} {c:?}: reference {r:?}, independent {independent:e}, rel {:e}",
         err / independent.abs()
     );
-    assert!(r.error <= 1e-7 * r.value.abs().max(1e-300) || r.value == 0.0, "{target}: {r:?}");
+    assert!(
+        r.error <= 1e-7 * r.value.abs().max(1e-300) || r.value == 0.0,
+        "{target}: {r:?}"
+    );
     independent
 }
 
 #[test]
 fn ggx_lines_agree_with_an_independent_quadrature() {
     let mut rng = ChaCha8Rng::seed_from_u64(2016);
-    let configs: Vec<Config> = (0..24).map(|i| config(&mut rng, i)).collect();
+    let configs: Vec<Config> = (0..20).map(|i| config(&mut rng, i)).collect();
     let lit: usize = configs
         .par_iter()
         .map(|c| {
@@ -276,16 +415,49 @@ fn ggx_lines_agree_with_an_independent_quadrature() {
             usize::from(v > 0.0)
         })
         .sum();
-    assert!(lit >= 16, "only {lit} of 24 see the light");
+    assert!(lit >= 13, "only {lit} of 20 see the light");
 }
 
 #[test]
 fn ggx_rectangles_agree_with_an_independent_quadrature() {
     let mut rng = ChaCha8Rng::seed_from_u64(2017);
-    let configs: Vec<Config> = (0..8).map(|i| config(&mut rng, i)).collect();
+    let configs: Vec<Config> = (0..6).map(|i| config(&mut rng, i)).collect();
     let lit: usize = configs
         .par_iter()
         .map(|c| usize::from(check(c, Target::Rectangle, rectangle(c), 1e-7) > 0.0))
         .sum();
-    assert!(lit >= 5, "only {lit} of 8 see the light");
+    assert!(lit >= 4, "only {lit} of 6 see the light");
+}
+
+#[test]
+fn ggx_tubes_agree_with_an_independent_quadrature() {
+    let mut rng = ChaCha8Rng::seed_from_u64(2018);
+    let configs: Vec<Config> = (0..6)
+        .map(|i| {
+            let mut c = config(&mut rng, i);
+            // A tube up to half the segment's distance; even i: wide enough to see a cap well.
+            c.rect = None;
+            // Even i: slide the segment along itself until the cap at p1 faces the origin.
+            let e = sub(c.p2, c.p1);
+            let t = unit(e);
+            let s = dot(c.p1, t);
+            if i.is_multiple_of(2) && s <= 0.0 {
+                let shift = mul(t, -s + 0.2 * norm(e));
+                (c.p1, c.p2) = (add(c.p1, shift), add(c.p2, shift));
+            }
+            c.radius = Some(c.distance_to_segment() * rng.random_range(0.02..0.5));
+            c
+        })
+        .filter(|c| c.validate().is_ok())
+        .collect();
+    let lit: [usize; 2] = configs
+        .par_iter()
+        .map(|c| {
+            let side = check(c, Target::Cylinder, cylinder(c), 1e-7);
+            let ends = check(c, Target::Caps, caps(c), 1e-7);
+            check(c, Target::Tube, side + ends, 1e-7);
+            [usize::from(side > 0.0), usize::from(ends > 0.0)]
+        })
+        .reduce(|| [0; 2], |a, b| [a[0] + b[0], a[1] + b[1]]);
+    assert!(lit[0] >= 4 && lit[1] >= 2, "too few see the light: {lit:?}");
 }

@@ -79,7 +79,10 @@ fn the_fit_is_better_than_the_diffuse_start_and_its_error_is_honest() {
     let f = fit_iso(&g, None);
     let diffuse = Ltc::new([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
     let (l3_diffuse, l1_diffuse) = linelight::ltc::fit::errors(&g, &diffuse, f.magnitude, 32);
-    assert!(f.l3 < 0.1 * l3_diffuse && f.l1 < l1_diffuse, "{f:?} vs {l3_diffuse} {l1_diffuse}");
+    assert!(
+        f.l3 < 0.1 * l3_diffuse && f.l1 < l1_diffuse,
+        "{f:?} vs {l3_diffuse} {l1_diffuse}"
+    );
     // The reported L1 error agrees with a finer estimate of the same integral.
     let ltc = Ltc::new(linelight::ltc::fit::inverse(&f.minv));
     let (_, fine) = linelight::ltc::fit::errors(&g, &ltc, f.magnitude, 128);

@@ -28,7 +28,13 @@ pub enum Feed {
 }
 
 impl Feed {
-    pub const ALL: [Feed; 5] = [Feed::Table, Feed::TableF16, Feed::Published, Feed::PublishedF16, Feed::Fit];
+    pub const ALL: [Feed; 5] = [
+        Feed::Table,
+        Feed::TableF16,
+        Feed::Published,
+        Feed::PublishedF16,
+        Feed::Fit,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -93,7 +99,11 @@ pub fn feed(alpha: [f64; 2], view: [f64; 3], feed: Feed) -> Result<Fed, String> 
         return Ok(*f);
     }
     let phi = view[1].atan2(view[0]);
-    let (s, c) = if view[0] == 0.0 && view[1] == 0.0 { (0.0, 1.0) } else { phi.sin_cos() };
+    let (s, c) = if view[0] == 0.0 && view[1] == 0.0 {
+        (0.0, 1.0)
+    } else {
+        phi.sin_cos()
+    };
     let rotation = [c, s];
     let iso = alpha[0] == alpha[1];
     let fed = match feed {
@@ -210,7 +220,7 @@ pub fn fit_command(out: &std::path::Path, size: usize) -> anyhow::Result<()> {
         "Isotropic GGX LTC table fitted by `linelight fit` (src/ltc/fit.rs); format: docs/ggx.md.\n\
          {size}×{size} entries (a, t): roughness a/{n}, alpha = max(roughness², {min}), cos θ = 1 − (t/{n})² (θ ≤ {max}).\n\
          M⁻¹ = [[m00,0,m02],[0,m11,0],[m20,0,1]] (row-major, ω_o = M⁻¹ω); magnitude = ∫D; fresnel = ∫D(1−v·h)⁵;\n\
-         fit_l1 = ∫|mag·D_ltc − D|/∫D, fit_l3 = ∫|mag·D_ltc − D|³ (the objective); p_* the fitted parameters.",
+         fit_l1 = ∫|mag·D_ltc − D|/∫D (the objective), fit_l3 = ∫|mag·D_ltc − D|³ (the paper's); p_* the fitted parameters.",
         n = size - 1,
         min = table::MIN_ALPHA,
         max = table::MAX_THETA
@@ -227,6 +237,7 @@ pub fn fit_command(out: &std::path::Path, size: usize) -> anyhow::Result<()> {
         "size": size,
         "threads": threads,
         "seconds": seconds,
+        "objective": format!("{:?}", fit::OBJECTIVE),
         "objective_grid": fit::OBJECTIVE_GRID,
         "moment_grid": fit::MOMENT_GRID,
         "fit_l1_max": worst,

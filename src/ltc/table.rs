@@ -97,11 +97,7 @@ impl Table {
         let v: Vec<f64> = (0..6)
             .map(|k| lerp(lerp(t00[k], t10[k], f[0]), lerp(t01[k], t11[k], f[0]), f[1]) as f64)
             .collect();
-        (
-            [[v[0], 0.0, v[1]], [0.0, v[2], 0.0], [v[3], 0.0, 1.0]],
-            v[4],
-            v[5],
-        )
+        ([[v[0], 0.0, v[1]], [0.0, v[2], 0.0], [v[3], 0.0, 1.0]], v[4], v[5])
     }
 
     /// Our table: CSV, one entry per line after a header (docs/ggx.md).
@@ -177,25 +173,35 @@ impl Table {
     /// The published table from `ltc.inc` (tabMinv column-major 9-tuples, tabMagnitude).
     pub fn parse_published(text: &str, source: &str) -> Result<Table, String> {
         let section = |name: &str| -> Result<&str, String> {
-            let start = text
-                .find(name)
-                .ok_or_else(|| format!("{source}: no `{name}`"))?;
+            let start = text.find(name).ok_or_else(|| format!("{source}: no `{name}`"))?;
             let rest = &text[start..];
-            let open = rest.find('{').ok_or_else(|| format!("{source}: `{name}` has no body"))?;
-            let close = rest.find("};").ok_or_else(|| format!("{source}: `{name}` not closed"))?;
+            let open = rest
+                .find('{')
+                .ok_or_else(|| format!("{source}: `{name}` has no body"))?;
+            let close = rest
+                .find("};")
+                .ok_or_else(|| format!("{source}: `{name}` not closed"))?;
             Ok(&rest[open + 1..close])
         };
         let numbers = |body: &str| -> Result<Vec<f64>, String> {
             body.split(|c: char| c == ',' || c == '{' || c == '}' || c.is_whitespace())
                 .filter(|s| !s.is_empty())
-                .map(|s| s.trim_end_matches('f').parse::<f64>().map_err(|e| format!("{source}: `{s}`: {e}")))
+                .map(|s| {
+                    s.trim_end_matches('f')
+                        .parse::<f64>()
+                        .map_err(|e| format!("{source}: `{s}`: {e}"))
+                })
                 .collect()
         };
         let minv = numbers(section("tabMinv[")?)?;
         let mag = numbers(section("tabMagnitude[")?)?;
         let size = 64;
         if minv.len() != 9 * size * size || mag.len() != size * size {
-            return Err(format!("{source}: expected 64×64 entries, got {} and {}", minv.len() / 9, mag.len()));
+            return Err(format!(
+                "{source}: expected 64×64 entries, got {} and {}",
+                minv.len() / 9,
+                mag.len()
+            ));
         }
         let entries = (0..size * size)
             .map(|i| {
