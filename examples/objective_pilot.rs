@@ -58,7 +58,7 @@ fn main() {
                     material: Material::ggx(Roughness::Iso(alpha), view, Some("published")).unwrap(),
                 };
                 let truth = reference(&c, Target::Line).unwrap().value;
-                if !(truth > 0.0) {
+                if truth.is_nan() || truth <= 0.0 {
                     return None;
                 }
                 let mut out = vec![];
@@ -88,13 +88,13 @@ fn main() {
             med(3)
         );
         for e in &errs {
-            for k in 0..4 {
-                all[k].push(e[k]);
+            for (v, x) in all.iter_mut().zip(e) {
+                v.push(*x);
             }
         }
     }
-    for k in 0..4 {
-        all[k].sort_by(f64::total_cmp);
+    for v in &mut all {
+        v.sort_by(f64::total_cmp);
     }
     println!(
         "all: L3 {:.4} L1 {:.4} chi2 {:.4} published {:.4}",
