@@ -9,8 +9,8 @@
 pub mod analysis;
 pub mod bench;
 pub mod case;
-pub mod claims;
 pub mod chain;
+pub mod claims;
 pub mod cost;
 pub mod eval;
 pub mod gpu;

@@ -209,7 +209,7 @@ fn nested(
 ) -> f64 {
     let inner = |x: f64| {
         let (lo, hi) = range_y(x);
-        if !(hi > lo) {
+        if hi.is_nan() || lo.is_nan() || hi <= lo {
             return 0.0;
         }
         let g = |y: f64| f(x, y);
