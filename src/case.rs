@@ -165,6 +165,10 @@ pub enum MaterialKind {
     LtcFull,
     /// The GGX lobe of DESIGN §1; LTC methods are fed a fitted LTC (src/ltc).
     Ggx,
+    /// An `ltc` material whose M⁻¹ is the fitted GGX LTC of a drawn (α, view, anisotropy) as
+    /// the `ltc` feed gives it, in the frame where the view lies in the xz-plane: realistic
+    /// matrices for cases that measure a formula against the LTC integral (docs/ggx.md).
+    LtcGgx,
 }
 
 /// One bin axis: a derived parameter of each configuration and the bin edges.
@@ -438,13 +442,14 @@ impl Case {
                 ("view_azimuth", &m.view_azimuth),
                 ("anisotropy", &m.anisotropy),
             ];
-            if m.kind != MaterialKind::Ggx && (ggx_keys.iter().any(|(_, d)| d.is_some()) || m.ltc.is_some()) {
+            let ggx = matches!(m.kind, MaterialKind::Ggx | MaterialKind::LtcGgx);
+            if !ggx && (ggx_keys.iter().any(|(_, d)| d.is_some()) || m.ltc.is_some()) {
                 return Err(format!(
-                    "{name}: view_angle, view_azimuth, anisotropy and ltc are for kind = \"ggx\""
+                    "{name}: view_angle, view_azimuth, anisotropy and ltc are for kind = \"ggx\" or \"ltc_ggx\""
                 ));
             }
             match m.kind {
-                MaterialKind::Ggx => {
+                MaterialKind::Ggx | MaterialKind::LtcGgx => {
                     if lobe[1..].iter().any(|(_, d)| d.is_some()) || m.rotation.is_some() {
                         return Err(format!(
                             "{name}: a ggx material takes alpha, view_angle, view_azimuth, anisotropy and ltc \

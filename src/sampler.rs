@@ -455,7 +455,7 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
 fn sample_material(source: &mut dyn Uniforms, family: &MaterialFamily) -> (Material, f64, f64, f64) {
     match family.kind {
         MaterialKind::Diffuse => (Material::Diffuse, f64::NAN, f64::NAN, f64::NAN),
-        MaterialKind::Ggx => {
+        MaterialKind::Ggx | MaterialKind::LtcGgx => {
             let alpha = draw_opt(source, &family.alpha, 1.0);
             let theta = draw_opt(source, &family.view_angle, 45.0);
             let phi = deg(draw_opt(source, &family.view_azimuth, 0.0));
@@ -475,6 +475,10 @@ fn sample_material(source: &mut dyn Uniforms, family: &MaterialFamily) -> (Mater
                     family.name
                 )
             });
+            let material = match (&family.kind, material.fed()) {
+                (MaterialKind::LtcGgx, Some(fed)) => Material::Ltc { minv: fed.minv },
+                _ => material,
+            };
             (material, alpha, theta, k)
         }
         MaterialKind::LtcSparse | MaterialKind::LtcFull => {
