@@ -113,3 +113,60 @@ fn gpu_applies_the_magnitude_like_the_cpu_port() {
         }
     }
 }
+
+#[test]
+fn ggx_case_families_are_checked() {
+    use linelight::case::Case;
+    let case = |material: &str| {
+        Case::parse(
+            "t.toml",
+            &format!(
+                r#"
+name = "t"
+title = "t"
+seed = 1
+methods = ["line.ltc2017"]
+min_per_bin = 0
+[geometry]
+elevation = {{ dist = "uniform", min = 0.0, max = 90.0 }}
+tilt_angle = {{ dist = "uniform", min = 0.0, max = 180.0 }}
+length = {{ dist = "log_uniform", min = 0.1, max = 10.0 }}
+center = {{ dist = "uniform", min = -1.0, max = 1.0 }}
+[[materials]]
+name = "g"
+count = 5
+{material}
+"#
+            ),
+        )
+    };
+    let ok = "kind = \"ggx\"\nalpha = { dist = \"log_uniform\", min = 0.05, max = 1.0 }\nview_angle = { dist = \"uniform\", min = 0.0, max = 80.0 }";
+    let c = case(ok).unwrap();
+    let samples = linelight::sampler::sample_case(&c);
+    assert_eq!(samples.len(), 5);
+    assert!(samples
+        .iter()
+        .all(|s| matches!(s.config.material, Material::Ggx { .. })));
+    assert!(samples
+        .iter()
+        .all(|s| s.axes.view_angle >= 0.0 && s.axes.view_angle <= 80.0));
+    let fitted = case(&ok.replace("\"ggx\"", "\"ltc_ggx\"")).unwrap();
+    let s = linelight::sampler::sample_case(&fitted);
+    assert!(s
+        .iter()
+        .all(|s| matches!(s.config.material, Material::Ltc { .. }) && s.config.material.is_sparse()));
+    for (bad, says) in [
+        (format!("{ok}\naspect = {{ dist = \"fixed\", value = 1.0 }}"), "aspect"),
+        (ok.replace("max = 80.0", "max = 90.0"), "view_angle"),
+        (ok.replace("max = 1.0 }", "max = 2.0 }"), "alpha"),
+        (format!("{ok}\nltc = \"tabel\""), "tabel"),
+        (
+            format!("{ok}\nanisotropy = {{ dist = \"fixed\", value = 2.0 }}\nltc = \"table\""),
+            "fit",
+        ),
+        (ok.replace("view_angle", "# view_angle"), "view_angle"),
+    ] {
+        let err = case(&bad).unwrap_err().to_string();
+        assert!(err.contains(says), "{bad}: {err}");
+    }
+}
