@@ -29,6 +29,15 @@ pub enum Dist {
 }
 
 impl Dist {
+    /// The smallest and largest value it can draw.
+    pub fn bounds(&self) -> (f64, f64) {
+        match *self {
+            Dist::Fixed { value } => (value, value),
+            Dist::Uniform { min, max } | Dist::LogUniform { min, max } => (min, max),
+            Dist::SignedLogUniform { max, .. } => (-max, max),
+        }
+    }
+
     fn check(&self, name: &str) -> Result<(), String> {
         match *self {
             Dist::Fixed { value } if !value.is_finite() => Err(format!("{name}: value must be finite")),
@@ -133,6 +142,19 @@ pub struct MaterialFamily {
     pub shear: Option<Dist>,
     #[serde(default)]
     pub rotation: Option<Dist>,
+    /// `ggx`: the view's angle from the normal (degrees).
+    #[serde(default)]
+    pub view_angle: Option<Dist>,
+    /// `ggx`: the view's azimuth against the roughness axes x, y (degrees; default 0).
+    #[serde(default)]
+    pub view_azimuth: Option<Dist>,
+    /// `ggx`: αy/αx, with αx·αy = α² (default 1: isotropic).
+    #[serde(default)]
+    pub anisotropy: Option<Dist>,
+    /// `ggx`: where the LTC methods' M⁻¹ comes from (`table`, `table_f16`, `published`,
+    /// `published_f16`, `fit`; default `table`, or `fit` when anisotropic). See docs/ggx.md.
+    #[serde(default)]
+    pub ltc: Option<String>,
 }
 
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
@@ -141,6 +163,12 @@ pub enum MaterialKind {
     Diffuse,
     LtcSparse,
     LtcFull,
+    /// The GGX lobe of DESIGN §1; LTC methods are fed a fitted LTC (src/ltc).
+    Ggx,
+    /// An `ltc` material whose M⁻¹ is the fitted GGX LTC of a drawn (α, view, anisotropy) as
+    /// the `ltc` feed gives it, in the frame where the view lies in the xz-plane: realistic
+    /// matrices for cases that measure a formula against the LTC integral (docs/ggx.md).
+    LtcGgx,
 }
 
 /// One bin axis: a derived parameter of each configuration and the bin edges.
@@ -310,6 +338,8 @@ pub const AXES: &[&str] = &[
     "cap_straddle",
     "width",
     "rect_angle",
+    "view_angle",
+    "anisotropy",
 ];
 
 /// A finding: an expectation over the run's analysis and the explanation that holds while it
@@ -427,7 +457,64 @@ impl Case {
                 ("peak", &m.peak),
                 ("shear", &m.shear),
             ];
+            let ggx_keys = [
+                ("view_angle", &m.view_angle),
+                ("view_azimuth", &m.view_azimuth),
+                ("anisotropy", &m.anisotropy),
+            ];
+            let ggx = matches!(m.kind, MaterialKind::Ggx | MaterialKind::LtcGgx);
+            if !ggx && (ggx_keys.iter().any(|(_, d)| d.is_some()) || m.ltc.is_some()) {
+                return Err(format!(
+                    "{name}: view_angle, view_azimuth, anisotropy and ltc are for kind = \"ggx\" or \"ltc_ggx\""
+                ));
+            }
             match m.kind {
+                MaterialKind::Ggx | MaterialKind::LtcGgx => {
+                    if lobe[1..].iter().any(|(_, d)| d.is_some()) || m.rotation.is_some() {
+                        return Err(format!(
+                            "{name}: a ggx material takes alpha, view_angle, view_azimuth, anisotropy and ltc \
+                             (aspect, peak, shear and rotation are for synthetic LTC lobes)"
+                        ));
+                    }
+                    let alpha = m
+                        .alpha
+                        .as_ref()
+                        .ok_or_else(|| format!("{name}: a ggx material needs `alpha`"))?;
+                    alpha.check(&format!("{name}.alpha"))?;
+                    let (lo, hi) = alpha.bounds();
+                    if !(lo > 0.0 && hi <= 1.0) {
+                        return Err(format!(
+                            "{name}.alpha: GGX roughness must be in (0, 1], got [{lo}, {hi}]"
+                        ));
+                    }
+                    let view = m
+                        .view_angle
+                        .as_ref()
+                        .ok_or_else(|| format!("{name}: a ggx material needs `view_angle` (degrees)"))?;
+                    view.check(&format!("{name}.view_angle"))?;
+                    let (lo, hi) = view.bounds();
+                    if !(lo >= 0.0 && hi < 90.0) {
+                        return Err(format!("{name}.view_angle: degrees in [0, 90), got [{lo}, {hi}]"));
+                    }
+                    for (key, d) in ggx_keys {
+                        if let Some(d) = d {
+                            d.check(&format!("{name}.{key}"))?;
+                        }
+                    }
+                    if let Some(feed) = &m.ltc {
+                        let feed = crate::ltc::Feed::parse(feed).map_err(|e| format!("{name}.ltc: {e}"))?;
+                        let aniso = m.anisotropy.as_ref().is_some_and(|d| d.bounds() != (1.0, 1.0));
+                        if aniso && feed != crate::ltc::Feed::Fit {
+                            return Err(format!(
+                                "{name}.ltc: `{}` is an isotropic table; an anisotropic ggx material needs ltc = \"fit\"",
+                                feed.name()
+                            ));
+                        }
+                        if matches!(feed, crate::ltc::Feed::Published | crate::ltc::Feed::PublishedF16) {
+                            crate::ltc::table::published().map_err(|e| format!("{name}.ltc: {e}"))?;
+                        }
+                    }
+                }
                 MaterialKind::Diffuse => {
                     if lobe.iter().any(|(_, d)| d.is_some()) || m.rotation.is_some() {
                         return Err(format!("{name}: a diffuse material takes no lobe parameters"));

@@ -1,4 +1,4 @@
-//! The `linelight` command line: sweep, eval, adapters, check.
+//! The `linelight` command line: sweep, eval, bench, fit, chain, adapters, check.
 
 use clap::{Parser, Subcommand};
 use linelight::analysis::{analyse, Verdict};
@@ -123,6 +123,30 @@ enum Command {
         /// The scan's report goes to OUT/<case name>-scan/.
         #[arg(long, default_value = "reports")]
         out: PathBuf,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
+    /// Fit the isotropic GGX LTC table (f64, Nelder–Mead; deterministic) and write it.
+    Fit {
+        /// Table file (CSV, docs/ggx.md); a run record goes beside it (`.run.json`).
+        #[arg(long, default_value = "data/ltc_ggx_iso.csv")]
+        out: PathBuf,
+        /// Entries per axis (roughness × view angle).
+        #[arg(long, default_value_t = 64)]
+        size: usize,
+    },
+    /// The GGX error chain (fit, table, storage, formula, rounding, driver) of a case of ggx
+    /// materials, beside the published table: writes OUT/chain.{md,csv,json}.
+    Chain {
+        /// Case file with ggx materials, e.g. cases/ggx.toml.
+        #[arg(default_value = "cases/ggx.toml")]
+        case: PathBuf,
+        /// Output folder (default: reports/<case name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Override every material's count (quick runs).
+        #[arg(long)]
+        count: Option<usize>,
         #[command(flatten)]
         gpu: GpuArgs,
     },
@@ -464,7 +488,17 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 anyhow::bail!("no line method to scan in {}", specs.join(", "));
             }
             let device = open_gpu(&gpu)?;
-            let families = case.materials.len() as u64;
+            let families = case
+                .materials
+                .iter()
+                .filter(|m| {
+                    !matches!(
+                        m.kind,
+                        linelight::case::MaterialKind::Ggx | linelight::case::MaterialKind::LtcGgx
+                    )
+                })
+                .count()
+                .max(1) as u64;
             let per_family = count.div_ceil(families);
             let pb = indicatif::ProgressBar::new(per_family * families * chosen.len() as u64);
             pb.set_style(
@@ -476,8 +510,31 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             );
             let mut results = Vec::new();
             let mut finished = 0u64;
+            // Families whose M⁻¹ comes from a fitted table are not generated on the device.
+            let scannable: Vec<usize> = (0..case.materials.len())
+                .filter(|&f| {
+                    let kind = case.materials[f].kind;
+                    let ok = !matches!(
+                        kind,
+                        linelight::case::MaterialKind::Ggx | linelight::case::MaterialKind::LtcGgx
+                    );
+                    if !ok {
+                        eprintln!(
+                            "note: family `{}` ({kind:?}) is not scanned: its M⁻¹ comes from a fitted table",
+                            case.materials[f].name
+                        );
+                    }
+                    ok
+                })
+                .collect();
+            if scannable.is_empty() {
+                anyhow::bail!(
+                    "no family of {} can be generated on the device (diffuse, ltc_sparse, ltc_full)",
+                    case.name
+                );
+            }
             for m in &chosen {
-                for f in 0..case.materials.len() {
+                for &f in &scannable {
                     let size = linelight::scan::ScanSize {
                         count: per_family,
                         capture,
@@ -511,6 +568,21 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             ];
             linelight::io::write_set(&dir, &files)?;
             eprintln!("wrote {}", dir.display());
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Fit { out, size } => {
+            linelight::ltc::fit_command(&out, size)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Chain { case, out, count, gpu } => {
+            let case_path = case.display().to_string();
+            let case = Case::load(&case)?;
+            let device = open_gpu(&gpu)?;
+            let run = linelight::chain::measure(&case, &device, count, gpu.chunk)?;
+            let dir = out.unwrap_or_else(|| PathBuf::from("reports").join(&case.name));
+            for path in linelight::chain::write(&dir, &case_path, &case, &run)? {
+                eprintln!("wrote {}", path.display());
+            }
             Ok(ExitCode::SUCCESS)
         }
         Command::Adapters => {

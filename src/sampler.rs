@@ -6,7 +6,7 @@
 //! transcendental functions from `libm` (pure Rust) rather than the platform's libm.
 
 use crate::case::{Case, Dist, MaterialFamily, MaterialKind};
-use crate::scene::{cross, dot, length, sub, Config, Mat3, Material, Rect, Vec3};
+use crate::scene::{cross, dot, length, sub, Config, Mat3, Material, Rect, Roughness, Vec3};
 use rand::{RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -48,6 +48,9 @@ pub struct Axes {
     pub width: f64,
     /// Angle (degrees) of the rectangle's normal from facing the shading point: 90 is edge-on.
     pub rect_angle: f64,
+    /// `ggx`: the view's angle from the normal (degrees) and αy/αx; NaN otherwise.
+    pub view_angle: f64,
+    pub anisotropy: f64,
 }
 
 impl Axes {
@@ -71,6 +74,8 @@ impl Axes {
             "cap_straddle" => self.cap_straddle,
             "width" => self.width,
             "rect_angle" => self.rect_angle,
+            "view_angle" => self.view_angle,
+            "anisotropy" => self.anisotropy,
             _ => f64::NAN,
         }
     }
@@ -480,7 +485,7 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
         }
     });
 
-    let (material_value, alpha) = sample_material(source, family);
+    let (material_value, alpha, view_angle, anisotropy) = sample_material(source, family);
     let minv = material_value.minv();
     let (p1o, p2o) = (mat_vec(&minv, p1), mat_vec(&minv, p2));
     let (reach_near, reach_far, subtended, height, _) = line_axes(p1, p2);
@@ -532,13 +537,42 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
             }),
             width: rect_width.map_or(f64::NAN, |w| w / d),
             rect_angle: if rect_width.is_some() { rect_angle_deg } else { f64::NAN },
+            view_angle,
+            anisotropy,
         },
     }
 }
 
-fn sample_material(source: &mut dyn Uniforms, family: &MaterialFamily) -> (Material, f64) {
+/// The material, its α, and for `ggx` its view angle (degrees) and anisotropy (else NaN).
+fn sample_material(source: &mut dyn Uniforms, family: &MaterialFamily) -> (Material, f64, f64, f64) {
     match family.kind {
-        MaterialKind::Diffuse => (Material::Diffuse, f64::NAN),
+        MaterialKind::Diffuse => (Material::Diffuse, f64::NAN, f64::NAN, f64::NAN),
+        MaterialKind::Ggx | MaterialKind::LtcGgx => {
+            let alpha = draw_opt(source, &family.alpha, 1.0);
+            let theta = draw_opt(source, &family.view_angle, 45.0);
+            let phi = deg(draw_opt(source, &family.view_azimuth, 0.0));
+            let k = draw_opt(source, &family.anisotropy, 1.0);
+            let roughness = if k == 1.0 {
+                Roughness::Iso(alpha)
+            } else {
+                // αx·αy = α², αy/αx = k, each kept in (0, 1].
+                let s = libm::sqrt(k);
+                Roughness::Aniso([(alpha / s).min(1.0), (alpha * s).min(1.0)])
+            };
+            let (st, ct) = (libm::sin(deg(theta)), libm::cos(deg(theta)));
+            let view = [st * libm::cos(phi), st * libm::sin(phi), ct];
+            let material = Material::ggx(roughness, view, family.ltc.as_deref()).unwrap_or_else(|e| {
+                panic!(
+                    "materials `{}`: {e} (the case check admits only valid ones)",
+                    family.name
+                )
+            });
+            let material = match (&family.kind, material.fed()) {
+                (MaterialKind::LtcGgx, Some(fed)) => Material::Ltc { minv: fed.minv },
+                _ => material,
+            };
+            (material, alpha, theta, k)
+        }
         MaterialKind::LtcSparse | MaterialKind::LtcFull => {
             let alpha = draw_opt(source, &family.alpha, 1.0);
             let aspect = draw_opt(source, &family.aspect, 1.0);
@@ -565,7 +599,7 @@ fn sample_material(source: &mut dyn Uniforms, family: &MaterialFamily) -> (Mater
             } else {
                 sparse
             };
-            (Material::Ltc { minv }, alpha)
+            (Material::Ltc { minv }, alpha, f64::NAN, f64::NAN)
         }
     }
 }

@@ -15,6 +15,73 @@ pub enum Material {
     Diffuse,
     /// Linearly transformed cosine; `minv` is M⁻¹, row-major, `ω_o = M⁻¹·ω`.
     Ltc { minv: Mat3 },
+    /// The GGX lobe of DESIGN §1 (height-correlated Smith, F = 1). References integrate it;
+    /// LTC methods are given `fed`: the LTC of `ltc` (a table look-up or an exact fit) in the
+    /// frame rotated about z so that the view lies in the xz-plane, and its magnitude.
+    Ggx {
+        alpha: Roughness,
+        view: Vec3,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        ltc: Option<String>,
+        #[serde(skip)]
+        fed: Fed,
+    },
+}
+
+/// GGX roughness: one α, or (αx, αy) along the frame axes.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Roughness {
+    Iso(f64),
+    Aniso([f64; 2]),
+}
+
+impl Roughness {
+    pub fn xy(self) -> [f64; 2] {
+        match self {
+            Roughness::Iso(a) => [a, a],
+            Roughness::Aniso(a) => a,
+        }
+    }
+}
+
+/// The LTC an LTC method is fed for a `ggx` material (see `crate::ltc`).
+pub type Fed = crate::ltc::Fed;
+
+impl Material {
+    /// A `ggx` material with its LTC fed from `ltc` (None: our table for isotropic
+    /// roughness, an exact fit for anisotropic). Checks α and the view (DESIGN §1).
+    pub fn ggx(alpha: Roughness, view: Vec3, ltc: Option<&str>) -> Result<Material, String> {
+        let a = alpha.xy();
+        if !a.iter().all(|x| x.is_finite() && *x > 0.0 && *x <= 1.0) {
+            return Err(format!("ggx alpha must be in (0, 1], got {a:?}"));
+        }
+        if !view.iter().all(|x| x.is_finite()) {
+            return Err(format!("ggx view is not finite: {view:?}"));
+        }
+        let len = length(view);
+        if (len - 1.0).abs() > 1e-6 {
+            return Err(format!("ggx view must be a unit vector (|view| = {len:.9})"));
+        }
+        if !(view[2] > 0.0) {
+            return Err(format!(
+                "ggx view must be above the surface (view.z = {} <= 0)",
+                view[2]
+            ));
+        }
+        let feed = match ltc {
+            Some(name) => crate::ltc::Feed::parse(name)?,
+            None if a[0] == a[1] => crate::ltc::Feed::Table,
+            None => crate::ltc::Feed::Fit,
+        };
+        let fed = crate::ltc::feed(a, view, feed)?;
+        Ok(Material::Ggx {
+            alpha,
+            view,
+            ltc: ltc.map(str::to_string),
+            fed,
+        })
+    }
 }
 
 /// The JSON form, read strictly: serde's internally tagged enums let unknown fields
@@ -25,6 +92,12 @@ struct RawMaterial {
     kind: String,
     #[serde(default, deserialize_with = "mat3_opt")]
     minv: Option<Mat3>,
+    #[serde(default)]
+    alpha: Option<Roughness>,
+    #[serde(default)]
+    view: Option<Vec3>,
+    #[serde(default)]
+    ltc: Option<String>,
 }
 
 /// Reads `[x, y, z]` with a message that says how many numbers came (serde's own says
@@ -57,12 +130,22 @@ fn mat3_opt<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Mat3>, D::E
 impl TryFrom<RawMaterial> for Material {
     type Error = String;
     fn try_from(raw: RawMaterial) -> Result<Material, String> {
+        let ggx_fields = raw.alpha.is_some() || raw.view.is_some() || raw.ltc.is_some();
         match (raw.kind.as_str(), raw.minv) {
+            ("diffuse" | "ltc", _) if ggx_fields => Err(format!(
+                "a {} material takes no `alpha`, `view` or `ltc` (those are ggx fields)",
+                raw.kind
+            )),
             ("diffuse", None) => Ok(Material::Diffuse),
             ("diffuse", Some(_)) => Err("a diffuse material takes no `minv`".into()),
             ("ltc", Some(minv)) => Ok(Material::Ltc { minv }),
             ("ltc", None) => Err("an ltc material needs `minv` (3×3, row-major)".into()),
-            (other, _) => Err(format!("unknown material kind `{other}` (diffuse, ltc)")),
+            ("ggx", Some(_)) => Err("a ggx material takes no `minv` (its LTC is fitted: see `ltc`)".into()),
+            ("ggx", None) => match (raw.alpha, raw.view) {
+                (Some(alpha), Some(view)) => Material::ggx(alpha, view, raw.ltc.as_deref()),
+                _ => Err("a ggx material needs `alpha` (a or [ax, ay]) and `view` ([vx, vy, vz])".into()),
+            },
+            (other, _) => Err(format!("unknown material kind `{other}` (diffuse, ltc, ggx)")),
         }
     }
 }
@@ -73,13 +156,26 @@ impl Material {
         match self {
             Material::Diffuse => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             Material::Ltc { minv } => *minv,
+            Material::Ggx { fed, .. } => fed.minv_unrotated(),
+        }
+    }
+
+    /// The LTC fed to the methods for a `ggx` material.
+    pub fn fed(&self) -> Option<&Fed> {
+        match self {
+            Material::Ggx { fed, .. } => Some(fed),
+            _ => None,
         }
     }
 
     /// True when M⁻¹ has the isotropic-GGX sparsity `[[a,0,b],[0,c,0],[d,0,1]]`
     /// that the 2023 listing assumes.
+    /// For `ggx`, of the M⁻¹ the methods are fed (in the rotated frame).
     pub fn is_sparse(&self) -> bool {
-        let m = self.minv();
+        let m = match self {
+            Material::Ggx { fed, .. } => fed.minv,
+            _ => self.minv(),
+        };
         m[0][1] == 0.0 && m[1][0] == 0.0 && m[1][2] == 0.0 && m[2][1] == 0.0 && m[2][2] == 1.0
     }
 }
@@ -165,6 +261,28 @@ pub fn det3(m: &Mat3) -> f64 {
 }
 
 impl Config {
+    /// What an LTC method evaluates: for a `ggx` material, the configuration rotated about
+    /// z into the frame of its fed M⁻¹, as an `ltc` material, and the magnitude the result
+    /// is multiplied by; otherwise the configuration itself and 1.
+    pub fn fed(&self) -> (std::borrow::Cow<'_, Config>, f64) {
+        let Some(fed) = self.material.fed() else {
+            return (std::borrow::Cow::Borrowed(self), 1.0);
+        };
+        let rect = self.rect.as_ref().map(|r| Rect {
+            normal: fed.rotate(r.normal),
+            width: r.width,
+        });
+        let c = Config {
+            id: self.id.clone(),
+            p1: fed.rotate(self.p1),
+            p2: fed.rotate(self.p2),
+            radius: self.radius,
+            rect,
+            material: Material::Ltc { minv: fed.minv },
+        };
+        (std::borrow::Cow::Owned(c), fed.magnitude)
+    }
+
     /// Distance from the shading point (origin) to the closest point of the segment.
     pub fn distance_to_segment(&self) -> f64 {
         let e = sub(self.p2, self.p1);
@@ -334,9 +452,27 @@ pub struct GpuScene {
 pub const FLAG_LTC: u32 = 1;
 pub const FLAG_RADIUS: u32 = 2;
 pub const FLAG_RECT: u32 = 4;
+/// Host-side only: the configuration is a fed `ggx` one, and `minv_cols[0][3]` (padding the
+/// kernel never reads) holds the magnitude the runner multiplies the result by in f32, which
+/// is what a shader's `method(scene) * magnitude` computes.
+pub const FLAG_GGX: u32 = 8;
+
+impl GpuScene {
+    /// The factor a result is multiplied by (the fed magnitude; 1 for other materials).
+    pub fn magnitude(&self) -> f32 {
+        if self.flags & FLAG_GGX != 0 {
+            self.minv_cols[0][3]
+        } else {
+            1.0
+        }
+    }
+}
 
 impl From<&Config> for GpuScene {
     fn from(c: &Config) -> Self {
+        let (fed, magnitude) = c.fed();
+        let ggx = fed.material != c.material;
+        let c = fed.as_ref();
         let f = |v: Vec3| [v[0] as f32, v[1] as f32, v[2] as f32];
         let m = c.material.minv();
         let mut flags = 0;
@@ -350,7 +486,10 @@ impl From<&Config> for GpuScene {
             flags |= FLAG_RECT;
         }
         let (rn, rw) = c.rect.as_ref().map(|r| (r.normal, r.width)).unwrap_or(([0.0; 3], 0.0));
-        GpuScene {
+        if ggx {
+            flags |= FLAG_GGX;
+        }
+        let mut scene = GpuScene {
             p1: f(c.p1),
             radius: c.radius.unwrap_or(0.0) as f32,
             p2: f(c.p2),
@@ -358,7 +497,11 @@ impl From<&Config> for GpuScene {
             rect_normal: f(rn),
             flags,
             minv_cols: [0, 1, 2].map(|j| [m[0][j] as f32, m[1][j] as f32, m[2][j] as f32, 0.0]),
+        };
+        if ggx {
+            scene.minv_cols[0][3] = magnitude as f32;
         }
+        scene
     }
 }
 

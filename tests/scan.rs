@@ -24,15 +24,16 @@ fn scan_counts_and_captures_offenders_that_replay() {
     let results: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     let results = results.as_array().unwrap();
-    assert_eq!(results.len(), 6, "two methods × three families");
+    // `ggx_iso` takes its M⁻¹ from the fitted table: not generated on the device.
+    assert_eq!(results.len(), 4, "two methods × the diffuse and ltc_full families");
     for r in results {
-        assert_eq!(r["configurations"], 100000);
+        assert_eq!(r["configurations"], 150000);
         let bad = ["nan", "inf", "negative"]
             .map(|k| r[k].as_u64().unwrap())
             .iter()
             .sum::<u64>();
         let (lo, hi) = (r["rate_low"].as_f64().unwrap(), r["rate_high"].as_f64().unwrap());
-        let rate = bad as f64 / 1e5;
+        let rate = bad as f64 / 1.5e5;
         assert!(lo <= rate && rate <= hi && hi < 1.0, "{r}");
         assert_eq!(r["captured"].as_array().unwrap().len(), (bad as usize).min(8));
     }
@@ -43,7 +44,7 @@ fn scan_counts_and_captures_offenders_that_replay() {
         .filter(|l| l.contains("scan-line.ltc2017-"))
         .map(str::to_string)
         .collect();
-    assert!(!lines.is_empty(), "line.ltc2017 has offenders in 1e5 configurations");
+    assert!(!lines.is_empty(), "line.ltc2017 has offenders in 1.5e5 configurations");
     let input = dir.path().join("in.jsonl");
     let output = dir.path().join("out.jsonl");
     std::fs::write(&input, lines.join("\n")).unwrap();

@@ -129,7 +129,12 @@ impl Gpu {
 
         let mut values = Vec::with_capacity(scenes.len());
         for part in scenes.chunks(chunk) {
+            let from = values.len();
             self.run_chunk(pipeline, &buffers, part, &mut values).map_err(fail)?;
+            // A fed `ggx` configuration's magnitude, in f32 (scene.rs, FLAG_GGX).
+            for (v, s) in values[from..].iter_mut().zip(part) {
+                *v *= s.magnitude();
+            }
             progress(values.len());
         }
         // The method's own time: the trip count below is a check, not part of its cost.

@@ -59,13 +59,28 @@ impl Method {
 
     /// The kernel's `f64` (or `cpu_f32`) column on `configs` from the CPU evaluator
     /// (src/interp): None where the method does not apply to a configuration.
+    ///
+    /// For a `ggx` configuration the kernel sees the fed (rotated, `ltc`) configuration and its
+    /// result is multiplied by the magnitude in the mode's precision, as a shader multiplies.
     pub fn cpu_column(&self, configs: &[Config], mode: crate::interp::Mode) -> anyhow::Result<Vec<Option<f64>>> {
         let program = crate::interp::program(self)?;
-        let applies: Vec<&Config> = configs.iter().filter(|c| self.applies(c)).collect();
-        let mut values = program.eval(&applies, mode)?.into_iter();
+        let fed: Vec<(std::borrow::Cow<'_, Config>, f64)> =
+            configs.iter().filter(|c| self.applies(c)).map(Config::fed).collect();
+        let inputs: Vec<&Config> = fed.iter().map(|(c, _)| c.as_ref()).collect();
+        let mut values = program.eval(&inputs, mode)?.into_iter().zip(fed.iter().map(|f| f.1));
+        let scaled = |(v, magnitude): (f64, f64)| match mode {
+            crate::interp::Mode::F32 => f64::from(v as f32 * magnitude as f32),
+            _ => v * magnitude,
+        };
         Ok(configs
             .iter()
-            .map(|c| if self.applies(c) { values.next() } else { None })
+            .map(|c| {
+                if self.applies(c) {
+                    values.next().map(scaled)
+                } else {
+                    None
+                }
+            })
             .collect())
     }
 
@@ -100,8 +115,11 @@ impl Method {
     }
 
     fn cpu_one(&self, config: &Config, mode: crate::interp::Mode) -> Option<f64> {
-        let program = crate::interp::program(self).ok()?;
-        program.eval(&[config], mode).ok()?.first().copied()
+        self.cpu_column(std::slice::from_ref(config), mode)
+            .ok()?
+            .into_iter()
+            .next()
+            .flatten()
     }
 }
 

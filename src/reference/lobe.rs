@@ -1,76 +1,202 @@
-//! The distribution D of DESIGN §1 in f64, every material as an LTC (Eq. 1.24; diffuse is
-//! M⁻¹ = I), evaluated as Listing 1.10 does.
+//! The distribution D of DESIGN §1 in f64: every LTC material as Listing 1.10 evaluates it
+//! (Eq. 1.24; diffuse is M⁻¹ = I), and the GGX lobe of the `ggx` material (written here from
+//! DESIGN §1, independently of the fitter's copy in `ltc::ggx`). The integrators see a lobe
+//! only through this interface: `eval`, `circle` (D along a great circle, with its peak),
+//! `support` (the half-space D lives in), `mirror` (the direction a sharp lobe peaks at) and
+//! `condition`.
 
 use crate::scene::{cross, det3, dot, Mat3, Material, Vec3};
 use std::f64::consts::PI;
 
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Lobe {
+pub(crate) enum Lobe {
+    Ltc(LtcLobe),
+    Ggx(GgxLobe),
+}
+
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LtcLobe {
     minv: Mat3,
     /// |det M⁻¹|/π.
     scale: f64,
 }
 
+/// D(ω) = NDF(h)·G2(v, ω)/(4 v.z) for ω.z > 0 (DESIGN §1, `ggx`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct GgxLobe {
+    ax: f64,
+    ay: f64,
+    view: Vec3,
+    /// 1 + Λ(v).
+    one_lambda_v: f64,
+    /// 1/(4π ax ay v.z).
+    scale: f64,
+}
+
+impl GgxLobe {
+    fn new(alpha: [f64; 2], view: Vec3) -> GgxLobe {
+        let mut g = GgxLobe {
+            ax: alpha[0],
+            ay: alpha[1],
+            view,
+            one_lambda_v: 1.0,
+            scale: 1.0 / (4.0 * PI * alpha[0] * alpha[1] * view[2]),
+        };
+        g.one_lambda_v = 1.0 + g.lambda(view);
+        g
+    }
+
+    /// Λ(ω) = (−1 + sqrt(1 + x))/2 = x/(2(1 + sqrt(1 + x))), x = (ax²ωx² + ay²ωy²)/ωz².
+    fn lambda(&self, w: Vec3) -> f64 {
+        let x = ((self.ax * w[0]).powi(2) + (self.ay * w[1]).powi(2)) / (w[2] * w[2]);
+        x / (2.0 * (1.0 + (1.0 + x).sqrt()))
+    }
+
+    /// D for a unit ω. With H = v + ω unnormalised, NDF(h) = |H|⁴/(π ax ay q²),
+    /// q = (Hx/ax)² + (Hy/ay)² + Hz².
+    fn eval(&self, w: Vec3) -> f64 {
+        if !(w[2] > 0.0) {
+            return 0.0;
+        }
+        let v = self.view;
+        let h = [v[0] + w[0], v[1] + w[1], v[2] + w[2]];
+        let hh = dot(h, h);
+        let q = (h[0] / self.ax).powi(2) + (h[1] / self.ay).powi(2) + h[2] * h[2];
+        self.scale * (hh / q) * (hh / q) / (self.one_lambda_v + self.lambda(w))
+    }
+
+    /// The mirror direction of the view, where the lobe peaks (its peak is there, or close to
+    /// it towards the normal at grazing views).
+    fn mirror(&self) -> Vec3 {
+        [-self.view[0], -self.view[1], self.view[2]]
+    }
+
+    /// The lobe's narrowest angular width: ω turns by 2·(v·h) per radian of h across the
+    /// plane of reflection, and h spreads over α.
+    fn width(&self) -> f64 {
+        (2.0 * self.ax.min(self.ay) * self.view[2]).max(1e-6)
+    }
+}
+
 impl Lobe {
     pub fn new(material: &Material) -> Lobe {
-        let minv = material.minv();
-        Lobe {
-            minv,
-            scale: det3(&minv).abs() / PI,
+        match material {
+            Material::Ggx { alpha, view, .. } => Lobe::Ggx(GgxLobe::new(alpha.xy(), *view)),
+            _ => {
+                let minv = material.minv();
+                Lobe::Ltc(LtcLobe {
+                    minv,
+                    scale: det3(&minv).abs() / PI,
+                })
+            }
         }
     }
 
-    /// D(ω) > 0 exactly where `support·ω > 0` (ω_o.z > 0): a half-space through the origin,
-    /// whose boundary is the kink of D.
+    /// D(ω) > 0 only where `support·ω > 0`: a half-space through the origin, whose boundary
+    /// is the kink of D (ω_o.z = 0 for an LTC, the horizon for GGX).
     pub fn support(&self) -> Vec3 {
-        self.minv[2]
+        match self {
+            Lobe::Ltc(l) => l.minv[2],
+            Lobe::Ggx(_) => [0.0, 0.0, 1.0],
+        }
     }
 
-    /// ‖M⁻¹‖_F·‖M‖_F, at most 3× the condition number of M⁻¹. A direction rounded by ε
-    /// changes D by up to about that many ε, relatively: the lobe is that much narrower
-    /// than a cosine.
+    /// How many ε a direction rounded by ε moves D by, relatively. For an LTC
+    /// ‖M⁻¹‖_F·‖M‖_F, at most 3× the condition number of M⁻¹: the lobe is that much narrower
+    /// than a cosine. For GGX, D falls as 1/(1 + θ²/w²)², whose log-slope is at most 2/w
+    /// for a lobe of width w; 4/w + 3 covers the rest of the formula.
     pub fn condition(&self) -> f64 {
-        let m = &self.minv;
-        let frobenius = |rows: [Vec3; 3]| rows.iter().map(|r| dot(*r, *r)).sum::<f64>().sqrt();
-        // The rows of adj(M⁻¹)ᵀ are the cross products of the rows of M⁻¹; M = adj/det.
-        let adjugate = [cross(m[1], m[2]), cross(m[2], m[0]), cross(m[0], m[1])];
-        frobenius(*m) * frobenius(adjugate) / det3(m).abs()
+        match self {
+            Lobe::Ltc(l) => {
+                let m = &l.minv;
+                let frobenius = |rows: [Vec3; 3]| rows.iter().map(|r| dot(*r, *r)).sum::<f64>().sqrt();
+                // The rows of adj(M⁻¹)ᵀ are the cross products of the rows of M⁻¹; M = adj/det.
+                let adjugate = [cross(m[1], m[2]), cross(m[2], m[0]), cross(m[0], m[1])];
+                frobenius(*m) * frobenius(adjugate) / det3(m).abs()
+            }
+            Lobe::Ggx(g) => 4.0 / g.width() + 3.0,
+        }
     }
 
-    fn transform(&self, w: Vec3) -> Vec3 {
-        self.minv.map(|row| dot(row, w))
+    /// For a GGX lobe, where it peaks and how wide it is (the integrators grade their
+    /// outer panels there); None for an LTC (its integrators handle it through `circle`).
+    pub fn mirror(&self) -> Option<(Vec3, f64)> {
+        match self {
+            Lobe::Ltc(_) => None,
+            Lobe::Ggx(g) => Some((g.mirror(), g.width())),
+        }
     }
 
-    /// Listing 1.10 for a unit `w`.
+    /// D for a unit `w` (Listing 1.10 for an LTC).
     pub fn eval(&self, w: Vec3) -> f64 {
-        let wo = self.transform(w);
-        let lo = dot(wo, wo).sqrt();
-        self.scale * (wo[2] / lo).max(0.0) / (lo * lo * lo)
+        match self {
+            Lobe::Ltc(l) => {
+                let wo = l.minv.map(|row| dot(row, w));
+                let lo = dot(wo, wo).sqrt();
+                l.scale * (wo[2] / lo).max(0.0) / (lo * lo * lo)
+            }
+            Lobe::Ggx(g) => g.eval(w),
+        }
     }
 
-    /// D along the great circle `ω(χ) = sin χ·u + cos χ·v` (u ⟂ v, unit), with the matrix
-    /// product hoisted out of the integrand.
+    /// D along the great circle `ω(χ) = sin χ·u + cos χ·v` (u ⟂ v, unit), with what can be
+    /// hoisted out of the integrand.
     pub fn circle(&self, u: Vec3, v: Vec3) -> Circle {
-        Circle {
-            a: self.transform(u),
-            b: self.transform(v),
-            scale: self.scale,
+        match self {
+            Lobe::Ltc(l) => Circle::Ltc(LtcCircle {
+                a: l.minv.map(|row| dot(row, u)),
+                b: l.minv.map(|row| dot(row, v)),
+                scale: l.scale,
+            }),
+            Lobe::Ggx(g) => Circle::Ggx { lobe: *g, u, v },
         }
     }
 }
 
 /// See [`Lobe::circle`].
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Circle {
+pub(crate) enum Circle {
+    Ltc(LtcCircle),
+    Ggx { lobe: GgxLobe, u: Vec3, v: Vec3 },
+}
+
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LtcCircle {
     a: Vec3,
     b: Vec3,
     scale: f64,
 }
 
 impl Circle {
-    /// D(sin χ·u + cos χ·v): with ω unit, Listing 1.10 is `|M⁻¹| max(0, ω_o.z)/(π‖ω_o‖⁴)`.
     #[inline]
     pub fn eval(&self, sin: f64, cos: f64) -> f64 {
+        match self {
+            Circle::Ltc(c) => c.eval(sin, cos),
+            Circle::Ggx { lobe, u, v } => lobe.eval([0, 1, 2].map(|k| sin * u[k] + cos * v[k])),
+        }
+    }
+
+    /// Where D peaks along the circle, as an angle χ* (mod π: the caller grades χ* and
+    /// χ* + π), and the angular width over which it falls off; None when D is as smooth as a
+    /// cosine. For GGX: the circle's point nearest the mirror direction, and the lobe's width
+    /// widened by the circle's angular distance from the mirror direction.
+    pub fn peak(&self) -> Option<(f64, f64)> {
+        match self {
+            Circle::Ltc(c) => c.peak(),
+            Circle::Ggx { lobe, u, v } => {
+                let r = lobe.mirror();
+                let (ru, rv) = (dot(r, *u), dot(r, *v));
+                let off = (1.0 - (ru * ru + rv * rv)).max(0.0).sqrt().asin();
+                Some((ru.atan2(rv), lobe.width().hypot(off)))
+            }
+        }
+    }
+}
+
+impl LtcCircle {
+    /// D(sin χ·u + cos χ·v): with ω unit, Listing 1.10 is `|M⁻¹| max(0, ω_o.z)/(π‖ω_o‖⁴)`.
+    #[inline]
+    fn eval(&self, sin: f64, cos: f64) -> f64 {
         let z = sin * self.a[2] + cos * self.b[2];
         if z <= 0.0 {
             return 0.0;
@@ -81,10 +207,10 @@ impl Circle {
         self.scale * z / (q * q)
     }
 
-    /// Where the lobe is narrowest along the circle: the angle χ* (mod π) that minimises
-    /// ‖ω_o‖² = Q(χ) and the angular width `sqrt(Q_min/(Q_max − Q_min))` over which D, which
-    /// goes as 1/Q², falls off. None when Q is constant (D is then as smooth as a cosine).
-    pub fn peak(&self) -> Option<(f64, f64)> {
+    /// The angle χ* (mod π) that minimises ‖ω_o‖² = Q(χ) and the angular width
+    /// `sqrt(Q_min/(Q_max − Q_min))` over which D, which goes as 1/Q², falls off. None when
+    /// Q is constant.
+    fn peak(&self) -> Option<(f64, f64)> {
         let (qa, qb, qc) = (dot(self.a, self.a), dot(self.a, self.b), dot(self.b, self.b));
         // Q = (qa+qc)/2 + (qc−qa)/2·cos 2χ + qb·sin 2χ.
         let amp = (0.5 * (qc - qa)).hypot(qb);
@@ -130,7 +256,8 @@ mod tests {
         let (centre, width) = circle.peak().unwrap();
         let q = |x: f64| {
             let (s, c) = x.sin_cos();
-            let wo = [0, 1, 2].map(|k| s * circle.a[k] + c * circle.b[k]);
+            let Circle::Ltc(lc) = circle else { unreachable!() };
+            let wo = [0, 1, 2].map(|k| s * lc.a[k] + c * lc.b[k]);
             dot(wo, wo)
         };
         for dx in [1e-3, -1e-3, 0.3, 1.0] {

@@ -45,11 +45,11 @@ pub fn reference(config: &Config, target: Target) -> Option<Estimate> {
 }
 
 /// D(ω) in f64 for a unit ω (DESIGN §1): `max(0, ω.z)/π` for the diffuse material, Listing
-/// 1.10 (with |det M⁻¹|) for an LTC.
+/// 1.10 (with |det M⁻¹|) for an LTC, the GGX lobe for `ggx` (not its fed LTC).
 pub fn distribution(material: &Material, w: Vec3) -> f64 {
     match material {
         Material::Diffuse => w[2].max(0.0) / std::f64::consts::PI,
-        Material::Ltc { .. } => Lobe::new(material).eval(w),
+        Material::Ltc { .. } | Material::Ggx { .. } => Lobe::new(material).eval(w),
     }
 }
 

@@ -86,6 +86,26 @@ pub(crate) fn cylinder(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64) -> Estimate
             radius * dot(support, y),
         ));
     }
+    // A sharp GGX lobe lights the generators its mirror direction reaches: in the
+    // cross-section, where the ray (r·x, r·y) meets the circle of centre (d, 0), or the
+    // circle's point nearest the ray; an angle w seen from the origin spans d·w/R there.
+    if let Some((r, w)) = lobe.mirror() {
+        let (kx, ky) = (dot(r, x), dot(r, y));
+        let k = kx.hypot(ky);
+        if k > 0.0 {
+            let (kx, ky) = (kx / k, ky / k);
+            let s = d * kx;
+            let (cx, cy) = (s * kx - d, s * ky);
+            let miss = cx.hypot(cy);
+            let (px, py) = if miss < radius {
+                let t = s - (radius * radius - miss * miss).sqrt();
+                (t * kx, t * ky)
+            } else {
+                (d + radius * cx / miss, radius * cy / miss)
+            };
+            graded(py.atan2(d - px), d * w / radius, &mut cuts);
+        }
+    }
     let panels = split(-beta, beta, cuts);
     let q = integrate(
         |delta| {
@@ -148,6 +168,19 @@ fn disk(lobe: &Lobe, axis: &Axis, centre: Vec3, height: f64, radius: f64) -> Qua
     for theta in trig_zeros(dot(support, centre), radius * dot(support, x), radius * dot(support, y)) {
         cuts.push(FRAC_PI_2 - theta.abs());
     }
+    // A sharp GGX lobe: the chord through the point its mirror direction hits, the angle w
+    // spanning ‖q‖·w/|r·ω_t| across the chords there.
+    if let Some((r, w)) = lobe.mirror() {
+        let along = dot(plane_foot, axis.dir);
+        let rn = dot(r, axis.dir);
+        if rn * along > 0.0 {
+            let q = mul(r, along / rn);
+            let xx = dot(q, x);
+            let spread = length(q) * w / rn.abs();
+            let t = t_of(xx);
+            graded(t, spread / (radius * t.cos().max(1e-3)), &mut cuts);
+        }
+    }
     let panels = split(-FRAC_PI_2, FRAC_PI_2, cuts);
     integrate(
         |t| {
@@ -196,6 +229,16 @@ pub(crate) fn rectangle(lobe: &Lobe, p1: Vec3, p2: Vec3, rect: &Rect) -> Estimat
             // Where the support plane of D leaves the rectangle through a long edge, the
             // chord across it has a kink.
             let mut cuts = Vec::new();
+            // A sharp GGX lobe: the chord through the point its mirror direction hits.
+            if let Some((r, w)) = lobe.mirror() {
+                let rn = dot(r, normal);
+                if rn * h > 0.0 {
+                    let xx = dot(mul(r, h / rn), axis.dir);
+                    if xx * half.side > 0.0 {
+                        graded(dist.atan2(xx.abs()), w, &mut cuts);
+                    }
+                }
+            }
             if along != 0.0 {
                 for y in [y0, y0 + rect.width] {
                     let xx = -(dot(support, plane_foot) + y * dot(support, across)) / along;

@@ -172,6 +172,12 @@ pub fn scan(
         MaterialKind::Diffuse => 0u32,
         MaterialKind::LtcSparse => 1,
         MaterialKind::LtcFull => 2,
+        // Their M⁻¹ comes from a fitted table or fit on the CPU: not generated on the device.
+        MaterialKind::Ggx | MaterialKind::LtcGgx => anyhow::bail!(
+            "scan generates diffuse and synthetic LTC families only; `{}` is a {:?} family",
+            fam.name,
+            fam.kind
+        ),
     };
     let composed = compose_with(
         &method.kernel,

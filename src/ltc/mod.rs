@@ -1,0 +1,255 @@
+//! LTCs for the `ggx` material: the fitter (f64, Nelder–Mead), the look-up tables (ours and
+//! the published one) and the feed, which turns a `ggx` configuration into what an LTC
+//! method is given: the configuration rotated about z so the view lies in the xz-plane, M⁻¹
+//! and the magnitude, as a shader samples them (docs/ggx.md).
+
+pub mod fit;
+pub mod ggx;
+pub mod table;
+
+use crate::scene::Mat3;
+use std::collections::HashMap;
+use std::sync::Mutex;
+use table::Storage;
+
+/// Where a `ggx` material's LTC comes from (the material's `ltc` field).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Feed {
+    /// Our table, bilinear, f32 texels (the default for isotropic roughness).
+    Table,
+    /// Our table, bilinear, binary16 texels (RGBA16F).
+    TableF16,
+    /// The published table (Heitz et al. 2016), bilinear, f32 texels.
+    Published,
+    /// The published table, binary16 texels.
+    PublishedF16,
+    /// An exact fit to this configuration's lobe (the default for anisotropic roughness).
+    Fit,
+}
+
+impl Feed {
+    pub const ALL: [Feed; 5] = [
+        Feed::Table,
+        Feed::TableF16,
+        Feed::Published,
+        Feed::PublishedF16,
+        Feed::Fit,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Feed::Table => "table",
+            Feed::TableF16 => "table_f16",
+            Feed::Published => "published",
+            Feed::PublishedF16 => "published_f16",
+            Feed::Fit => "fit",
+        }
+    }
+
+    pub fn parse(s: &str) -> Result<Feed, String> {
+        Feed::ALL.into_iter().find(|f| f.name() == s).ok_or_else(|| {
+            let names: Vec<_> = Feed::ALL.iter().map(|f| f.name()).collect();
+            format!("unknown ltc feed `{s}` ({})", names.join(", "))
+        })
+    }
+}
+
+/// What an LTC method is given for a `ggx` configuration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fed {
+    /// M⁻¹ in the rotated frame (view in the xz-plane, vx ≥ 0), row-major.
+    pub minv: Mat3,
+    pub magnitude: f64,
+    /// The Schlick term ∫D(1 − v·h)⁵ (∫D·F = F0·magnitude + (1 − F0)·fresnel); NaN if unknown.
+    pub fresnel: f64,
+    /// (cos φ, sin φ) of the view's azimuth: the rotation R_z(−φ) takes the configuration
+    /// into the frame of `minv`.
+    pub rotation: [f64; 2],
+    /// For `Fit`: the fit's relative L1 lobe error.
+    pub fit_l1: Option<f64>,
+}
+
+impl Fed {
+    /// R_z(−φ)·p.
+    pub fn rotate(&self, p: [f64; 3]) -> [f64; 3] {
+        let [c, s] = self.rotation;
+        [c * p[0] + s * p[1], -s * p[0] + c * p[1], p[2]]
+    }
+
+    /// M⁻¹ in the configuration's own frame: M⁻¹·R_z(−φ).
+    pub fn minv_unrotated(&self) -> Mat3 {
+        let [c, s] = self.rotation;
+        let r = [[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]];
+        fit::mat_mul(&self.minv, &r)
+    }
+}
+
+type Key = ([u64; 2], [u64; 3], Feed);
+
+fn cache() -> &'static Mutex<HashMap<Key, Fed>> {
+    static C: std::sync::OnceLock<Mutex<HashMap<Key, Fed>>> = std::sync::OnceLock::new();
+    C.get_or_init(|| Mutex::new(HashMap::new()))
+}
+
+/// The LTC fed for roughness (αx, αy) and a unit view with vz > 0. Tables are isotropic:
+/// an anisotropic roughness needs `Fit`. Exact fits are cached per (α, view).
+pub fn feed(alpha: [f64; 2], view: [f64; 3], feed: Feed) -> Result<Fed, String> {
+    let key = (alpha.map(f64::to_bits), view.map(f64::to_bits), feed);
+    if let Some(f) = cache().lock().expect("cache").get(&key) {
+        return Ok(*f);
+    }
+    let phi = view[1].atan2(view[0]);
+    let (s, c) = if view[0] == 0.0 && view[1] == 0.0 {
+        (0.0, 1.0)
+    } else {
+        phi.sin_cos()
+    };
+    let rotation = [c, s];
+    let iso = alpha[0] == alpha[1];
+    let fed = match feed {
+        Feed::Table | Feed::TableF16 | Feed::Published | Feed::PublishedF16 => {
+            if !iso {
+                return Err(format!(
+                    "ltc `{}` is an isotropic table; anisotropic alpha [{}, {}] needs ltc = \"fit\"",
+                    feed.name(),
+                    alpha[0],
+                    alpha[1]
+                ));
+            }
+            let table = match feed {
+                Feed::Table | Feed::TableF16 => table::ours(),
+                _ => table::published()?,
+            };
+            let storage = if matches!(feed, Feed::TableF16 | Feed::PublishedF16) {
+                Storage::F16
+            } else {
+                Storage::F32
+            };
+            let (minv, magnitude, fresnel) = table.sample(alpha[0], view[2], storage);
+            Fed {
+                minv,
+                magnitude,
+                fresnel,
+                rotation,
+                fit_l1: None,
+            }
+        }
+        Feed::Fit => {
+            let vxy = view[0].hypot(view[1]);
+            let f = if iso {
+                let g = ggx::Ggx {
+                    ax: alpha[0],
+                    ay: alpha[0],
+                    view: [vxy, 0.0, view[2]],
+                };
+                fit::fit_iso(&g, Some(nearest_params(alpha[0], view[2])))
+            } else {
+                // Fitted in the configuration's frame (the roughness axes are x and y),
+                // then expressed in the rotated one.
+                let g = ggx::Ggx {
+                    ax: alpha[0],
+                    ay: alpha[1],
+                    view,
+                };
+                let mut f = fit::fit_general(&g);
+                let r_inv = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]];
+                f.minv = fit::mat_mul(&f.minv, &r_inv);
+                f
+            };
+            Fed {
+                minv: f.minv,
+                magnitude: f.magnitude,
+                fresnel: f.fresnel,
+                rotation,
+                fit_l1: Some(f.l1),
+            }
+        }
+    };
+    cache().lock().expect("cache").insert(key, fed);
+    Ok(fed)
+}
+
+/// The fitted parameters of our table's entry nearest (α, cos θ): the start of an exact fit.
+fn nearest_params(alpha: f64, cos_theta: f64) -> [f64; 3] {
+    let t = table::ours();
+    let n = (t.size - 1) as f64;
+    let a = (alpha.sqrt() * n).round().clamp(0.0, n) as usize;
+    let x = (1.0 - cos_theta).max(0.0).sqrt();
+    let i = (x * n).round().clamp(0.0, n) as usize;
+    t.entries[a + t.size * i].params
+}
+
+/// `linelight fit`: fits the isotropic table and writes it (CSV) with a run record beside
+/// it (`<out>.run.json`: run time, threads, table size), so the table itself stays
+/// byte-for-byte the same on every run.
+pub fn fit_command(out: &std::path::Path, size: usize) -> anyhow::Result<()> {
+    use indicatif::{ProgressBar, ProgressStyle};
+    if size < 2 {
+        anyhow::bail!("--size must be at least 2, got {size}");
+    }
+    let threads = rayon::current_num_threads();
+    eprintln!("fitting a {size}×{size} isotropic GGX LTC table on {threads} thread(s)");
+    let pb = ProgressBar::new((size * size) as u64);
+    pb.set_style(
+        ProgressStyle::with_template("{msg:>12} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    pb.set_message("fit");
+    let start = std::time::Instant::now();
+    let fits = fit::fit_table(size, &|| pb.inc(1));
+    pb.finish_and_clear();
+    let seconds = start.elapsed().as_secs_f64();
+    let entries = fits
+        .iter()
+        .map(|f| table::Entry {
+            minv: f.minv,
+            magnitude: f.magnitude,
+            fresnel: f.fresnel,
+            l1: f.l1,
+            l3: f.l3,
+            params: f.params,
+        })
+        .collect();
+    let t = table::Table {
+        size,
+        entries,
+        source: out.display().to_string(),
+    };
+    let header = format!(
+        "Isotropic GGX LTC table fitted by `linelight fit` (src/ltc/fit.rs); format: docs/ggx.md.\n\
+         {size}×{size} entries (a, t): roughness a/{n}, alpha = max(roughness², {min}), cos θ = 1 − (t/{n})² (θ ≤ {max}).\n\
+         M⁻¹ = [[m00,0,m02],[0,m11,0],[m20,0,1]] (row-major, ω_o = M⁻¹ω); magnitude = ∫D; fresnel = ∫D(1−v·h)⁵;\n\
+         fit_l1 = ∫|mag·D_ltc − D|/∫D (the objective), fit_l3 = ∫|mag·D_ltc − D|³ (the paper's); p_* the fitted parameters.",
+        n = size - 1,
+        min = table::MIN_ALPHA,
+        max = table::MAX_THETA
+    );
+    let csv = t.to_csv(&header);
+    // Written whole or not at all.
+    let tmp = out.with_extension("csv.tmp");
+    std::fs::write(&tmp, &csv).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", tmp.display()))?;
+    std::fs::rename(&tmp, out).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
+    let l1: Vec<f64> = fits.iter().map(|f| f.l1).collect();
+    let worst = l1.iter().copied().fold(0.0, f64::max);
+    let record = serde_json::json!({
+        "table": out.display().to_string(),
+        "size": size,
+        "threads": threads,
+        "seconds": seconds,
+        "objective": format!("{:?}", fit::OBJECTIVE),
+        "objective_grid": fit::OBJECTIVE_GRID,
+        "moment_grid": fit::MOMENT_GRID,
+        "fit_l1_max": worst,
+    });
+    let run = out.with_extension("run.json");
+    std::fs::write(&run, serde_json::to_string_pretty(&record)? + "\n")
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", run.display()))?;
+    eprintln!(
+        "wrote {} and {}: {} entries in {seconds:.1} s on {threads} thread(s); largest relative L1 fit error {worst:.3e}",
+        out.display(),
+        run.display(),
+        size * size
+    );
+    Ok(())
+}
