@@ -109,7 +109,7 @@ impl KernelFile {
                     target = Some(Target::from_name(value).ok_or_else(|| {
                         err(
                             lineno,
-                            format!("unknown target `{value}` (line, line_upper, cylinder, caps, tube, rectangle)"),
+                            format!("unknown target `{value}` (line, line_upper, line_isotropic, cylinder, caps, tube, rectangle)"),
                         )
                     })?)
                 }

@@ -54,7 +54,7 @@ impl Method {
     /// Whether the configuration has what the method's target needs.
     pub fn applies(&self, config: &Config) -> bool {
         match self.target() {
-            Target::Line | Target::LineUpper => true,
+            Target::Line | Target::LineUpper | Target::LineIsotropic => true,
             Target::Cylinder | Target::Caps | Target::Tube => config.radius.is_some(),
             Target::Rectangle => config.rect.is_some(),
         }
