@@ -417,7 +417,9 @@ fn directives_of_both_kernels_are_hoisted() {
             kernel: half_line,
             params: Vec::new(),
             inner: None,
+            judged: None,
         })),
+        judged: None,
     };
     let out = run(&method);
     let expected: Vec<f32> = configs()
