@@ -32,6 +32,10 @@ pub struct KernelFile {
     /// `//! uses: line`: the kernel calls `I_line(p1, p2)`, which the harness supplies
     /// from a line method chosen at run time (`cylinder.line[line.ltc2023]`).
     pub uses_line: bool,
+    /// The target the inner method of a composite must have: `line` (`//! uses: line`) or
+    /// `line_isotropic` (`//! uses: line_isotropic`, a composite built on an isotropic-emitter
+    /// line formula). Both call it as `I_line(p1, p2)`.
+    pub uses_target: Target,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -72,6 +76,7 @@ impl KernelFile {
         };
         let (mut id, mut target, mut source, mut minv, mut params) = (None, None, None, None, Vec::new());
         let mut uses_line = false;
+        let mut uses_target = Target::Line;
         for (i, raw) in text.lines().enumerate() {
             let Some(rest) = raw.trim_start().strip_prefix("//!") else {
                 continue;
@@ -121,9 +126,16 @@ impl KernelFile {
                     }
                 }
                 "uses" => {
-                    if value != "line" {
-                        return Err(err(lineno, format!("uses must be `line`, got `{value}`")));
-                    }
+                    uses_target = match value {
+                        "line" => Target::Line,
+                        "line_isotropic" => Target::LineIsotropic,
+                        _ => {
+                            return Err(err(
+                                lineno,
+                                format!("uses must be `line` or `line_isotropic`, got `{value}`"),
+                            ))
+                        }
+                    };
                     uses_line = true;
                 }
                 other => {
@@ -151,6 +163,7 @@ impl KernelFile {
             minv: minv.unwrap_or(MinvSupport::Full),
             params,
             uses_line,
+            uses_target,
         })
     }
 }
@@ -212,6 +225,9 @@ mod tests {
         let k = KernelFile::parse("c.wgsl", "//! id: cyl.x\n//! target: cylinder\n").unwrap();
         assert!(!k.uses_line);
         let e = KernelFile::parse("c.wgsl", "//! id: cyl.x\n//! target: cylinder\n//! uses: caps\n").unwrap_err();
-        assert_eq!(e.to_string(), "c.wgsl:3: uses must be `line`, got `caps`");
+        assert_eq!(
+            e.to_string(),
+            "c.wgsl:3: uses must be `line` or `line_isotropic`, got `caps`"
+        );
     }
 }

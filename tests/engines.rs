@@ -303,6 +303,7 @@ fn polygon_ltc_kernels_on_the_gpu() {
     // edge contributes O(1), their difference O(W), so the f32 error is O(ε/W) relatively.
     let configs = rectangles(5, 45, (0.1, 0.5));
     let exact = run(&gpu, "rectangle.ltc_polygon", &configs);
+    let atan2 = run(&gpu, "rectangle.ltc_polygon_atan2", &configs);
     let fit = run(&gpu, "rectangle.ltc_polygon_fit", &configs);
     let sphere = run(&gpu, "rectangle.ltc_sphere", &configs);
     // The fit's own worst relative error of θ/sin θ on [−1, 1], measured here in f64.

@@ -12,6 +12,10 @@ use std::cell::Cell;
 /// The line method a composite uses when its spec names none: it handles every M⁻¹.
 pub const DEFAULT_INNER: &str = "line.ltc2023_full";
 
+/// The inner method of a `//! uses: line_isotropic` composite when its spec names none: the
+/// horizon-clipped line irradiance, exact for isotropic emitters on the diffuse material.
+pub const DEFAULT_INNER_ISOTROPIC: &str = "line_isotropic.karis2013_clip";
+
 #[derive(Clone, Debug)]
 pub struct Method {
     /// As written by the user: `line.numeric@256`, `cylinder.line[line.ltc2023]`.
@@ -136,7 +140,12 @@ fn resolve_unjudged(spec: &str, kernels: &[KernelFile]) -> anyhow::Result<Method
         }
         return Ok(method);
     }
-    let inner_spec = inner_spec.unwrap_or(DEFAULT_INNER);
+    let wanted = method.kernel.uses_target;
+    let inner_spec = inner_spec.unwrap_or(if wanted == Target::LineIsotropic {
+        DEFAULT_INNER_ISOTROPIC
+    } else {
+        DEFAULT_INNER
+    });
     let (inner_head, nested) = split_inner(inner_spec)?;
     let inner = resolve_plain(inner_spec, inner_head, kernels).map_err(|e| anyhow::anyhow!("`{spec}`: {e}"))?;
     let k = &inner.kernel;
@@ -151,9 +160,9 @@ fn resolve_unjudged(spec: &str, kernels: &[KernelFile]) -> anyhow::Result<Method
     if nested.is_some() {
         anyhow::bail!("`{spec}`: {}", takes_no_inner(k));
     }
-    if k.target != Target::Line {
+    if k.target != wanted {
         anyhow::bail!(
-            "`{spec}`: the inner method must be a `target: line` kernel; {} targets {}",
+            "`{spec}`: the inner method must be a `target: {wanted}` kernel; {} targets {}",
             k.id,
             k.target
         );
