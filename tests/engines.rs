@@ -334,6 +334,13 @@ fn polygon_ltc_kernels_on_the_gpu() {
             c.id,
             exact[i]
         );
+        // Vulkan allows atan2 the same 4096 ULP.
+        assert!(
+            (atan2[i] - r).abs() < acos_bound,
+            "{}: atan2 {:e} vs {r:e}",
+            c.id,
+            atan2[i]
+        );
         // Every edge's weight θ/sin θ is off by at most fit_error, relatively.
         let fit_bound = (fit_error + 1e-4) * size + 1e-4 * r;
         assert!((fit[i] - r).abs() < fit_bound, "{}: fit {:e} vs {r:e}", c.id, fit[i]);

@@ -518,6 +518,50 @@ mod tests {
         brute(f, a, b, &cuts, panels)
     }
 
+    /// `line_isotropic` by brute force in θ = atan((l − l0)/d): dl/‖p‖² = dθ/d.
+    fn brute_isotropic(material: &Material, p1: Vec3, p2: Vec3, panels: usize) -> f64 {
+        let e = sub(p2, p1);
+        let len = length(e);
+        let t = mul(e, 1.0 / len);
+        let c = cross(p1, t);
+        let d = length(c);
+        let n = cross(t, c).map(|x| x / d);
+        let l0 = dot(p1, t);
+        let omega = |th: f64| [0, 1, 2].map(|k| th.cos() * n[k] + th.sin() * t[k]);
+        let f = |th: f64| distribution(material, omega(th)) / d;
+        let (a, b) = ((l0 / d).atan(), ((l0 + len) / d).atan());
+        let minv = material.minv();
+        let cuts = sign_changes(|th| dot(minv[2], omega(th)), a, b, 4000);
+        brute(f, a, b, &cuts, panels)
+    }
+
+    #[test]
+    fn isotropic_error_estimate_is_honest_on_sharp_lobes() {
+        let mut rng = rng(13);
+        for i in 0..24 {
+            let (material, p1, p2) = if i % 2 == 0 {
+                let m = if i % 4 == 0 {
+                    sparse_ltc(&mut rng)
+                } else {
+                    full_ltc(&mut rng)
+                };
+                (m, point(&mut rng, 2.0), point(&mut rng, 2.0))
+            } else {
+                let a = 10f64.powf(rng.random_range(2.0..3.0));
+                let minv = [[a, 0.0, 0.2 * a], [0.0, 0.7 * a, 0.0], [0.3, 0.0, 1.0]];
+                let m = Material::Ltc { minv };
+                let len = 10f64.powf(rng.random_range(-2.0..1.0));
+                let (p1, p2) = segment_through_lobe(&m, 1.0, len, 0.1 * len, &mut rng);
+                (m, p1, p2)
+            };
+            let est = line_isotropic(&Lobe::new(&material), p1, p2);
+            let exact = brute_isotropic(&material, p1, p2, 40000);
+            let err = (est.value - exact).abs();
+            assert!(err <= est.error + 1e-15 * exact, "{i}: {est:?} vs {exact}");
+            assert!(est.error <= 1e-11 * exact.max(1e-300), "{i}: {est:?}");
+        }
+    }
+
     #[test]
     fn error_estimate_is_honest() {
         let mut rng = rng(5);
