@@ -377,3 +377,29 @@ fn the_2017_integral_with_the_polynomial_atan_is_off_by_the_polynomial_only() {
     }
     assert!(worst > 1e-5, "the polynomial is in use: {worst:e}");
 }
+
+#[test]
+fn isotropic_composites_take_an_isotropic_line_method() {
+    let gpu = gpu();
+    let kernels = builtin_kernels();
+    let e = resolve("cylinder.isotropic[line.ltc2017]", &kernels)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("must be a `target: line_isotropic` kernel"), "{e}");
+    let m = resolve("cylinder.isotropic", &kernels).unwrap();
+    assert_eq!(m.describe(), "cylinder.isotropic[line_isotropic.karis2013_clip]");
+    let mut configs = segments(7, 20);
+    for c in &mut configs {
+        c.radius = Some(0.01);
+    }
+    let tube = run(&gpu, "cylinder.isotropic", &configs);
+    let line = run(&gpu, "line_isotropic.karis2013_clip", &configs);
+    for ((c, t), l) in configs.iter().zip(tube).zip(line) {
+        let expected = 0.5 * PI * 0.01 * l;
+        assert!(
+            (t - expected).abs() <= 4.0 * f64::from(f32::EPSILON) * expected,
+            "{}: {t:e} vs {expected:e}",
+            c.id
+        );
+    }
+}
