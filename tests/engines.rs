@@ -403,3 +403,27 @@ fn isotropic_composites_take_an_isotropic_line_method() {
         );
     }
 }
+
+#[test]
+fn the_intersection_form_fails_for_a_segment_pointing_at_the_shading_point() {
+    // Seed 002 says the half vector and the line intersect "by construction"; when the line
+    // runs through the shading point (outside the segment) H ∥ AB, cross(H, AB) = 0 and the
+    // intersection form divides 0 by 0. The bisector form needs no intersection.
+    let gpu = gpu();
+    let end_on = vec![
+        segment("end-on".into(), [0.0, 0.6, 0.8], [0.0, 1.2, 1.6], Material::Diffuse),
+        segment("end-on-2".into(), [0.3, 0.0, 0.4], [1.5, 0.0, 2.0], Material::Diffuse),
+    ];
+    let a = run(&gpu, "line.mrp_intersection", &end_on);
+    let b = run(&gpu, "line.mrp_bisector", &end_on);
+    for ((c, &x), &y) in end_on.iter().zip(&a).zip(&b) {
+        let r = reference(c, Target::LineIsotropic).unwrap().value;
+        assert!(r > 0.0, "{}", c.id);
+        assert!(
+            !(x.is_finite() && rel(x, r) < 0.5),
+            "{}: intersection {x:e} vs {r:e}",
+            c.id
+        );
+        assert!(y.is_finite() && y > 0.0, "{}: bisector {y:e}", c.id);
+    }
+}
