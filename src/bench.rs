@@ -617,6 +617,7 @@ mod tests {
             kernel: crate::kernel::KernelFile::parse("half.wgsl", text).unwrap(),
             params: Vec::new(),
             inner: None,
+            judged: None,
         };
         assert!(has_cpu_port(&m));
         let costs = bench_methods(gpu(), &[m], &configs(64), 0, 2).unwrap();

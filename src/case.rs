@@ -607,7 +607,7 @@ impl Case {
     /// targets are scale-invariant, so a configuration at distance d gets floor/d for lines.
     pub fn floor_for(&self, target: Target, config: &crate::scene::Config) -> f64 {
         match target {
-            Target::Line | Target::LineUpper => self.floor(target) / config.distance_to_line(),
+            Target::Line | Target::LineUpper | Target::LineIsotropic => self.floor(target) / config.distance_to_line(),
             _ => self.floor(target),
         }
     }

@@ -154,7 +154,7 @@ pub fn check_references(
 
 /// The targets whose references apply to a configuration.
 pub fn targets_of(c: &Config) -> BTreeSet<Target> {
-    let mut t = BTreeSet::from([Target::Line, Target::LineUpper]);
+    let mut t = BTreeSet::from([Target::Line, Target::LineUpper, Target::LineIsotropic]);
     if c.radius.is_some() {
         t.extend([Target::Cylinder, Target::Caps, Target::Tube]);
     }

@@ -10,6 +10,9 @@ pub enum Target {
     Line,
     /// `line` with `D(ω)·[ω.z > 0]`: what a real surface receives.
     LineUpper,
+    /// `∫ D(ω_p)/‖p‖² dl`: isotropic point emitters of unit intensity per unit length (the
+    /// model Unreal Engine 4 and O3DE shade); `line` differs by the width `2‖ω_p × ω_t‖`.
+    LineIsotropic,
     /// Eq. 1.2 over the tube's side, radius R.
     Cylinder,
     /// Eq. 1.29 for both end disks.
@@ -21,9 +24,10 @@ pub enum Target {
 }
 
 impl Target {
-    pub const ALL: [Target; 6] = [
+    pub const ALL: [Target; 7] = [
         Target::Line,
         Target::LineUpper,
+        Target::LineIsotropic,
         Target::Cylinder,
         Target::Caps,
         Target::Tube,
@@ -34,6 +38,7 @@ impl Target {
         match self {
             Target::Line => "line",
             Target::LineUpper => "line_upper",
+            Target::LineIsotropic => "line_isotropic",
             Target::Cylinder => "cylinder",
             Target::Caps => "caps",
             Target::Tube => "tube",

@@ -178,8 +178,9 @@ fn eval_references_agree_with_an_independent_quadrature() {
     eprintln!("worst relative disagreement: {worst:e}");
 }
 
-/// `eval` writes the surface references the library computes (whose agreement with an
-/// independent quadrature to 1e-7 is `tests/reference_independent.rs`), with their errors.
+/// `eval` writes the surface and `line_isotropic` references the library computes (whose
+/// agreement with an independent quadrature is `tests/reference_independent.rs`), with their
+/// errors.
 #[test]
 fn eval_writes_cylinder_caps_tube_and_rectangle_references() {
     use linelight::reference::reference;
@@ -199,7 +200,13 @@ fn eval_writes_cylinder_caps_tube_and_rectangle_references() {
     for (c, row) in with_surfaces.iter().zip(&rows) {
         let mut config: Config = serde_json::from_value(c.clone()).unwrap();
         config.orthonormalize_rect();
-        for t in [Target::Cylinder, Target::Caps, Target::Tube, Target::Rectangle] {
+        for t in [
+            Target::LineIsotropic,
+            Target::Cylinder,
+            Target::Caps,
+            Target::Tube,
+            Target::Rectangle,
+        ] {
             let expected = reference(&config, t).unwrap();
             assert_eq!(
                 row["reference"][t.name()].as_f64().unwrap(),

@@ -59,6 +59,8 @@ fn run(gpu: &Gpu, m: &Method, configs: &[Config]) -> Vec<f32> {
 
 /// Vulkan lets atan/acos be off by 4096 ULP (≈ 2.4e-4 relative; lavapipe's acos is measured
 /// at 2.3e-4): the GPU and CPU ports of a formula built on them may differ by that much.
+/// lavapipe's acos, measured against correctly rounded acos: absolute error up to 1.6e-4.
+const LAVAPIPE_ACOS: f64 = 1.6e-4;
 const VULKAN_TRANSCENDENTAL: f64 = 5e-4;
 
 /// Relative accuracy each method must reach against the reference on this benign set:
@@ -89,15 +91,26 @@ fn every_builtin_method_runs_and_matches_its_port_and_the_reference() {
             if !m.applies(c) {
                 continue;
             }
-            let cpu = m.eval_f32_cpu(c).expect("every built-in has a CPU port") as f64;
             let r = reference(c, m.target()).unwrap();
             let scale = r.value.abs().max(1e-6);
             assert!(v.is_finite(), "{label} on {}: {v}", c.id);
+            // Every built-in, engine formulas included, runs in the CPU evaluator (src/interp).
+            let cpu = m
+                .eval_f32_cpu(c)
+                .map(f64::from)
+                .unwrap_or_else(|| panic!("{label}: the CPU evaluator runs every built-in"));
             // GPU and CPU round differently (FMA, atan/acos implementations); a porting
-            // mistake shows as an O(1) difference, far above this.
+            // mistake shows as an O(1) difference, far above this. Seed 003's polygon form
+            // sums an acos per edge (4 edges, each over 2π): lavapipe's acos is off by up to
+            // LAVAPIPE_ACOS absolute, whatever the size of the result.
+            let allowance = if m.id() == "rectangle.ltc_polygon" {
+                (VULKAN_TRANSCENDENTAL * scale).max(4.0 * LAVAPIPE_ACOS / std::f64::consts::TAU)
+            } else {
+                VULKAN_TRANSCENDENTAL * scale
+            };
             assert!(
-                (v as f64 - cpu).abs() <= VULKAN_TRANSCENDENTAL * scale,
-                "{label} on {}: GPU {v:e} vs CPU port {cpu:e} (ref {:e})",
+                (v as f64 - cpu).abs() <= allowance,
+                "{label} on {}: GPU {v:e} vs CPU f32 {cpu:e} (ref {:e})",
                 c.id,
                 r.value
             );

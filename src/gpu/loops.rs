@@ -45,6 +45,7 @@ impl Gpu {
             kernel,
             params: Vec::new(),
             inner: None,
+            judged: None,
         };
         let pipeline = self.pipeline_unchecked(&method)?;
         let config = Config {
@@ -144,6 +145,7 @@ mod tests {
             kernel,
             params: Vec::new(),
             inner: None,
+            judged: None,
         };
         let pipeline = gpu.pipeline(&method).unwrap();
         let config = Config {

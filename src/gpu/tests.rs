@@ -23,6 +23,7 @@ fn method(k: &KernelFile, params: &[u32]) -> Method {
         kernel: k.clone(),
         params: params.to_vec(),
         inner: None,
+        judged: None,
     }
 }
 

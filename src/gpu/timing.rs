@@ -380,6 +380,7 @@ mod tests {
             kernel: crate::kernel::KernelFile::parse("tiny.wgsl", text).unwrap(),
             params: Vec::new(),
             inner: None,
+            judged: None,
         }
     }
 

@@ -349,6 +349,12 @@ impl<'p> Exec<'p> {
         }));
         for (lv, v) in f.local_variables.iter() {
             if let Some(init) = v.init {
+                // naga may leave a constant initializer (`var c = vec3<f32>(0.0);`) inside an
+                // `Emit` of the body: it is needed now, before the body runs.
+                if fr.vals[init.index()].is_none() {
+                    self.line = NO_LINE;
+                    self.eval(&mut fr, init)?;
+                }
                 let val = self.val(&fr, init)?.clone();
                 self.heap[locals[lv.index()]] = val;
             }

@@ -9,6 +9,10 @@ use crate::target::Target;
 /// The line method a composite uses when its spec names none: it handles every M⁻¹.
 pub const DEFAULT_INNER: &str = "line.ltc2023_full";
 
+/// The inner method of a `//! uses: line_isotropic` composite when its spec names none: the
+/// horizon-clipped line irradiance, exact for isotropic emitters on the diffuse material.
+pub const DEFAULT_INNER_ISOTROPIC: &str = "line_isotropic.karis2013_clip";
+
 #[derive(Clone, Debug)]
 pub struct Method {
     /// As written by the user: `line.numeric@256`, `cylinder.line[line.ltc2023]`.
@@ -18,6 +22,10 @@ pub struct Method {
     pub params: Vec<u32>,
     /// For a kernel with `//! uses: line`: the line method its `I_line` calls.
     pub inner: Option<Box<Method>>,
+    /// `id~target`: the method judged against another target than its kernel's (an
+    /// isotropic-emitter formula against the chapter's `line`, to show how far the models
+    /// are apart). None: the kernel's own target.
+    pub judged: Option<Target>,
 }
 
 impl Method {
@@ -25,17 +33,19 @@ impl Method {
         &self.kernel.id
     }
 
+    /// The target the method is judged against: its kernel's, or the one named by `~target`.
     pub fn target(&self) -> Target {
-        self.kernel.target
+        self.judged.unwrap_or(self.kernel.target)
     }
 
     /// The label with the inner method spelled out, defaults included:
     /// `cylinder.line` → `cylinder.line[line.ltc2023_full]`.
     pub fn describe(&self) -> String {
+        let judged = self.judged.map(|t| format!("~{t}")).unwrap_or_default();
         match &self.inner {
             Some(inner) => {
-                let head = self.label.split('[').next().unwrap_or(&self.label);
-                format!("{head}[{}]", inner.describe())
+                let head = self.label.split(['[', '~']).next().unwrap_or(&self.label);
+                format!("{head}[{}]{judged}", inner.describe())
             }
             None => self.label.clone(),
         }
@@ -44,14 +54,18 @@ impl Method {
     /// Whether the method (and its inner line method) claims to handle this
     /// configuration's material.
     pub fn supports(&self, config: &Config) -> bool {
-        let own = self.kernel.minv == MinvSupport::Full || config.material.is_sparse();
+        let own = match self.kernel.minv {
+            MinvSupport::Full => true,
+            MinvSupport::Sparse => config.material.is_sparse(),
+            MinvSupport::Diffuse => config.material == crate::scene::Material::Diffuse,
+        };
         own && self.inner.as_ref().is_none_or(|inner| inner.supports(config))
     }
 
     /// Whether the configuration has what the method's target needs.
     pub fn applies(&self, config: &Config) -> bool {
         match self.target() {
-            Target::Line | Target::LineUpper => true,
+            Target::Line | Target::LineUpper | Target::LineIsotropic => true,
             Target::Cylinder | Target::Caps | Target::Tube => config.radius.is_some(),
             Target::Rectangle => config.rect.is_some(),
         }
@@ -126,7 +140,23 @@ impl Method {
 /// Resolves a method spec against the built-in kernels and the user's: `id`, `id@N` or
 /// `id@NxM`, and for a kernel with `//! uses: line` optionally its line method in
 /// brackets, `cylinder.line@4[line.numeric@64]` (default [`DEFAULT_INNER`]).
+/// A spec may end in `~target` to judge the method against another target
+/// (`line_isotropic.karis2013~line`).
 pub fn resolve(spec: &str, kernels: &[KernelFile]) -> anyhow::Result<Method> {
+    let Some((plain, judged)) = spec.rsplit_once('~') else {
+        return resolve_unjudged(spec, kernels);
+    };
+    let target = Target::from_name(judged).ok_or_else(|| {
+        let names: Vec<_> = Target::ALL.iter().map(|t| t.name()).collect();
+        anyhow::anyhow!("`{spec}`: unknown target `{judged}` after `~` ({})", names.join(", "))
+    })?;
+    let mut method = resolve_unjudged(plain, kernels)?;
+    method.label = spec.to_string();
+    method.judged = Some(target);
+    Ok(method)
+}
+
+fn resolve_unjudged(spec: &str, kernels: &[KernelFile]) -> anyhow::Result<Method> {
     let (head, inner_spec) = split_inner(spec)?;
     let mut method = resolve_plain(spec, head, kernels)?;
     if !method.kernel.uses_line {
@@ -135,7 +165,12 @@ pub fn resolve(spec: &str, kernels: &[KernelFile]) -> anyhow::Result<Method> {
         }
         return Ok(method);
     }
-    let inner_spec = inner_spec.unwrap_or(DEFAULT_INNER);
+    let wanted = method.kernel.uses_target;
+    let inner_spec = inner_spec.unwrap_or(if wanted == Target::LineIsotropic {
+        DEFAULT_INNER_ISOTROPIC
+    } else {
+        DEFAULT_INNER
+    });
     let (inner_head, nested) = split_inner(inner_spec)?;
     let inner = resolve_plain(inner_spec, inner_head, kernels).map_err(|e| anyhow::anyhow!("`{spec}`: {e}"))?;
     let k = &inner.kernel;
@@ -150,9 +185,9 @@ pub fn resolve(spec: &str, kernels: &[KernelFile]) -> anyhow::Result<Method> {
     if nested.is_some() {
         anyhow::bail!("`{spec}`: {}", takes_no_inner(k));
     }
-    if k.target != Target::Line {
+    if k.target != wanted {
         anyhow::bail!(
-            "`{spec}`: the inner method must be a `target: line` kernel; {} targets {}",
+            "`{spec}`: the inner method must be a `target: {wanted}` kernel; {} targets {}",
             k.id,
             k.target
         );
@@ -242,6 +277,7 @@ fn resolve_plain(spec: &str, head: &str, kernels: &[KernelFile]) -> anyhow::Resu
         kernel: kernel.clone(),
         params,
         inner: None,
+        judged: None,
     })
 }
 
@@ -305,4 +341,25 @@ pub fn validate_kernel(path: &std::path::Path, others: &[KernelFile]) -> anyhow:
         .map_err(anyhow::Error::msg)?;
     }
     Ok(k)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn judged_against_another_target() {
+        let kernels = crate::kernel::builtin_kernels();
+        let m = resolve("line_isotropic.karis2013~line", &kernels).unwrap();
+        assert_eq!((m.kernel.target, m.target()), (Target::LineIsotropic, Target::Line));
+        assert_eq!(m.label, "line_isotropic.karis2013~line");
+        let m = resolve("line_isotropic.karis2013", &kernels).unwrap();
+        assert_eq!(m.target(), Target::LineIsotropic);
+        let e = resolve("line_isotropic.karis2013~lines", &kernels)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("unknown target `lines`"), "{e}");
+        let m = resolve("cylinder.line[line.ltc2017]~line", &kernels).unwrap();
+        assert_eq!(m.describe(), "cylinder.line[line.ltc2017]~line");
+    }
 }

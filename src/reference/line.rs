@@ -123,9 +123,32 @@ pub(crate) fn graded(centre: f64, width: f64, cuts: &mut Vec<f64>) {
     }
 }
 
+/// How a line's emission varies with the direction it is seen from, which sets the weight
+/// of `∫ D(ω(χ))·w(χ) dχ` in the angle χ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Emitter {
+    /// A thin Lambertian cylinder: projected width ∝ ‖ω_p × ω_t‖ = sin χ (target `line`).
+    Cylinder,
+    /// Isotropic point emitters: the same intensity every way, weight 1 (`line_isotropic`).
+    Isotropic,
+}
+
 /// `∫ D(ω(χ)) sin χ dχ` over the chord's directions, `= d²·∫ D(ω_p)/‖p‖³ ds`, with D
 /// replaced by `D·[ω.z > 0]` if `upper`. Zero when the chord passes through the origin.
 pub(crate) fn integrate_chord(lobe: &Lobe, chord: &Chord, upper: bool, rtol: f64, max_panels: usize) -> Quad {
+    integrate_chord_weighted(lobe, chord, upper, Emitter::Cylinder, rtol, max_panels)
+}
+
+/// [`integrate_chord`] with the weight of `emitter`: for `Isotropic`, `∫ D(ω(χ)) dχ`
+/// `= d·∫ D(ω_p)/‖p‖² ds`.
+pub(crate) fn integrate_chord_weighted(
+    lobe: &Lobe,
+    chord: &Chord,
+    upper: bool,
+    emitter: Emitter,
+    rtol: f64,
+    max_panels: usize,
+) -> Quad {
     let d = length(chord.foot);
     if d == 0.0 {
         return Quad::default();
@@ -161,7 +184,11 @@ pub(crate) fn integrate_chord(lobe: &Lobe, chord: &Chord, upper: bool, rtol: f64
         |x| {
             let (s, c) = x.abs().sin_cos();
             let c = c * x.signum();
-            Quad::exact(if above(s, c) { circle.eval(s, c) * s } else { 0.0 })
+            let weight = match emitter {
+                Emitter::Cylinder => s,
+                Emitter::Isotropic => 1.0,
+            };
+            Quad::exact(if above(s, c) { circle.eval(s, c) * weight } else { 0.0 })
         },
         &panels,
         rtol,
@@ -201,6 +228,40 @@ pub(crate) fn line(lobe: &Lobe, p1: Vec3, p2: Vec3, upper: bool) -> Estimate {
         len,
     };
     let q = integrate_chord(lobe, &chord, upper, LINE_RTOL, LINE_MAX_PANELS).scale(2.0 / d);
+    estimate(q, lobe, far, d)
+}
+
+/// Target `line_isotropic`: `∫₀ᴸ D(ω_p)/‖p‖² dl`, a line of isotropic point emitters of unit
+/// intensity per unit length. With `ds/‖p‖² = dχ/d` it is `(1/d)·∫ D(ω(χ)) dχ`. Unlike
+/// `line` it does not vanish when the line runs through the origin: every ω_p is then the
+/// same and the integral is `D(ω_p)·(1/‖p_near‖ − 1/‖p_far‖)`.
+pub(crate) fn line_isotropic(lobe: &Lobe, p1: Vec3, p2: Vec3) -> Estimate {
+    let e = sub(p2, p1);
+    let len = length(e);
+    let dir = mul(e, 1.0 / len);
+    let foot = reject(p1, dir);
+    let d = length(foot);
+    let (r1, r2) = (length(p1), length(p2));
+    let far = r1.max(r2);
+    if d == 0.0 {
+        let near = if r1 < r2 { p1 } else { p2 };
+        let value = lobe.eval(mul(near, 1.0 / r1.min(r2))) * len / (r1 * r2);
+        // A foot rounded to 0 from a few ε·far moves ω_p by that much relative to the
+        // near distance, and D by `condition` times it.
+        let tilt = 4.0 * f64::EPSILON * far / r1.min(r2);
+        return Estimate {
+            value,
+            error: value * (lobe.condition() * tilt + 4.0 * f64::EPSILON),
+        };
+    }
+    let chord = Chord {
+        foot,
+        dir,
+        s0: dot(p1, dir),
+        len,
+    };
+    let q =
+        integrate_chord_weighted(lobe, &chord, false, Emitter::Isotropic, LINE_RTOL, LINE_MAX_PANELS).scale(1.0 / d);
     estimate(q, lobe, far, d)
 }
 
@@ -249,6 +310,77 @@ mod tests {
             c * (u / (2.0 * d * d * q) + (u / d).atan() / (2.0 * d * d * d)) - t / (2.0 * q)
         };
         2.0 * d / PI * (f(b) - f(a))
+    }
+
+    /// Diffuse `line_isotropic` by hand: I = (1/π)∫ (c + t·u)/(d² + u²)^{3/2} du over the
+    /// part above the horizon, with ∫ = c·u/(d²·sqrt(d²+u²)) − t/sqrt(d²+u²).
+    fn diffuse_isotropic_closed_form(p1: Vec3, p2: Vec3) -> f64 {
+        let e = sub(p2, p1);
+        let len = length(e);
+        let dir = mul(e, 1.0 / len);
+        let foot = reject(p1, dir);
+        let (d, c, t) = (length(foot), foot[2], dir[2]);
+        let (mut a, mut b) = (dot(p1, dir), dot(p1, dir) + len);
+        if t != 0.0 {
+            let root = -c / t;
+            if t > 0.0 {
+                a = a.max(root);
+            } else {
+                b = b.min(root);
+            }
+        } else if c <= 0.0 {
+            return 0.0;
+        }
+        if a >= b {
+            return 0.0;
+        }
+        let f = |u: f64| {
+            let r = (d * d + u * u).sqrt();
+            c * u / (d * d * r) - t / r
+        };
+        (f(b) - f(a)) / PI
+    }
+
+    #[test]
+    fn isotropic_diffuse_matches_closed_form_and_is_honest() {
+        let mut rng = rng(11);
+        for _ in 0..200 {
+            let (p1, p2) = (point(&mut rng, 2.0), point(&mut rng, 2.0));
+            let exact = diffuse_isotropic_closed_form(p1, p2);
+            let est = line_isotropic(&diffuse(), p1, p2);
+            let err = (est.value - exact).abs();
+            // The closed form itself cancels at c·u/(d²r) − t/r: a few ε of its terms.
+            let slack = 1e-13 * exact.abs().max(1e-3);
+            assert!(err < slack, "{p1:?} {p2:?}: {est:?} vs {exact}");
+            assert!(est.error <= 1e-12 * exact.abs().max(1e-300), "{est:?}");
+        }
+        // A point source in the limit: a short segment far away is D(ω)·L/r².
+        let est = line_isotropic(&diffuse(), [0.0, 3.0, 4.0], [0.0, 3.0, 4.0 + 1e-6]);
+        let point = 0.8 / PI * 1e-6 / 25.0;
+        assert!(rel(est.value, point) < 1e-6, "{est:?} {point}");
+        // Through the origin (outside the segment): D(ω)(1/r1 − 1/r2), not 0 as for `line`.
+        let est = line_isotropic(&diffuse(), [0.0, 0.0, 1.0], [0.0, 0.0, 2.0]);
+        assert!(rel(est.value, 0.5 / PI) < 1e-15, "{est:?}");
+        assert!(est.error > 0.0 && est.error < 1e-14);
+    }
+
+    #[test]
+    fn isotropic_ltc_is_rotation_consistent_and_scales_as_one_over_s() {
+        let mut rng = rng(12);
+        for _ in 0..30 {
+            let (p1, p2) = (point(&mut rng, 2.0), point(&mut rng, 2.0));
+            let r = rotation(&mut rng);
+            let rotated = line_isotropic(&Lobe::new(&Material::Ltc { minv: r }), p1, p2).value;
+            let moved = line_isotropic(&diffuse(), mat_vec(&r, p1), mat_vec(&r, p2)).value;
+            assert!(
+                (rotated - moved).abs() < 1e-12 * moved.abs().max(1e-3),
+                "{rotated} {moved}"
+            );
+            let s = rng.random_range(0.01..100.0);
+            let scaled = line_isotropic(&diffuse(), mul(p1, s), mul(p2, s)).value;
+            let base = line_isotropic(&diffuse(), p1, p2).value;
+            assert!((scaled * s - base).abs() < 1e-12 * base.max(1e-3), "{scaled} {base}");
+        }
     }
 
     #[test]
@@ -384,6 +516,50 @@ mod tests {
         let mut cuts = sign_changes(|th| dot(minv[2], omega(th)), a, b, 4000);
         cuts.extend(sign_changes(|th| omega(th)[2], a, b, 4000));
         brute(f, a, b, &cuts, panels)
+    }
+
+    /// `line_isotropic` by brute force in θ = atan((l − l0)/d): dl/‖p‖² = dθ/d.
+    fn brute_isotropic(material: &Material, p1: Vec3, p2: Vec3, panels: usize) -> f64 {
+        let e = sub(p2, p1);
+        let len = length(e);
+        let t = mul(e, 1.0 / len);
+        let c = cross(p1, t);
+        let d = length(c);
+        let n = cross(t, c).map(|x| x / d);
+        let l0 = dot(p1, t);
+        let omega = |th: f64| [0, 1, 2].map(|k| th.cos() * n[k] + th.sin() * t[k]);
+        let f = |th: f64| distribution(material, omega(th)) / d;
+        let (a, b) = ((l0 / d).atan(), ((l0 + len) / d).atan());
+        let minv = material.minv();
+        let cuts = sign_changes(|th| dot(minv[2], omega(th)), a, b, 4000);
+        brute(f, a, b, &cuts, panels)
+    }
+
+    #[test]
+    fn isotropic_error_estimate_is_honest_on_sharp_lobes() {
+        let mut rng = rng(13);
+        for i in 0..24 {
+            let (material, p1, p2) = if i % 2 == 0 {
+                let m = if i % 4 == 0 {
+                    sparse_ltc(&mut rng)
+                } else {
+                    full_ltc(&mut rng)
+                };
+                (m, point(&mut rng, 2.0), point(&mut rng, 2.0))
+            } else {
+                let a = 10f64.powf(rng.random_range(2.0..3.0));
+                let minv = [[a, 0.0, 0.2 * a], [0.0, 0.7 * a, 0.0], [0.3, 0.0, 1.0]];
+                let m = Material::Ltc { minv };
+                let len = 10f64.powf(rng.random_range(-2.0..1.0));
+                let (p1, p2) = segment_through_lobe(&m, 1.0, len, 0.1 * len, &mut rng);
+                (m, p1, p2)
+            };
+            let est = line_isotropic(&Lobe::new(&material), p1, p2);
+            let exact = brute_isotropic(&material, p1, p2, 40000);
+            let err = (est.value - exact).abs();
+            assert!(err <= est.error + 1e-15 * exact, "{i}: {est:?} vs {exact}");
+            assert!(est.error <= 1e-11 * exact.max(1e-300), "{i}: {est:?}");
+        }
     }
 
     #[test]

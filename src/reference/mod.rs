@@ -31,6 +31,7 @@ pub fn reference(config: &Config, target: Target) -> Option<Estimate> {
     match target {
         Target::Line => Some(line::line(&lobe, p1, p2, false)),
         Target::LineUpper => Some(line::line(&lobe, p1, p2, true)),
+        Target::LineIsotropic => Some(line::line_isotropic(&lobe, p1, p2)),
         Target::Cylinder => radius.map(|r| surface::cylinder(&lobe, p1, p2, r)),
         Target::Caps => radius.map(|r| surface::caps(&lobe, p1, p2, r)),
         Target::Tube => radius.map(|r| {

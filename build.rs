@@ -1,0 +1,47 @@
+//! Lists the built-in method kernels for `src/kernel.rs`: every `.wgsl` file under
+//! `kernels/`, subfolders included (`kernels/engines/`), except the prelude and
+//! `kernels/lib/` (shared pieces, not methods). Generated so a kernel added in any folder is
+//! built in without a list to keep in step.
+
+use std::path::{Path, PathBuf};
+
+fn collect(dir: &Path, root: &Path, out: &mut Vec<String>) {
+    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", dir.display()))
+        .map(|e| e.expect("directory entry").path())
+        .collect();
+    entries.sort();
+    for path in entries {
+        let rel = path
+            .strip_prefix(root)
+            .expect("under kernels/")
+            .to_string_lossy()
+            .replace('\\', "/");
+        if path.is_dir() {
+            if rel != "lib" {
+                collect(&path, root, out);
+            }
+        } else if rel.ends_with(".wgsl") && rel != "prelude.wgsl" {
+            out.push(rel);
+        }
+    }
+}
+
+fn main() {
+    let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
+    let root = manifest.join("kernels");
+    println!("cargo:rerun-if-changed=kernels");
+    let mut files = Vec::new();
+    collect(&root, &root, &mut files);
+    let mut text = String::from("&[\n");
+    for rel in &files {
+        let abs = root.join(rel);
+        text.push_str(&format!(
+            "    (\"kernels/{rel}\", include_str!({:?})),\n",
+            abs.display().to_string()
+        ));
+    }
+    text.push_str("]\n");
+    let out = PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("builtin_kernels.rs");
+    std::fs::write(&out, text).unwrap_or_else(|e| panic!("cannot write {}: {e}", out.display()));
+}
