@@ -14,8 +14,9 @@ pub enum MinvSupport {
     Full,
     /// Only the isotropic-GGX form `[[a,0,b],[0,c,0],[d,0,1]]`.
     Sparse,
-    /// Only the diffuse material (a formula for Lambertian irradiance, such as the engines'
-    /// line irradiance, that has no LTC form).
+    /// Only the diffuse material: `//! minv: diffuse` or `//! minv: none` (the kernel ignores
+    /// M⁻¹; a formula for Lambertian irradiance, such as the engines' line irradiance, that has
+    /// no LTC form); every other material is reported as unsupported.
     Diffuse,
 }
 
@@ -132,11 +133,11 @@ impl KernelFile {
                     minv = Some(match value {
                         "full" => MinvSupport::Full,
                         "sparse" => MinvSupport::Sparse,
-                        "diffuse" => MinvSupport::Diffuse,
+                        "diffuse" | "none" => MinvSupport::Diffuse,
                         _ => {
                             return Err(err(
                                 lineno,
-                                format!("minv must be `full`, `sparse` or `diffuse`, got `{value_shown}`"),
+                                format!("minv must be `full`, `sparse`, `diffuse` or `none`, got `{value_shown}`"),
                             ))
                         }
                     })

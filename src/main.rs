@@ -40,6 +40,26 @@ struct GpuArgs {
     chunk: usize,
 }
 
+/// The CI gate (docs/ci/): baselines and JUnit.
+#[derive(clap::Args)]
+struct GateArgs {
+    /// Save this run as a baseline in DIR (baseline.json + errors/), for a later --baseline.
+    #[arg(long, value_name = "DIR")]
+    save_baseline: Option<PathBuf>,
+    /// Compare with the baseline in DIR: any regression exits 1.
+    #[arg(long, value_name = "DIR")]
+    baseline: Option<PathBuf>,
+    /// Write JUnit XML: one testcase per method × material × rule.
+    #[arg(long, value_name = "FILE")]
+    junit: Option<PathBuf>,
+    /// Error ratios within ±NOISE (at the 95 % bootstrap bounds) are unchanged.
+    #[arg(long, default_value_t = 0.05)]
+    noise: f64,
+    /// Op-count growth beyond this fraction is a regression.
+    #[arg(long, default_value_t = 0.10)]
+    ops_growth: f64,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Run a case file: sample, evaluate, compare with references, write reports, give a verdict.
@@ -57,6 +77,8 @@ enum Command {
         count: Option<usize>,
         #[command(flatten)]
         gpu: GpuArgs,
+        #[command(flatten)]
+        gate: GateArgs,
     },
     /// Evaluate explicit configurations (JSONL in, JSONL out; DESIGN §3).
     Eval {
@@ -238,6 +260,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             raw,
             count,
             gpu,
+            gate,
         } => {
             let started = std::time::Instant::now();
             let case_path = case.display().to_string();
@@ -259,6 +282,15 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             let labels = setup.methods.iter().map(|m| m.label.clone()).collect();
             claims::check(&setup.case.claims, claims::dry_facts(&setup.case, labels))
                 .map_err(|e| anyhow::anyhow!("{case_path}: {e}"))?;
+            if !(gate.noise >= 0.0 && gate.ops_growth >= 0.0) {
+                anyhow::bail!("--noise and --ops-growth must be fractions ≥ 0");
+            }
+            // A baseline that does not fit this run is bad input, found before measuring.
+            let baseline = gate
+                .baseline
+                .as_deref()
+                .map(|dir| linelight::baseline::load(dir, &setup))
+                .transpose()?;
             let device = open_gpu(&gpu)?;
             eprintln!(
                 "case {}: {} configurations, {} methods",
@@ -336,6 +368,30 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 staged.commit()?;
                 eprintln!("wrote {}", raw.display());
             }
+            if let Some(dir) = &gate.save_baseline {
+                for path in linelight::baseline::save(dir, &setup, &measured)? {
+                    eprintln!("wrote {}", path.display());
+                }
+            }
+            let options = linelight::baseline::GateOptions {
+                noise: gate.noise,
+                ops_growth: gate.ops_growth,
+                ..Default::default()
+            };
+            let gate_report = baseline
+                .as_ref()
+                .map(|b| linelight::baseline::compare(b, &setup, &measured, options));
+            if let Some(g) = &gate_report {
+                eprint!("{}", g.details());
+            }
+            if let Some(path) = &gate.junit {
+                let xml = report::junit::junit(&setup.case.name, &analysis.checks, gate_report.as_ref())?;
+                write_atomic(path, xml.as_bytes())?;
+                eprintln!("wrote {}", path.display());
+            }
+            let regressed = gate_report
+                .as_ref()
+                .is_some_and(|g| g.change == linelight::baseline::Change::Regressed);
             let failed = analysis.checks.iter().filter(|c| !c.pass).count();
             let stale: Vec<&str> = claim_results
                 .iter()
@@ -356,10 +412,13 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 },
                 dir.join("report.md").display()
             );
+            if let Some(g) = &gate_report {
+                println!("{}", g.summary());
+            }
             // 3: a finding no longer holds (the report says which); 1: a tolerance failed.
             Ok(if !stale.is_empty() {
                 ExitCode::from(3)
-            } else if analysis.verdict == Verdict::Fail {
+            } else if analysis.verdict == Verdict::Fail || regressed {
                 ExitCode::from(1)
             } else {
                 ExitCode::SUCCESS
