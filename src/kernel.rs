@@ -260,6 +260,17 @@ mod tests {
     }
 
     #[test]
+    fn minv_none_header() {
+        let k = KernelFile::parse("d.wgsl", "//! id: line.d\n//! target: line\n//! minv: none\n").unwrap();
+        assert_eq!(k.minv, MinvSupport::Diffuse);
+        let e = KernelFile::parse("d.wgsl", "//! id: line.d\n//! target: line\n//! minv: diffuse-only\n").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "d.wgsl:3: minv must be `full`, `sparse`, `diffuse` or `none`, got `diffuse-only`"
+        );
+    }
+
+    #[test]
     fn uses_line_header() {
         let k = KernelFile::parse("c.wgsl", "//! id: cyl.x\n//! target: cylinder\n//! uses: line\n").unwrap();
         assert!(k.uses_line);

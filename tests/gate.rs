@@ -147,3 +147,37 @@ fn baseline_from_other_configurations_is_bad_input() {
         text(&o)
     );
 }
+
+/// The `scripts/ci-gate …` command of a CI example (the line after `# linelight-gate:`).
+fn workflow_command(file: &str) -> Vec<String> {
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(file)).unwrap();
+    let line = text
+        .lines()
+        .skip_while(|l| !l.contains("# linelight-gate:"))
+        .nth(1)
+        .unwrap_or_else(|| panic!("{file}: no line after `# linelight-gate:`"));
+    let command = line.trim().trim_start_matches("- ").trim_start_matches("run: ");
+    let words = shell_words::split(command).unwrap();
+    assert_eq!(words[0], "scripts/ci-gate", "{file}: {line}");
+    words
+}
+
+#[test]
+fn ci_examples_run_the_gate_on_the_committed_baseline() {
+    let github = workflow_command("docs/ci/github-actions.yml");
+    assert_eq!(github, workflow_command("docs/ci/gitlab-ci.yml"), "the two CI examples differ");
+    let dir = tempfile::tempdir().unwrap();
+    let o = Command::new(&github[0])
+        .args(&github[1..])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("LINELIGHT", env!("CARGO_BIN_EXE_linelight"))
+        .env("JUNIT", dir.path().join("junit.xml"))
+        .env("OUT", dir.path().join("reports"))
+        .output()
+        .unwrap();
+    // The committed example baseline matches the committed example kernel.
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.lines().any(|l| l.starts_with("gate: UNCHANGED")), "{}", text(&o));
+    assert!(dir.path().join("junit.xml").is_file());
+}

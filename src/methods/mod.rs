@@ -362,4 +362,25 @@ mod tests {
         let m = resolve("cylinder.line[line.ltc2017]~line", &kernels).unwrap();
         assert_eq!(m.describe(), "cylinder.line[line.ltc2017]~line");
     }
+
+    #[test]
+    fn minv_none_supports_diffuse_only() {
+        use crate::scene::Material;
+        let k = KernelFile::parse("d.wgsl", "//! id: line.d\n//! target: line\n//! minv: none\n").unwrap();
+        let m = resolve("line.d", &[k]).unwrap();
+        let mut c = Config {
+            id: String::new(),
+            p1: [0.0, -1.0, 1.0],
+            p2: [0.0, 1.0, 1.0],
+            radius: None,
+            rect: None,
+            material: Material::Diffuse,
+        };
+        assert!(m.supports(&c));
+        // Sparse and full M⁻¹ alike are unsupported.
+        c.material = Material::Ltc {
+            minv: [[0.5, 0.0, 0.1], [0.0, 0.6, 0.0], [-0.2, 0.0, 1.0]],
+        };
+        assert!(!m.supports(&c));
+    }
 }

@@ -66,3 +66,25 @@ pub fn junit(case: &str, checks: &[Check], gate: Option<&GateReport>) -> anyhow:
     }
     Ok(report.to_string()?)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_failed_check_is_a_failure_with_its_numbers() {
+        let check = |pass, measured| Check {
+            method: "line.x".into(),
+            material: "diffuse".into(),
+            what: "p99 rel. error".into(),
+            limit: 0.01,
+            measured,
+            pass,
+        };
+        let xml = junit("c", &[check(true, 0.001), check(false, 0.5)], None).unwrap();
+        assert_eq!(xml.matches("<testcase ").count(), 2, "{xml}");
+        assert_eq!(xml.matches("<failure").count(), 1, "{xml}");
+        assert!(xml.contains("measured 5e-1, limit 1e-2"), "{xml}");
+        assert!(xml.contains("name=\"line.x / diffuse / p99 rel. error\""), "{xml}");
+    }
+}
