@@ -14,6 +14,7 @@ pub mod case_values;
 pub mod chain;
 pub mod claims;
 pub mod cost;
+pub mod diff;
 pub mod eval;
 pub mod gpu;
 pub mod interp;

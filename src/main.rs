@@ -172,6 +172,28 @@ enum Command {
         #[command(flatten)]
         gpu: GpuArgs,
     },
+    /// Compare two methods, or two revisions of one kernel file, on a case's configurations:
+    /// paired statistics, where they disagree, and a verdict.
+    Diff {
+        /// Case file whose configurations (seed, materials, counts) the two are run on.
+        case: PathBuf,
+        /// A method spec (`line.ltc2023`) or a kernel file (`old/my_line.wgsl`).
+        a: String,
+        /// A method spec or a kernel file (may have the same id as A).
+        b: String,
+        /// Override every material's count.
+        #[arg(long)]
+        count: Option<usize>,
+        /// Error ratios within ±NOISE (at the 95 % bootstrap bounds) are no difference.
+        #[arg(long, default_value_t = 0.05)]
+        noise: f64,
+        /// Write the disagreement configurations here (eval input format, replayable).
+        #[arg(long)]
+        output: Option<PathBuf>,
+        /// Adapter to use: any part of its name (default: lavapipe / llvmpipe).
+        #[arg(long)]
+        adapter: Option<String>,
+    },
     /// List the Vulkan adapters wgpu can see.
     Adapters,
     /// Compose and validate kernel files with naga (no GPU needed).
@@ -642,6 +664,27 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             for path in linelight::chain::write(&dir, &case_path, &case, &run)? {
                 eprintln!("wrote {}", path.display());
             }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Diff {
+            case,
+            a,
+            b,
+            count,
+            noise,
+            output,
+            adapter,
+        } => {
+            linelight::diff::run(&linelight::diff::DiffOptions {
+                case,
+                a,
+                b,
+                count,
+                noise,
+                adapter,
+                chunk: 65536,
+                output,
+            })?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Adapters => {

@@ -165,7 +165,11 @@ fn workflow_command(file: &str) -> Vec<String> {
 #[test]
 fn ci_examples_run_the_gate_on_the_committed_baseline() {
     let github = workflow_command("docs/ci/github-actions.yml");
-    assert_eq!(github, workflow_command("docs/ci/gitlab-ci.yml"), "the two CI examples differ");
+    assert_eq!(
+        github,
+        workflow_command("docs/ci/gitlab-ci.yml"),
+        "the two CI examples differ"
+    );
     let dir = tempfile::tempdir().unwrap();
     let o = Command::new(&github[0])
         .args(&github[1..])
@@ -180,4 +184,56 @@ fn ci_examples_run_the_gate_on_the_committed_baseline() {
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.lines().any(|l| l.starts_with("gate: UNCHANGED")), "{}", text(&o));
     assert!(dir.path().join("junit.xml").is_file());
+}
+
+#[test]
+fn diff_two_revisions_of_one_kernel_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let improved = variant(
+        d,
+        "improved.wgsl",
+        "return l * l / (d * (d * d + l * l));",
+        "return -d / (d * d + l * l);",
+        "",
+    );
+    let replay = d.join("disagreements.jsonl");
+    let o = Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .args(["diff", CASE, KERNEL, improved.to_str().unwrap()])
+        .arg("--output")
+        .arg(&replay)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("A worse on diffuse") && stdout.contains("B worse on diffuse"),
+        "{}",
+        text(&o)
+    );
+    assert!(stdout.contains("ggx_iso: not compared"), "{}", text(&o));
+    // As the gate found: the 2023 Fwt is the more accurate revision.
+    assert_eq!(
+        stdout.lines().last(),
+        Some("verdict: B is more accurate than A"),
+        "{}",
+        text(&o)
+    );
+    // The disagreements replay through eval.
+    let out = d.join("replayed.jsonl");
+    let o = Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .args(["eval", "--methods", "line.ltc2017"])
+        .arg("--input")
+        .arg(&replay)
+        .arg("--output")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // The same file twice is bad input.
+    let o = Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .args(["diff", CASE, KERNEL, KERNEL])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
 }
