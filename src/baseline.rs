@@ -83,9 +83,15 @@ pub struct Baseline {
     /// `--count` when it overrode the case's counts (a compared run must use the same).
     pub count_override: Option<usize>,
     pub adapter: String,
-    /// (material, natural configurations) in case order.
-    pub materials: Vec<(String, usize)>,
+    /// The materials in case order, with their natural configurations.
+    pub materials: Vec<MaterialCount>,
     pub methods: Vec<MethodEntry>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MaterialCount {
+    pub material: String,
+    pub configurations: usize,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -246,7 +252,7 @@ pub fn save(dir: &Path, setup: &Setup, measured: &Measured) -> anyhow::Result<Ve
     Ok(written)
 }
 
-fn natural_counts(setup: &Setup) -> Vec<(String, usize)> {
+fn natural_counts(setup: &Setup) -> Vec<MaterialCount> {
     setup
         .case
         .materials
@@ -254,7 +260,10 @@ fn natural_counts(setup: &Setup) -> Vec<(String, usize)> {
         .enumerate()
         .map(|(m, f)| {
             let n = setup.samples.iter().filter(|s| s.material == m && s.natural()).count();
-            (f.name.clone(), n)
+            MaterialCount {
+                material: f.name.clone(),
+                configurations: n,
+            }
         })
         .collect()
 }
@@ -289,16 +298,29 @@ pub fn load(dir: &Path, setup: &Setup) -> anyhow::Result<Loaded> {
     }
     let counts = natural_counts(setup);
     if baseline.materials != counts || baseline.count_override != setup.count_override {
+        let show = |c: &[MaterialCount], o: Option<usize>| {
+            let list: Vec<String> = c
+                .iter()
+                .map(|m| format!("{} {}", m.material, m.configurations))
+                .collect();
+            format!(
+                "{} (--count {})",
+                list.join(", "),
+                o.map_or("not set".into(), |n| n.to_string())
+            )
+        };
         return Err(here(format!(
-            "saved with configurations {:?} (--count {:?}); this run has {:?} (--count {:?}): \
-             the comparison is paired, so both need the same case counts and --count",
-            baseline.materials, baseline.count_override, counts, setup.count_override
+            "saved with configurations {}; this run has {}: the comparison is paired, so both \
+             need the same case counts and --count",
+            show(&baseline.materials, baseline.count_override),
+            show(&counts, setup.count_override)
         )));
     }
     let mut errors = Vec::new();
     for m in &baseline.methods {
         let mut per = Vec::new();
-        for (entry, (_, n)) in m.materials.iter().zip(&baseline.materials) {
+        for (entry, count) in m.materials.iter().zip(&baseline.materials) {
+            let n = count.configurations;
             let Some(rel) = &entry.errors else {
                 per.push(None);
                 continue;
@@ -319,7 +341,7 @@ pub fn load(dir: &Path, setup: &Setup) -> anyhow::Result<Loaded> {
                     })
                 })
                 .collect::<anyhow::Result<Vec<_>>>()?;
-            if obs.len() != *n {
+            if obs.len() != n {
                 anyhow::bail!(
                     "{}: {} lines, but material `{}` has {n} configurations",
                     file.display(),
