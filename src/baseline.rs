@@ -703,6 +703,10 @@ impl GateReport {
         if !improved.is_empty() {
             s += &format!("; error improved: {}", improved.join(", "));
         }
+        if self.adapter != self.baseline_adapter {
+            // Another driver's transcendentals differ: a change may be the adapter's, not the kernel's.
+            s += "; WARNING: the baseline was saved on another adapter";
+        }
         s
     }
 
