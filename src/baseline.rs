@@ -356,6 +356,64 @@ pub fn load(dir: &Path, setup: &Setup) -> anyhow::Result<Loaded> {
     Ok(Loaded { baseline, errors })
 }
 
+/// What a sweep's gate options ask for, checked before measuring.
+pub struct GateRun {
+    save: Option<std::path::PathBuf>,
+    baseline: Option<Loaded>,
+    junit: Option<std::path::PathBuf>,
+    options: GateOptions,
+}
+
+impl GateRun {
+    /// Checks the thresholds and loads the baseline (bad input: exit 2 before any work).
+    pub fn prepare(
+        save: Option<std::path::PathBuf>,
+        baseline: Option<&Path>,
+        junit: Option<std::path::PathBuf>,
+        options: GateOptions,
+        setup: &Setup,
+    ) -> anyhow::Result<GateRun> {
+        if !(options.noise >= 0.0 && options.ops_growth >= 0.0) {
+            anyhow::bail!("--noise and --ops-growth must be fractions ≥ 0");
+        }
+        let baseline = baseline.map(|dir| load(dir, setup)).transpose()?;
+        Ok(GateRun {
+            save,
+            baseline,
+            junit,
+            options,
+        })
+    }
+
+    /// After the sweep: saves the baseline, compares with the loaded one (every rule to
+    /// stderr), writes the JUnit file; returns the comparison, if there was a baseline.
+    pub fn finish(
+        &self,
+        setup: &Setup,
+        measured: &Measured,
+        checks: &[crate::analysis::Check],
+    ) -> anyhow::Result<Option<GateReport>> {
+        if let Some(dir) = &self.save {
+            for path in save(dir, setup, measured)? {
+                eprintln!("wrote {}", path.display());
+            }
+        }
+        let report = self
+            .baseline
+            .as_ref()
+            .map(|b| compare(b, setup, measured, self.options));
+        if let Some(g) = &report {
+            eprint!("{}", g.details());
+        }
+        if let Some(path) = &self.junit {
+            let xml = crate::report::junit::junit(&setup.case.name, checks, report.as_ref())?;
+            write_atomic(path, xml.as_bytes())?;
+            eprintln!("wrote {}", path.display());
+        }
+        Ok(report)
+    }
+}
+
 /// Thresholds of the comparison.
 #[derive(Clone, Copy, Debug)]
 pub struct GateOptions {
@@ -674,6 +732,10 @@ pub fn compare(loaded: &Loaded, setup: &Setup, measured: &Measured, options: Gat
 }
 
 impl GateReport {
+    pub fn regressed(&self) -> bool {
+        self.change == Change::Regressed
+    }
+
     /// The one-line summary: verdict, counts, and the regressed rules by name.
     pub fn summary(&self) -> String {
         let count = |c: Change| self.rules.iter().filter(|r| r.change == c).count();

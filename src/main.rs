@@ -304,15 +304,18 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             let labels = setup.methods.iter().map(|m| m.label.clone()).collect();
             claims::check(&setup.case.claims, claims::dry_facts(&setup.case, labels))
                 .map_err(|e| anyhow::anyhow!("{case_path}: {e}"))?;
-            if !(gate.noise >= 0.0 && gate.ops_growth >= 0.0) {
-                anyhow::bail!("--noise and --ops-growth must be fractions ≥ 0");
-            }
             // A baseline that does not fit this run is bad input, found before measuring.
-            let baseline = gate
-                .baseline
-                .as_deref()
-                .map(|dir| linelight::baseline::load(dir, &setup))
-                .transpose()?;
+            let gate = linelight::baseline::GateRun::prepare(
+                gate.save_baseline,
+                gate.baseline.as_deref(),
+                gate.junit,
+                linelight::baseline::GateOptions {
+                    noise: gate.noise,
+                    ops_growth: gate.ops_growth,
+                    ..Default::default()
+                },
+                &setup,
+            )?;
             let device = open_gpu(&gpu)?;
             eprintln!(
                 "case {}: {} configurations, {} methods",
@@ -390,30 +393,8 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 staged.commit()?;
                 eprintln!("wrote {}", raw.display());
             }
-            if let Some(dir) = &gate.save_baseline {
-                for path in linelight::baseline::save(dir, &setup, &measured)? {
-                    eprintln!("wrote {}", path.display());
-                }
-            }
-            let options = linelight::baseline::GateOptions {
-                noise: gate.noise,
-                ops_growth: gate.ops_growth,
-                ..Default::default()
-            };
-            let gate_report = baseline
-                .as_ref()
-                .map(|b| linelight::baseline::compare(b, &setup, &measured, options));
-            if let Some(g) = &gate_report {
-                eprint!("{}", g.details());
-            }
-            if let Some(path) = &gate.junit {
-                let xml = report::junit::junit(&setup.case.name, &analysis.checks, gate_report.as_ref())?;
-                write_atomic(path, xml.as_bytes())?;
-                eprintln!("wrote {}", path.display());
-            }
-            let regressed = gate_report
-                .as_ref()
-                .is_some_and(|g| g.change == linelight::baseline::Change::Regressed);
+            let gate_report = gate.finish(&setup, &measured, &analysis.checks)?;
+            let regressed = gate_report.as_ref().is_some_and(|g| g.regressed());
             let failed = analysis.checks.iter().filter(|c| !c.pass).count();
             let stale: Vec<&str> = claim_results
                 .iter()
