@@ -114,7 +114,14 @@ pub fn builtin_kernels() -> Vec<KernelFile> {
 impl KernelFile {
     pub fn read(path: &Path) -> anyhow::Result<KernelFile> {
         let text = std::fs::read_to_string(path).with_context(|| format!("cannot read kernel {}", path.display()))?;
-        Ok(KernelFile::parse(&path.display().to_string(), &text)?)
+        let shown = path.display().to_string();
+        if path.extension().is_some_and(|e| e == "glsl") {
+            // The header is checked on the GLSL file (its lines), then the translation is the text.
+            KernelFile::parse(&shown, &text)?;
+            let wgsl = crate::glsl::translate(&shown, &text)?;
+            return Ok(KernelFile::parse(&shown, &wgsl)?);
+        }
+        Ok(KernelFile::parse(&shown, &text)?)
     }
 
     pub fn parse(path: &str, text: &str) -> Result<KernelFile, HeaderError> {
