@@ -64,9 +64,12 @@ impl Param {
         }
         match v.parse::<u64>() {
             Ok(0) => Err(format!("parameter `{shown}` is not a positive integer (at least 1)")),
-            Ok(n) => u32::try_from(n)
-                .map(f64::from)
-                .map_err(|_| format!("parameter `{shown}` is larger than {} (the largest a kernel takes)", u32::MAX)),
+            Ok(n) => u32::try_from(n).map(f64::from).map_err(|_| {
+                format!(
+                    "parameter `{shown}` is larger than {} (the largest a kernel takes)",
+                    u32::MAX
+                )
+            }),
             Err(_) if !v.is_empty() && v.bytes().all(|b| b.is_ascii_digit()) => Err(format!(
                 "parameter `{shown}` is larger than {} (the largest a kernel takes)",
                 u32::MAX

@@ -252,7 +252,9 @@ fn resolve_plain(spec: &str, head: &str, kernels: &[KernelFile]) -> anyhow::Resu
             );
         }
         for ((slot, v), p) in params.iter_mut().zip(values).zip(&kernel.params) {
-            *slot = p.value(v).map_err(|e| anyhow::anyhow!("`{}`: {e}", crate::case_values::clip(spec)))?;
+            *slot = p
+                .value(v)
+                .map_err(|e| anyhow::anyhow!("`{}`: {e}", crate::case_values::clip(spec)))?;
         }
     }
     Ok(Method {
