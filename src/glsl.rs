@@ -64,6 +64,20 @@ pub fn translate(path: &str, text: &str) -> Result<String, HeaderError> {
                 )
             }
         })?;
+    // A body for a prelude prototype would be dropped for the WGSL prelude's: refuse it.
+    for (_, f) in module.functions.iter() {
+        let name = f.name.as_deref().unwrap_or("");
+        if name != "main" && PRELUDE_NAMES.contains(&name) && !f.body.is_empty() {
+            let line = text
+                .lines()
+                .position(|l| l.contains(&format!("{name}(")) && !l.trim_start().starts_with("//"))
+                .map_or(1, |i| i + 1);
+            return Err(err(
+                line,
+                format!("`{name}` is the prelude's (kernels/prelude.glsl): a GLSL kernel may call it, not define it"),
+            ));
+        }
+    }
     let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
         .validate(&module)
         .map_err(|e| {
@@ -170,5 +184,8 @@ mod tests {
         assert_eq!((e.path.as_str(), e.line), ("k.glsl", 4), "{e}");
         let e = translate("k.glsl", "#version 450\n").unwrap_err();
         assert_eq!(e.line, 1);
+        let e = translate("k.glsl", "//! id: line.g\nfloat D(vec3 w) {\n    return 1.0;\n}\n").unwrap_err();
+        assert_eq!(e.line, 2, "{e}");
+        assert!(e.message.contains("`D` is the prelude's"), "{e}");
     }
 }
