@@ -4,7 +4,8 @@
 //! GLSL front end, and written back as WGSL by naga's WGSL back end. The kernel's own
 //! declarations (functions, constants, structs) become the WGSL kernel text, which then goes
 //! the WGSL path: the harness's WGSL prelude, validation, GPU, op counts. Front-end errors name
-//! the GLSL file's own line and column.
+//! the GLSL file's own line and column. Specialization constants become the overrides the
+//! header's `params` set.
 
 use crate::kernel::HeaderError;
 
@@ -108,6 +109,12 @@ fn own_items(wgsl: &str) -> String {
         if line.is_empty() {
             continue;
         }
+        // A specialization constant (`layout(constant_id = N) const …`) is an `@id(N) override`:
+        // the header's params name it, so the id goes.
+        let line = match line.strip_prefix("@id(").and_then(|r| r.split_once(") ")) {
+            Some((_, rest)) if rest.starts_with("override ") => rest,
+            _ => line,
+        };
         let mut item = format!("{line}\n");
         let block = line.trim_end().ends_with('{');
         if block {

@@ -65,3 +65,37 @@ fn glsl_port_agrees_with_the_wgsl_port_on_the_gpu() {
         "GLSL and WGSL ports differ by {worst} ulp ({differ} configurations differ)"
     );
 }
+
+#[test]
+fn glsl_specialization_constants_are_the_header_params() {
+    linelight::gpu::quiet_driver_environment();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.glsl");
+    std::fs::write(
+        &path,
+        "//! id: line.gp\n//! target: line\n//! params: N=3 SCALE=0.5\n\
+         layout(constant_id = 0) const uint N = 7;\n\
+         layout(constant_id = 1) const float SCALE = 1.0;\n\
+         float method(Scene scene) {\n    return SCALE * scene.p1.x + float(N);\n}\n",
+    )
+    .unwrap();
+    let kernels = kernel_set(&[path]).unwrap();
+    let gpu = Gpu::new(None).unwrap();
+    let scenes: Vec<GpuScene> = [1.0f32, 3.0]
+        .iter()
+        .map(|&x| GpuScene {
+            p1: [x, 0.0, 1.0],
+            p2: [x, 1.0, 1.0],
+            ..Default::default()
+        })
+        .collect();
+    let run = |spec: &str| {
+        let m = resolve(spec, &kernels).unwrap();
+        gpu.run(&gpu.pipeline(&m).unwrap(), &scenes, 0, &mut |_| {})
+            .unwrap()
+            .values
+    };
+    // The header's defaults, not the GLSL initialisers; then both set from the spec.
+    assert_eq!(run("line.gp"), vec![3.5, 4.5]);
+    assert_eq!(run("line.gp@2x-0.25"), vec![1.75, 1.25]);
+}
