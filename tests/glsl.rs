@@ -1,6 +1,7 @@
 //! GLSL kernels: the GLSL port of a built-in (kernels/glsl/line_ltc2017.glsl, Listings 1.6 +
 //! 1.7 in their own language) agrees with the WGSL port (kernels/line_ltc2017.wgsl) to f32
-//! rounding on the GPU, over a case's configurations on all three material kinds.
+//! rounding on the GPU and in the CPU evaluator (f32 and f64), over a case's configurations on
+//! all three material kinds.
 
 use linelight::case::Case;
 use linelight::gpu::Gpu;
@@ -64,6 +65,31 @@ fn glsl_port_agrees_with_the_wgsl_port_on_the_gpu() {
         worst <= 4,
         "GLSL and WGSL ports differ by {worst} ulp ({differ} configurations differ)"
     );
+
+    // The CPU evaluator runs the GLSL kernel's translation like any kernel: f32 and f64.
+    let some: Vec<_> = configs.iter().step_by(10).cloned().collect();
+    for mode in [linelight::interp::Mode::F32, linelight::interp::Mode::F64] {
+        let f32_mode = matches!(mode, linelight::interp::Mode::F32);
+        let cpu = |spec: &str| resolve(spec, &kernels).unwrap().cpu_column(&some, mode).unwrap();
+        let (w, g) = (cpu("line.ltc2017"), cpu("line.ltc2017_glsl"));
+        let worst = w
+            .iter()
+            .zip(&g)
+            .map(|(a, b)| match (a, b) {
+                (Some(a), Some(b)) if a == b || (a.is_nan() && b.is_nan()) => 0.0,
+                (Some(a), Some(b)) => (a - b).abs() / a.abs().max(b.abs()),
+                _ => f64::INFINITY,
+            })
+            .fold(0.0, f64::max);
+        println!(
+            "evaluator {}: worst relative difference {worst:e} over {} configurations",
+            if f32_mode { "f32" } else { "f64" },
+            some.len()
+        );
+        // f32 rounding: a few units of 2^-24 in f32; f64's own rounding in f64.
+        let limit = if f32_mode { 4.0 * f64::from(f32::EPSILON) } else { 1e-12 };
+        assert!(worst <= limit, "evaluator: GLSL and WGSL ports differ by {worst:e}");
+    }
 }
 
 #[test]
