@@ -23,6 +23,7 @@ const PRELUDE_NAMES: &[&str] = &[
     "buildOrthonormalBasis",
     "inverse3",
     "inverse3_",
+    "I_line",
     "main",
     "main_1",
 ];

@@ -125,3 +125,38 @@ fn glsl_specialization_constants_are_the_header_params() {
     assert_eq!(run("line.gp"), vec![3.5, 4.5]);
     assert_eq!(run("line.gp@2x-0.25"), vec![1.75, 1.25]);
 }
+
+#[test]
+fn glsl_composite_takes_any_line_method() {
+    linelight::gpu::quiet_driver_environment();
+    let mut case = Case::load(&PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/cases/cylinder.toml"
+    )))
+    .unwrap();
+    for m in &mut case.materials {
+        m.count = 500;
+    }
+    let configs: Vec<_> = linelight::sampler::sample_case(&case)
+        .into_iter()
+        .map(|s| s.config)
+        .collect();
+    let cyl = concat!(env!("CARGO_MANIFEST_DIR"), "/kernels/glsl/cylinder_line.glsl");
+    let kernels = kernel_set(&[PathBuf::from(cyl), PathBuf::from(GLSL)]).unwrap();
+    let gpu = Gpu::new(None).unwrap();
+    let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
+    let run = |spec: &str| {
+        let m = resolve(spec, &kernels).unwrap();
+        gpu.run(&gpu.pipeline(&m).unwrap(), &scenes, 0, &mut |_| {})
+            .unwrap()
+            .values
+    };
+    let wgsl = run("cylinder.line[line.ltc2017]");
+    for glsl in [
+        run("cylinder.line_glsl[line.ltc2017]"),
+        run("cylinder.line_glsl[line.ltc2017_glsl]"),
+    ] {
+        let worst = wgsl.iter().zip(&glsl).map(|(&a, &b)| ulps(a, b)).max().unwrap();
+        assert!(worst <= 4, "GLSL and WGSL composites differ by {worst} ulp");
+    }
+}
