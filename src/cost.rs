@@ -118,7 +118,7 @@ pub struct OpCount {
 /// The cost of `kernel` with its parameters set to `params` (in header order; those not
 /// given keep the header's defaults): the kernel is composed as the GPU runs it (a
 /// composite with the default line method), its overrides resolved, and `ll_main` counted.
-pub fn method_cost(kernel: &KernelFile, params: &[u32]) -> anyhow::Result<OpCount> {
+pub fn method_cost(kernel: &KernelFile, params: &[f64]) -> anyhow::Result<OpCount> {
     count_composed(kernel, params, None)
 }
 
@@ -138,14 +138,14 @@ const INNER_PREFIX: &str = "ll_inner_";
 
 fn count_composed(
     kernel: &KernelFile,
-    params: &[u32],
-    inner: Option<(&KernelFile, &[u32])>,
+    params: &[f64],
+    inner: Option<(&KernelFile, &[f64])>,
 ) -> anyhow::Result<OpCount> {
     // Every capability: the count should not refuse a kernel a device accepts.
     let composed = crate::gpu::compose_with(kernel, inner.map(|(k, _)| k), naga::valid::Capabilities::all())?;
     let mut constants = naga::back::PipelineConstants::default();
     for (name, value) in param_values(kernel, params)? {
-        constants.insert(name, f64::from(value));
+        constants.insert(name, value);
     }
     // A composite without an explicit inner method was composed with the default one.
     let inner = match (inner, &composed.inner) {
@@ -155,7 +155,7 @@ fn count_composed(
     };
     if let Some((inner, inner_params)) = inner {
         for (name, value) in param_values(inner, inner_params)? {
-            constants.insert(format!("{INNER_PREFIX}{name}"), f64::from(value));
+            constants.insert(format!("{INNER_PREFIX}{name}"), value);
         }
     }
     let entry = ENTRY_NAME;
@@ -170,7 +170,7 @@ fn count_composed(
 }
 
 /// The header's params with `values` in order, defaults for the rest.
-fn param_values(kernel: &KernelFile, values: &[u32]) -> anyhow::Result<Vec<(String, u32)>> {
+fn param_values(kernel: &KernelFile, values: &[f64]) -> anyhow::Result<Vec<(String, f64)>> {
     if values.len() > kernel.params.len() {
         anyhow::bail!(
             "{} takes {} param(s), {} given",
@@ -183,7 +183,7 @@ fn param_values(kernel: &KernelFile, values: &[u32]) -> anyhow::Result<Vec<(Stri
         .params
         .iter()
         .enumerate()
-        .map(|(i, (name, default))| (name.clone(), values.get(i).copied().unwrap_or(*default)))
+        .map(|(i, p)| (p.name.clone(), values.get(i).copied().unwrap_or(p.default)))
         .collect())
 }
 
@@ -1174,7 +1174,7 @@ mod tests {
             "var s = 0.0;\nfor (var i = 0u; i < N; i++) {\n    s += sqrt(scene.p1.x + f32(i));\n}\nreturn s;",
             "N=4",
         );
-        let c = method_cost(&k, &[32]).unwrap();
+        let c = method_cost(&k, &[32.0]).unwrap();
         assert_eq!((c.loop_trips, c.transcendental), (Some(32), 32));
         let c = method_cost(&k, &[]).unwrap();
         assert_eq!((c.loop_trips, c.transcendental), (Some(4), 4));
@@ -1185,8 +1185,8 @@ mod tests {
             "N=64",
         );
         assert_eq!(method_cost(&k, &[]).unwrap().loop_trips, Some(16));
-        assert_eq!(method_cost(&k, &[2]).unwrap().loop_trips, Some(1));
-        assert!(method_cost(&k, &[1, 2]).is_err());
+        assert_eq!(method_cost(&k, &[2.0]).unwrap().loop_trips, Some(1));
+        assert!(method_cost(&k, &[1.0, 2.0]).is_err());
     }
 
     #[test]
@@ -1308,7 +1308,7 @@ mod tests {
     #[test]
     fn numeric_cost_grows_linearly_with_samples() {
         let k = builtin("line.numeric");
-        let at = |n: u32| method_cost(&k, &[n]).unwrap();
+        let at = |n: u32| method_cost(&k, &[f64::from(n)]).unwrap();
         let (c16, c32, c64) = (at(16), at(32), at(64));
         // SAMPLES / 4 panels of 4 points.
         assert_eq!(
@@ -1339,7 +1339,7 @@ mod tests {
         let c16 = method_cost_of(&method("test.composite[line.numeric@16]")).unwrap();
         let c64 = method_cost_of(&method("test.composite[line.numeric@64]")).unwrap();
         assert_eq!((c16.loop_trips, c64.loop_trips), (Some(2 * 4), Some(2 * 16)));
-        let inner = method_cost(&builtin("line.numeric"), &[16]).unwrap();
+        let inner = method_cost(&builtin("line.numeric"), &[16.0]).unwrap();
         assert_eq!(c16.transcendental, 2 * inner.transcendental);
         // Without an inner method: the default one, as the GPU runs it.
         let default = method_cost(&kernels.last().unwrap().clone(), &[]).unwrap();
@@ -1351,12 +1351,12 @@ mod tests {
     fn builtin_table() {
         let mut rows = Vec::new();
         for k in builtin_kernels() {
-            let variants: Vec<(String, Vec<u32>)> = if k.params.is_empty() {
+            let variants: Vec<(String, Vec<f64>)> = if k.params.is_empty() {
                 vec![(k.id.clone(), Vec::new())]
             } else {
                 [16u32, 64, 256]
                     .iter()
-                    .map(|n| (format!("{}@{n}", k.id), vec![*n; k.params.len()]))
+                    .map(|n| (format!("{}@{n}", k.id), vec![f64::from(*n); k.params.len()]))
                     .collect()
             };
             for (label, params) in variants {

@@ -14,8 +14,9 @@ pub enum MinvSupport {
     Full,
     /// Only the isotropic-GGX form `[[a,0,b],[0,c,0],[d,0,1]]`.
     Sparse,
-    /// Only the diffuse material (a formula for Lambertian irradiance, such as the engines'
-    /// line irradiance, that has no LTC form).
+    /// Only the diffuse material: `//! minv: diffuse` or `//! minv: none` (the kernel ignores
+    /// M⁻¹; a formula for Lambertian irradiance, such as the engines' line irradiance, that has
+    /// no LTC form); every other material is reported as unsupported.
     Diffuse,
 }
 
@@ -29,7 +30,7 @@ pub struct KernelFile {
     pub source: String,
     pub minv: MinvSupport,
     /// Overridable constants and their defaults, in the order `id@NxM` sets them.
-    pub params: Vec<(String, u32)>,
+    pub params: Vec<Param>,
     /// `//! uses: line`: the kernel calls `I_line(p1, p2)`, which the harness supplies
     /// from a line method chosen at run time (`cylinder.line[line.ltc2023]`).
     pub uses_line: bool,
@@ -37,6 +38,45 @@ pub struct KernelFile {
     /// `line_isotropic` (`//! uses: line_isotropic`, a composite built on an isotropic-emitter
     /// line formula). Both call it as `I_line(p1, p2)`.
     pub uses_target: Target,
+}
+
+/// A pipeline-overridable constant of the header (`//! params: SAMPLES=64 SCALE=0.5`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Param {
+    pub name: String,
+    pub default: f64,
+    /// Written with a decimal point or an exponent (`0.5`, `1.0`, `1e-3`): a float param,
+    /// whose `override` must be `f32` and whose values may be any finite number. Otherwise
+    /// an integer param: values are positive integers (sample counts).
+    pub float: bool,
+}
+
+impl Param {
+    /// `v` as a value of this param, or why not.
+    pub fn value(&self, v: &str) -> Result<f64, String> {
+        let shown = crate::case_values::clip(v);
+        if self.float {
+            return v
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| format!("parameter `{shown}` of {} is not a finite number", self.name));
+        }
+        match v.parse::<u64>() {
+            Ok(0) => Err(format!("parameter `{shown}` is not a positive integer (at least 1)")),
+            Ok(n) => u32::try_from(n).map(f64::from).map_err(|_| {
+                format!(
+                    "parameter `{shown}` is larger than {} (the largest a kernel takes)",
+                    u32::MAX
+                )
+            }),
+            Err(_) if !v.is_empty() && v.bytes().all(|b| b.is_ascii_digit()) => Err(format!(
+                "parameter `{shown}` is larger than {} (the largest a kernel takes)",
+                u32::MAX
+            )),
+            Err(_) => Err(format!("parameter `{shown}` is not a positive integer")),
+        }
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -77,7 +117,14 @@ pub fn builtin_kernels() -> Vec<KernelFile> {
 impl KernelFile {
     pub fn read(path: &Path) -> anyhow::Result<KernelFile> {
         let text = std::fs::read_to_string(path).with_context(|| format!("cannot read kernel {}", path.display()))?;
-        Ok(KernelFile::parse(&path.display().to_string(), &text)?)
+        let shown = path.display().to_string();
+        if path.extension().is_some_and(|e| e == "glsl") {
+            // The header is checked on the GLSL file (its lines), then the translation is the text.
+            KernelFile::parse(&shown, &text)?;
+            let wgsl = crate::glsl::translate(&shown, &text)?;
+            return Ok(KernelFile::parse(&shown, &wgsl)?);
+        }
+        Ok(KernelFile::parse(&shown, &text)?)
     }
 
     pub fn parse(path: &str, text: &str) -> Result<KernelFile, HeaderError> {
@@ -132,25 +179,36 @@ impl KernelFile {
                     minv = Some(match value {
                         "full" => MinvSupport::Full,
                         "sparse" => MinvSupport::Sparse,
-                        "diffuse" => MinvSupport::Diffuse,
+                        "diffuse" | "none" => MinvSupport::Diffuse,
                         _ => {
                             return Err(err(
                                 lineno,
-                                format!("minv must be `full`, `sparse` or `diffuse`, got `{value_shown}`"),
+                                format!("minv must be `full`, `sparse`, `diffuse` or `none`, got `{value_shown}`"),
                             ))
                         }
                     })
                 }
                 "params" => {
                     for item in value.split_whitespace() {
-                        let parsed = item
-                            .split_once('=')
-                            .and_then(|(name, v)| Some((name.to_string(), v.parse::<u32>().ok()?)));
+                        let parsed = item.split_once('=').and_then(|(name, v)| {
+                            let float = v.contains(['.', 'e', 'E']);
+                            let default = if float {
+                                v.parse::<f64>().ok().filter(|x| x.is_finite())?
+                            } else {
+                                f64::from(v.parse::<u32>().ok()?)
+                            };
+                            Some(Param {
+                                name: name.to_string(),
+                                default,
+                                float,
+                            })
+                        });
                         params.push(parsed.ok_or_else(|| {
                             err(
                                 lineno,
                                 format!(
-                                    "params must be `NAME=integer ...` (an identifier, then 1 to 4294967295), got `{}`",
+                                    "params must be `NAME=integer ...` (an identifier, then 1 to 4294967295) \
+                                     or `NAME=float` (written with a '.' or an exponent), got `{}`",
                                     crate::case_values::clip(item)
                                 ),
                             )
@@ -219,7 +277,23 @@ mod tests {
             "//! id: line.x\n//! target: line\n//! params: SAMPLES=64\nfn method(s: Scene) -> f32 { return 0.0; }\n",
         )
         .unwrap();
-        assert_eq!(k.params, vec![("SAMPLES".to_string(), 64)]);
+        assert_eq!(
+            k.params,
+            vec![Param {
+                name: "SAMPLES".into(),
+                default: 64.0,
+                float: false
+            }]
+        );
+        let k = KernelFile::parse(
+            "k.wgsl",
+            "//! id: line.x\n//! target: line\n//! params: N=4 SCALE=0.5\n",
+        )
+        .unwrap();
+        assert_eq!((k.params[1].default, k.params[1].float), (0.5, true));
+        assert_eq!(k.params[1].value("-1.5e-3"), Ok(-1.5e-3));
+        assert!(k.params[0].value("2.5").unwrap_err().contains("not a positive integer"));
+        assert_eq!(k.params[0].value("8"), Ok(8.0));
         assert_eq!(k.minv, MinvSupport::Full);
         let e = KernelFile::parse("k.wgsl", "//! id: line.x\n//! target: lines\n").unwrap_err();
         assert_eq!((e.line, e.path.as_str()), (2, "k.wgsl"));
@@ -256,6 +330,17 @@ mod tests {
         ids.sort();
         ids.dedup();
         assert_eq!(ids.len(), n, "two built-in kernels share an id");
+    }
+
+    #[test]
+    fn minv_none_header() {
+        let k = KernelFile::parse("d.wgsl", "//! id: line.d\n//! target: line\n//! minv: none\n").unwrap();
+        assert_eq!(k.minv, MinvSupport::Diffuse);
+        let e = KernelFile::parse("d.wgsl", "//! id: line.d\n//! target: line\n//! minv: diffuse-only\n").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "d.wgsl:3: minv must be `full`, `sparse`, `diffuse` or `none`, got `diffuse-only`"
+        );
     }
 
     #[test]

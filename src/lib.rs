@@ -7,13 +7,16 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod analysis;
+pub mod baseline;
 pub mod bench;
 pub mod case;
 pub mod case_values;
 pub mod chain;
 pub mod claims;
 pub mod cost;
+pub mod diff;
 pub mod eval;
+pub mod glsl;
 pub mod gpu;
 pub mod interp;
 pub mod io;

@@ -40,6 +40,26 @@ struct GpuArgs {
     chunk: usize,
 }
 
+/// The CI gate (docs/ci/): baselines and JUnit.
+#[derive(clap::Args)]
+struct GateArgs {
+    /// Save this run as a baseline in DIR (baseline.json + errors/), for a later --baseline.
+    #[arg(long, value_name = "DIR")]
+    save_baseline: Option<PathBuf>,
+    /// Compare with the baseline in DIR: any regression exits 1.
+    #[arg(long, value_name = "DIR")]
+    baseline: Option<PathBuf>,
+    /// Write JUnit XML: one testcase per method × material × rule.
+    #[arg(long, value_name = "FILE")]
+    junit: Option<PathBuf>,
+    /// Error ratios within ±NOISE (at the 95 % bootstrap bounds) are unchanged.
+    #[arg(long, default_value_t = 0.05)]
+    noise: f64,
+    /// Op-count growth beyond this fraction is a regression.
+    #[arg(long, default_value_t = 0.10)]
+    ops_growth: f64,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Run a case file: sample, evaluate, compare with references, write reports, give a verdict.
@@ -57,6 +77,8 @@ enum Command {
         count: Option<usize>,
         #[command(flatten)]
         gpu: GpuArgs,
+        #[command(flatten)]
+        gate: GateArgs,
     },
     /// Evaluate explicit configurations (JSONL in, JSONL out; DESIGN §3).
     Eval {
@@ -150,6 +172,28 @@ enum Command {
         #[command(flatten)]
         gpu: GpuArgs,
     },
+    /// Compare two methods, or two revisions of one kernel file, on a case's configurations:
+    /// paired statistics, where they disagree, and a verdict.
+    Diff {
+        /// Case file whose configurations (seed, materials, counts) the two are run on.
+        case: PathBuf,
+        /// A method spec (`line.ltc2023`) or a kernel file (`old/my_line.wgsl`).
+        a: String,
+        /// A method spec or a kernel file (may have the same id as A).
+        b: String,
+        /// Override every material's count.
+        #[arg(long)]
+        count: Option<usize>,
+        /// Error ratios within ±NOISE (at the 95 % bootstrap bounds) are no difference.
+        #[arg(long, default_value_t = 0.05)]
+        noise: f64,
+        /// Write the disagreement configurations here (eval input format, replayable).
+        #[arg(long)]
+        output: Option<PathBuf>,
+        /// Adapter to use: any part of its name (default: lavapipe / llvmpipe).
+        #[arg(long)]
+        adapter: Option<String>,
+    },
     /// List the Vulkan adapters wgpu can see.
     Adapters,
     /// Compose and validate kernel files with naga (no GPU needed).
@@ -238,6 +282,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             raw,
             count,
             gpu,
+            gate,
         } => {
             let started = std::time::Instant::now();
             let case_path = case.display().to_string();
@@ -259,6 +304,18 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             let labels = setup.methods.iter().map(|m| m.label.clone()).collect();
             claims::check(&setup.case.claims, claims::dry_facts(&setup.case, labels))
                 .map_err(|e| anyhow::anyhow!("{case_path}: {e}"))?;
+            // A baseline that does not fit this run is bad input, found before measuring.
+            let gate = linelight::baseline::GateRun::prepare(
+                gate.save_baseline,
+                gate.baseline.as_deref(),
+                gate.junit,
+                linelight::baseline::GateOptions {
+                    noise: gate.noise,
+                    ops_growth: gate.ops_growth,
+                    ..Default::default()
+                },
+                &setup,
+            )?;
             let device = open_gpu(&gpu)?;
             eprintln!(
                 "case {}: {} configurations, {} methods",
@@ -336,6 +393,8 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 staged.commit()?;
                 eprintln!("wrote {}", raw.display());
             }
+            let gate_report = gate.finish(&setup, &measured, &analysis.checks)?;
+            let regressed = gate_report.as_ref().is_some_and(|g| g.regressed());
             let failed = analysis.checks.iter().filter(|c| !c.pass).count();
             let stale: Vec<&str> = claim_results
                 .iter()
@@ -356,10 +415,13 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 },
                 dir.join("report.md").display()
             );
+            if let Some(g) = &gate_report {
+                println!("{}", g.summary());
+            }
             // 3: a finding no longer holds (the report says which); 1: a tolerance failed.
             Ok(if !stale.is_empty() {
                 ExitCode::from(3)
-            } else if analysis.verdict == Verdict::Fail {
+            } else if analysis.verdict == Verdict::Fail || regressed {
                 ExitCode::from(1)
             } else {
                 ExitCode::SUCCESS
@@ -583,6 +645,27 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             for path in linelight::chain::write(&dir, &case_path, &case, &run)? {
                 eprintln!("wrote {}", path.display());
             }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Diff {
+            case,
+            a,
+            b,
+            count,
+            noise,
+            output,
+            adapter,
+        } => {
+            linelight::diff::run(&linelight::diff::DiffOptions {
+                case,
+                a,
+                b,
+                count,
+                noise,
+                adapter,
+                chunk: 65536,
+                output,
+            })?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Adapters => {

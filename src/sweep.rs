@@ -53,6 +53,13 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
     for spec in &case.methods {
         methods.push(methods::resolve(spec, &kernels).map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?);
     }
+    // `--kernel FILE`: the case's methods plus every kernel given (unless the case names it).
+    for path in user_kernels {
+        let k = crate::kernel::KernelFile::read(path)?;
+        if !methods.iter().any(|m| m.id() == k.id) {
+            methods.push(methods::resolve(&k.id, &kernels)?);
+        }
+    }
     for [a, b] in &case.compare {
         let target = |l: &String| methods.iter().find(|m| &m.label == l).map(|m| m.target());
         if target(a) != target(b) {

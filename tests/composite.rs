@@ -101,20 +101,20 @@ fn spec_names_the_inner_method_and_its_params() {
     let m = resolve("test.twice", &ks).unwrap();
     assert_eq!(m.label, "test.twice");
     assert_eq!(m.describe(), "test.twice[line.ltc2023_full]");
-    assert_eq!(m.params, vec![2]);
-    assert_eq!(m.inner.as_ref().unwrap().params, Vec::<u32>::new());
+    assert_eq!(m.params, vec![2.0]);
+    assert_eq!(m.inner.as_ref().unwrap().params, Vec::<f64>::new());
 
     let m = resolve("test.twice@3[line.numeric@32]", &ks).unwrap();
     assert_eq!(
         (m.label.as_str(), m.params.as_slice()),
-        ("test.twice@3[line.numeric@32]", &[3][..])
+        ("test.twice@3[line.numeric@32]", &[3.0][..])
     );
     let inner = m.inner.as_ref().unwrap();
-    assert_eq!((inner.id(), inner.params.as_slice()), ("line.numeric", &[32][..]));
+    assert_eq!((inner.id(), inner.params.as_slice()), ("line.numeric", &[32.0][..]));
     assert_eq!(m.describe(), "test.twice@3[line.numeric@32]");
     assert_eq!(
         resolve("test.twice[line.numeric]", &ks).unwrap().inner.unwrap().params,
-        vec![64]
+        vec![64.0]
     );
 
     let plain = resolve("line.numeric@16", &ks).unwrap();

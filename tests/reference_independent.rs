@@ -502,7 +502,10 @@ fn line_isotropic_on_ggx_agrees_with_sinh_quadrature() {
         } else {
             [a, a]
         };
-        let (th, ph) = (rng.random_range(0.0..1.3f64), rng.random_range(0.0..6.28f64));
+        let (th, ph) = (
+            rng.random_range(0.0..1.3f64),
+            rng.random_range(0.0..std::f64::consts::TAU),
+        );
         let view = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
         let json = serde_json::json!({"id": base.id, "p1": base.p1, "p2": base.p2,
             "material": {"kind": "ggx", "alpha": alpha, "view": view}});

@@ -348,7 +348,8 @@ fn check_contract(
         let start = kernel_range.start + body.split_inclusive('\n').take(i).map(str::len).sum::<usize>();
         Span::from(start..start + body.lines().nth(i).unwrap_or("").len())
     });
-    for (name, _) in &kernel.params {
+    for param in &kernel.params {
+        let name = &param.name;
         let found = module
             .overrides
             .iter()
@@ -362,6 +363,26 @@ fn check_contract(
                 })
             )
         });
+        let float = found.is_some_and(|(_, o)| {
+            matches!(
+                types[o.ty].inner,
+                TypeInner::Scalar(Scalar {
+                    kind: ScalarKind::Float,
+                    ..
+                })
+            )
+        });
+        if numeric && param.float && !float {
+            let (h, _) = found.expect("numeric implies found");
+            return at(
+                module.overrides.get_span(h),
+                format!(
+                    "param `{name}` is a float in the header ({}), so its override must be `f32`",
+                    param.default
+                ),
+                "declared here",
+            );
+        }
         if !numeric {
             let message = match found {
                 None => {
@@ -382,7 +403,7 @@ fn check_contract(
         .filter(|(h, _)| own(module.overrides.get_span(*h)))
     {
         let name = o.name.as_deref().unwrap_or("?");
-        if o.init.is_none() && !kernel.params.iter().any(|(p, _)| p == name) {
+        if o.init.is_none() && !kernel.params.iter().any(|p| p.name == name) {
             return at(
                 module.overrides.get_span(h),
                 format!("`override {name}` has no default and is not among the header's params"),

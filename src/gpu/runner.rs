@@ -20,9 +20,9 @@ pub struct MethodPipeline {
     /// The method with its inner line method spelled out, for messages.
     pub id: String,
     /// The kernel's own params it was compiled with, in header order.
-    pub params: Vec<(String, u32)>,
+    pub params: Vec<(String, f64)>,
     /// A composite's inner line method's params, in its header order.
-    pub inner_params: Vec<(String, u32)>,
+    pub inner_params: Vec<(String, f64)>,
     pub(crate) pipeline: wgpu::ComputePipeline,
     /// For a method with loops of no static trip count on a device with a loop limit: the
     /// variant that counts loop trips, and the limit (loops.rs).
@@ -85,7 +85,7 @@ impl Gpu {
             })
         })
         .map_err(|e| {
-            let show = |ps: &[(String, u32)]| ps.iter().map(|(n, v)| format!(" {n}={v}")).collect::<String>();
+            let show = |ps: &[(String, f64)]| ps.iter().map(|(n, v)| format!(" {n}={v}")).collect::<String>();
             let mut with = show(&params);
             if !inner_params.is_empty() {
                 with.push_str(&format!(" and line method{}", show(&inner_params)));
@@ -271,7 +271,7 @@ impl ChunkBuffers {
 pub(crate) fn override_constants(
     method: &Method,
     composed: &super::compose::Composed,
-) -> Result<(Vec<(String, u32)>, Vec<(String, u32)>, Vec<(String, f64)>), KernelError> {
+) -> Result<(Vec<(String, f64)>, Vec<(String, f64)>, Vec<(String, f64)>), KernelError> {
     let params = param_values(&method.kernel, &method.params)?;
     let inner_params = match (method.inner.as_deref(), &composed.inner) {
         (Some(m), _) => param_values(&m.kernel, &m.params)?,
@@ -280,15 +280,15 @@ pub(crate) fn override_constants(
     };
     let constants = params
         .iter()
-        .map(|(n, v)| (n.clone(), f64::from(*v)))
-        .chain(inner_params.iter().map(|(n, v)| (inner_name(n), f64::from(*v))))
+        .map(|(n, v)| (n.clone(), *v))
+        .chain(inner_params.iter().map(|(n, v)| (inner_name(n), *v)))
         .collect();
     Ok((params, inner_params, constants))
 }
 
-fn param_values(kernel: &KernelFile, values: &[u32]) -> Result<Vec<(String, u32)>, KernelError> {
+fn param_values(kernel: &KernelFile, values: &[f64]) -> Result<Vec<(String, f64)>, KernelError> {
     if values.len() > kernel.params.len() {
-        let names: Vec<_> = kernel.params.iter().map(|(n, _)| n.as_str()).collect();
+        let names: Vec<_> = kernel.params.iter().map(|p| p.name.as_str()).collect();
         let names = if names.is_empty() {
             "none".to_string()
         } else {
@@ -308,6 +308,6 @@ fn param_values(kernel: &KernelFile, values: &[u32]) -> Result<Vec<(String, u32)
         .params
         .iter()
         .enumerate()
-        .map(|(i, (name, default))| (name.clone(), values.get(i).copied().unwrap_or(*default)))
+        .map(|(i, p)| (p.name.clone(), values.get(i).copied().unwrap_or(p.default)))
         .collect())
 }

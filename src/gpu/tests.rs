@@ -21,7 +21,7 @@ fn method(k: &KernelFile, params: &[u32]) -> Method {
     Method {
         label: k.id.clone(),
         kernel: k.clone(),
-        params: params.to_vec(),
+        params: params.iter().map(|&p| f64::from(p)).collect(),
         inner: None,
         judged: None,
     }
@@ -103,6 +103,35 @@ fn gpu_override_param_changes_output() {
     assert_eq!(run(&[5, 10]), vec![15.0, 25.0]);
     let e = g.pipeline(&method(&k, &[1, 2, 3])).err().unwrap().to_string();
     assert!(e.contains("param.wgsl") && e.contains("SCALE, OFFSET"), "{e}");
+}
+
+#[test]
+fn gpu_float_param_from_the_spec() {
+    let k = kernel(
+        "float.wgsl",
+        "//! params: SCALE=0.5 N=2\n",
+        "override SCALE: f32 = 1.0;\noverride N: u32;\n\
+         fn method(scene: Scene) -> f32 { return SCALE * scene.p1.x + f32(N); }\n",
+    );
+    let g = gpu();
+    let scenes = [scene(1.0, 2.0), scene(3.0, 2.0)];
+    let run = |spec: &str| {
+        let m = crate::methods::resolve(spec, std::slice::from_ref(&k)).unwrap();
+        g.run(&g.pipeline(&m).unwrap(), &scenes, 0, &mut |_| {}).unwrap().values
+    };
+    assert_eq!(run("test.k"), vec![2.5, 3.5]);
+    assert_eq!(run("test.k@-1.25x3"), vec![1.75, -0.75]);
+    let e = crate::methods::resolve("test.k@1x2.5", std::slice::from_ref(&k)).unwrap_err();
+    assert!(e.to_string().contains("`2.5` is not a positive integer"), "{e}");
+    // A float in the header needs an f32 override: the error names the override's line.
+    let bad = kernel(
+        "float_u32.wgsl",
+        "//! params: SCALE=0.5\n",
+        "override SCALE: u32 = 1u;\nfn method(scene: Scene) -> f32 { return f32(SCALE); }\n",
+    );
+    let e = compose(&bad).unwrap_err();
+    assert_eq!(e.location.map(|l| l.0), Some(4), "{e}");
+    assert!(e.to_string().contains("must be `f32`"), "{e}");
 }
 
 #[test]

@@ -437,7 +437,7 @@ mod tests {
         assert!(e.to_string().contains("no configurations"), "{e}");
         let timer = g.dispatch_timer(&scenes(10)).unwrap();
         let mut m = tiny_method();
-        m.params = vec![3];
+        m.params = vec![3.0];
         let e = timer.pipeline(&m).err().expect("a param the kernel lacks is an error");
         assert!(
             e.to_string().contains("takes 0 param(s)") && e.to_string().contains("1 given"),

@@ -100,12 +100,12 @@ pub fn program(method: &Method) -> Result<Arc<Program>> {
     Ok(p)
 }
 
-fn param_values(kernel: &crate::kernel::KernelFile, values: &[u32]) -> Vec<(String, f64)> {
+fn param_values(kernel: &crate::kernel::KernelFile, values: &[f64]) -> Vec<(String, f64)> {
     kernel
         .params
         .iter()
         .enumerate()
-        .map(|(i, (n, d))| (n.clone(), f64::from(values.get(i).copied().unwrap_or(*d))))
+        .map(|(i, p)| (p.name.clone(), values.get(i).copied().unwrap_or(p.default)))
         .collect()
 }
 

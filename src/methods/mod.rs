@@ -19,7 +19,7 @@ pub struct Method {
     pub label: String,
     pub kernel: KernelFile,
     /// Override values in the kernel's header order (defaults filled in).
-    pub params: Vec<u32>,
+    pub params: Vec<f64>,
     /// For a kernel with `//! uses: line`: the line method its `I_line` calls.
     pub inner: Option<Box<Method>>,
     /// `id~target`: the method judged against another target than its kernel's (an
@@ -235,7 +235,7 @@ fn resolve_plain(spec: &str, head: &str, kernels: &[KernelFile]) -> anyhow::Resu
             known.join(", ")
         )
     })?;
-    let mut params: Vec<u32> = kernel.params.iter().map(|(_, v)| *v).collect();
+    let mut params: Vec<f64> = kernel.params.iter().map(|p| p.default).collect();
     if let Some(args) = args {
         let values: Vec<&str> = args.split('x').collect();
         if values.len() > params.len() {
@@ -245,31 +245,16 @@ fn resolve_plain(spec: &str, head: &str, kernels: &[KernelFile]) -> anyhow::Resu
                 kernel
                     .params
                     .iter()
-                    .map(|(n, _)| n.as_str())
+                    .map(|p| p.name.as_str())
                     .collect::<Vec<_>>()
                     .join(", "),
                 values.len()
             );
         }
-        for (slot, v) in params.iter_mut().zip(values) {
-            let spec = crate::case_values::clip(spec);
-            let v_shown = crate::case_values::clip(v);
-            *slot = match v.parse::<u64>() {
-                Ok(0) => anyhow::bail!("`{spec}`: parameter `{v_shown}` is not a positive integer (at least 1)"),
-                Ok(n) => u32::try_from(n).map_err(|_| {
-                    anyhow::anyhow!(
-                        "`{spec}`: parameter `{v_shown}` is larger than {} (the largest a kernel takes)",
-                        u32::MAX
-                    )
-                })?,
-                Err(_) if !v.is_empty() && v.bytes().all(|b| b.is_ascii_digit()) => {
-                    anyhow::bail!(
-                        "`{spec}`: parameter `{v_shown}` is larger than {} (the largest a kernel takes)",
-                        u32::MAX
-                    )
-                }
-                Err(_) => anyhow::bail!("`{spec}`: parameter `{v_shown}` is not a positive integer"),
-            };
+        for ((slot, v), p) in params.iter_mut().zip(values).zip(&kernel.params) {
+            *slot = p
+                .value(v)
+                .map_err(|e| anyhow::anyhow!("`{}`: {e}", crate::case_values::clip(spec)))?;
         }
     }
     Ok(Method {
@@ -361,5 +346,26 @@ mod tests {
         assert!(e.contains("unknown target `lines`"), "{e}");
         let m = resolve("cylinder.line[line.ltc2017]~line", &kernels).unwrap();
         assert_eq!(m.describe(), "cylinder.line[line.ltc2017]~line");
+    }
+
+    #[test]
+    fn minv_none_supports_diffuse_only() {
+        use crate::scene::Material;
+        let k = KernelFile::parse("d.wgsl", "//! id: line.d\n//! target: line\n//! minv: none\n").unwrap();
+        let m = resolve("line.d", &[k]).unwrap();
+        let mut c = Config {
+            id: String::new(),
+            p1: [0.0, -1.0, 1.0],
+            p2: [0.0, 1.0, 1.0],
+            radius: None,
+            rect: None,
+            material: Material::Diffuse,
+        };
+        assert!(m.supports(&c));
+        // Sparse and full M⁻¹ alike are unsupported.
+        c.material = Material::Ltc {
+            minv: [[0.5, 0.0, 0.1], [0.0, 0.6, 0.0], [-0.2, 0.0, 1.0]],
+        };
+        assert!(!m.supports(&c));
     }
 }

@@ -6,6 +6,7 @@ mod attribution;
 pub mod chart;
 mod csv;
 mod findings;
+pub mod junit;
 mod markdown;
 mod svg;
 

@@ -1,0 +1,30 @@
+// The GLSL prelude of a GLSL kernel (src/glsl.rs): the same scene, constants and helpers as
+// kernels/prelude.wgsl, under the same names, so the translated kernel runs on the WGSL
+// prelude. Only declarations, which the translation drops again; the kernel's code follows.
+#version 450
+
+const float PI = 3.14159265358979323846;
+
+struct Scene {
+    vec3 p1;
+    float radius;
+    vec3 p2;
+    float rect_width;
+    vec3 rect_normal;
+    uint flags;
+    mat3 minv;
+};
+
+const uint FLAG_LTC = 1u;
+const uint FLAG_RADIUS = 2u;
+const uint FLAG_RECT = 4u;
+
+mat3 Minv;
+
+// Prototypes only: the translation keeps the calls and drops these, and the WGSL prelude's
+// definitions run (one source for each helper).
+float D(vec3 w);
+void buildOrthonormalBasis(vec3 n, out vec3 b1, out vec3 b2);
+mat3 inverse3(mat3 m);
+// For a `//! uses: line` kernel: the line method chosen at run time (kernels/README.md).
+float I_line(vec3 p1, vec3 p2);

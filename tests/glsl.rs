@@ -1,0 +1,162 @@
+//! GLSL kernels: the GLSL port of a built-in (kernels/glsl/line_ltc2017.glsl, Listings 1.6 +
+//! 1.7 in their own language) agrees with the WGSL port (kernels/line_ltc2017.wgsl) to f32
+//! rounding on the GPU and in the CPU evaluator (f32 and f64), over a case's configurations on
+//! all three material kinds.
+
+use linelight::case::Case;
+use linelight::gpu::Gpu;
+use linelight::methods::{kernel_set, resolve};
+use linelight::scene::GpuScene;
+use std::path::PathBuf;
+
+const GLSL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/kernels/glsl/line_ltc2017.glsl");
+
+/// Units in the last place of f32 between two results (0 for equal, both NaN, same infinity).
+fn ulps(a: f32, b: f32) -> u64 {
+    if a == b || (a.is_nan() && b.is_nan()) {
+        return 0;
+    }
+    if !a.is_finite() || !b.is_finite() {
+        return u64::MAX;
+    }
+    let key = |x: f32| {
+        let i = x.to_bits() as i32;
+        if i < 0 {
+            i64::from(i32::MIN) - i64::from(i)
+        } else {
+            i64::from(i)
+        }
+    };
+    (key(a) - key(b)).unsigned_abs()
+}
+
+#[test]
+fn glsl_port_agrees_with_the_wgsl_port_on_the_gpu() {
+    linelight::gpu::quiet_driver_environment();
+    let mut case = Case::load(&PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/cases/line_fwt.toml"
+    )))
+    .unwrap();
+    for m in &mut case.materials {
+        m.count = 2000;
+    }
+    let configs: Vec<_> = linelight::sampler::sample_case(&case)
+        .into_iter()
+        .map(|s| s.config)
+        .collect();
+    let kernels = kernel_set(&[PathBuf::from(GLSL)]).unwrap();
+    let gpu = Gpu::new(None).unwrap();
+    let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
+    let run = |spec: &str| {
+        let m = resolve(spec, &kernels).unwrap();
+        gpu.run(&gpu.pipeline(&m).unwrap(), &scenes, 0, &mut |_| {})
+            .unwrap()
+            .values
+    };
+    let wgsl = run("line.ltc2017");
+    let glsl = run("line.ltc2017_glsl");
+    let worst = wgsl.iter().zip(&glsl).map(|(&a, &b)| ulps(a, b)).max().unwrap();
+    let differ = wgsl.iter().zip(&glsl).filter(|(a, b)| ulps(**a, **b) > 0).count();
+    println!("{differ} of {} configurations differ; worst {worst} ulp", wgsl.len());
+    // Same operations in the same order: at most a rounding step apart where the two
+    // front ends order a sum or fold a constant differently.
+    assert!(
+        worst <= 4,
+        "GLSL and WGSL ports differ by {worst} ulp ({differ} configurations differ)"
+    );
+
+    // The CPU evaluator runs the GLSL kernel's translation like any kernel: f32 and f64.
+    let some: Vec<_> = configs.iter().step_by(10).cloned().collect();
+    for mode in [linelight::interp::Mode::F32, linelight::interp::Mode::F64] {
+        let f32_mode = matches!(mode, linelight::interp::Mode::F32);
+        let cpu = |spec: &str| resolve(spec, &kernels).unwrap().cpu_column(&some, mode).unwrap();
+        let (w, g) = (cpu("line.ltc2017"), cpu("line.ltc2017_glsl"));
+        let worst = w
+            .iter()
+            .zip(&g)
+            .map(|(a, b)| match (a, b) {
+                (Some(a), Some(b)) if a == b || (a.is_nan() && b.is_nan()) => 0.0,
+                (Some(a), Some(b)) => (a - b).abs() / a.abs().max(b.abs()),
+                _ => f64::INFINITY,
+            })
+            .fold(0.0, f64::max);
+        println!(
+            "evaluator {}: worst relative difference {worst:e} over {} configurations",
+            if f32_mode { "f32" } else { "f64" },
+            some.len()
+        );
+        // f32 rounding: a few units of 2^-24 in f32; f64's own rounding in f64.
+        let limit = if f32_mode { 4.0 * f64::from(f32::EPSILON) } else { 1e-12 };
+        assert!(worst <= limit, "evaluator: GLSL and WGSL ports differ by {worst:e}");
+    }
+}
+
+#[test]
+fn glsl_specialization_constants_are_the_header_params() {
+    linelight::gpu::quiet_driver_environment();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.glsl");
+    std::fs::write(
+        &path,
+        "//! id: line.gp\n//! target: line\n//! params: N=3 SCALE=0.5\n\
+         layout(constant_id = 0) const uint N = 7;\n\
+         layout(constant_id = 1) const float SCALE = 1.0;\n\
+         float method(Scene scene) {\n    return SCALE * scene.p1.x + float(N);\n}\n",
+    )
+    .unwrap();
+    let kernels = kernel_set(&[path]).unwrap();
+    let gpu = Gpu::new(None).unwrap();
+    let scenes: Vec<GpuScene> = [1.0f32, 3.0]
+        .iter()
+        .map(|&x| GpuScene {
+            p1: [x, 0.0, 1.0],
+            p2: [x, 1.0, 1.0],
+            ..Default::default()
+        })
+        .collect();
+    let run = |spec: &str| {
+        let m = resolve(spec, &kernels).unwrap();
+        gpu.run(&gpu.pipeline(&m).unwrap(), &scenes, 0, &mut |_| {})
+            .unwrap()
+            .values
+    };
+    // The header's defaults, not the GLSL initialisers; then both set from the spec.
+    assert_eq!(run("line.gp"), vec![3.5, 4.5]);
+    assert_eq!(run("line.gp@2x-0.25"), vec![1.75, 1.25]);
+}
+
+#[test]
+fn glsl_composite_takes_any_line_method() {
+    linelight::gpu::quiet_driver_environment();
+    let mut case = Case::load(&PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/cases/cylinder.toml"
+    )))
+    .unwrap();
+    for m in &mut case.materials {
+        m.count = 500;
+    }
+    let configs: Vec<_> = linelight::sampler::sample_case(&case)
+        .into_iter()
+        .map(|s| s.config)
+        .collect();
+    let cyl = concat!(env!("CARGO_MANIFEST_DIR"), "/kernels/glsl/cylinder_line.glsl");
+    let kernels = kernel_set(&[PathBuf::from(cyl), PathBuf::from(GLSL)]).unwrap();
+    let gpu = Gpu::new(None).unwrap();
+    let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
+    let run = |spec: &str| {
+        let m = resolve(spec, &kernels).unwrap();
+        gpu.run(&gpu.pipeline(&m).unwrap(), &scenes, 0, &mut |_| {})
+            .unwrap()
+            .values
+    };
+    let wgsl = run("cylinder.line[line.ltc2017]");
+    for glsl in [
+        run("cylinder.line_glsl[line.ltc2017]"),
+        run("cylinder.line_glsl[line.ltc2017_glsl]"),
+    ] {
+        let worst = wgsl.iter().zip(&glsl).map(|(&a, &b)| ulps(a, b)).max().unwrap();
+        assert!(worst <= 4, "GLSL and WGSL composites differ by {worst} ulp");
+    }
+}
