@@ -382,7 +382,7 @@ pub fn render(bench: &BenchRun) -> String {
     };
     let _ = writeln!(
         out,
-        "GPU: {clock}; CPU: the f32 port on {} thread(s) (rayon)\n",
+        "GPU: {clock}; CPU: the kernel in f32 on the CPU evaluator (src/interp), {} thread(s) (rayon)\n",
         bench.cpu_threads
     );
 
