@@ -1,25 +1,8 @@
 //! The command line as a user meets it: bad input gets a clear message naming what and
 //! where, a non-zero exit, and nothing written; good input gives reports and results.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn linelight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .args(args)
-        .output()
-        .expect("linelight runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
+mod common;
+use common::{linelight, stderr, write};
 
 const CASE: &str = r#"
 name = "tiny"

@@ -2,25 +2,10 @@
 //! false-light row catches light where none arrives, and the disagreement search finds the
 //! region where a pair was built to differ.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
-fn linelight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .args(args)
-        .output()
-        .expect("linelight runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
+mod common;
+use common::{linelight, stderr, write};
 
 /// A built-in kernel under a new id, its `method` renamed to `inner` so a test can wrap it.
 fn wrapped(builtin: &str, id: &str, method: &str) -> String {

@@ -6,24 +6,10 @@
 use std::collections::BTreeMap;
 use std::os::unix::fs::{FileTypeExt, MetadataExt};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn linelight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .args(args)
-        .output()
-        .expect("linelight runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
+mod common;
+use common::{linelight, stderr, write};
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
