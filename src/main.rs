@@ -549,41 +549,15 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             if chosen.is_empty() {
                 anyhow::bail!("no line method to scan in {}", specs.join(", "));
             }
-            let device = open_gpu(&gpu)?;
-            let families = case
-                .materials
-                .iter()
-                .filter(|m| {
-                    !matches!(
-                        m.kind,
-                        linelight::case::MaterialKind::Ggx | linelight::case::MaterialKind::LtcGgx
-                    )
-                })
-                .count()
-                .max(1) as u64;
-            let per_family = count.div_ceil(families);
-            let pb = indicatif::ProgressBar::new(per_family * families * chosen.len() as u64);
-            pb.set_style(
-                indicatif::ProgressStyle::with_template(
-                    "{msg:>40} [{bar:30}] {human_pos}/{human_len} ({per_sec}, eta {eta})",
-                )
-                .expect("valid template")
-                .progress_chars("=> "),
-            );
-            let mut results = Vec::new();
-            let mut finished = 0u64;
             // Families whose M⁻¹ comes from a fitted table are not generated on the device.
             let scannable: Vec<usize> = (0..case.materials.len())
                 .filter(|&f| {
-                    let kind = case.materials[f].kind;
-                    let ok = !matches!(
-                        kind,
-                        linelight::case::MaterialKind::Ggx | linelight::case::MaterialKind::LtcGgx
-                    );
+                    let family = &case.materials[f];
+                    let ok = linelight::scan::generated_on_device(family.kind);
                     if !ok {
                         eprintln!(
-                            "note: family `{}` ({kind:?}) is not scanned: its M⁻¹ comes from a fitted table",
-                            case.materials[f].name
+                            "note: family `{}` ({:?}) is not scanned: its M⁻¹ comes from a fitted table",
+                            family.name, family.kind
                         );
                     }
                     ok
@@ -595,6 +569,19 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                     case.name
                 );
             }
+            let device = open_gpu(&gpu)?;
+            let families = scannable.len() as u64;
+            let per_family = count.div_ceil(families);
+            let pb = indicatif::ProgressBar::new(per_family * families * chosen.len() as u64);
+            pb.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{msg:>40} [{bar:30}] {human_pos}/{human_len} ({per_sec}, eta {eta})",
+                )
+                .expect("valid template")
+                .progress_chars("=> "),
+            );
+            let mut results = Vec::new();
+            let mut finished = 0u64;
             for m in &chosen {
                 for &f in &scannable {
                     let size = linelight::scan::ScanSize {

@@ -281,11 +281,9 @@ mod tests {
         (a - b).abs() / b.abs()
     }
 
-    /// Diffuse `line` from an antiderivative derived by hand: with u the signed distance
-    /// from the foot, D = p.z/(π‖p‖) and ‖ω_p × ω_t‖ = d/‖p‖, so
-    /// I = (2d/π)∫ (c + t·u)/(d² + u²)² du over the part with c + t·u > 0 (c = foot.z,
-    /// t = ω_t.z), and ∫ (c + t u)/(d²+u²)² du = c·[u/(2d²(d²+u²)) + atan(u/d)/(2d³)] − t/(2(d²+u²)).
-    fn diffuse_closed_form(p1: Vec3, p2: Vec3) -> f64 {
+    /// The segment in its own frame: distance d of the line, foot height c, ω_t.z = t, and the
+    /// signed interval [a, b] from the foot that lies above the horizon (None when none does).
+    fn above_horizon(p1: Vec3, p2: Vec3) -> Option<(f64, f64, f64, f64, f64)> {
         let e = sub(p2, p1);
         let len = length(e);
         let dir = mul(e, 1.0 / len);
@@ -300,11 +298,19 @@ mod tests {
                 b = b.min(root);
             }
         } else if c <= 0.0 {
-            return 0.0;
+            return None;
         }
-        if a >= b {
+        (a < b).then_some((d, c, t, a, b))
+    }
+
+    /// Diffuse `line` from an antiderivative derived by hand: with u the signed distance
+    /// from the foot, D = p.z/(π‖p‖) and ‖ω_p × ω_t‖ = d/‖p‖, so
+    /// I = (2d/π)∫ (c + t·u)/(d² + u²)² du over the part with c + t·u > 0 (c = foot.z,
+    /// t = ω_t.z), and ∫ (c + t u)/(d²+u²)² du = c·[u/(2d²(d²+u²)) + atan(u/d)/(2d³)] − t/(2(d²+u²)).
+    fn diffuse_closed_form(p1: Vec3, p2: Vec3) -> f64 {
+        let Some((d, c, t, a, b)) = above_horizon(p1, p2) else {
             return 0.0;
-        }
+        };
         let f = |u: f64| {
             let q = d * d + u * u;
             c * (u / (2.0 * d * d * q) + (u / d).atan() / (2.0 * d * d * d)) - t / (2.0 * q)
@@ -315,25 +321,9 @@ mod tests {
     /// Diffuse `line_isotropic` by hand: I = (1/π)∫ (c + t·u)/(d² + u²)^{3/2} du over the
     /// part above the horizon, with ∫ = c·u/(d²·sqrt(d²+u²)) − t/sqrt(d²+u²).
     fn diffuse_isotropic_closed_form(p1: Vec3, p2: Vec3) -> f64 {
-        let e = sub(p2, p1);
-        let len = length(e);
-        let dir = mul(e, 1.0 / len);
-        let foot = reject(p1, dir);
-        let (d, c, t) = (length(foot), foot[2], dir[2]);
-        let (mut a, mut b) = (dot(p1, dir), dot(p1, dir) + len);
-        if t != 0.0 {
-            let root = -c / t;
-            if t > 0.0 {
-                a = a.max(root);
-            } else {
-                b = b.min(root);
-            }
-        } else if c <= 0.0 {
+        let Some((d, c, t, a, b)) = above_horizon(p1, p2) else {
             return 0.0;
-        }
-        if a >= b {
-            return 0.0;
-        }
+        };
         let f = |u: f64| {
             let r = (d * d + u * u).sqrt();
             c * u / (d * d * r) - t / r

@@ -105,6 +105,15 @@ fn dists(case: &Case, family: usize) -> [[f32; 4]; 16] {
     out
 }
 
+/// Whether the device can generate a family's materials: diffuse and synthetic LTC lobes; a
+/// `ggx` or `ltc_ggx` family takes its M⁻¹ from a fitted table on the CPU.
+pub fn generated_on_device(kind: MaterialKind) -> bool {
+    matches!(
+        kind,
+        MaterialKind::Diffuse | MaterialKind::LtcSparse | MaterialKind::LtcFull
+    )
+}
+
 /// Exact two-sided 95 % Clopper–Pearson interval of a binomial rate k/n: the p at which the
 /// regularized incomplete beta function reaches 0.025 and 0.975, found by bisection (statrs's
 /// `beta_reg`; its `Beta::inverse_cdf` is far too slow for n of 10⁹).
