@@ -4,8 +4,9 @@
 //! GLSL front end, and written back as WGSL by naga's WGSL back end. The kernel's own
 //! declarations (functions, constants, structs) become the WGSL kernel text, which then goes
 //! the WGSL path: the harness's WGSL prelude, validation, GPU, op counts. Front-end errors name
-//! the GLSL file's own line and column. Specialization constants become the overrides the
-//! header's `params` set.
+//! the GLSL file's own line and column; each line of the translation keeps the GLSL line it
+//! came from (`kernel::Origin`), so later errors and attribution name GLSL lines too.
+//! Specialization constants become the overrides the header's `params` set.
 
 use crate::kernel::HeaderError;
 
@@ -29,8 +30,9 @@ const PRELUDE_NAMES: &[&str] = &[
 ];
 
 /// The WGSL kernel text of a GLSL kernel: its `//!` header lines, then its translated
-/// declarations.
-pub fn translate(path: &str, text: &str) -> Result<String, HeaderError> {
+/// declarations; and, for each line of that text, the GLSL line it came from
+/// ([`crate::kernel::Origin::lines`]).
+pub fn translate(path: &str, text: &str) -> Result<(String, Vec<u32>), HeaderError> {
     let err = |line: usize, message: String| HeaderError {
         path: path.to_string(),
         line,
@@ -44,6 +46,12 @@ pub fn translate(path: &str, text: &str) -> Result<String, HeaderError> {
         ));
     }
     let source = format!("{GLSL_PRELUDE}\n#line 1\n{text}\nvoid main() {{}}\n");
+    let prelude_lines = GLSL_PRELUDE.lines().count() + 2;
+    // The kernel's own 1-based line holding `span`, 0 for the prelude's.
+    let glsl_line = |span: naga::Span| -> u32 {
+        let line = span.location(&source).line_number as usize;
+        line.saturating_sub(prelude_lines) as u32
+    };
     let options = naga::front::glsl::Options::from(naga::ShaderStage::Compute);
     let module = naga::front::glsl::Frontend::default()
         .parse(&options, &source)
@@ -55,7 +63,6 @@ pub fn translate(path: &str, text: &str) -> Result<String, HeaderError> {
                     (loc.line_number as usize, loc.line_position)
                 })
                 .unwrap_or((1, 1));
-            let prelude_lines = GLSL_PRELUDE.lines().count() + 2;
             let message = first.map_or("GLSL parse error".to_string(), |e| e.kind.to_string());
             if line > prelude_lines {
                 err(line - prelude_lines, format!("{col}: {message} (naga GLSL front end)"))
@@ -70,12 +77,8 @@ pub fn translate(path: &str, text: &str) -> Result<String, HeaderError> {
     for (_, f) in module.functions.iter() {
         let name = f.name.as_deref().unwrap_or("");
         if name != "main" && PRELUDE_NAMES.contains(&name) && !f.body.is_empty() {
-            let line = text
-                .lines()
-                .position(|l| l.contains(&format!("{name}(")) && !l.trim_start().starts_with("//"))
-                .map_or(1, |i| i + 1);
             return Err(err(
-                line,
+                declaration_line(text, name),
                 format!("`{name}` is the prelude's (kernels/prelude.glsl): a GLSL kernel may call it, not define it"),
             ));
         }
@@ -90,21 +93,47 @@ pub fn translate(path: &str, text: &str) -> Result<String, HeaderError> {
         })?;
     let wgsl = naga::back::wgsl::write_string(&module, &info, naga::back::wgsl::WriterFlags::empty())
         .map_err(|e| err(1, format!("cannot write the kernel as WGSL: {e}")))?;
-    let header: String = text
-        .lines()
-        .filter(|l| l.trim_start().starts_with("//!"))
-        .map(|l| format!("{}\n", l.trim_start()))
-        .collect();
-    Ok(format!(
-        "{header}// Translated from {path} by naga's GLSL front end and WGSL back end.\n\n{}",
-        prelude_names(&own_items(&wgsl))
-    ))
+    let (mut out, mut lines) = (String::new(), Vec::new());
+    for (i, l) in text.lines().enumerate() {
+        if l.trim_start().starts_with("//!") {
+            out.push_str(&format!("{}\n", l.trim_start()));
+            lines.push(i as u32 + 1);
+        }
+    }
+    out.push_str(&format!(
+        "// Translated from {path} by naga's GLSL front end and WGSL back end.\n\n"
+    ));
+    lines.extend([0, 0]);
+    let (items, item_lines) = own_items(&wgsl, &module, text, &glsl_line);
+    out.push_str(&prelude_names(&items));
+    lines.extend(item_lines);
+    Ok((out, lines))
+}
+
+/// The 1-based line of `text` that declares `name` (its first non-comment mention
+/// followed by `(` or a space), 1 when none does.
+fn declaration_line(text: &str, name: &str) -> usize {
+    text.lines()
+        .position(|l| {
+            !l.trim_start().starts_with("//") && (l.contains(&format!("{name}(")) || l.contains(&format!("{name} ")))
+        })
+        .map_or(1, |i| i + 1)
 }
 
 /// The top-level items of naga's WGSL output that the kernel declared (not the prelude's):
-/// an item starts at column 0 and a block item ends at a `}` line at column 0.
-fn own_items(wgsl: &str) -> String {
-    let mut out = String::new();
+/// an item starts at column 0 and a block item ends at a `}` line at column 0. Each output
+/// line is mapped to a GLSL line through the spans of the expressions it names: naga's
+/// WGSL back end calls expression `N` of a function `_eN`, and writes the functions in
+/// the module's order. A line that names none (a `var`, an argument's store, a bare
+/// `return 0f;`) takes the line before it, and a function's first lines its declaration.
+fn own_items(
+    wgsl: &str,
+    module: &naga::Module,
+    text: &str,
+    glsl_line: &dyn Fn(naga::Span) -> u32,
+) -> (String, Vec<u32>) {
+    let (mut out, mut map) = (String::new(), Vec::new());
+    let mut functions = module.functions.iter();
     let mut lines = wgsl.lines().peekable();
     while let Some(line) = lines.next() {
         if line.is_empty() {
@@ -116,24 +145,70 @@ fn own_items(wgsl: &str) -> String {
             Some((_, rest)) if rest.starts_with("override ") => rest,
             _ => line,
         };
-        let mut item = format!("{line}\n");
-        let block = line.trim_end().ends_with('{');
-        if block {
+        let function = if line.starts_with("fn ") {
+            functions.next().map(|(_, f)| f)
+        } else {
+            None
+        };
+        let name = item_name(line);
+        let declared = function
+            .and_then(|f| f.name.as_deref())
+            .or(name)
+            .map_or(0, |n| declaration_line(text, n) as u32);
+        let spans: Vec<u32> = function.map_or_else(Vec::new, |f| {
+            f.expressions
+                .iter()
+                .map(|(h, _)| glsl_line(f.expressions.get_span(h)))
+                .collect()
+        });
+        let mut item = vec![line.to_string()];
+        if line.trim_end().ends_with('{') {
             for l in lines.by_ref() {
-                item.push_str(l);
-                item.push('\n');
+                item.push(l.to_string());
                 if l == "}" {
                     break;
                 }
             }
         }
-        let name = item_name(line);
-        if !name.is_some_and(|n| PRELUDE_NAMES.contains(&n)) && !line.starts_with('@') {
-            out.push_str(&item);
-            out.push('\n');
+        if name.is_some_and(|n| PRELUDE_NAMES.contains(&n)) || line.starts_with('@') {
+            continue;
         }
+        let mut last = declared;
+        for l in &item {
+            let named = expression_names(l)
+                .filter_map(|n| spans.get(n).copied())
+                .filter(|&g| g > 0);
+            let defined = l
+                .trim_start()
+                .strip_prefix("let _e")
+                .and_then(|r| r.split(|c: char| !c.is_ascii_digit()).next()?.parse::<usize>().ok())
+                .and_then(|n| spans.get(n).copied())
+                .filter(|&g| g > 0);
+            last = defined.or(named.min()).unwrap_or(last);
+            out.push_str(l);
+            out.push('\n');
+            map.push(last);
+        }
+        out.push('\n');
+        map.push(0);
     }
-    out
+    (out, map)
+}
+
+/// The expression indices `N` of the `_eN` names on a line of naga's WGSL output.
+fn expression_names(line: &str) -> impl Iterator<Item = usize> + '_ {
+    line.match_indices("_e").filter_map(move |(i, _)| {
+        let before = line[..i].chars().next_back();
+        if before.is_some_and(|c| c.is_alphanumeric() || c == '_') {
+            return None;
+        }
+        let digits: String = line[i + 2..].chars().take_while(char::is_ascii_digit).collect();
+        let after = line[i + 2 + digits.len()..].chars().next();
+        if digits.is_empty() || after.is_some_and(|c| c.is_alphanumeric() || c == '_') {
+            return None;
+        }
+        digits.parse().ok()
+    })
 }
 
 /// naga's namer appends `_` to names that end in a digit; the WGSL prelude's `Scene.p1`,

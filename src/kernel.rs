@@ -5,6 +5,7 @@
 use crate::target::Target;
 use anyhow::Context;
 use std::path::Path;
+use std::sync::Arc;
 
 /// Which LTC matrices a method handles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -38,6 +39,29 @@ pub struct KernelFile {
     /// `line_isotropic` (`//! uses: line_isotropic`, a composite built on an isotropic-emitter
     /// line formula). Both call it as `I_line(p1, p2)`.
     pub uses_target: Target,
+    /// For a kernel translated from another language (a `.glsl` file): its own text and
+    /// which of its lines each line of the translation came from, so that errors and
+    /// attributed lines name the file the user wrote.
+    pub origin: Option<Arc<Origin>>,
+}
+
+/// The file a translated kernel came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Origin {
+    /// The file's own text (GLSL).
+    pub text: String,
+    /// `lines[i]`: the 1-based line of `text` that line `i + 1` of the translation came
+    /// from (0 when none did: the translator's own comment).
+    pub lines: Vec<u32>,
+}
+
+impl Origin {
+    /// The original line behind 1-based line `translated`, and its text.
+    pub fn line(&self, translated: usize) -> Option<(usize, &str)> {
+        let line = *self.lines.get(translated.checked_sub(1)?)? as usize;
+        let text = self.text.lines().nth(line.checked_sub(1)?)?;
+        Some((line, text))
+    }
 }
 
 /// A pipeline-overridable constant of the header (`//! params: SAMPLES=64 SCALE=0.5`).
@@ -121,8 +145,10 @@ impl KernelFile {
         if path.extension().is_some_and(|e| e == "glsl") {
             // The header is checked on the GLSL file (its lines), then the translation is the text.
             KernelFile::parse(&shown, &text)?;
-            let wgsl = crate::glsl::translate(&shown, &text)?;
-            return Ok(KernelFile::parse(&shown, &wgsl)?);
+            let (wgsl, lines) = crate::glsl::translate(&shown, &text)?;
+            let mut kernel = KernelFile::parse(&shown, &wgsl)?;
+            kernel.origin = Some(Arc::new(Origin { text, lines }));
+            return Ok(kernel);
         }
         Ok(KernelFile::parse(&shown, &text)?)
     }
@@ -262,6 +288,7 @@ impl KernelFile {
             params,
             uses_line,
             uses_target,
+            origin: None,
         })
     }
 }

@@ -160,3 +160,91 @@ fn glsl_composite_takes_any_line_method() {
         assert!(worst <= 4, "GLSL and WGSL composites differ by {worst} ulp");
     }
 }
+
+/// The configurations where the 2017 listing loses most in its Fwt subtraction: nearly
+/// vertical segments close beside the shading point.
+fn steep_configs() -> Vec<linelight::scene::Config> {
+    let mut case = Case::load(&PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/cases/line_fwt.toml"
+    )))
+    .unwrap();
+    for m in &mut case.materials {
+        m.count = 300;
+    }
+    linelight::sampler::sample_case(&case)
+        .into_iter()
+        .map(|s| s.config)
+        .collect()
+}
+
+#[test]
+fn glsl_attribution_names_the_glsl_files_own_lines() {
+    let glsl_text = std::fs::read_to_string(GLSL).unwrap();
+    let kernels = kernel_set(&[PathBuf::from(GLSL)]).unwrap();
+    let configs = steep_configs();
+    let refs: Vec<_> = configs.iter().collect();
+    let lines = |spec: &str| {
+        let p = linelight::interp::program(&resolve(spec, &kernels).unwrap()).unwrap();
+        p.attribute(&refs).unwrap().summary()
+    };
+    let glsl = lines("line.ltc2017_glsl");
+    // The prelude's helpers (inverse3) keep their own file; every other line is the kernel's.
+    let own: Vec<_> = glsl.iter().filter(|s| !s.line.path.ends_with("prelude.wgsl")).collect();
+    assert!(own.len() >= 5, "{glsl:?}");
+    for s in own {
+        assert!(s.line.path.ends_with("line_ltc2017.glsl"), "{:?}", s.line);
+        // The attributed line is the GLSL file's own line, text and number.
+        assert_eq!(
+            glsl_text.lines().nth(s.line.line - 1),
+            Some(s.line.text.as_str()),
+            "{:?}",
+            s.line
+        );
+        assert!(!s.line.text.contains("_e"), "a line of the translation: {:?}", s.line);
+    }
+    // The same statement tops both ports: the WGSL port's top line and the GLSL port's
+    // top line hold the same Fwt subtraction.
+    let wgsl = lines("line.ltc2017");
+    let squash = |t: &str| {
+        t.split_whitespace()
+            .collect::<String>()
+            .replace("let", "")
+            .replace("float", "")
+    };
+    println!(
+        "top lines: WGSL `{}`, GLSL `{}`",
+        wgsl[0].line.text.trim(),
+        glsl[0].line.text.trim()
+    );
+    assert!(
+        squash(&glsl[0].line.text).contains("(Fwt(d,l2)-Fwt(d,l1))"),
+        "{:?}",
+        glsl[0].line
+    );
+    assert!(
+        squash(&wgsl[0].line.text).contains("(Fwt(d,l2)-Fwt(d,l1))"),
+        "{:?}",
+        wgsl[0].line
+    );
+}
+
+#[test]
+fn an_error_found_after_translation_names_the_glsl_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.glsl");
+    // The header's param has no specialization constant: found in the translation, at
+    // the header line of the GLSL file.
+    std::fs::write(
+        &path,
+        "//! id: line.gq\n//! target: line\n\nfloat twice(float x) {\n    return 2.0 * x;\n}\n\n\
+         //! params: SAMPLES=4\nfloat method(Scene scene) {\n    return twice(scene.p1.z);\n}\n",
+    )
+    .unwrap();
+    let kernel = linelight::kernel::KernelFile::read(&path).unwrap();
+    let Err(e) = linelight::gpu::compose(&kernel) else {
+        panic!("a header param without its specialization constant is refused");
+    };
+    assert_eq!(e.location.map(|l| l.0), Some(8), "{}", e.report);
+    assert!(e.report.contains("p.glsl:8"), "{}", e.report);
+}

@@ -137,6 +137,9 @@ pub(crate) fn compose_parts(
     // WGSL wants directives (`enable f16;`) before any declaration, so the kernel's go
     // above the prelude. Both parts keep the kernel's line numbers.
     let mut c = Composition::new(&kernel.path, capabilities);
+    if let Some(origin) = &kernel.origin {
+        c.map.translated_from(&kernel.path, origin);
+    }
     c.push(&kernel.path, &directives);
     c.push(PRELUDE_PATH, prelude);
     if kernel.uses_line {
@@ -167,6 +170,9 @@ pub(crate) fn compose_parts(
 
     if let Some(inner) = &inner {
         c = with_inner(prelude, inner, &kernel.path, &directives, &body, capabilities)?;
+        if let Some(origin) = &kernel.origin {
+            c.map.translated_from(&kernel.path, origin);
+        }
     }
     c.push(ENTRY_PATH, &entry_point(kernel.uses_line));
     let module = c.parse()?;
@@ -210,6 +216,9 @@ fn with_inner(
     let (renamed, edits) = rename_identifiers(&inner_body, &renames);
 
     let mut c = Composition::new(path, capabilities);
+    if let Some(origin) = &inner.origin {
+        c.map.translated_from(&inner.path, origin);
+    }
     c.push(&inner.path, &inner_directives);
     c.push(path, directives);
     c.push(PRELUDE_PATH, prelude);

@@ -7,8 +7,10 @@
 //! they wrote, not a line number of a file they never saw.
 
 use super::rename::{original_offset, Rename};
+use crate::kernel::Origin;
 use naga::{Span, WithSpan};
 use std::fmt;
+use std::sync::Arc;
 
 /// The name errors in the generated entry point are reported under.
 pub const ENTRY_PATH: &str = "<linelight entry point>";
@@ -67,6 +69,9 @@ pub(crate) struct SourceMap {
     segments: Vec<Segment>,
     /// The file blamed for errors that carry no span: the kernel, the likeliest culprit.
     fallback: String,
+    /// Files translated from another language (GLSL), by path: their lines are shown
+    /// instead of the translation's.
+    origins: Vec<(String, Arc<Origin>)>,
 }
 
 impl SourceMap {
@@ -74,7 +79,17 @@ impl SourceMap {
         SourceMap {
             segments: Vec::new(),
             fallback: fallback.to_string(),
+            origins: Vec::new(),
         }
+    }
+
+    /// Shows the lines of `path`'s segments as the lines of the file it was translated from.
+    pub(crate) fn translated_from(&mut self, path: &str, origin: &Arc<Origin>) {
+        self.origins.push((path.to_string(), origin.clone()));
+    }
+
+    fn origin(&self, path: &str) -> Option<&Origin> {
+        self.origins.iter().find(|(p, _)| p == path).map(|(_, o)| &**o)
     }
 
     /// Appends `text` (owned by `path`) to `source`, recording where it landed. A missing
@@ -136,6 +151,9 @@ impl SourceMap {
         let (seg, span) = self.local(Span::from(offset..offset));
         let at = span.to_range().map_or(0, |r| r.start);
         let line = seg.text[..at].matches('\n').count() + 1;
+        if let Some((line, text)) = self.origin(&seg.path).and_then(|o| o.line(line)) {
+            return (seg.path.clone(), line, text.to_string());
+        }
         let text = seg.text.lines().nth(line - 1).unwrap_or("").to_string();
         (seg.path.clone(), line, text)
     }
@@ -178,6 +196,9 @@ impl SourceMap {
                 .fold(KernelError::plain(&self.fallback, message), |e, n| e.with_note(n));
         };
         let (seg, local) = self.local(primary);
+        if let Some(origin) = self.origin(&seg.path) {
+            return self.diagnose_translated(seg, local, origin, message, notes);
+        }
         let mut spans = Vec::new();
         let mut other = Vec::new();
         for (span, label) in labels {
@@ -204,6 +225,48 @@ impl SourceMap {
             message: message.to_string(),
             report: diagnostic
                 .emit_to_string_with_path(&seg.text, &seg.path)
+                .trim_end()
+                .to_string(),
+        }
+    }
+}
+
+impl SourceMap {
+    /// An error in a translated kernel: shown at the original file's line, with the line of
+    /// the translation it was found in as a note.
+    fn diagnose_translated(
+        &self,
+        seg: &Segment,
+        local: Span,
+        origin: &Origin,
+        message: &str,
+        notes: Vec<String>,
+    ) -> KernelError {
+        let at = local.location(&seg.text);
+        let translated = seg.text.lines().nth(at.line_number as usize - 1).unwrap_or("").trim();
+        let Some((line, original)) = origin.line(at.line_number as usize) else {
+            return KernelError::plain(&seg.path, message)
+                .with_note(&format!("in the WGSL translation of the kernel: `{translated}`"));
+        };
+        let start: usize = origin.text.split_inclusive('\n').take(line - 1).map(str::len).sum();
+        let len = origin.text.lines().nth(line - 1).map_or(0, str::len);
+        let translation =
+            (original.trim() != translated).then(|| format!("note: in the WGSL translation: `{translated}`"));
+        let notes = translation
+            .into_iter()
+            .chain(notes.into_iter().map(|n| format!("note: {n}")))
+            .collect();
+        let diagnostic = WithSpan::new(Message {
+            text: message.to_string(),
+            notes: Note::chain(notes),
+        })
+        .with_span(Span::from(start..start + len), "here");
+        KernelError {
+            path: seg.path.clone(),
+            location: Some((line as u32, 1)),
+            message: message.to_string(),
+            report: diagnostic
+                .emit_to_string_with_path(&origin.text, &seg.path)
                 .trim_end()
                 .to_string(),
         }
