@@ -37,8 +37,25 @@ fn method_of(spec: &str) -> anyhow::Result<Method> {
     }
 }
 
+/// What a diff found, over all materials: the exit code follows it (B regressed on any
+/// material: exit 1, as the gate's).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    Unchanged,
+    Improved,
+    Regressed,
+    /// B more accurate on some materials and less on others (a regression too).
+    Mixed,
+}
+
+impl Outcome {
+    pub fn regressed(self) -> bool {
+        matches!(self, Outcome::Regressed | Outcome::Mixed)
+    }
+}
+
 /// Runs the diff and prints it, ending with the verdict line.
-pub fn run(options: &DiffOptions) -> anyhow::Result<()> {
+pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
     let a = method_of(&options.a)?;
     let b = method_of(&options.b)?;
     if a.label == b.label {
@@ -138,17 +155,21 @@ pub fn run(options: &DiffOptions) -> anyhow::Result<()> {
         crate::report::write_atomic(path, &crate::eval::to_jsonl(&rows))?;
         eprintln!("wrote {} (replay with linelight eval)", path.display());
     }
-    let verdict = if changes.contains(&Change::Regressed) && changes.contains(&Change::Improved) {
-        "mixed (B is more accurate on some materials and less on others)"
-    } else if changes.contains(&Change::Regressed) {
-        "B is less accurate than A"
-    } else if changes.contains(&Change::Improved) {
-        "B is more accurate than A"
-    } else {
-        "no difference beyond the noise"
+    let (regressed, improved) = (
+        changes.contains(&Change::Regressed),
+        changes.contains(&Change::Improved),
+    );
+    let (outcome, verdict) = match (regressed, improved) {
+        (true, true) => (
+            Outcome::Mixed,
+            "mixed (B is more accurate on some materials and less on others)",
+        ),
+        (true, false) => (Outcome::Regressed, "B is less accurate than A"),
+        (false, true) => (Outcome::Improved, "B is more accurate than A"),
+        (false, false) => (Outcome::Unchanged, "no difference beyond the noise"),
     };
     println!("verdict: {verdict}");
-    Ok(())
+    Ok(outcome)
 }
 
 /// The sampled parameters of a configuration (the derived axes are in the JSONL output).

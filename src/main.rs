@@ -173,7 +173,8 @@ enum Command {
         gpu: GpuArgs,
     },
     /// Compare two methods, or two revisions of one kernel file, on a case's configurations:
-    /// paired statistics, where they disagree, and a verdict.
+    /// paired statistics, where they disagree, and a verdict. Exit 1 when B is less accurate
+    /// than A on any material (as the gate), 0 when it is more accurate or within the noise.
     Diff {
         /// Case file whose configurations (seed, materials, counts) the two are run on.
         case: PathBuf,
@@ -643,7 +644,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             output,
             adapter,
         } => {
-            linelight::diff::run(&linelight::diff::DiffOptions {
+            let outcome = linelight::diff::run(&linelight::diff::DiffOptions {
                 case,
                 a,
                 b,
@@ -653,7 +654,12 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 chunk: 65536,
                 output,
             })?;
-            Ok(ExitCode::SUCCESS)
+            // As the gate: B less accurate than A on any material is exit 1.
+            Ok(if outcome.regressed() {
+                ExitCode::from(1)
+            } else {
+                ExitCode::SUCCESS
+            })
         }
         Command::Adapters => {
             let adapters = gpu::list_adapters();

@@ -230,6 +230,18 @@ fn diff_two_revisions_of_one_kernel_file() {
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // The other way round B is the less accurate revision: a regression, exit 1 as the gate's.
+    let o = Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .args(["diff", CASE, improved.to_str().unwrap(), KERNEL])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert_eq!(
+        String::from_utf8_lossy(&o.stdout).lines().last(),
+        Some("verdict: B is less accurate than A"),
+        "{}",
+        text(&o)
+    );
     // The same file twice is bad input.
     let o = Command::new(env!("CARGO_BIN_EXE_linelight"))
         .args(["diff", CASE, KERNEL, KERNEL])
