@@ -100,9 +100,25 @@ pub struct MethodEntry {
     pub kernel: String,
     /// `total` of the naga op count (src/cost.rs): deterministic, so it is gated.
     pub ops_total: Option<u64>,
-    /// GPU ns per evaluation (median): reported, never gated.
+    /// GPU ns per evaluation (median): reported, never gated. Saved in `timings.json`, not
+    /// here, so that `baseline.json` is the same file whenever the errors are the same;
+    /// read from here in baselines saved before that split.
+    #[serde(default = "no_timing", skip_serializing)]
     pub ns_per_eval: f64,
     pub materials: Vec<MaterialEntry>,
+}
+
+fn no_timing() -> f64 {
+    f64::NAN
+}
+
+/// `timings.json`: the run's timings, kept apart from the gated `baseline.json` because
+/// they change on every save.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Timings {
+    pub adapter: String,
+    /// (method label, GPU ns per evaluation, median).
+    pub ns_per_eval: Vec<(String, f64)>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -249,6 +265,19 @@ pub fn save(dir: &Path, setup: &Setup, measured: &Measured) -> anyhow::Result<Ve
     json.push('\n');
     write_atomic(&path, json.as_bytes())?;
     written.push(path);
+    let timings = Timings {
+        adapter: baseline.adapter.clone(),
+        ns_per_eval: baseline
+            .methods
+            .iter()
+            .map(|m| (m.label.clone(), m.ns_per_eval))
+            .collect(),
+    };
+    let path = dir.join("timings.json");
+    let mut json = serde_json::to_string_pretty(&timings)?;
+    json.push('\n');
+    write_atomic(&path, json.as_bytes())?;
+    written.push(path);
     Ok(written)
 }
 
@@ -281,8 +310,20 @@ pub fn load(dir: &Path, setup: &Setup) -> anyhow::Result<Loaded> {
     let path = dir.join("baseline.json");
     let text =
         std::fs::read_to_string(&path).map_err(|e| anyhow::anyhow!("cannot read baseline {}: {e}", path.display()))?;
-    let baseline: Baseline = serde_json::from_str(&text)
+    let mut baseline: Baseline = serde_json::from_str(&text)
         .map_err(|e| anyhow::anyhow!("{}: not a linelight baseline: {e}", path.display()))?;
+    // Timings are optional (reported, never gated): a baseline without timings.json
+    // compares the same.
+    let timings = dir.join("timings.json");
+    if let Ok(text) = std::fs::read_to_string(&timings) {
+        let t: Timings = serde_json::from_str(&text)
+            .map_err(|e| anyhow::anyhow!("{}: not linelight timings: {e}", timings.display()))?;
+        for m in &mut baseline.methods {
+            if let Some((_, ns)) = t.ns_per_eval.iter().find(|(l, _)| *l == m.label) {
+                m.ns_per_eval = *ns;
+            }
+        }
+    }
     let here = |what: String| anyhow::anyhow!("{}: {what}", path.display());
     if baseline.format != FORMAT {
         return Err(here(format!(

@@ -63,6 +63,22 @@ fn gate_scenario_same_passes_cheaper_atan_fails_improved_is_reported() {
         json.contains("\"label\": \"my.line\"") && json.contains("llvmpipe"),
         "{json}"
     );
+    // Saved again, the gated files are the same bytes (diff-friendly); only timings.json,
+    // which is reported and never gated, may change.
+    let again = d.join("again");
+    let o = gate(&["--save", CASE, again.to_str().unwrap(), "--kernel", KERNEL], d);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert_eq!(json, std::fs::read_to_string(again.join("baseline.json")).unwrap());
+    for f in ["errors/my.line/diffuse.txt", "errors/line.ltc2023_fix/diffuse.txt"] {
+        assert_eq!(
+            std::fs::read(baseline.join(f)).unwrap(),
+            std::fs::read(again.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    assert!(!json.contains("ns_per_eval"), "{json}");
+    let timings = std::fs::read_to_string(baseline.join("timings.json")).unwrap();
+    assert!(timings.contains("my.line"), "{timings}");
     // minv: none: the diffuse errors are saved, the LTC material is unsupported.
     assert!(baseline.join("errors/my.line/diffuse.txt").is_file());
     assert!(!baseline.join("errors/my.line/ggx_iso.txt").exists());
