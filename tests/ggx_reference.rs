@@ -13,70 +13,8 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
-fn add(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-fn sub(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn mul(a: Vec3, s: f64) -> Vec3 {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-fn dot(a: Vec3, b: Vec3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: Vec3, b: Vec3) -> Vec3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn norm(a: Vec3) -> f64 {
-    dot(a, a).sqrt()
-}
-fn unit(a: Vec3) -> Vec3 {
-    mul(a, 1.0 / norm(a))
-}
-
-/// DESIGN §1's GGX D, term by term.
-fn ggx_d(alpha: [f64; 2], v: Vec3, w: Vec3) -> f64 {
-    if w[2] <= 0.0 {
-        return 0.0;
-    }
-    let (ax, ay) = (alpha[0], alpha[1]);
-    let h = unit(add(v, w));
-    let k = (h[0] / ax).powi(2) + (h[1] / ay).powi(2) + h[2] * h[2];
-    let ndf = 1.0 / (PI * ax * ay * k * k);
-    let lambda =
-        |u: Vec3| (-1.0 + (1.0 + (ax * ax * u[0] * u[0] + ay * ay * u[1] * u[1]) / (u[2] * u[2])).sqrt()) / 2.0;
-    ndf / (1.0 + lambda(v) + lambda(w)) / (4.0 * v[2])
-}
-
-fn gauss16() -> &'static [(f64, f64)] {
-    static RULE: std::sync::OnceLock<Vec<(f64, f64)>> = std::sync::OnceLock::new();
-    RULE.get_or_init(|| {
-        let n = 16;
-        (0..n)
-            .map(|i| {
-                let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-                loop {
-                    let (mut p0, mut p1) = (1.0, x);
-                    for k in 2..=n {
-                        let k = k as f64;
-                        (p0, p1) = (p1, ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k);
-                    }
-                    let dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-                    let dx = p1 / dp;
-                    x -= dx;
-                    if dx.abs() < 1e-16 {
-                        return (x, 2.0 / ((1.0 - x * x) * dp * dp));
-                    }
-                }
-            })
-            .collect()
-    })
-}
+mod common;
+use common::independent::*;
 
 /// ∫ f over [a, b] cut at `cuts`, `per` equal panels on every piece.
 fn composite(f: &dyn Fn(f64) -> f64, a: f64, b: f64, cuts: &[f64], per: usize) -> f64 {
@@ -239,17 +177,6 @@ fn trig_roots(a: f64, b: f64, c: f64) -> Vec<f64> {
         .iter()
         .flat_map(|x| [x - 2.0 * PI, *x, x + 2.0 * PI])
         .collect()
-}
-
-/// Two unit vectors completing ω_t to an orthonormal basis.
-fn basis(t: Vec3) -> (Vec3, Vec3) {
-    let helper = if t[2].abs() < 0.9 {
-        [0.0, 0.0, 1.0]
-    } else {
-        [1.0, 0.0, 0.0]
-    };
-    let e1 = unit(cross(helper, t));
-    (e1, cross(t, e1))
 }
 
 /// `cylinder` per Eq. 1.2 in (l, φ) over the arc that faces the origin.

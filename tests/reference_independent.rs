@@ -11,31 +11,8 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
-fn add(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-fn sub(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn mul(a: Vec3, s: f64) -> Vec3 {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-fn dot(a: Vec3, b: Vec3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: Vec3, b: Vec3) -> Vec3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn norm(a: Vec3) -> f64 {
-    dot(a, a).sqrt()
-}
-fn unit(a: Vec3) -> Vec3 {
-    mul(a, 1.0 / norm(a))
-}
+mod common;
+use common::independent::*;
 
 /// Listing 1.10, for any material (diffuse is M⁻¹ = I).
 fn d_of(minv: &[[f64; 3]; 3], w: Vec3) -> f64 {
@@ -45,33 +22,6 @@ fn d_of(minv: &[[f64; 3]; 3], w: Vec3) -> f64 {
         - minv[0][1] * (minv[1][0] * minv[2][2] - minv[1][2] * minv[2][0])
         + minv[0][2] * (minv[1][0] * minv[2][1] - minv[1][1] * minv[2][0]);
     (wo[2] / lo).max(0.0) * det.abs() / (PI * lo * lo * lo)
-}
-
-/// 16-point Gauss–Legendre on [−1, 1] by Newton on P₁₆.
-fn gauss16() -> &'static [(f64, f64)] {
-    static RULE: std::sync::OnceLock<Vec<(f64, f64)>> = std::sync::OnceLock::new();
-    RULE.get_or_init(|| legendre(16))
-}
-
-fn legendre(n: usize) -> Vec<(f64, f64)> {
-    (0..n)
-        .map(|i| {
-            let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-            loop {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let k = k as f64;
-                    (p0, p1) = (p1, ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k);
-                }
-                let dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-                let dx = p1 / dp;
-                x -= dx;
-                if dx.abs() < 1e-16 {
-                    return (x, 2.0 / ((1.0 - x * x) * dp * dp));
-                }
-            }
-        })
-        .collect()
 }
 
 /// ∫ f over [a, b], cut at `cuts`, with `panels` equal panels spread over the pieces in
@@ -106,17 +56,6 @@ fn trig_roots(a: f64, b: f64, c: f64) -> Vec<f64> {
 /// The solution l of a + b·l = 0, if any.
 fn linear_root(a: f64, b: f64) -> Option<f64> {
     (b != 0.0).then(|| -a / b)
-}
-
-/// Two unit vectors completing ω_t to an orthonormal basis.
-fn basis(t: Vec3) -> (Vec3, Vec3) {
-    let helper = if t[2].abs() < 0.9 {
-        [0.0, 0.0, 1.0]
-    } else {
-        [1.0, 0.0, 0.0]
-    };
-    let e1 = unit(cross(helper, t));
-    (e1, cross(t, e1))
 }
 
 /// `line` (or `line_upper`) in u with l = l0 + d·sinh u: dl = d cosh u du, ‖p‖ = d cosh u,
@@ -472,19 +411,6 @@ fn committed_fwt_disagreements_hold_against_an_independent_reference() {
     }
     assert!(best[0] >= 30.0, "2017 Fwt at most {}× worse", best[0]);
     assert!(best[1] >= 30.0, "2023 Fwt at most {}× worse", best[1]);
-}
-
-/// DESIGN §1 `ggx`, written here from the text: NDF(h)·G2(v, ω)/(4 v.z) for ω.z > 0.
-fn ggx_d(alpha: [f64; 2], v: Vec3, w: Vec3) -> f64 {
-    if w[2] <= 0.0 {
-        return 0.0;
-    }
-    let (ax, ay) = (alpha[0], alpha[1]);
-    let h = unit(add(v, w));
-    let k = (h[0] / ax).powi(2) + (h[1] / ay).powi(2) + h[2] * h[2];
-    let ndf = 1.0 / (PI * ax * ay * k * k);
-    let lambda = |u: Vec3| (-1.0 + (1.0 + ((ax * u[0]).powi(2) + (ay * u[1]).powi(2)) / (u[2] * u[2])).sqrt()) / 2.0;
-    ndf / (1.0 + lambda(v) + lambda(w)) / (4.0 * v[2])
 }
 
 #[test]

@@ -1,6 +1,8 @@
 //! What the command-line tests share: running the binary, its stderr, writing an input file.
 #![allow(dead_code)] // each test binary uses its own share of these
 
+pub mod independent;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
