@@ -567,8 +567,9 @@ mod tests {
             "/cases/line_fwt.toml"
         )))
         .expect("the line_fwt case loads");
-        let setup = crate::sweep::prepare(case, &[], Some(n.div_ceil(3))).unwrap();
-        split_evenly(&setup.samples, 3, n)
+        let materials = case.materials.len();
+        let setup = crate::sweep::prepare(case, &[], Some(n.div_ceil(materials))).unwrap();
+        split_evenly(&setup.samples, materials, n)
     }
 
     #[test]
@@ -650,15 +651,22 @@ mod tests {
             "/cases/line_fwt.toml"
         )))
         .unwrap();
+        let materials = case.materials.len();
         let setup = crate::sweep::prepare(case, &[], Some(4)).unwrap();
-        let picked = split_evenly(&setup.samples, 3, 10);
+        let picked = split_evenly(&setup.samples, materials, 10);
         assert_eq!(picked.len(), 10);
-        // 3 + 3 + 4, the first of each material's samples.
+        // 3 + 3 + 4 over three families, 2 + 3 + 2 + 3 over four: the first of each
+        // material's samples.
+        let shares: &[usize] = match materials {
+            3 => &[3, 3, 4],
+            4 => &[2, 3, 2, 3],
+            n => panic!("line_fwt has {n} families: add their shares here"),
+        };
         let by_material = |i: usize| setup.samples.iter().filter(move |s| s.material == i);
-        let expected: Vec<&Config> = by_material(0)
-            .take(3)
-            .chain(by_material(1).take(3))
-            .chain(by_material(2).take(4))
+        let expected: Vec<&Config> = shares
+            .iter()
+            .enumerate()
+            .flat_map(|(i, &n)| by_material(i).take(n))
             .map(|s| &s.config)
             .collect();
         assert_eq!(picked.iter().collect::<Vec<_>>(), expected);

@@ -152,7 +152,8 @@ pub struct MaterialFamily {
     #[serde(default)]
     pub anisotropy: Option<Dist>,
     /// `ggx`: where the LTC methods' M⁻¹ comes from (`table`, `table_f16`, `published`,
-    /// `published_f16`, `fit`; default `table`, or `fit` when anisotropic). See docs/ggx.md.
+    /// `published_f16`, `fit`, `aniso`, `aniso_f16`; default `table`, or `fit` when
+    /// anisotropic). See docs/ggx.md.
     #[serde(default)]
     pub ltc: Option<String>,
 }
@@ -504,9 +505,11 @@ impl Case {
                     if let Some(feed) = &m.ltc {
                         let feed = crate::ltc::Feed::parse(feed).map_err(|e| format!("{name}.ltc: {e}"))?;
                         let aniso = m.anisotropy.as_ref().is_some_and(|d| d.bounds() != (1.0, 1.0));
-                        if aniso && feed != crate::ltc::Feed::Fit {
+                        use crate::ltc::Feed;
+                        if aniso && !matches!(feed, Feed::Fit | Feed::Aniso | Feed::AnisoF16) {
                             return Err(format!(
-                                "{name}.ltc: `{}` is an isotropic table; an anisotropic ggx material needs ltc = \"fit\"",
+                                "{name}.ltc: `{}` is an isotropic table; an anisotropic ggx material needs \
+                                 ltc = \"fit\", \"aniso\" or \"aniso_f16\"",
                                 feed.name()
                             ));
                         }

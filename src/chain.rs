@@ -13,9 +13,10 @@
 //! | rounding | the method in f32 on the CPU | the method in f64 |
 //! | driver | the GPU | the CPU f32 |
 //!
-//! each as |a − b|/T. Anisotropic roughness has no table here (docs/ggx.md): its methods are
-//! fed the exact fit, and its table links are empty. The published table (Heitz et al. 2016,
-//! read from the anchors) is run through the same look-up beside ours.
+//! each as |a − b|/T. The look-up is our isotropic table for isotropic roughness and our
+//! anisotropic table (seed 004, `data/ltc_ggx_aniso.csv`, quadrilinear) for anisotropic
+//! roughness. The published table (Heitz et al. 2016, read from the anchors) is run through
+//! the same look-up beside ours on isotropic configurations.
 
 use crate::case::Case;
 use crate::gpu::Gpu;
@@ -46,16 +47,18 @@ pub struct Row {
     pub alpha: f64,
     pub view_angle: f64,
     pub anisotropy: f64,
+    /// α_min/α_max as shaded (after each α is clamped to 1); 1 for isotropic roughness.
+    pub ratio: f64,
     pub truth: f64,
     /// Relative size of each link (NaN where it does not apply).
     pub links: [f64; 6],
-    /// |GPU − T|/T with our feed (table for isotropic, exact fit for anisotropic).
+    /// |GPU − T|/T with our feed (the isotropic table, or the anisotropic one).
     pub total: f64,
     /// Isotropic only: the same method fed the published table (f32 bilinear): |GPU − T|/T,
     /// and that look-up's exact LTC integral against T.
     pub published_total: f64,
     pub published_fit: f64,
-    /// Our table's look-up, exact LTC integral against T.
+    /// Our table's look-up (isotropic or anisotropic), exact LTC integral against T.
     pub table_fit: f64,
     /// Angle (degrees) between the mirror direction of the view and the segment's nearest
     /// direction: how close the light comes to the lobe's peak.
@@ -182,6 +185,8 @@ pub fn measure(case: &Case, gpu: &Gpu, count: Option<usize>, chunk: usize) -> an
                 if published_ok {
                     list.push(Feed::Published);
                 }
+            } else {
+                list.extend([Feed::Aniso, Feed::AnisoF16]);
             }
             let m = list
                 .into_iter()
@@ -197,7 +202,7 @@ pub fn measure(case: &Case, gpu: &Gpu, count: Option<usize>, chunk: usize) -> an
     let mut rows = Vec::new();
     for m in &methods {
         let target = m.target();
-        let ours_feed = |i: usize| if iso[i] { "table" } else { "fit" };
+        let ours_feed = |i: usize| if iso[i] { "table" } else { "aniso" };
         let ours: Vec<Config> = (0..base.len()).map(|i| feeds[i][ours_feed(i)].clone()).collect();
         let v_ours = run_method(gpu, m, &ours, chunk)?;
         let published: Vec<Option<&Config>> = feeds.iter().map(|f| f.get("published")).collect();
@@ -213,7 +218,12 @@ pub fn measure(case: &Case, gpu: &Gpu, count: Option<usize>, chunk: usize) -> an
                 let f = &feeds[i];
                 let truth = reference(&base[i], target).map_or(f64::NAN, |e| e.value);
                 let get = |k: &str| f.get(k).map_or(f64::NAN, |c| ltc_exact(c, target));
-                let r = [truth, get("fit"), get("table"), get("table_f16"), get("published")];
+                let (t32, t16) = if iso[i] {
+                    ("table", "table_f16")
+                } else {
+                    ("aniso", "aniso_f16")
+                };
+                let r = [truth, get("fit"), get(t32), get(t16), get("published")];
                 pb.inc(1);
                 r
             })
@@ -225,7 +235,7 @@ pub fn measure(case: &Case, gpu: &Gpu, count: Option<usize>, chunk: usize) -> an
                 continue; // the light is not seen: no relative error to chain
             }
             let (gpu_v, cpu_v, f64_v) = v_ours[i];
-            let lookup = if iso[i] { table } else { fit };
+            let lookup = table;
             let s = &samples[i];
             rows.push(Row {
                 config: i,
@@ -234,11 +244,18 @@ pub fn measure(case: &Case, gpu: &Gpu, count: Option<usize>, chunk: usize) -> an
                 alpha: s.axes.alpha,
                 view_angle: s.axes.view_angle,
                 anisotropy: s.axes.anisotropy,
+                ratio: match &base[i].material {
+                    Material::Ggx { alpha, .. } => {
+                        let [x, y] = alpha.xy();
+                        x.min(y) / x.max(y)
+                    }
+                    _ => f64::NAN,
+                },
                 truth,
                 links: [
                     rel(fit, truth, truth),
-                    if iso[i] { rel(table, fit, truth) } else { f64::NAN },
-                    if iso[i] { rel(table16, table, truth) } else { f64::NAN },
+                    rel(table, fit, truth),
+                    rel(table16, table, truth),
                     rel(f64_v, lookup, truth),
                     rel(cpu_v, f64_v, truth),
                     rel(gpu_v, cpu_v, truth),
@@ -246,7 +263,7 @@ pub fn measure(case: &Case, gpu: &Gpu, count: Option<usize>, chunk: usize) -> an
                 total: rel(gpu_v, truth, truth),
                 published_total: v_pub[i].map_or(f64::NAN, |v| rel(v.0, truth, truth)),
                 published_fit: rel(publ, truth, truth),
-                table_fit: if iso[i] { rel(table, truth, truth) } else { f64::NAN },
+                table_fit: rel(table, truth, truth),
                 miss: miss_angle(&base[i]),
             });
         }
@@ -347,8 +364,8 @@ pub fn write(dir: &Path, case_path: &str, case: &Case, run: &ChainRun) -> anyhow
         "Links, each |a − b| / T with T the f64 GGX reference: **fit** (exact fit's LTC integral − T), \
          **table** (bilinear f32 look-up of our table − exact fit), **storage** (binary16 texels − f32), \
          **formula** (method in f64 − exact integral of what it was fed), **rounding** (CPU f32 − f64), \
-         **driver** (GPU − CPU f32). Anisotropic roughness is fed the exact fit (no 4D table: docs/ggx.md), \
-         so its table links are empty.\n"
+         **driver** (GPU − CPU f32). Anisotropic roughness is fed our anisotropic table (seed 004, \
+         quadrilinear, M inverted in f32: docs/ggx.md); its table link is that look-up against the exact fit.\n"
     );
     let _ = writeln!(md, "## Findings\n");
     for f in findings(run, &cells) {
@@ -444,6 +461,7 @@ pub fn write(dir: &Path, case_path: &str, case: &Case, run: &ChainRun) -> anyhow
         }
         let _ = writeln!(md);
     }
+    aniso_section(&mut md, run);
     let mut csv = String::from("method,family,alpha_lo,alpha_hi,view_lo,view_hi,count,fit,table,storage,formula,rounding,driver,total,dominant\n");
     for c in &cells {
         let f = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v:e}"));
@@ -477,7 +495,7 @@ pub fn write(dir: &Path, case_path: &str, case: &Case, run: &ChainRun) -> anyhow
             let num = crate::eval::number;
             serde_json::json!({
                 "config": r.config, "method": r.method, "family": r.family, "alpha": num(r.alpha),
-                "view_angle": num(r.view_angle), "anisotropy": num(r.anisotropy), "truth": num(r.truth),
+                "view_angle": num(r.view_angle), "anisotropy": num(r.anisotropy), "ratio": num(r.ratio), "truth": num(r.truth),
                 "links": r.links.iter().map(|&x| num(x)).collect::<Vec<_>>(), "total": num(r.total),
                 "published_total": num(r.published_total), "published_fit": num(r.published_fit),
                 "table_fit": num(r.table_fit), "miss_degrees": num(r.miss),
@@ -495,6 +513,224 @@ pub fn write(dir: &Path, case_path: &str, case: &Case, run: &ChainRun) -> anyhow
         written.push(path);
     }
     Ok(written)
+}
+
+/// Bin edges of the anisotropic chain: α_min/α_max as shaded.
+const RATIO_EDGES: [f64; 5] = [0.25, 0.4, 0.6, 0.8, 1.0];
+
+/// Median links per bin of two axes, over the given rows: (x bin, y bin, count, links,
+/// total, dominant link).
+type Bin2 = (
+    [f64; 2],
+    [f64; 2],
+    usize,
+    [Option<f64>; 6],
+    Option<f64>,
+    Option<&'static str>,
+);
+
+fn bins2(rows: &[&Row], fx: fn(&Row) -> f64, ex: &[f64], fy: fn(&Row) -> f64, ey: &[f64]) -> Vec<Bin2> {
+    let mut out = Vec::new();
+    for x in 0..ex.len() - 1 {
+        for y in 0..ey.len() - 1 {
+            let rs: Vec<&&Row> = rows
+                .iter()
+                .filter(|r| bin_index(ex, fx(r)) == Some(x) && bin_index(ey, fy(r)) == Some(y))
+                .collect();
+            if rs.is_empty() {
+                continue;
+            }
+            let links: [Option<f64>; 6] = std::array::from_fn(|k| median(rs.iter().map(|r| r.links[k])));
+            let dominant = LINKS
+                .iter()
+                .zip(links)
+                .filter_map(|(n, l)| l.map(|l| (*n, l)))
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(n, _)| n);
+            out.push((
+                [ex[x], ex[x + 1]],
+                [ey[y], ey[y + 1]],
+                rs.len(),
+                links,
+                median(rs.iter().map(|r| r.total)),
+                dominant,
+            ));
+        }
+    }
+    out
+}
+
+fn bin_table(md: &mut String, xname: &str, yname: &str, bins: &[Bin2]) {
+    let _ = writeln!(
+        md,
+        "| {xname} | {yname} | n | fit | table | storage | formula | rounding | driver | total |"
+    );
+    let _ = writeln!(md, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for (x, y, n, links, total, dominant) in bins {
+        let cells: Vec<String> = LINKS
+            .iter()
+            .zip(links)
+            .map(|(name, l)| {
+                let s = sci(*l);
+                if Some(*name) == *dominant {
+                    format!("**{s}**")
+                } else {
+                    s
+                }
+            })
+            .collect();
+        let _ = writeln!(
+            md,
+            "| {}–{} | {}–{} | {n} | {} | {} |",
+            x[0],
+            x[1],
+            y[0],
+            y[1],
+            cells.join(" | "),
+            sci(*total)
+        );
+    }
+    let _ = writeln!(md);
+}
+
+/// The anisotropic chain: every anisotropic configuration, binned by α_min/α_max against the
+/// view angle and against α, with findings computed from the rows.
+fn aniso_section(md: &mut String, run: &ChainRun) {
+    let aniso: Vec<&Row> = run.rows.iter().filter(|r| r.ratio < 1.0).collect();
+    if aniso.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        md,
+        "## The anisotropic chain
+"
+    );
+    if let Some(rec) = aniso_fit_record() {
+        let _ = writeln!(
+            md,
+            "{rec}
+"
+        );
+    }
+    let _ = writeln!(
+        md,
+        "Anisotropic configurations: the methods are fed our 4D table (quadrilinear f32 look-up of M, \
+         inverted in f32, in the frame where the view lies in the xz-plane); **fit** is the exact \
+         per-configuration fit against T, **table** the look-up's exact LTC integral against the exact \
+         fit's, **storage** binary16 texels against f32. Bins of r = α_min/α_max as shaded (each α \
+         clamped to 1) against the view angle (degrees) and against the geometric-mean α; medians, \
+         the largest link in bold.\n"
+    );
+    let _ = writeln!(md, "### Findings\n");
+    for f in aniso_findings(&aniso) {
+        let _ = writeln!(md, "- {f}");
+    }
+    let _ = writeln!(md);
+    let mut methods: Vec<&str> = aniso.iter().map(|r| r.method.as_str()).collect();
+    methods.sort();
+    methods.dedup();
+    let view_edges = [0.0, 30.0, 60.0, 75.0, 90.0];
+    let alpha_edges = [0.01, 0.03, 0.1, 0.3, 1.0];
+    for m in methods {
+        let rows: Vec<&Row> = aniso.iter().copied().filter(|r| r.method == m).collect();
+        let _ = writeln!(md, "### `{m}`, anisotropic: r × view angle\n");
+        bin_table(
+            md,
+            "r",
+            "view",
+            &bins2(&rows, |r| r.ratio, &RATIO_EDGES, |r| r.view_angle, &view_edges),
+        );
+        let _ = writeln!(md, "### `{m}`, anisotropic: r × α\n");
+        bin_table(
+            md,
+            "r",
+            "α",
+            &bins2(&rows, |r| r.ratio, &RATIO_EDGES, |r| r.alpha, &alpha_edges),
+        );
+    }
+}
+
+/// Sentences about the anisotropic rows, computed from them.
+fn aniso_findings(rows: &[&Row]) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut methods: Vec<&str> = rows.iter().map(|r| r.method.as_str()).collect();
+    methods.sort();
+    methods.dedup();
+    for m in methods {
+        let rs: Vec<&Row> = rows.iter().copied().filter(|r| r.method == m).collect();
+        let med = |k: usize| median(rs.iter().map(|r| r.links[k]));
+        let bins = bins2(
+            &rs,
+            |r| r.ratio,
+            &RATIO_EDGES,
+            |r| r.view_angle,
+            &[0.0, 30.0, 60.0, 75.0, 90.0],
+        );
+        let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
+        for b in &bins {
+            if let Some(d) = b.5 {
+                *counts.entry(d).or_default() += 1;
+            }
+        }
+        let counts: Vec<String> = counts.iter().map(|(k, v)| format!("{k} in {v}")).collect();
+        let (fit, table) = (med(0), med(1));
+        let compare = match (fit, table) {
+            (Some(f), Some(t)) if t > f => {
+                format!("the look-up adds more than the fit itself (median table link {t:.2e} against fit {f:.2e})")
+            }
+            (Some(f), Some(t)) => {
+                format!("the look-up adds less than the fit itself (median table link {t:.2e} against fit {f:.2e})")
+            }
+            _ => "no table or fit link".into(),
+        };
+        let worst = bins
+            .iter()
+            .filter(|b| b.3[1].is_some())
+            .max_by(|a, b| a.3[1].unwrap_or(0.0).total_cmp(&b.3[1].unwrap_or(0.0)));
+        let worst = worst.map_or(String::new(), |b| {
+            format!(
+                " The table link is largest at r {}–{}, view {}–{}° (median {}, {} configurations).",
+                b.0[0],
+                b.0[1],
+                b.1[0],
+                b.1[1],
+                sci(b.3[1]),
+                b.2
+            )
+        });
+        out.push(format!(
+            "`{m}` ({} anisotropic configurations): {compare}; storage in binary16 {}, formula {}, rounding {}, \
+             driver {}; total {} (median |GPU − T|/T). Dominant link per r × view bin: {} of {} bins.{worst}",
+            rs.len(),
+            sci(med(2)),
+            sci(med(3)),
+            sci(med(4)),
+            sci(med(5)),
+            sci(median(rs.iter().map(|r| r.total))),
+            counts.join(", "),
+            bins.len()
+        ));
+    }
+    out
+}
+
+/// The anisotropic fit's run record (data/ltc_ggx_aniso.run.json), as a sentence.
+fn aniso_fit_record() -> Option<String> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/ltc_ggx_aniso.run.json");
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()?;
+    let size: Vec<String> = v["size"].as_array()?.iter().map(|x| x.to_string()).collect();
+    Some(format!(
+        "Our anisotropic table (`data/ltc_ggx_aniso.csv`, θ × φ × α_max × r = {}; {} entries fitted, the rest \
+         by symmetry) was fitted by `linelight fit --aniso` in {:.0} s on {} thread(s) of this 2-core machine, \
+         shared with other jobs (`data/ltc_ggx_aniso.run.json`); relative L1 lobe error of an entry: median \
+         {:.2e}, largest {:.2e}.",
+        size.join(" × "),
+        v["fitted"].as_u64()?,
+        v["seconds"].as_f64()?,
+        v["threads"].as_u64()?,
+        v["fit_l1_median"].as_f64()?,
+        v["fit_l1_max"].as_f64()?
+    ))
 }
 
 fn by_method(run: &ChainRun, iso_only: bool) -> Vec<(String, Vec<&Row>)> {

@@ -148,14 +148,22 @@ enum Command {
         #[command(flatten)]
         gpu: GpuArgs,
     },
-    /// Fit the isotropic GGX LTC table (f64, Nelder–Mead; deterministic) and write it.
+    /// Fit the isotropic GGX LTC table, or with --aniso the anisotropic one of seed 004
+    /// (f64, Nelder–Mead; deterministic) and write it.
     Fit {
-        /// Table file (CSV, docs/ggx.md); a run record goes beside it (`.run.json`).
-        #[arg(long, default_value = "data/ltc_ggx_iso.csv")]
-        out: PathBuf,
-        /// Entries per axis (roughness × view angle).
+        /// Table file (CSV, docs/ggx.md; default data/ltc_ggx_iso.csv, with --aniso
+        /// data/ltc_ggx_aniso.csv); a run record goes beside it (`.run.json`).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Entries per axis of the isotropic table (roughness × view angle).
         #[arg(long, default_value_t = 64)]
         size: usize,
+        /// Fit the anisotropic 4D table instead (θ × φ × α_max × ratio).
+        #[arg(long)]
+        aniso: bool,
+        /// Entries per axis of the anisotropic table: θ,φ,α_max,ratio.
+        #[arg(long, value_delimiter = ',', default_values_t = linelight::ltc::aniso::SIZE)]
+        aniso_size: Vec<usize>,
     },
     /// The GGX error chain (fit, table, storage, formula, rounding, driver) of a case of ggx
     /// materials, beside the published table: writes OUT/chain.{md,csv,json}.
@@ -620,8 +628,22 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             eprintln!("wrote {}", dir.display());
             Ok(ExitCode::SUCCESS)
         }
-        Command::Fit { out, size } => {
-            linelight::ltc::fit_command(&out, size)?;
+        Command::Fit {
+            out,
+            size,
+            aniso,
+            aniso_size,
+        } => {
+            if aniso {
+                let size: [usize; 4] = aniso_size
+                    .try_into()
+                    .map_err(|v: Vec<usize>| anyhow::anyhow!("--aniso-size takes 4 numbers, got {}", v.len()))?;
+                let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_aniso.csv"));
+                linelight::ltc::aniso::fit_command(&out, size)?;
+            } else {
+                let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_iso.csv"));
+                linelight::ltc::fit_command(&out, size)?;
+            }
             Ok(ExitCode::SUCCESS)
         }
         Command::Chain { case, out, count, gpu } => {

@@ -3,6 +3,7 @@
 //! method is given: the configuration rotated about z so the view lies in the xz-plane, M⁻¹
 //! and the magnitude, as a shader samples them (docs/ggx.md).
 
+pub mod aniso;
 pub mod fit;
 pub mod ggx;
 pub mod table;
@@ -25,15 +26,22 @@ pub enum Feed {
     PublishedF16,
     /// An exact fit to this configuration's lobe (the default for anisotropic roughness).
     Fit,
+    /// Our anisotropic table (seed 004, `data/ltc_ggx_aniso.csv`), quadrilinear, f32 texels,
+    /// M inverted in f32: any roughness.
+    Aniso,
+    /// The anisotropic table with binary16 texels (RGBA16F).
+    AnisoF16,
 }
 
 impl Feed {
-    pub const ALL: [Feed; 5] = [
+    pub const ALL: [Feed; 7] = [
         Feed::Table,
         Feed::TableF16,
         Feed::Published,
         Feed::PublishedF16,
         Feed::Fit,
+        Feed::Aniso,
+        Feed::AnisoF16,
     ];
 
     pub fn name(self) -> &'static str {
@@ -43,6 +51,8 @@ impl Feed {
             Feed::Published => "published",
             Feed::PublishedF16 => "published_f16",
             Feed::Fit => "fit",
+            Feed::Aniso => "aniso",
+            Feed::AnisoF16 => "aniso_f16",
         }
     }
 
@@ -91,8 +101,9 @@ fn cache() -> &'static Mutex<HashMap<Key, Fed>> {
     C.get_or_init(|| Mutex::new(HashMap::new()))
 }
 
-/// The LTC fed for roughness (αx, αy) and a unit view with vz > 0. Tables are isotropic:
-/// an anisotropic roughness needs `Fit`. Exact fits are cached per (α, view).
+/// The LTC fed for roughness (αx, αy) and a unit view with vz > 0. The 2D tables are
+/// isotropic: an anisotropic roughness needs `Fit`, `Aniso` or `AnisoF16`. Exact fits are
+/// cached per (α, view).
 pub fn feed(alpha: [f64; 2], view: [f64; 3], feed: Feed) -> Result<Fed, String> {
     let key = (alpha.map(f64::to_bits), view.map(f64::to_bits), feed);
     if let Some(f) = cache().lock().expect("cache").get(&key) {
@@ -107,10 +118,28 @@ pub fn feed(alpha: [f64; 2], view: [f64; 3], feed: Feed) -> Result<Fed, String> 
     let rotation = [c, s];
     let iso = alpha[0] == alpha[1];
     let fed = match feed {
+        Feed::Aniso | Feed::AnisoF16 => {
+            let storage = if feed == Feed::AnisoF16 {
+                Storage::F16
+            } else {
+                Storage::F32
+            };
+            let (minv, magnitude, fresnel) = aniso::ours().sample(alpha, view, storage);
+            // The look-up is in the roughness frame; the methods see the configuration
+            // turned by R_z(−φ), so M⁻¹·R_z(φ).
+            let r_inv = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]];
+            Fed {
+                minv: fit::mat_mul(&minv, &r_inv),
+                magnitude,
+                fresnel,
+                rotation,
+                fit_l1: None,
+            }
+        }
         Feed::Table | Feed::TableF16 | Feed::Published | Feed::PublishedF16 => {
             if !iso {
                 return Err(format!(
-                    "ltc `{}` is an isotropic table; anisotropic alpha [{}, {}] needs ltc = \"fit\"",
+                    "ltc `{}` is an isotropic table; anisotropic alpha [{}, {}] needs ltc = \"fit\", \"aniso\" or \"aniso_f16\"",
                     feed.name(),
                     alpha[0],
                     alpha[1]
