@@ -114,3 +114,111 @@ fn record_old_contract_values() {
     let r = evaluate(&gpu());
     std::fs::write(RECORDED, serde_json::to_string_pretty(&r).unwrap() + "\n").unwrap();
 }
+
+#[test]
+fn an_old_contract_kernel_gives_the_values_recorded_before_the_scene_grew() {
+    let gpu = gpu();
+    let recorded: Recorded = serde_json::from_str(&std::fs::read_to_string(RECORDED).unwrap()).unwrap();
+    let now = evaluate(&gpu);
+    // The evaluator is deterministic on any machine; the GPU's values are the driver's,
+    // comparable bit for bit only on the adapter they were recorded on.
+    assert_eq!(now.cpu_f32_bits, recorded.cpu_f32_bits, "evaluator f32");
+    assert_eq!(now.cpu_f64_bits, recorded.cpu_f64_bits, "evaluator f64");
+    if now.adapter == recorded.adapter {
+        assert_eq!(now.gpu_f32_bits, recorded.gpu_f32_bits, "GPU on {}", now.adapter);
+    } else {
+        eprintln!(
+            "note: GPU values not compared: recorded on {}, running on {}",
+            recorded.adapter, now.adapter
+        );
+    }
+}
+
+/// A kernel that returns Scene member component `K` (a float param, so one kernel reads
+/// them all): 0–2 p1, 3 radius, 4–6 p2, 7 rect_width, 8–10 rect_normal, 11 flags, 12–20 minv
+/// column by column, 21–23 view, 24 alpha_x, 25–27 tangent, 28 alpha_y. `minv: ggx`, so no
+/// fed magnitude multiplies what it reads (the harness runs it on every material here).
+const PROBE: &str = "//! id: user.scene_probe
+//! target: line
+//! source: tests/scene_contract.rs: reads one Scene member component back
+//! minv: ggx
+//! params: K=0.0
+override K: f32 = 0.0;
+fn method(scene: Scene) -> f32 {
+    let k = i32(K);
+    var v = array<f32, 29>(
+        scene.p1.x, scene.p1.y, scene.p1.z, scene.radius,
+        scene.p2.x, scene.p2.y, scene.p2.z, scene.rect_width,
+        scene.rect_normal.x, scene.rect_normal.y, scene.rect_normal.z, f32(scene.flags),
+        scene.minv[0].x, scene.minv[0].y, scene.minv[0].z,
+        scene.minv[1].x, scene.minv[1].y, scene.minv[1].z,
+        scene.minv[2].x, scene.minv[2].y, scene.minv[2].z,
+        scene.view.x, scene.view.y, scene.view.z, scene.alpha_x,
+        scene.tangent.x, scene.tangent.y, scene.tangent.z, scene.alpha_y);
+    return v[k];
+}
+";
+
+#[test]
+fn every_scene_member_reads_back_on_the_gpu_and_in_the_evaluator() {
+    let gpu = gpu();
+    let cs = configs();
+    let mut kernels = builtin_kernels();
+    kernels.push(KernelFile::parse("probe.wgsl", PROBE).unwrap());
+    for k in 0..29 {
+        let m = resolve(&format!("user.scene_probe@{k}"), &kernels).unwrap();
+        let raw = gpu_values(&gpu, &m, &cs);
+        let cpu = m.cpu_column(&cs, Mode::F32).unwrap();
+        for ((c, g), cpu) in cs.iter().zip(raw).zip(cpu) {
+            let input = linelight::scene::SceneInput::new(c);
+            let flat: Vec<f64> = [
+                "p1",
+                "radius",
+                "p2",
+                "rect_width",
+                "rect_normal",
+                "flags",
+                "minv",
+                "view",
+                "alpha_x",
+                "tangent",
+                "alpha_y",
+            ]
+            .iter()
+            .flat_map(|n| input.member(n).unwrap())
+            .collect();
+            let want = flat[k] as f32;
+            assert_eq!(g, want, "{}: GPU member component {k}", c.id);
+            assert_eq!(cpu.unwrap() as f32, want, "{}: evaluator member component {k}", c.id);
+        }
+    }
+}
+
+#[test]
+fn ggx_scenes_carry_the_view_and_roughness_in_the_kernels_frame() {
+    for c in configs() {
+        let s = linelight::scene::SceneInput::new(&c);
+        let Material::Ggx { alpha, view, .. } = &c.material else {
+            assert_eq!(
+                (s.view, s.alpha_x, s.tangent, s.alpha_y),
+                ([0.0; 3], 0.0, [0.0; 3], 0.0),
+                "{}",
+                c.id
+            );
+            continue;
+        };
+        let fed = c.material.fed().unwrap();
+        // The view lies in the xz-plane of the kernels' frame, with vx ≥ 0, and keeps its
+        // angles to the segment: the scene is rotated with it.
+        assert!(s.view[1].abs() < 1e-12 && s.view[0] >= 0.0, "{}: {:?}", c.id, s.view);
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        assert!((dot(s.view, s.p1) - dot(*view, c.p1)).abs() < 1e-12);
+        assert!(
+            (dot(s.tangent, s.view) - view[0]).abs() < 1e-12,
+            "{}: αx's axis rotates with the view",
+            c.id
+        );
+        assert_eq!([s.alpha_x, s.alpha_y], alpha.xy());
+        assert_eq!(s.minv, fed.minv);
+    }
+}
