@@ -199,7 +199,7 @@ impl KernelFile {
                         err(
                             lineno,
                             format!(
-                                "unknown target `{value_shown}` (line, line_upper, line_isotropic, cylinder, caps, tube, rectangle)"
+                                "unknown target `{value_shown}` (line, line_upper, line_isotropic, line_sum, line_isotropic_sum, cylinder, caps, tube, rectangle)"
                             ),
                         )
                     })?)

@@ -66,7 +66,9 @@ impl Method {
     /// Whether the configuration has what the method's target needs.
     pub fn applies(&self, config: &Config) -> bool {
         match self.target() {
-            Target::Line | Target::LineUpper | Target::LineIsotropic => true,
+            Target::Line | Target::LineUpper | Target::LineIsotropic | Target::LineSum | Target::LineIsotropicSum => {
+                true
+            }
             Target::Cylinder | Target::Caps | Target::Tube => config.radius.is_some(),
             Target::Rectangle => config.rect.is_some(),
         }
