@@ -103,8 +103,9 @@ impl Method {
 
     /// Whether the method's result is multiplied by a `ggx` configuration's fed magnitude:
     /// an LTC method's is, a `minv: ggx` kernel's (which evaluates the GGX lobe) is not.
+    /// A composite follows its inner line method (its own formula is linear in `I_line`).
     pub fn scaled_by_magnitude(&self) -> bool {
-        self.kernel.minv != MinvSupport::Ggx
+        self.kernel.minv != MinvSupport::Ggx && self.inner.as_ref().is_none_or(|inner| inner.scaled_by_magnitude())
     }
 
     fn magnitude(&self, config: &Config) -> f64 {
