@@ -15,44 +15,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
 
-fn add(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-fn sub(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn mul(a: Vec3, s: f64) -> Vec3 {
-    a.map(|x| x * s)
-}
-fn dot(a: Vec3, b: Vec3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn norm(a: Vec3) -> f64 {
-    dot(a, a).sqrt()
-}
-fn unit(a: Vec3) -> Vec3 {
-    mul(a, 1.0 / norm(a))
-}
-fn cross(a: Vec3, b: Vec3) -> Vec3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-/// DESIGN §1's GGX D in the material's own frame.
-fn ggx_d(alpha: [f64; 2], v: Vec3, w: Vec3) -> f64 {
-    if w[2] <= 0.0 {
-        return 0.0;
-    }
-    let (ax, ay) = (alpha[0], alpha[1]);
-    let h = unit(add(v, w));
-    let k = (h[0] / ax).powi(2) + (h[1] / ay).powi(2) + h[2] * h[2];
-    let lambda =
-        |u: Vec3| (-1.0 + (1.0 + (ax * ax * u[0] * u[0] + ay * ay * u[1] * u[1]) / (u[2] * u[2])).sqrt()) / 2.0;
-    1.0 / (PI * ax * ay * k * k) / (1.0 + lambda(v) + lambda(w)) / (4.0 * v[2])
-}
+mod common;
+use common::independent::*;
 
 /// The part of the segment with z > 0 (the whole segment when it does not cross z = 0).
 fn clip(p1: Vec3, p2: Vec3) -> (Vec3, Vec3) {
