@@ -13,6 +13,11 @@ struct Scene {
     vec3 rect_normal;
     uint flags;
     mat3 minv;
+    // The ggx material, in this scene's frame; 0 otherwise (prelude.wgsl).
+    vec3 view;
+    float alpha_x;
+    vec3 tangent;
+    float alpha_y;
 };
 
 const uint FLAG_LTC = 1u;

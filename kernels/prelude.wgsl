@@ -6,7 +6,8 @@
 const PI: f32 = 3.14159265358979323846;
 
 // One configuration in the shading frame (origin = shading point, normal = +z).
-// std430, 96 bytes: must match `GpuScene` in src/scene.rs.
+// std430, 128 bytes: must match `GpuScene` in src/scene.rs. Members are only ever added at
+// the end, so a kernel written to an older contract reads what it always read.
 struct Scene {
     p1: vec3<f32>,
     radius: f32,          // 0 when the configuration has no radius
@@ -15,6 +16,13 @@ struct Scene {
     rect_normal: vec3<f32>,
     flags: u32,           // FLAG_* below
     minv: mat3x3<f32>,    // M⁻¹, ω_o = minv * ω; the identity for the diffuse material
+    // The ggx material, in this scene's frame (for ggx the harness rotates the configuration
+    // about z so that the view lies in the xz-plane); all 0 otherwise, so alpha_x > 0 tells
+    // a ggx scene. No new global names: a kernel's own names cannot clash with them.
+    view: vec3<f32>,      // the unit view direction v (v.z > 0)
+    alpha_x: f32,         // GGX roughness along `tangent`
+    tangent: vec3<f32>,   // unit, ⟂ +z: the material's x axis; alpha_y is along cross(+z, tangent)
+    alpha_y: f32,         // GGX roughness along cross(+z, tangent)
 }
 
 const FLAG_LTC: u32 = 1u;

@@ -610,7 +610,9 @@ impl Case {
     /// targets are scale-invariant, so a configuration at distance d gets floor/d for lines.
     pub fn floor_for(&self, target: Target, config: &crate::scene::Config) -> f64 {
         match target {
-            Target::Line | Target::LineUpper | Target::LineIsotropic => self.floor(target) / config.distance_to_line(),
+            Target::Line | Target::LineUpper | Target::LineIsotropic | Target::LineSum | Target::LineIsotropicSum => {
+                self.floor(target) / config.distance_to_line()
+            }
             _ => self.floor(target),
         }
     }

@@ -19,6 +19,10 @@ pub enum MinvSupport {
     /// M⁻¹; a formula for Lambertian irradiance, such as the engines' line irradiance, that has
     /// no LTC form); every other material is reported as unsupported.
     Diffuse,
+    /// Only the `ggx` material: `//! minv: ggx`, a kernel that evaluates the GGX lobe itself
+    /// from the scene's `view`, `alpha_x`, `tangent`, `alpha_y` (an engine's specular term);
+    /// it ignores M⁻¹ and its result is not multiplied by the fed LTC's magnitude.
+    Ggx,
 }
 
 #[derive(Clone, Debug)]
@@ -195,7 +199,7 @@ impl KernelFile {
                         err(
                             lineno,
                             format!(
-                                "unknown target `{value_shown}` (line, line_upper, line_isotropic, cylinder, caps, tube, rectangle)"
+                                "unknown target `{value_shown}` (line, line_upper, line_isotropic, line_sum, line_isotropic_sum, cylinder, caps, tube, rectangle)"
                             ),
                         )
                     })?)
@@ -206,10 +210,11 @@ impl KernelFile {
                         "full" => MinvSupport::Full,
                         "sparse" => MinvSupport::Sparse,
                         "diffuse" | "none" => MinvSupport::Diffuse,
+                        "ggx" => MinvSupport::Ggx,
                         _ => {
                             return Err(err(
                                 lineno,
-                                format!("minv must be `full`, `sparse`, `diffuse` or `none`, got `{value_shown}`"),
+                                format!("minv must be `full`, `sparse`, `diffuse`, `none` or `ggx`, got `{value_shown}`"),
                             ))
                         }
                     })
@@ -366,7 +371,7 @@ mod tests {
         let e = KernelFile::parse("d.wgsl", "//! id: line.d\n//! target: line\n//! minv: diffuse-only\n").unwrap_err();
         assert_eq!(
             e.to_string(),
-            "d.wgsl:3: minv must be `full`, `sparse`, `diffuse` or `none`, got `diffuse-only`"
+            "d.wgsl:3: minv must be `full`, `sparse`, `diffuse`, `none` or `ggx`, got `diffuse-only`"
         );
     }
 

@@ -434,47 +434,38 @@ impl Config {
     }
 }
 
-/// The configuration as a compute kernel reads it: std430 layout of the WGSL `Scene`
-/// in `kernels/prelude.wgsl` (96 bytes). `minv` is stored column-major as WGSL's
-/// `mat3x3<f32>` is, each column padded to 16 bytes.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct GpuScene {
-    pub p1: [f32; 3],
-    pub radius: f32,
-    pub p2: [f32; 3],
-    pub rect_width: f32,
-    pub rect_normal: [f32; 3],
+/// What a kernel reads for one configuration, in f64: the members of the WGSL `Scene` in
+/// `kernels/prelude.wgsl`, in its order. The GPU scene ([`GpuScene`]) is this rounded to f32;
+/// the CPU evaluator (src/interp) reads it as it is (f64) or rounded (f32), so both paths see
+/// one definition. For a `ggx` configuration it is the fed one (`Config::fed`: rotated about
+/// z so the view lies in the xz-plane, M⁻¹ the fed LTC) with the view and roughness in that
+/// frame; `magnitude` is what an LTC method's result is multiplied by (1 otherwise).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneInput {
+    pub p1: Vec3,
+    pub radius: f64,
+    pub p2: Vec3,
+    pub rect_width: f64,
+    pub rect_normal: Vec3,
     pub flags: u32,
-    pub minv_cols: [[f32; 4]; 3],
+    /// Row-major, `ω_o = minv·ω`.
+    pub minv: Mat3,
+    /// `ggx`: the unit view direction v in the scene's frame; 0 otherwise.
+    pub view: Vec3,
+    /// `ggx`: the roughness along `tangent`; 0 otherwise.
+    pub alpha_x: f64,
+    /// `ggx`: the unit surface direction (⟂ +z) along which the roughness is `alpha_x`; it is
+    /// `alpha_y` along `cross(+z, tangent)`. The material's x axis, rotated with the scene.
+    pub tangent: Vec3,
+    pub alpha_y: f64,
+    /// Host-side only, not a `Scene` member.
+    pub magnitude: f64,
 }
 
-pub const FLAG_LTC: u32 = 1;
-pub const FLAG_RADIUS: u32 = 2;
-pub const FLAG_RECT: u32 = 4;
-/// Host-side only: the configuration is a fed `ggx` one, and `minv_cols[0][3]` (padding the
-/// kernel never reads) holds the magnitude the runner multiplies the result by in f32, which
-/// is what a shader's `method(scene) * magnitude` computes.
-pub const FLAG_GGX: u32 = 8;
-
-impl GpuScene {
-    /// The factor a result is multiplied by (the fed magnitude; 1 for other materials).
-    pub fn magnitude(&self) -> f32 {
-        if self.flags & FLAG_GGX != 0 {
-            self.minv_cols[0][3]
-        } else {
-            1.0
-        }
-    }
-}
-
-impl From<&Config> for GpuScene {
-    fn from(c: &Config) -> Self {
-        let (fed, magnitude) = c.fed();
-        let ggx = fed.material != c.material;
+impl SceneInput {
+    pub fn new(config: &Config) -> SceneInput {
+        let (fed, magnitude) = config.fed();
         let c = fed.as_ref();
-        let f = |v: Vec3| [v[0] as f32, v[1] as f32, v[2] as f32];
-        let m = c.material.minv();
         let mut flags = 0;
         if matches!(c.material, Material::Ltc { .. }) {
             flags |= FLAG_LTC;
@@ -485,23 +476,119 @@ impl From<&Config> for GpuScene {
         if c.rect.is_some() {
             flags |= FLAG_RECT;
         }
-        let (rn, rw) = c.rect.as_ref().map(|r| (r.normal, r.width)).unwrap_or(([0.0; 3], 0.0));
-        if ggx {
+        let (rect_normal, rect_width) = c.rect.as_ref().map(|r| (r.normal, r.width)).unwrap_or(([0.0; 3], 0.0));
+        let (mut view, mut tangent, mut alpha) = ([0.0; 3], [0.0; 3], [0.0; 2]);
+        if let (Material::Ggx { alpha: a, view: v, .. }, Some(f)) = (&config.material, config.material.fed()) {
             flags |= FLAG_GGX;
+            view = f.rotate(*v);
+            tangent = f.rotate([1.0, 0.0, 0.0]);
+            alpha = a.xy();
         }
-        let mut scene = GpuScene {
-            p1: f(c.p1),
-            radius: c.radius.unwrap_or(0.0) as f32,
-            p2: f(c.p2),
-            rect_width: rw as f32,
-            rect_normal: f(rn),
+        SceneInput {
+            p1: c.p1,
+            radius: c.radius.unwrap_or(0.0),
+            p2: c.p2,
+            rect_width,
+            rect_normal,
             flags,
+            minv: c.material.minv(),
+            view,
+            alpha_x: alpha[0],
+            tangent,
+            alpha_y: alpha[1],
+            magnitude,
+        }
+    }
+
+    /// A `Scene` member by its WGSL name, flattened as the evaluator lays values out
+    /// (matrices column by column); None for a name the contract does not have.
+    pub fn member(&self, name: &str) -> Option<Vec<f64>> {
+        Some(match name {
+            "p1" => self.p1.to_vec(),
+            "radius" => vec![self.radius],
+            "p2" => self.p2.to_vec(),
+            "rect_width" => vec![self.rect_width],
+            "rect_normal" => self.rect_normal.to_vec(),
+            "flags" => vec![f64::from(self.flags)],
+            "minv" => (0..3).flat_map(|j| (0..3).map(move |i| self.minv[i][j])).collect(),
+            "view" => self.view.to_vec(),
+            "alpha_x" => vec![self.alpha_x],
+            "tangent" => self.tangent.to_vec(),
+            "alpha_y" => vec![self.alpha_y],
+            _ => return None,
+        })
+    }
+}
+
+/// The configuration as a compute kernel reads it: std430 layout of the WGSL `Scene`
+/// in `kernels/prelude.wgsl` (128 bytes). `minv` is stored column-major as WGSL's
+/// `mat3x3<f32>` is, each column padded to 16 bytes. Members are only ever added at the
+/// end (the first 96 bytes are the contract before the ggx members), so a kernel written
+/// to an older contract reads what it always read (tests/scene_contract.rs).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuScene {
+    pub p1: [f32; 3],
+    pub radius: f32,
+    pub p2: [f32; 3],
+    pub rect_width: f32,
+    pub rect_normal: [f32; 3],
+    pub flags: u32,
+    pub minv_cols: [[f32; 4]; 3],
+    pub view: [f32; 3],
+    pub alpha_x: f32,
+    pub tangent: [f32; 3],
+    pub alpha_y: f32,
+}
+
+pub const FLAG_LTC: u32 = 1;
+pub const FLAG_RADIUS: u32 = 2;
+pub const FLAG_RECT: u32 = 4;
+/// A `ggx` configuration: `view`, `alpha_x`, `tangent` and `alpha_y` are set, and M⁻¹ is the
+/// fed LTC. Host-side, `minv_cols[0][3]` (padding the kernel never reads) holds the magnitude
+/// the runner multiplies an LTC method's result by in f32, which is what a shader's
+/// `method(scene) * magnitude` computes.
+pub const FLAG_GGX: u32 = 8;
+
+impl GpuScene {
+    /// The factor an LTC method's result is multiplied by (the fed magnitude; 1 for other
+    /// materials). A `minv: ggx` kernel evaluates the GGX lobe itself and is not scaled.
+    pub fn magnitude(&self) -> f32 {
+        if self.flags & FLAG_GGX != 0 {
+            self.minv_cols[0][3]
+        } else {
+            1.0
+        }
+    }
+}
+
+impl From<&SceneInput> for GpuScene {
+    fn from(s: &SceneInput) -> Self {
+        let f = |v: Vec3| [v[0] as f32, v[1] as f32, v[2] as f32];
+        let m = s.minv;
+        let mut scene = GpuScene {
+            p1: f(s.p1),
+            radius: s.radius as f32,
+            p2: f(s.p2),
+            rect_width: s.rect_width as f32,
+            rect_normal: f(s.rect_normal),
+            flags: s.flags,
             minv_cols: [0, 1, 2].map(|j| [m[0][j] as f32, m[1][j] as f32, m[2][j] as f32, 0.0]),
+            view: f(s.view),
+            alpha_x: s.alpha_x as f32,
+            tangent: f(s.tangent),
+            alpha_y: s.alpha_y as f32,
         };
-        if ggx {
-            scene.minv_cols[0][3] = magnitude as f32;
+        if s.flags & FLAG_GGX != 0 {
+            scene.minv_cols[0][3] = s.magnitude as f32;
         }
         scene
+    }
+}
+
+impl From<&Config> for GpuScene {
+    fn from(c: &Config) -> Self {
+        GpuScene::from(&SceneInput::new(c))
     }
 }
 
@@ -560,8 +647,12 @@ mod tests {
     }
 
     #[test]
-    fn gpu_layout_is_96_bytes_column_major() {
-        assert_eq!(std::mem::size_of::<GpuScene>(), 96);
+    fn gpu_layout_is_128_bytes_column_major() {
+        assert_eq!(std::mem::size_of::<GpuScene>(), 128);
+        // The contract's first 96 bytes are where they were before the ggx members.
+        assert_eq!(std::mem::offset_of!(GpuScene, minv_cols), 48);
+        assert_eq!(std::mem::offset_of!(GpuScene, view), 96);
+        assert_eq!(std::mem::offset_of!(GpuScene, tangent), 112);
         let mut c = base();
         c.material = Material::Ltc {
             minv: [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.0]],

@@ -13,6 +13,11 @@ pub enum Target {
     /// `∫ D(ω_p)/‖p‖² dl`: isotropic point emitters of unit intensity per unit length (the
     /// model Unreal Engine 4 and O3DE shade); `line` differs by the width `2‖ω_p × ω_t‖`.
     LineIsotropic,
+    /// `line` of the material's D plus a white Lambertian base `max(0, ω.z)/π` (weights 1
+    /// and 1): what a method summing a diffuse and a specular term approximates.
+    LineSum,
+    /// `line_isotropic` of the same sum.
+    LineIsotropicSum,
     /// Eq. 1.2 over the tube's side, radius R.
     Cylinder,
     /// Eq. 1.29 for both end disks.
@@ -24,10 +29,12 @@ pub enum Target {
 }
 
 impl Target {
-    pub const ALL: [Target; 7] = [
+    pub const ALL: [Target; 9] = [
         Target::Line,
         Target::LineUpper,
         Target::LineIsotropic,
+        Target::LineSum,
+        Target::LineIsotropicSum,
         Target::Cylinder,
         Target::Caps,
         Target::Tube,
@@ -39,6 +46,8 @@ impl Target {
             Target::Line => "line",
             Target::LineUpper => "line_upper",
             Target::LineIsotropic => "line_isotropic",
+            Target::LineSum => "line_sum",
+            Target::LineIsotropicSum => "line_isotropic_sum",
             Target::Cylinder => "cylinder",
             Target::Caps => "caps",
             Target::Tube => "tube",

@@ -88,7 +88,10 @@ fn every_builtin_method_runs_and_matches_its_port_and_the_reference() {
         let values = run(&gpu, &m, &configs);
         assert_eq!(values.len(), configs.len());
         for (c, &v) in configs.iter().zip(&values) {
-            if !m.applies(c) {
+            // A `minv: ggx` kernel reads the ggx roughness, which is 0 on this set's materials
+            // (its lobe is undefined there): tests/mrp_specular.rs checks those on ggx.
+            let ggx_only = m.kernel.minv == linelight::kernel::MinvSupport::Ggx;
+            if !m.applies(c) || (ggx_only && !m.supports(c)) {
                 continue;
             }
             let r = reference(c, m.target()).unwrap();

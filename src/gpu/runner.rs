@@ -24,6 +24,9 @@ pub struct MethodPipeline {
     /// A composite's inner line method's params, in its header order.
     pub inner_params: Vec<(String, f64)>,
     pub(crate) pipeline: wgpu::ComputePipeline,
+    /// Whether a fed `ggx` scene's magnitude multiplies the result (an LTC method's does; a
+    /// `minv: ggx` kernel evaluates the GGX lobe itself: `Method::scaled_by_magnitude`).
+    pub(crate) scaled: bool,
     /// For a method with loops of no static trip count on a device with a loop limit: the
     /// variant that counts loop trips, and the limit (loops.rs).
     pub(crate) counter: Option<(Box<MethodPipeline>, u64)>,
@@ -98,6 +101,7 @@ impl Gpu {
             params,
             inner_params,
             pipeline,
+            scaled: method.scaled_by_magnitude() && !counting,
             counter: None,
         })
     }
@@ -132,8 +136,10 @@ impl Gpu {
             let from = values.len();
             self.run_chunk(pipeline, &buffers, part, &mut values).map_err(fail)?;
             // A fed `ggx` configuration's magnitude, in f32 (scene.rs, FLAG_GGX).
-            for (v, s) in values[from..].iter_mut().zip(part) {
-                *v *= s.magnitude();
+            if pipeline.scaled {
+                for (v, s) in values[from..].iter_mut().zip(part) {
+                    *v *= s.magnitude();
+                }
             }
             progress(values.len());
         }

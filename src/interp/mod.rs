@@ -307,17 +307,17 @@ impl Program {
             .find(|(n, _, _)| n == "minv")
             .map(|(_, o, l)| (*o, *l))
             .ok_or_else(|| anyhow!("`Scene` has no `minv`"))?;
+        let dummy = crate::scene::SceneInput::new(&Config {
+            id: String::new(),
+            p1: [0.0; 3],
+            p2: [0.0; 3],
+            radius: None,
+            rect: None,
+            material: crate::scene::Material::Diffuse,
+        });
         for (name, _, len) in &scene {
-            let dummy = Config {
-                id: String::new(),
-                p1: [0.0; 3],
-                p2: [0.0; 3],
-                radius: None,
-                rect: None,
-                material: crate::scene::Material::Diffuse,
-            };
-            if scene_member(&dummy, name).map(|v| v.len()) != Some(*len) {
-                anyhow::bail!("`Scene` member `{name}` has no CPU input (src/interp/mod.rs `scene_member`)");
+            if dummy.member(name).map(|v| v.len()) != Some(*len) {
+                anyhow::bail!("`Scene` member `{name}` has no CPU input (src/scene.rs `SceneInput::member`)");
             }
         }
         Ok(Program {
@@ -384,8 +384,9 @@ impl Program {
         let mut comps = vec![vec![0.0; n]; total];
         let half = if shadow_f32 { split } else { n };
         for (i, c) in configs.iter().enumerate() {
+            let input = crate::scene::SceneInput::new(c);
             for (name, off, _) in &self.scene {
-                let v = scene_member(c, name).expect("checked in prepare");
+                let v = input.member(name).expect("checked in prepare");
                 for (k, x) in v.into_iter().enumerate() {
                     let r = x as f32 as f64;
                     for lane in [i, i + half] {
@@ -407,7 +408,9 @@ impl Program {
         ex.run(self.scene_lanes(configs, n, split, false))
     }
 
-    /// `method` on every configuration, in `mode`.
+    /// `method` on every configuration, in `mode`. The kernel reads each configuration as the
+    /// GPU does (`SceneInput`: a `ggx` one fed and rotated); an LTC method's fed magnitude is
+    /// the caller's to apply (`Method::cpu_column`).
     pub fn eval(&self, configs: &[&Config], mode: Mode) -> Result<Vec<f64>> {
         let parts = configs
             .par_chunks(CHUNK)
@@ -521,36 +524,6 @@ impl Attribution {
         });
         out
     }
-}
-
-/// A `Scene` member's value for a configuration, as `GpuScene` lays it out (in f64).
-fn scene_member(c: &Config, name: &str) -> Option<Vec<f64>> {
-    let rect = c.rect.as_ref();
-    Some(match name {
-        "p1" => c.p1.to_vec(),
-        "p2" => c.p2.to_vec(),
-        "radius" => vec![c.radius.unwrap_or(0.0)],
-        "rect_width" => vec![rect.map_or(0.0, |r| r.width)],
-        "rect_normal" => rect.map_or(vec![0.0; 3], |r| r.normal.to_vec()),
-        "flags" => {
-            use crate::scene::{FLAG_LTC, FLAG_RADIUS, FLAG_RECT};
-            let ltc = matches!(c.material, crate::scene::Material::Ltc { .. });
-            let flags = [
-                (ltc, FLAG_LTC),
-                (c.radius.is_some(), FLAG_RADIUS),
-                (rect.is_some(), FLAG_RECT),
-            ]
-            .iter()
-            .filter(|(on, _)| *on)
-            .fold(0, |f, (_, bit)| f | bit);
-            vec![f64::from(flags)]
-        }
-        "minv" => {
-            let m = c.material.minv();
-            (0..3).flat_map(|j| (0..3).map(move |i| m[i][j])).collect()
-        }
-        _ => return None,
-    })
 }
 
 /// The written digits of an f32 literal whose source text is `text`.

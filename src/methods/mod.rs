@@ -58,6 +58,7 @@ impl Method {
             MinvSupport::Full => true,
             MinvSupport::Sparse => config.material.is_sparse(),
             MinvSupport::Diffuse => config.material == crate::scene::Material::Diffuse,
+            MinvSupport::Ggx => matches!(config.material, crate::scene::Material::Ggx { .. }),
         };
         own && self.inner.as_ref().is_none_or(|inner| inner.supports(config))
     }
@@ -65,7 +66,9 @@ impl Method {
     /// Whether the configuration has what the method's target needs.
     pub fn applies(&self, config: &Config) -> bool {
         match self.target() {
-            Target::Line | Target::LineUpper | Target::LineIsotropic => true,
+            Target::Line | Target::LineUpper | Target::LineIsotropic | Target::LineSum | Target::LineIsotropicSum => {
+                true
+            }
             Target::Cylinder | Target::Caps | Target::Tube => config.radius.is_some(),
             Target::Rectangle => config.rect.is_some(),
         }
@@ -74,14 +77,14 @@ impl Method {
     /// The kernel's `f64` (or `cpu_f32`) column on `configs` from the CPU evaluator
     /// (src/interp): None where the method does not apply to a configuration.
     ///
-    /// For a `ggx` configuration the kernel sees the fed (rotated, `ltc`) configuration and its
-    /// result is multiplied by the magnitude in the mode's precision, as a shader multiplies.
+    /// For a `ggx` configuration the kernel sees the fed (rotated) configuration, and an LTC
+    /// method's result is multiplied by the fed magnitude in the mode's precision, as a shader
+    /// multiplies; a `minv: ggx` kernel evaluates the lobe itself and is not scaled.
     pub fn cpu_column(&self, configs: &[Config], mode: crate::interp::Mode) -> anyhow::Result<Vec<Option<f64>>> {
         let program = crate::interp::program(self)?;
-        let fed: Vec<(std::borrow::Cow<'_, Config>, f64)> =
-            configs.iter().filter(|c| self.applies(c)).map(Config::fed).collect();
-        let inputs: Vec<&Config> = fed.iter().map(|(c, _)| c.as_ref()).collect();
-        let mut values = program.eval(&inputs, mode)?.into_iter().zip(fed.iter().map(|f| f.1));
+        let inputs: Vec<&Config> = configs.iter().filter(|c| self.applies(c)).collect();
+        let magnitudes = inputs.iter().map(|c| self.magnitude(c));
+        let mut values = program.eval(&inputs, mode)?.into_iter().zip(magnitudes);
         let scaled = |(v, magnitude): (f64, f64)| match mode {
             crate::interp::Mode::F32 => f64::from(v as f32 * magnitude as f32),
             _ => v * magnitude,
@@ -96,6 +99,20 @@ impl Method {
                 }
             })
             .collect())
+    }
+
+    /// Whether the method's result is multiplied by a `ggx` configuration's fed magnitude:
+    /// an LTC method's is, a `minv: ggx` kernel's (which evaluates the GGX lobe) is not.
+    /// A composite follows its inner line method (its own formula is linear in `I_line`).
+    pub fn scaled_by_magnitude(&self) -> bool {
+        self.kernel.minv != MinvSupport::Ggx && self.inner.as_ref().is_none_or(|inner| inner.scaled_by_magnitude())
+    }
+
+    fn magnitude(&self, config: &Config) -> f64 {
+        match config.material.fed() {
+            Some(fed) if self.scaled_by_magnitude() => fed.magnitude,
+            _ => 1.0,
+        }
     }
 
     /// [`Method::cpu_column`], or where the evaluator cannot run this kernel (an `f16` kernel,

@@ -32,16 +32,27 @@ pub fn reference(config: &Config, target: Target) -> Option<Estimate> {
         Target::Line => Some(line::line(&lobe, p1, p2, false)),
         Target::LineUpper => Some(line::line(&lobe, p1, p2, true)),
         Target::LineIsotropic => Some(line::line_isotropic(&lobe, p1, p2)),
+        // The material's lobe and the Lambertian base integrated apart (each with its own
+        // splits and peaks), the values and error estimates summed.
+        Target::LineSum => Some(sum(
+            line::line(&lobe, p1, p2, false),
+            line::line(&Lobe::new(&Material::Diffuse), p1, p2, false),
+        )),
+        Target::LineIsotropicSum => Some(sum(
+            line::line_isotropic(&lobe, p1, p2),
+            line::line_isotropic(&Lobe::new(&Material::Diffuse), p1, p2),
+        )),
         Target::Cylinder => radius.map(|r| surface::cylinder(&lobe, p1, p2, r)),
         Target::Caps => radius.map(|r| surface::caps(&lobe, p1, p2, r)),
-        Target::Tube => radius.map(|r| {
-            let (side, caps) = (surface::cylinder(&lobe, p1, p2, r), surface::caps(&lobe, p1, p2, r));
-            Estimate {
-                value: side.value + caps.value,
-                error: side.error + caps.error,
-            }
-        }),
+        Target::Tube => radius.map(|r| sum(surface::cylinder(&lobe, p1, p2, r), surface::caps(&lobe, p1, p2, r))),
         Target::Rectangle => config.rect.as_ref().map(|rect| surface::rectangle(&lobe, p1, p2, rect)),
+    }
+}
+
+fn sum(a: Estimate, b: Estimate) -> Estimate {
+    Estimate {
+        value: a.value + b.value,
+        error: a.error + b.error,
     }
 }
 

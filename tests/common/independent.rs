@@ -1,5 +1,5 @@
 //! What the independent-reference tests (tests/reference_independent.rs,
-//! tests/ggx_reference.rs) share, written from DESIGN §1 alone and never from src/: vector
+//! tests/ggx_reference.rs, tests/mrp_specular.rs) share, written from DESIGN §1 alone and never from src/: vector
 //! arithmetic on `[f64; 3]`, Gauss–Legendre nodes by Newton on Pₙ, a basis about a
 //! direction, and the GGX lobe term by term.
 
