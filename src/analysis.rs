@@ -194,6 +194,19 @@ pub struct Analysis {
     pub verdict: Verdict,
 }
 
+/// How much of `line` lies below the horizon (`line − line_upper`, the LTC leak), per material.
+#[derive(Clone, Debug, Serialize)]
+pub struct Leak {
+    pub material: String,
+    pub configurations: usize,
+    /// Configurations where more than 1e-6 of `line` comes from below the horizon.
+    pub leaking: usize,
+    /// Median and max of the leaking configurations' fraction (median: sketched past
+    /// `stats::EXACT_LIMIT` leaking configurations).
+    pub median_fraction: f64,
+    pub max_fraction: f64,
+}
+
 /// Where one configuration counts, computed once per configuration and shared by every
 /// method and pair.
 struct Placement {

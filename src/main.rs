@@ -1,7 +1,7 @@
 //! The `linelight` command line: sweep, eval, bench, fit, chain, adapters, check.
 
 use clap::{Parser, Subcommand};
-use linelight::analysis::{analyse, Verdict};
+use linelight::analysis::Verdict;
 use linelight::case::Case;
 use linelight::claims;
 use linelight::gpu::{self, Gpu};
@@ -327,17 +327,59 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             )?;
             let device = open_gpu(&gpu)?;
             eprintln!(
-                "case {}: {} configurations, {} methods",
+                "case {}: {} natural configurations (and top-ups), {} methods",
                 setup.case.name,
-                setup.samples.len(),
+                setup.case.materials.iter().map(|m| m.count).sum::<usize>(),
                 setup.methods.len()
             );
-            let measured = sweep::measure(&setup, &device, gpu.chunk)?;
+            let observe = gate.wants_observations();
+            // --raw is staged while measuring (rows streamed a chunk at a time, never all in
+            // memory) and put in place after the report set: on an error neither replaces
+            // anything.
+            let (measured, staged) = match &raw {
+                None => (
+                    sweep::measure(
+                        &setup,
+                        &device,
+                        sweep::MeasureOptions {
+                            chunk: gpu.chunk,
+                            observe,
+                            raw: None,
+                            shard: None,
+                        },
+                    )?,
+                    None,
+                ),
+                Some(raw) => {
+                    let mut measured = None;
+                    let mut failed = None;
+                    let staged = stage_output(raw, &mut |w| {
+                        match sweep::measure(
+                            &setup,
+                            &device,
+                            sweep::MeasureOptions {
+                                chunk: gpu.chunk,
+                                observe,
+                                raw: Some(w),
+                                shard: None,
+                            },
+                        ) {
+                            Ok(m) => measured = Some(m),
+                            Err(e) => failed = Some(e),
+                        }
+                        Ok(())
+                    })?;
+                    if let Some(e) = failed {
+                        return Err(e);
+                    }
+                    (measured.expect("measured or failed"), Some(staged))
+                }
+            };
             let t = std::time::Instant::now();
-            let analysis = analyse(&setup.case, &setup.samples, &measured.references, &measured.runs);
+            let analysis = measured.accumulators.finish(&setup.case, &setup.methods);
             let facts = claims::Facts {
                 analysis: Some(analysis.clone()),
-                configurations: setup.samples.iter().filter(|s| s.natural()).count(),
+                configurations: measured.natural.iter().sum(),
                 costs: measured.costs.clone(),
                 disagreements: measured.disagreements.clone(),
                 found: measured.found.clone(),
@@ -345,7 +387,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             };
             let claim_results = claims::evaluate(&setup.case.claims, facts);
             let stages = report::Stages {
-                analysis_seconds: t.elapsed().as_secs_f64(),
+                analysis_seconds: measured.timing.statistics_seconds + t.elapsed().as_secs_f64(),
                 until_report_seconds: started.elapsed().as_secs_f64(),
             };
             let input = ReportInput {
@@ -357,43 +399,6 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 analysis: &analysis,
                 claims: &claim_results,
                 stages,
-            };
-            // --raw is staged first and put in place after the report set: on an error
-            // neither replaces anything.
-            let staged = match &raw {
-                None => None,
-                // Streamed a block at a time: the rows never all sit in memory.
-                Some(raw) => Some(stage_output(raw, &mut |w| {
-                    for (block, samples) in setup.samples.chunks(eval::ROW_BLOCK).enumerate() {
-                        let rows: Vec<_> = samples
-                            .par_iter()
-                            .enumerate()
-                            .map(|(j, s)| {
-                                let i = block * eval::ROW_BLOCK + j;
-                                let f32s: Vec<f32> = measured.runs.iter().map(|r| r.f32[i]).collect();
-                                let f64s: Vec<Option<f64>> = measured.runs.iter().map(|r| r.f64[i]).collect();
-                                let c32s: Vec<Option<f64>> =
-                                    measured.runs.iter().map(|r| r.f32_cpu[i].map(f64::from)).collect();
-                                let mut row = eval::result_row(
-                                    &s.config,
-                                    &measured.references[i],
-                                    &setup.methods,
-                                    &f32s,
-                                    &f64s,
-                                    &c32s,
-                                );
-                                row["material"] = setup.case.materials[s.material].name.clone().into();
-                                row["axes"] = serde_json::to_value(&s.axes).expect("axes serialise");
-                                // Empty for the natural sample; a top-up lists the (axis, bin) it fills.
-                                row["strata"] = serde_json::to_value(&s.strata).expect("strata serialise");
-                                row["config"] = serde_json::to_value(&s.config).expect("config serialises");
-                                row
-                            })
-                            .collect();
-                        w.write_all(&eval::to_jsonl(&rows))?;
-                    }
-                    Ok(())
-                })?),
             };
             for path in report::write_reports(&dir, &input)? {
                 eprintln!("wrote {}", path.display());

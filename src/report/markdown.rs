@@ -38,8 +38,8 @@ fn pct(x: f64) -> String {
 fn head(w: &mut String, input: &ReportInput) {
     let (case, a, m) = (input.case, input.analysis, input.measured);
     let _ = writeln!(w, "# {}\n", case.title);
-    let natural = input.setup.samples.iter().filter(|s| s.natural()).count();
-    let topped = input.setup.samples.len() - natural;
+    let natural: usize = input.measured.natural.iter().sum();
+    let topped = input.measured.configurations - natural;
     let per_material: Vec<String> = case
         .materials
         .iter()
@@ -808,13 +808,8 @@ fn sampling(w: &mut String, input: &ReportInput) {
     );
     let _ = writeln!(w, "|---|---:|---:|---:|---:|---|");
     for (k, family) in case.materials.iter().enumerate() {
-        let natural = input
-            .setup
-            .samples
-            .iter()
-            .filter(|s| s.material == k && s.natural())
-            .count();
-        let t = input.setup.topups.iter().find(|t| t.family == family.name);
+        let natural = input.measured.natural[k];
+        let t = input.measured.topups.iter().find(|t| t.family == family.name);
         let (draws, kept) = t.map_or((0, 0), |t| (t.draws, t.kept));
         let thin: Vec<String> = t.map_or(Vec::new(), |t| {
             t.thin
