@@ -59,7 +59,7 @@ fn head(w: &mut String, input: &ReportInput) {
         m.timing.adapter,
         input.command_line,
     );
-    let _ = writeln!(w, "{}\n", super::draws_line(&input.setup.draws));
+    let _ = writeln!(w, "{}\n", super::draws_line(&input.measured.draws));
     if let Some(n) = input.setup.count_override {
         let _ = writeln!(
             w,
@@ -464,9 +464,14 @@ pub fn render(input: &ReportInput) -> String {
         let _ = writeln!(w, "## NaN and inf\n");
         let _ = writeln!(
             w,
-            "{} configurations gave NaN or ±inf from at least one method; all are in `nonfinite.jsonl` \
+            "{} configurations gave NaN or ±inf from at least one method; {} are in `nonfinite.jsonl` \
              (replay with `linelight eval`).\n",
-            nonfinite.len()
+            input.measured.nonfinite_total,
+            if nonfinite.len() == input.measured.nonfinite_total {
+                "all".to_string()
+            } else {
+                format!("the first {}", nonfinite.len())
+            }
         );
         let _ = writeln!(w, "| configuration | methods |");
         let _ = writeln!(w, "|---|---|");
