@@ -75,10 +75,26 @@ enum Command {
         /// Override every material's count (quick runs; the committed reports use the case's).
         #[arg(long)]
         count: Option<usize>,
+        /// Evaluate shard I of N (a deterministic partition of the configurations) and write its
+        /// mergeable state to OUT/shard-I-of-N.cbor instead of a report (docs/scale.md).
+        #[arg(long, value_name = "I/N")]
+        shard: Option<String>,
         #[command(flatten)]
         gpu: GpuArgs,
         #[command(flatten)]
         gate: GateArgs,
+    },
+    /// Merge the shard states of a sharded sweep (`sweep --shard i/n`) into the report the
+    /// unsharded sweep writes (docs/scale.md).
+    Merge {
+        /// Directories holding the shard-I-of-N.cbor files (every shard exactly once).
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+        /// Reports go to OUT/<case name>/.
+        #[arg(long, default_value = "reports")]
+        out: PathBuf,
+        #[command(flatten)]
+        gpu: GpuArgs,
     },
     /// Evaluate explicit configurations (JSONL in, JSONL out; DESIGN §3).
     Eval {
@@ -290,6 +306,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             out,
             raw,
             count,
+            shard,
             gpu,
             gate,
         } => {
@@ -298,10 +315,20 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             if count == Some(0) {
                 anyhow::bail!("--count must be at least 1");
             }
+            let shard = shard.as_deref().map(sweep::parse_shard).transpose()?;
+            if shard.is_some()
+                && (raw.is_some() || gate.save_baseline.is_some() || gate.baseline.is_some() || gate.junit.is_some())
+            {
+                anyhow::bail!(
+                    "--shard writes a shard state only: --raw and the gate options belong to the unsharded sweep"
+                );
+            }
             let loaded = Case::load(&case)?;
             // Every output is checked before any work: the report folder, then --raw.
             let dir = out.join(&loaded.name);
-            check_set(&dir)?;
+            if shard.is_none() {
+                check_set(&dir)?;
+            }
             if let Some(raw) = &raw {
                 let mut inputs = vec![("the case file", case.as_path())];
                 inputs.extend(kernel_inputs(&gpu.kernels));
@@ -332,6 +359,27 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 setup.case.materials.iter().map(|m| m.count).sum::<usize>(),
                 setup.methods.len()
             );
+            if let Some(shard) = shard {
+                let part = sweep::measure_part(
+                    &setup,
+                    &device,
+                    sweep::MeasureOptions {
+                        chunk: gpu.chunk,
+                        observe: false,
+                        raw: None,
+                        shard: Some(shard),
+                    },
+                )?;
+                let path = sweep::write_shard(&out, &case, &gpu.kernels, &part)?;
+                println!(
+                    "shard {}/{}: {} configurations; state: {}",
+                    shard.0,
+                    shard.1,
+                    part.timing.configurations,
+                    path.display()
+                );
+                return Ok(ExitCode::SUCCESS);
+            }
             let observe = gate.wants_observations();
             // --raw is staged while measuring (rows streamed a chunk at a time, never all in
             // memory) and put in place after the report set: on an error neither replaces
@@ -375,71 +423,48 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                     (measured.expect("measured or failed"), Some(staged))
                 }
             };
-            let t = std::time::Instant::now();
-            let analysis = measured.accumulators.finish(&setup.case, &setup.methods);
-            let facts = claims::Facts {
-                analysis: Some(analysis.clone()),
-                configurations: measured.natural.iter().sum(),
-                costs: measured.costs.clone(),
-                disagreements: measured.disagreements.clone(),
-                found: measured.found.clone(),
-                ..claims::dry_facts(&setup.case, setup.methods.iter().map(|m| m.label.clone()).collect())
-            };
-            let claim_results = claims::evaluate(&setup.case.claims, facts);
-            let stages = report::Stages {
-                analysis_seconds: measured.timing.statistics_seconds + t.elapsed().as_secs_f64(),
-                until_report_seconds: started.elapsed().as_secs_f64(),
-            };
-            let input = ReportInput {
-                case_path: &case_path,
-                command_line: &command_line,
-                case: &setup.case,
-                setup: &setup,
-                measured: &measured,
-                analysis: &analysis,
-                claims: &claim_results,
-                stages,
-            };
-            for path in report::write_reports(&dir, &input)? {
-                eprintln!("wrote {}", path.display());
-            }
-            if let (Some(staged), Some(raw)) = (staged, &raw) {
-                staged.commit()?;
-                eprintln!("wrote {}", raw.display());
-            }
-            let gate_report = gate.finish(&setup, &measured, &analysis.checks)?;
-            let regressed = gate_report.as_ref().is_some_and(|g| g.regressed());
-            let failed = analysis.checks.iter().filter(|c| !c.pass).count();
-            let stale: Vec<&str> = claim_results
-                .iter()
-                .filter(|c| !c.holds)
-                .map(|c| c.id.as_str())
-                .collect();
-            println!(
-                "verdict: {} ({} of {} checks pass); claims: {} of {} hold{}; report: {}",
-                analysis.verdict.name(),
-                analysis.checks.len() - failed,
-                analysis.checks.len(),
-                claim_results.len() - stale.len(),
-                claim_results.len(),
-                if stale.is_empty() {
-                    String::new()
-                } else {
-                    format!(" (STALE: {})", stale.join(", "))
+            report_sweep(
+                SweepRun {
+                    case_path: &case_path,
+                    command_line: &command_line,
+                    dir: &dir,
+                    started,
+                    raw: raw.as_deref(),
                 },
-                dir.join("report.md").display()
-            );
-            if let Some(g) = &gate_report {
-                println!("{}", g.summary());
-            }
-            // 3: a finding no longer holds (the report says which); 1: a tolerance failed.
-            Ok(if !stale.is_empty() {
-                ExitCode::from(3)
-            } else if analysis.verdict == Verdict::Fail || regressed {
-                ExitCode::from(1)
-            } else {
-                ExitCode::SUCCESS
-            })
+                &setup,
+                &measured,
+                staged,
+                &gate,
+            )
+        }
+        Command::Merge { shards, out, gpu } => {
+            let started = std::time::Instant::now();
+            let command_line = shell_words::join(std::env::args());
+            let (case_path, kernels, parts) = sweep::read_shards(&shards)?;
+            let loaded = Case::load(std::path::Path::new(&case_path))?;
+            let dir = out.join(&loaded.name);
+            check_set(&dir)?;
+            let setup = sweep::prepare_with(loaded, &kernels, parts[0].count_override, false)?;
+            let part = sweep::Partial::merge_all(&setup, parts)?;
+            let gate = linelight::baseline::GateRun::prepare(None, None, None, Default::default(), &setup)?;
+            let device = open_gpu(&GpuArgs {
+                kernels: kernels.clone(),
+                ..gpu
+            })?;
+            let measured = sweep::finish(&setup, &device, part, 0)?;
+            report_sweep(
+                SweepRun {
+                    case_path: &case_path,
+                    command_line: &command_line,
+                    dir: &dir,
+                    started,
+                    raw: None,
+                },
+                &setup,
+                &measured,
+                None,
+                &gate,
+            )
         }
         Command::Eval {
             input,
@@ -741,4 +766,96 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             Ok(if bad == 0 { ExitCode::SUCCESS } else { ExitCode::from(2) })
         }
     }
+}
+
+/// Where a sweep's report goes and how the run was called.
+struct SweepRun<'a> {
+    case_path: &'a str,
+    command_line: &'a str,
+    dir: &'a std::path::Path,
+    started: std::time::Instant,
+    raw: Option<&'a std::path::Path>,
+}
+
+/// Analyses a measured sweep (or merged shards), writes its report set, and gives the verdict's
+/// exit code.
+fn report_sweep(
+    run: SweepRun,
+    setup: &sweep::Setup,
+    measured: &sweep::Measured,
+    staged: Option<linelight::io::Staged>,
+    gate: &linelight::baseline::GateRun,
+) -> anyhow::Result<ExitCode> {
+    let SweepRun {
+        case_path,
+        command_line,
+        dir,
+        started,
+        raw,
+    } = run;
+    let t = std::time::Instant::now();
+    let analysis = measured.accumulators.finish(&setup.case, &setup.methods);
+    let facts = claims::Facts {
+        analysis: Some(analysis.clone()),
+        configurations: measured.natural.iter().sum(),
+        costs: measured.costs.clone(),
+        disagreements: measured.disagreements.clone(),
+        found: measured.found.clone(),
+        ..claims::dry_facts(&setup.case, setup.methods.iter().map(|m| m.label.clone()).collect())
+    };
+    let claim_results = claims::evaluate(&setup.case.claims, facts);
+    let stages = report::Stages {
+        analysis_seconds: measured.timing.statistics_seconds + t.elapsed().as_secs_f64(),
+        until_report_seconds: started.elapsed().as_secs_f64(),
+    };
+    let input = ReportInput {
+        case_path,
+        command_line,
+        case: &setup.case,
+        setup,
+        measured,
+        analysis: &analysis,
+        claims: &claim_results,
+        stages,
+    };
+    for path in report::write_reports(dir, &input)? {
+        eprintln!("wrote {}", path.display());
+    }
+    if let (Some(staged), Some(raw)) = (staged, &raw) {
+        staged.commit()?;
+        eprintln!("wrote {}", raw.display());
+    }
+    let gate_report = gate.finish(setup, measured, &analysis.checks)?;
+    let regressed = gate_report.as_ref().is_some_and(|g| g.regressed());
+    let failed = analysis.checks.iter().filter(|c| !c.pass).count();
+    let stale: Vec<&str> = claim_results
+        .iter()
+        .filter(|c| !c.holds)
+        .map(|c| c.id.as_str())
+        .collect();
+    println!(
+        "verdict: {} ({} of {} checks pass); claims: {} of {} hold{}; report: {}",
+        analysis.verdict.name(),
+        analysis.checks.len() - failed,
+        analysis.checks.len(),
+        claim_results.len() - stale.len(),
+        claim_results.len(),
+        if stale.is_empty() {
+            String::new()
+        } else {
+            format!(" (STALE: {})", stale.join(", "))
+        },
+        dir.join("report.md").display()
+    );
+    if let Some(g) = &gate_report {
+        println!("{}", g.summary());
+    }
+    // 3: a finding no longer holds (the report says which); 1: a tolerance failed.
+    Ok(if !stale.is_empty() {
+        ExitCode::from(3)
+    } else if analysis.verdict == Verdict::Fail || regressed {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
 }

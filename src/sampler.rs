@@ -18,7 +18,7 @@ use rand_chacha::ChaCha8Rng;
 /// tilt of the segment. The `_o` axes are the same in the configuration transformed by M⁻¹,
 /// the diffuse configuration the LTC formulas actually integrate (equal to the plain ones for
 /// the diffuse material).
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Axes {
     pub length: f64,
     pub center: f64,
@@ -112,7 +112,7 @@ pub fn line_axes(p1: Vec3, p2: Vec3) -> (f64, f64, f64, f64, f64) {
     (near, far, subtended, foot[2] / d, t[2].abs())
 }
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Sample {
     pub config: Config,
     /// Index into the case's materials (families).
@@ -196,7 +196,7 @@ fn draw_opt(source: &mut dyn Uniforms, d: &Option<Dist>, default: f64) -> f64 {
 
 /// How one family's draws went: every degenerate draw is redrawn, counted here, and shown
 /// in the report (`summary.json` `draws`, one line in the report header).
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Draws {
     pub family: String,
     /// Draws made, accepted and rejected.
@@ -398,7 +398,7 @@ impl<'a> NaturalStream<'a> {
 
 /// What topping up did for one family: how many draws it made, how many it kept, and the
 /// bins still below the target when the budget ran out.
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct TopUp {
     pub family: String,
     pub draws: usize,

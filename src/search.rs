@@ -196,7 +196,7 @@ fn seed_of(case: &Case, family: usize, tag: &str) -> u64 {
 
 /// A configuration of the sweep's sample a search may start from: the sample, the searched
 /// methods' values on it, its reference and its score.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct Start {
     pub sample: Sample,
     pub values: Vec<f32>,
@@ -206,34 +206,30 @@ pub struct Start {
 
 /// The `k` highest-scoring starts seen, in bounded memory (a sweep streams its sample past it).
 /// Ties keep the earlier configuration, as a stable sort of the whole sample would.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct TopK {
     k: usize,
-    seen: u64,
-    items: Vec<(u64, Start)>,
+    /// (the configuration's global index, the start).
+    items: Vec<(usize, Start)>,
 }
 
 impl TopK {
     pub fn new(k: usize) -> TopK {
-        TopK {
-            k,
-            seen: 0,
-            items: Vec::new(),
-        }
+        TopK { k, items: Vec::new() }
     }
 
     /// Whether a start of this score would be kept (checked before building it).
     pub fn wants(&self, score: f64) -> bool {
-        self.items.len() < self.k || self.items.iter().any(|(_, s)| score > s.score)
+        self.items.len() < self.k || self.items.iter().any(|(_, s)| score >= s.score)
     }
 
-    pub fn push(&mut self, start: Start) {
-        self.seen += 1;
+    /// Offers configuration `index` (global: ties keep the lower index).
+    pub fn push(&mut self, index: usize, start: Start) {
         if self.k == 0 {
             return;
         }
         if self.items.len() < self.k {
-            self.items.push((self.seen, start));
+            self.items.push((index, start));
             return;
         }
         // The weakest kept: lowest score, latest among equals.
@@ -243,8 +239,16 @@ impl TopK {
             .enumerate()
             .min_by(|(_, a), (_, b)| a.1.score.total_cmp(&b.1.score).then(b.0.cmp(&a.0)))
             .expect("k > 0 items");
-        if start.score > self.items[w].1.score {
-            self.items[w] = (self.seen, start);
+        let weakest = &self.items[w];
+        if start.score > weakest.1.score || (start.score == weakest.1.score && index < weakest.0) {
+            self.items[w] = (index, start);
+        }
+    }
+
+    /// Adds another part's starts: the k best of both.
+    pub fn merge(&mut self, o: TopK) {
+        for (index, start) in o.items {
+            self.push(index, start);
         }
     }
 

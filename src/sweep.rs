@@ -131,7 +131,7 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
 }
 
 /// Wall-clock time of each stage, measured in this run.
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Timing {
     pub configurations: usize,
     pub adapter: String,
@@ -196,6 +196,10 @@ pub type Observations = Vec<Vec<(bool, Vec<crate::baseline::Obs>)>>;
 /// memory together, then folded into the statistics and dropped.
 pub const MEASURE_CHUNK: usize = 1 << 16;
 
+/// Configurations per block of the shard partition: shard i of n evaluates the blocks
+/// k ≡ i (mod n) of the global order (natural sample family by family, then top-ups).
+pub const SHARD_BLOCK: usize = 1024;
+
 /// Non-finite configurations kept for `nonfinite.jsonl` (the count is always complete).
 pub const NONFINITE_KEPT: usize = 1000;
 
@@ -208,7 +212,8 @@ pub struct MeasureOptions<'a> {
     pub observe: bool,
     /// `--raw`: every configuration's row (eval output format), written chunk by chunk.
     pub raw: Option<&'a mut dyn std::io::Write>,
-    /// `--shard i/n`: evaluate only the measuring chunks k with k mod n = i.
+    /// `--shard i/n`: evaluate only the configurations of global index g with
+    /// ⌊g / SHARD_BLOCK⌋ mod n = i.
     pub shard: Option<(usize, usize)>,
 }
 
@@ -220,6 +225,28 @@ pub struct MethodAttribution {
     pub configurations: usize,
     /// Most bits first.
     pub lines: Vec<crate::interp::LineSummary>,
+}
+
+impl Timing {
+    /// Adds another shard's measuring times (searches and cost are measured once, at merge).
+    fn add(&mut self, o: &Timing) {
+        self.configurations += o.configurations;
+        for (a, b) in [(&mut self.gpu, &o.gpu)] {
+            for (x, y) in a.iter_mut().zip(b) {
+                x.1 += y.1;
+            }
+        }
+        for (a, b) in [(&mut self.f64_ports, &o.f64_ports), (&mut self.f32_ports, &o.f32_ports)] {
+            for (x, y) in a.iter_mut().zip(b) {
+                x.1 += y.1;
+            }
+        }
+        self.references_seconds += o.references_seconds;
+        self.references_evaluated += o.references_evaluated;
+        self.statistics_seconds += o.statistics_seconds;
+        self.chunks += o.chunks;
+        self.total_seconds += o.total_seconds;
+    }
 }
 
 /// Configurations per method for the attribution (a shadow f64 evaluation beside the f32
@@ -288,24 +315,149 @@ pub fn references(samples: &[crate::scene::Config], targets: &BTreeSet<Target>, 
 
 /// What a streamed sweep keeps of its configurations while they pass: bounded state only
 /// (best starts, first non-finite ones, subsets), except the gate's observations when asked.
-struct Kept {
+/// Configurations are named by their global index (natural sample first, then top-ups), so
+/// shards' states merge into what one run keeps.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Kept {
     /// Per `[search]` method (index into the methods) and family: the highest-error starts.
     search: Vec<(usize, usize, crate::search::TopK)>,
     /// Per ordered compared pair (a, b) and family: the highest-ratio starts.
     disagree: Vec<(usize, usize, usize, crate::search::TopK)>,
-    nonfinite: Vec<(crate::scene::Config, Vec<String>)>,
+    nonfinite: Vec<(usize, crate::scene::Config, Vec<String>)>,
     nonfinite_total: usize,
     /// Per family: configurations with both `line` and `line_upper`, and the leaking fractions.
     leak: Vec<(usize, crate::stats::Distribution)>,
+    #[serde(skip)]
     observations: Option<Observations>,
-    cost: Vec<Vec<crate::scene::Config>>,
-    attribution: Vec<Vec<crate::scene::Config>>,
+    /// Per family: the first natural configurations (the cost measurement's).
+    cost: Vec<Vec<(usize, crate::scene::Config)>>,
+    /// Per method: its spread subset for the attribution.
+    attribution: Vec<Vec<(usize, crate::scene::Config)>>,
     natural: Vec<usize>,
-    /// Configurations seen so far (this shard's), for the attribution's spread.
+    /// Configurations measured (this part's).
     seen: usize,
 }
 
+impl Kept {
+    /// Adds another part's state (other configurations of the same sweep).
+    fn merge(&mut self, o: Kept, per_family_cost: usize) {
+        for (a, b) in self.search.iter_mut().zip(o.search) {
+            a.2.merge(b.2);
+        }
+        for (a, b) in self.disagree.iter_mut().zip(o.disagree) {
+            a.3.merge(b.3);
+        }
+        self.nonfinite.extend(o.nonfinite);
+        self.nonfinite.sort_by_key(|x| x.0);
+        self.nonfinite.truncate(NONFINITE_KEPT);
+        self.nonfinite_total += o.nonfinite_total;
+        for (a, b) in self.leak.iter_mut().zip(&o.leak) {
+            a.0 += b.0;
+            a.1.merge(&b.1);
+        }
+        let first = |a: &mut Vec<(usize, crate::scene::Config)>, b: Vec<(usize, crate::scene::Config)>, n: usize| {
+            a.extend(b);
+            a.sort_by_key(|x| x.0);
+            a.truncate(n);
+        };
+        for (a, b) in self.cost.iter_mut().zip(o.cost) {
+            first(a, b, per_family_cost);
+        }
+        for (a, b) in self.attribution.iter_mut().zip(o.attribution) {
+            first(a, b, ATTRIBUTION_CONFIGURATIONS);
+        }
+        for (a, b) in self.natural.iter_mut().zip(&o.natural) {
+            *a += b;
+        }
+        self.seen += o.seen;
+    }
+}
+
+/// The version of the shard state file (`--shard`, docs/scale.md).
+pub const SHARD_FORMAT: u32 = 1;
+
+/// What measuring a sweep's configurations, or one shard's, leaves before the searches and
+/// the cost pass: mergeable (`linelight merge`). Written by `sweep --shard i/n` as JSON.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Partial {
+    pub format: u32,
+    pub case: String,
+    pub seed: u64,
+    pub count_override: Option<usize>,
+    /// (i, n): this part is shard i of n; (0, 1) for a whole run.
+    pub shard: (usize, usize),
+    pub methods: Vec<String>,
+    pub accumulators: Accumulators,
+    pub kept: Kept,
+    pub draws: Vec<sampler::Draws>,
+    pub topups: Vec<sampler::TopUp>,
+    pub timing: Timing,
+}
+
+impl Partial {
+    /// Merges shards 0..n of one sweep (each exactly once) into the state of the whole run.
+    pub fn merge_all(setup: &Setup, mut parts: Vec<Partial>) -> anyhow::Result<Partial> {
+        anyhow::ensure!(!parts.is_empty(), "merge: no shard states given");
+        parts.sort_by_key(|p| p.shard.0);
+        let n = parts[0].shard.1;
+        let labels: Vec<String> = setup.methods.iter().map(|m| m.label.clone()).collect();
+        for (k, p) in parts.iter().enumerate() {
+            anyhow::ensure!(
+                p.format == SHARD_FORMAT,
+                "merge: shard state format {} (this linelight reads {SHARD_FORMAT})",
+                p.format
+            );
+            anyhow::ensure!(
+                p.case == setup.case.name && p.seed == setup.case.seed && p.count_override == setup.count_override,
+                "merge: shard {}/{} is of case `{}` seed {} --count {:?}, not `{}` seed {} --count {:?}",
+                p.shard.0,
+                p.shard.1,
+                p.case,
+                p.seed,
+                p.count_override,
+                setup.case.name,
+                setup.case.seed,
+                setup.count_override
+            );
+            anyhow::ensure!(
+                p.methods == labels,
+                "merge: shard {}/{} measured methods {:?}, the case has {:?}",
+                p.shard.0,
+                p.shard.1,
+                p.methods,
+                labels
+            );
+            anyhow::ensure!(
+                p.shard == (k, n),
+                "merge: expected shards 0..{n} of {n} once each, found {}/{} in place {k}",
+                p.shard.0,
+                p.shard.1
+            );
+        }
+        anyhow::ensure!(parts.len() == n, "merge: {} of {n} shards given", parts.len());
+        let per_family_cost = COST_CONFIGURATIONS.div_ceil(setup.case.materials.len().max(1));
+        let mut it = parts.into_iter();
+        let mut all = it.next().expect("not empty");
+        for p in it {
+            all.accumulators.merge(&p.accumulators).map_err(anyhow::Error::msg)?;
+            all.kept.merge(p.kept, per_family_cost);
+            all.timing.add(&p.timing);
+        }
+        all.shard = (0, 1);
+        Ok(all)
+    }
+}
+
+/// Measures a sweep: its configurations chunk by chunk ([`measure_part`]), then the searches,
+/// the cost pass and the attribution ([`finish`]).
 pub fn measure(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow::Result<Measured> {
+    let chunk = options.chunk;
+    let part = measure_part(setup, gpu, options)?;
+    finish(setup, gpu, part, chunk)
+}
+
+/// Measures the configurations (all, or one shard's) chunk by chunk into a [`Partial`].
+pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow::Result<Partial> {
     let MeasureOptions {
         chunk,
         observe,
@@ -357,13 +509,15 @@ pub fn measure(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow::Res
     let mut acc = Accumulators::new(case, methods);
     let mut stream = sampler::NaturalStream::new(case);
     let mut topups: Option<(std::vec::IntoIter<Sample>, Vec<sampler::TopUp>)> = None;
+    // Configurations drawn before the current chunk (every chunk, this shard's or not).
+    let mut offset = 0;
     let pb = bar(expected, "measuring (GPU, CPU, references)");
     let (mut gpu_seconds, mut f64_seconds, mut f32_seconds) = (
         vec![0.0; methods.len()],
         vec![0.0; methods.len()],
         vec![0.0; methods.len()],
     );
-    for k in 0.. {
+    loop {
         // The natural sample a chunk at a time, then the top-ups its counts call for.
         let samples: Vec<Sample> = match &mut topups {
             None => {
@@ -385,7 +539,15 @@ pub fn measure(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow::Res
         if samples.is_empty() {
             break;
         }
-        if shard.is_some_and(|(i, n)| k % n != i) {
+        // Every configuration's global index; a shard keeps the blocks of SHARD_BLOCK that are its.
+        let first = offset;
+        offset += samples.len();
+        let (samples, global): (Vec<Sample>, Vec<usize>) = samples
+            .into_iter()
+            .zip(first..)
+            .filter(|&(_, g)| shard.is_none_or(|(i, n)| (g / SHARD_BLOCK) % n == i))
+            .unzip();
+        if samples.is_empty() {
             continue;
         }
         timing.chunks += 1;
@@ -444,7 +606,7 @@ pub fn measure(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow::Res
         keep(
             case,
             methods,
-            &samples,
+            (&samples, &global),
             &references,
             &runs,
             &mut kept,
@@ -457,14 +619,49 @@ pub fn measure(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow::Res
         pb.inc(samples.len() as u64);
     }
     pb.finish_and_clear();
-    let (_, topup_reports) = topups.unwrap_or_default();
+    let (_, topups) = topups.unwrap_or_default();
     for (j, m) in methods.iter().enumerate() {
-        let n = timing.configurations as f64;
-        timing.gpu.push((m.label.clone(), gpu_seconds[j], n / gpu_seconds[j]));
+        timing.gpu.push((m.label.clone(), gpu_seconds[j], 0.0));
         timing.f64_ports.push((m.label.clone(), f64_seconds[j]));
         timing.f32_ports.push((m.label.clone(), f32_seconds[j]));
     }
+    timing.total_seconds = start.elapsed().as_secs_f64();
+    Ok(Partial {
+        format: SHARD_FORMAT,
+        case: case.name.clone(),
+        seed: case.seed,
+        count_override: setup.count_override,
+        shard: shard.unwrap_or((0, 1)),
+        methods: methods.iter().map(|m| m.label.clone()).collect(),
+        accumulators: acc,
+        kept,
+        draws: stream.draws,
+        topups,
+        timing,
+    })
+}
 
+/// The searches from the kept starts, the cost pass and the attribution: a measured sweep.
+pub fn finish(setup: &Setup, gpu: &Gpu, part: Partial, _chunk: usize) -> anyhow::Result<Measured> {
+    let start = Instant::now();
+    let case = &setup.case;
+    let methods = &setup.methods;
+    let mut pipelines = Vec::new();
+    for m in methods {
+        pipelines.push(gpu.pipeline(m)?);
+    }
+    let disagree_spec = case.disagreements.clone().unwrap_or_default();
+    let Partial {
+        accumulators: acc,
+        mut kept,
+        draws,
+        topups: topup_reports,
+        mut timing,
+        ..
+    } = part;
+    for g in &mut timing.gpu {
+        g.2 = timing.configurations as f64 / g.1;
+    }
     let mut found = Vec::new();
     if let Some(spec) = &case.search {
         let t = Instant::now();
@@ -508,7 +705,7 @@ pub fn measure(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow::Res
     }
     // Cost: the first configurations of every family, each method timed in interleaved rounds.
     let t = Instant::now();
-    let cost_configs: Vec<_> = kept.cost.concat();
+    let cost_configs: Vec<_> = kept.cost.iter().flatten().map(|(_, c)| c.clone()).collect();
     let pb = bar(methods.len() * (COST_WARMUP + COST_REPEATS), "cost (GPU timestamps)");
     let costs = crate::bench::bench_methods_with(
         gpu,
@@ -521,9 +718,14 @@ pub fn measure(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow::Res
     pb.finish_and_clear();
     timing.cost_seconds = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let attribution = attribute(methods, &kept.attribution)?;
+    let subsets: Vec<Vec<crate::scene::Config>> = kept
+        .attribution
+        .iter()
+        .map(|s| s.iter().map(|(_, c)| c.clone()).collect())
+        .collect();
+    let attribution = attribute(methods, &subsets)?;
     timing.attribution_seconds = t.elapsed().as_secs_f64();
-    timing.total_seconds = start.elapsed().as_secs_f64();
+    timing.total_seconds += start.elapsed().as_secs_f64();
     let leak = case
         .materials
         .iter()
@@ -549,9 +751,9 @@ pub fn measure(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow::Res
         attribution,
         configurations: kept.seen,
         natural: kept.natural,
-        draws: stream.draws,
+        draws,
         topups: topup_reports,
-        nonfinite: kept.nonfinite,
+        nonfinite: kept.nonfinite.into_iter().map(|(_, c, m)| (c, m)).collect(),
         nonfinite_total: kept.nonfinite_total,
         leak,
         observations: kept.observations,
@@ -562,7 +764,7 @@ pub fn measure(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow::Res
 fn keep(
     case: &Case,
     methods: &[Method],
-    samples: &[Sample],
+    (samples, global): (&[Sample], &[usize]),
     references: &References,
     runs: &[MethodRun],
     kept: &mut Kept,
@@ -573,7 +775,7 @@ fn keep(
     for (i, s) in samples.iter().enumerate() {
         let c = &s.config;
         let f = s.material;
-        let global = kept.seen;
+        let global = global[i];
         kept.seen += 1;
         for (m, family, top) in &mut kept.search {
             let method = &methods[*m];
@@ -584,12 +786,15 @@ fn keep(
                 continue;
             };
             if let Some(score) = rel_error(runs[*m].f32[i], r).filter(|&x| top.wants(x)) {
-                top.push(Start {
-                    sample: s.clone(),
-                    values: vec![runs[*m].f32[i]],
-                    reference: *r,
-                    score,
-                });
+                top.push(
+                    global,
+                    Start {
+                        sample: s.clone(),
+                        values: vec![runs[*m].f32[i]],
+                        reference: *r,
+                        score,
+                    },
+                );
             }
         }
         for (a, b, family, top) in &mut kept.disagree {
@@ -605,12 +810,15 @@ fn keep(
                 .zip(rel_error(vb, r))
                 .map(|(x, y)| disagreement_ratio(x, y, eps));
             if let Some(score) = score.filter(|&x| top.wants(x)) {
-                top.push(Start {
-                    sample: s.clone(),
-                    values: vec![va, vb],
-                    reference: *r,
-                    score,
-                });
+                top.push(
+                    global,
+                    Start {
+                        sample: s.clone(),
+                        values: vec![va, vb],
+                        reference: *r,
+                        score,
+                    },
+                );
             }
         }
         let bad: Vec<String> = runs
@@ -621,7 +829,7 @@ fn keep(
         if !bad.is_empty() {
             kept.nonfinite_total += 1;
             if kept.nonfinite.len() < NONFINITE_KEPT {
-                kept.nonfinite.push((c.clone(), bad));
+                kept.nonfinite.push((global, c.clone(), bad));
             }
         }
         if let (Some(line), Some(upper)) = (references[i].get(&Target::Line), references[i].get(&Target::LineUpper)) {
@@ -635,7 +843,7 @@ fn keep(
         if global.is_multiple_of(attribution_step) {
             for (subset, m) in kept.attribution.iter_mut().zip(methods) {
                 if m.applies(c) && subset.len() < ATTRIBUTION_CONFIGURATIONS {
-                    subset.push(c.clone());
+                    subset.push((global, c.clone()));
                 }
             }
         }
@@ -644,7 +852,7 @@ fn keep(
         }
         kept.natural[f] += 1;
         if kept.cost[f].len() < per_family_cost {
-            kept.cost[f].push(c.clone());
+            kept.cost[f].push((global, c.clone()));
         }
         if let Some(obs) = &mut kept.observations {
             for (per_method, run) in obs.iter_mut().zip(runs) {
@@ -689,4 +897,87 @@ fn write_raw(
         .collect();
     w.write_all(&crate::eval::to_jsonl(&rows))?;
     Ok(())
+}
+
+/// `--shard I/N`: shard I (from 0) of N.
+pub fn parse_shard(text: &str) -> anyhow::Result<(usize, usize)> {
+    let bad = || anyhow::anyhow!("--shard `{text}`: write I/N with 0 ≤ I < N, e.g. 0/4");
+    let (i, n) = text.split_once('/').ok_or_else(bad)?;
+    let (i, n): (usize, usize) = (
+        i.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if n == 0 || i >= n {
+        return Err(bad());
+    }
+    Ok((i, n))
+}
+
+/// A shard state file: the case file and kernels the shard ran (merge reads them again, so
+/// every shard and the merge run from the same checkout) and its [`Partial`].
+#[derive(serde::Serialize, serde::Deserialize)]
+struct ShardFile {
+    case_file: String,
+    kernels: Vec<PathBuf>,
+    state: Partial,
+}
+
+/// Writes `OUT/shard-I-of-N.cbor` (atomically); returns its path.
+pub fn write_shard(
+    out: &std::path::Path,
+    case_file: &std::path::Path,
+    kernels: &[PathBuf],
+    part: &Partial,
+) -> anyhow::Result<PathBuf> {
+    let (i, n) = part.shard;
+    let path = out.join(format!("shard-{i}-of-{n}.cbor"));
+    std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
+    let file = ShardFile {
+        case_file: case_file.display().to_string(),
+        kernels: kernels.to_vec(),
+        state: part.clone(),
+    };
+    let mut bytes = Vec::new();
+    ciborium::into_writer(&file, &mut bytes).map_err(|e| anyhow::anyhow!("cannot encode the shard state: {e}"))?;
+    crate::io::write_bytes(&path, &bytes)?;
+    Ok(path)
+}
+
+/// Every `shard-*-of-*.cbor` in the given directories: the case file, the kernels, the states.
+pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<(String, Vec<PathBuf>, Vec<Partial>)> {
+    let mut files = Vec::new();
+    for d in dirs {
+        let entries = std::fs::read_dir(d).map_err(|e| anyhow::anyhow!("merge: cannot read {}: {e}", d.display()))?;
+        for e in entries {
+            let p = e?.path();
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+            if name.starts_with("shard-") && name.ends_with(".cbor") {
+                files.push(p);
+            }
+        }
+    }
+    files.sort();
+    anyhow::ensure!(!files.is_empty(), "merge: no shard-I-of-N.cbor in {:?}", dirs);
+    let mut first: Option<(String, Vec<PathBuf>)> = None;
+    let mut parts = Vec::new();
+    for p in files {
+        let text = std::fs::read(&p).map_err(|e| anyhow::anyhow!("merge: cannot read {}: {e}", p.display()))?;
+        let f: ShardFile = ciborium::from_reader(text.as_slice())
+            .map_err(|e| anyhow::anyhow!("merge: {}: not a shard state: {e}", p.display()))?;
+        match &first {
+            None => first = Some((f.case_file.clone(), f.kernels.clone())),
+            Some((c, k)) => anyhow::ensure!(
+                c == &f.case_file && k == &f.kernels,
+                "merge: {} ran case file {} with kernels {:?}; the first shard {} with {:?}",
+                p.display(),
+                f.case_file,
+                f.kernels,
+                c,
+                k
+            ),
+        }
+        parts.push(f.state);
+    }
+    let (case_file, kernels) = first.expect("at least one file");
+    Ok((case_file, kernels, parts))
 }
