@@ -133,9 +133,9 @@ pub const EXACT_LIMIT: usize = 2048;
 /// The sketch's relative accuracy: a sketched quantile q̂ of true value q has |q̂ − q| ≤ α·q.
 pub const SKETCH_ALPHA: f64 = 0.01;
 
-/// Most buckets a sketch keeps (α = 1 %: about 35 decades of values at full accuracy; past
+/// Most buckets a sketch keeps (α = 1 %: about 17 decades of values at full accuracy; past
 /// that the lowest buckets are merged, so only the smallest quantiles would lose accuracy).
-const SKETCH_BINS: u32 = 4096;
+const SKETCH_BINS: u32 = 2048;
 
 fn sketch_config() -> Config {
     // Every positive value is bucketed (errors of f64 formulas reach 1e-17 and below); exact
