@@ -490,45 +490,59 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             let lines = eval::count_lines(&input)?;
             limits::check(
                 &format!("eval of {} ({lines} lines)", input.display()),
-                limits::eval_estimate(lines, methods.len() as u64),
+                // One chunk of configurations, values and rows at a time, plus the ids (checked
+                // for repeats over the whole input).
+                limits::Bytes(
+                    limits::eval_estimate(lines.min(eval_chunk() as u64), methods.len() as u64)
+                        .0
+                        .saturating_add(64u64.saturating_mul(lines)),
+                ),
                 limits::max_memory(),
             )
             .map_err(anyhow::Error::msg)?;
-            let configs = eval::read_configs(&input)?;
+            // Every line checked before the GPU is touched; then the input is streamed a chunk
+            // at a time (GPU, references, rows), in constant memory and input order.
+            eval::for_each_config(&input, eval_chunk(), true, &mut |_| Ok(()))?;
             let device = open_gpu(&gpu)?;
             let pipelines = methods
                 .iter()
                 .map(|m| device.pipeline(m))
                 .collect::<Result<Vec<_>, _>>()?;
-            let scenes: Vec<_> = configs.iter().map(linelight::scene::GpuScene::from).collect();
-            let mut f32s = Vec::new();
-            for p in &pipelines {
-                f32s.push(device.run(p, &scenes, gpu.chunk, &mut |_| {})?.values);
-            }
-            drop(scenes);
-            // References first, all of them: one that cannot be computed is an error, and
-            // nothing is written.
-            let references: Vec<_> = configs
-                .par_iter()
-                .map(|c| {
-                    eval::targets_of(c)
-                        .into_iter()
-                        .filter_map(|t| linelight::reference::reference(c, t).map(|e| (t, e)))
-                        .collect::<std::collections::BTreeMap<_, _>>()
-                })
-                .collect();
-            eval::check_references(&input, &configs, &references)?;
+            let mut written = 0;
+            // The output is staged: a reference that cannot be computed (an error) leaves
+            // nothing in place of what was there.
             write_output(&output, &mut |w| {
-                for (block, part) in configs.chunks(eval::ROW_BLOCK).enumerate() {
-                    let at = block * eval::ROW_BLOCK..block * eval::ROW_BLOCK + part.len();
-                    let values: Vec<&[f32]> = f32s.iter().map(|v| &v[at.clone()]).collect();
-                    let rows = eval::rows(part, &methods, &values, &references[at], attribution)
-                        .map_err(std::io::Error::other)?;
-                    w.write_all(&eval::to_jsonl(&rows))?;
-                }
-                Ok(())
+                let mut chunk = |configs: Vec<linelight::scene::Config>| -> anyhow::Result<()> {
+                    let scenes: Vec<_> = configs.iter().map(linelight::scene::GpuScene::from).collect();
+                    let mut f32s = Vec::new();
+                    for p in &pipelines {
+                        f32s.push(device.run(p, &scenes, gpu.chunk, &mut |_| {})?.values);
+                    }
+                    drop(scenes);
+                    let references: Vec<_> = configs
+                        .par_iter()
+                        .map(|c| {
+                            eval::targets_of(c)
+                                .into_iter()
+                                .filter_map(|t| linelight::reference::reference(c, t).map(|e| (t, e)))
+                                .collect::<std::collections::BTreeMap<_, _>>()
+                        })
+                        .collect();
+                    eval::check_references(&input, &configs, &references)?;
+                    for (block, part) in configs.chunks(eval::ROW_BLOCK).enumerate() {
+                        let at = block * eval::ROW_BLOCK..block * eval::ROW_BLOCK + part.len();
+                        let values: Vec<&[f32]> = f32s.iter().map(|v| &v[at.clone()]).collect();
+                        let rows = eval::rows(part, &methods, &values, &references[at], attribution)?;
+                        w.write_all(&eval::to_jsonl(&rows))?;
+                    }
+                    written += configs.len();
+                    Ok(())
+                };
+                eval::for_each_config(&input, eval_chunk(), false, &mut chunk)
+                    .map(|_| ())
+                    .map_err(|e| std::io::Error::other(format!("{e:#}")))
             })?;
-            eprintln!("wrote {} results to {}", configs.len(), output.display());
+            eprintln!("wrote {written} results to {}", output.display());
             Ok(ExitCode::SUCCESS)
         }
         Command::Bench {
@@ -858,4 +872,14 @@ fn report_sweep(
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// Configurations eval holds at a time: `eval::EVAL_CHUNK`, or `LINELIGHT_EVAL_CHUNK` (tests
+/// use a small one to cover several chunks with a few lines).
+fn eval_chunk() -> usize {
+    std::env::var("LINELIGHT_EVAL_CHUNK")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .filter(|&n: &usize| n > 0)
+        .unwrap_or(eval::EVAL_CHUNK)
 }

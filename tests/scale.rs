@@ -100,3 +100,66 @@ fn bad_shard_is_refused() {
         assert!(stderr(&o).contains("--shard"), "{}", stderr(&o));
     }
 }
+
+#[test]
+fn eval_streams_in_chunks_keeping_the_order() {
+    let t = tempfile::tempdir().unwrap();
+    let d = t.path();
+    // Eleven configurations: with chunks of 3 the input is read in four chunks.
+    let lines: String = (0..11)
+        .map(|i| {
+            let z = 0.5 + 0.1 * i as f64;
+            format!(
+                "{{\"id\":\"c{i}\",\"p1\":[0.3,-0.2,{z}],\"p2\":[0.9,0.4,{}],\"material\":{{\"kind\":\"diffuse\"}}}}\n",
+                z + 0.6
+            )
+        })
+        .collect();
+    let input = write(d, "in.jsonl", &lines);
+    let run = |chunk: &str, out: &str| {
+        let output = d.join(out);
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_linelight"))
+            .env("LINELIGHT_EVAL_CHUNK", chunk)
+            .args([
+                "eval",
+                "--input",
+                input.to_str().unwrap(),
+                "--output",
+                output.to_str().unwrap(),
+            ])
+            .args(["--methods", "line.ltc2023,line.numeric@16"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read_to_string(output).unwrap()
+    };
+    let (chunked, whole) = (run("3", "a.jsonl"), run("1000", "b.jsonl"));
+    assert_eq!(chunked, whole);
+    let ids: Vec<String> = chunked
+        .lines()
+        .map(|l| {
+            serde_json::from_str::<serde_json::Value>(l).unwrap()["id"]
+                .as_str()
+                .unwrap()
+                .to_string()
+        })
+        .collect();
+    assert_eq!(ids, (0..11).map(|i| format!("c{i}")).collect::<Vec<_>>());
+    // A bad line anywhere is found before any chunk is evaluated: nothing is written.
+    let bad = write(d, "bad.jsonl", &format!("{lines}{{\"id\":\"x\"}}\n"));
+    let output = d.join("c.jsonl");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .env("LINELIGHT_EVAL_CHUNK", "3")
+        .args([
+            "eval",
+            "--input",
+            bad.to_str().unwrap(),
+            "--output",
+            output.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("bad.jsonl:12"), "{}", stderr(&o));
+    assert!(!output.exists());
+}
