@@ -5,9 +5,9 @@ use crate::case::{BinAxis, Case, Tolerance};
 use crate::methods::Method;
 use crate::reference::Estimate;
 use crate::sampler::Sample;
-use crate::stats::{BinAccumulator, BinStats, Outcome, Quantiles};
+use crate::stats::{BinAccumulator, BinStats, Distribution, Outcome, Quantiles};
 use crate::target::Target;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// What was measured for one method over all configurations of a sweep.
@@ -194,40 +194,68 @@ pub struct Analysis {
     pub verdict: Verdict,
 }
 
-/// The reference a method is judged against on configuration `i`, if it has one.
-fn reference_for(references: &References, i: usize, target: Target) -> Option<Estimate> {
-    references[i].get(&target).copied()
+/// How much of `line` lies below the horizon (`line − line_upper`, the LTC leak), per material.
+#[derive(Clone, Debug, Serialize)]
+pub struct Leak {
+    pub material: String,
+    pub configurations: usize,
+    /// Configurations where more than 1e-6 of `line` comes from below the horizon.
+    pub leaking: usize,
+    /// Median and max of the leaking configurations' fraction (median: sketched past
+    /// `stats::EXACT_LIMIT` leaking configurations).
+    pub median_fraction: f64,
+    pub max_fraction: f64,
 }
 
-/// For one material: which bin of every axis each configuration falls in (computed once), and
-/// whether it counts there (natural samples everywhere, top-ups only in their own strata).
-struct Binning {
-    /// Indices of the material's configurations.
-    members: Vec<usize>,
-    /// `bin[a][j]`: the bin of axis `a` that counts configuration `members[j]`, if any.
-    bin: Vec<Vec<Option<usize>>>,
+/// Where one configuration counts, computed once per configuration and shared by every
+/// method and pair.
+struct Placement {
+    material: usize,
+    natural: bool,
+    /// Per bin axis: the bin that counts it (natural samples everywhere, top-ups only in their
+    /// own strata).
+    bins: Vec<Option<usize>>,
+    /// Per map: the cell (x, y) a natural configuration falls in.
+    cells: Vec<Option<(usize, usize)>>,
 }
 
-fn binning(case: &Case, samples: &[Sample], material: usize) -> Binning {
-    let members: Vec<usize> = (0..samples.len())
-        .filter(|&i| samples[i].material == material)
-        .collect();
-    let bin = case
-        .bins
-        .iter()
-        .enumerate()
-        .map(|(a, axis)| {
-            members
-                .iter()
-                .map(|&i| {
-                    let s = &samples[i];
-                    let k = axis.index(s.axes.get(&axis.axis))?;
-                    (s.natural() || s.strata.contains(&(a, k))).then_some(k)
-                })
-                .collect()
-        })
-        .collect();
-    Binning { members, bin }
+fn place(case: &Case, s: &Sample) -> Placement {
+    let natural = s.natural();
+    Placement {
+        material: s.material,
+        natural,
+        bins: case
+            .bins
+            .iter()
+            .enumerate()
+            .map(|(a, axis)| {
+                let k = axis.index(s.axes.get(&axis.axis))?;
+                (natural || s.strata.contains(&(a, k))).then_some(k)
+            })
+            .collect(),
+        cells: case
+            .maps
+            .iter()
+            .map(|map| {
+                if !natural {
+                    return None;
+                }
+                Some((
+                    map.x.index(s.axes.get(&map.x.axis))?,
+                    map.y.index(s.axes.get(&map.y.axis))?,
+                ))
+            })
+            .collect(),
+    }
+}
+
+/// One chunk of measured configurations: what the analysis folds in, then forgets.
+pub struct Chunk<'a> {
+    pub samples: &'a [Sample],
+    /// References of the same configurations, by target.
+    pub references: &'a [BTreeMap<Target, Estimate>],
+    /// One per method, in the order the accumulators were made for; this chunk's values only.
+    pub runs: &'a [MethodRun],
 }
 
 /// One configuration's contribution to a bin.
@@ -257,18 +285,12 @@ fn push(acc: &mut BinAccumulator, j: Judged) {
     }
 }
 
-/// Configuration `i` judged against target `judged`, or None when it has no such reference or
-/// the method does not apply.
-fn judge(
-    case: &Case,
-    samples: &[Sample],
-    references: &References,
-    run: &MethodRun,
-    i: usize,
-    judged: Target,
-) -> Option<Judged> {
-    let r = reference_for(references, i, judged)?;
-    if !run.method.applies(&samples[i].config) {
+/// Configuration `i` of a chunk judged against target `judged`, or None when it has no such
+/// reference or the method does not apply.
+fn judge(case: &Case, chunk: &Chunk, run: &MethodRun, i: usize, judged: Target) -> Option<Judged> {
+    let r = chunk.references[i].get(&judged).copied()?;
+    let config = &chunk.samples[i].config;
+    if !run.method.applies(config) {
         return None;
     }
     if r.value == 0.0 {
@@ -277,7 +299,7 @@ fn judge(
             f64: run.f64[i],
         });
     }
-    let floor = case.floor_for(judged, &samples[i].config);
+    let floor = case.floor_for(judged, config);
     Some(Judged::Lit {
         gpu: Outcome::of_f32(run.f32[i], r.value, floor),
         cpu: run.f32_cpu[i].map(|v| Outcome::of_f32(v, r.value, floor)),
@@ -287,81 +309,122 @@ fn judge(
     })
 }
 
-fn method_stats(case: &Case, samples: &[Sample], references: &References, run: &MethodRun) -> MethodStats {
-    let target = run.method.target();
-    let materials = case
-        .materials
-        .iter()
-        .enumerate()
-        .map(|(m, family)| {
-            let binning = binning(case, samples, m);
-            let mut all = BinAccumulator::default();
-            let mut upper = BinAccumulator::default();
-            let mut axes: Vec<Vec<BinAccumulator>> = case
+/// One method on one material: every bin's accumulator.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct MaterialAcc {
+    /// Whether the method supports the material, from its first configuration seen.
+    supported: Option<bool>,
+    all: BinAccumulator,
+    upper: BinAccumulator,
+    axes: Vec<Vec<BinAccumulator>>,
+    /// Only the methods a map draws have cells (the others' grids would be read by no one).
+    maps: Vec<Vec<Vec<BinAccumulator>>>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct MethodAcc {
+    label: String,
+    has_f64: bool,
+    materials: Vec<MaterialAcc>,
+}
+
+impl MethodAcc {
+    fn new(case: &Case, label: &str) -> MethodAcc {
+        let material = MaterialAcc {
+            supported: None,
+            all: BinAccumulator::default(),
+            upper: BinAccumulator::default(),
+            axes: case
                 .bins
                 .iter()
                 .map(|b| vec![BinAccumulator::default(); b.edges.len() - 1])
-                .collect();
-            // Only the methods a map draws: the others' grids would be read by no one.
-            let mut maps: Vec<Vec<Vec<BinAccumulator>>> = case
+                .collect(),
+            maps: case
                 .maps
                 .iter()
                 .map(|map| {
-                    let rows = if map.shows(&run.method.label) {
-                        map.y.edges.len() - 1
-                    } else {
-                        0
-                    };
+                    let rows = if map.shows(label) { map.y.edges.len() - 1 } else { 0 };
                     vec![vec![BinAccumulator::default(); map.x.edges.len() - 1]; rows]
                 })
-                .collect();
-            for (j, &i) in binning.members.iter().enumerate() {
-                let natural = samples[i].natural();
-                if natural && target == Target::Line {
-                    if let Some(u) = judge(case, samples, references, run, i, Target::LineUpper) {
-                        push(&mut upper, u);
-                    }
+                .collect(),
+        };
+        MethodAcc {
+            label: label.to_string(),
+            has_f64: false,
+            materials: vec![material; case.materials.len()],
+        }
+    }
+
+    fn add(&mut self, case: &Case, chunk: &Chunk, placed: &[Placement], run: &MethodRun) {
+        let target = run.method.target();
+        self.has_f64 |= run.f64.iter().any(Option::is_some);
+        for (i, p) in placed.iter().enumerate() {
+            let acc = &mut self.materials[p.material];
+            acc.supported
+                .get_or_insert_with(|| run.method.supports(&chunk.samples[i].config));
+            if p.natural && target == Target::Line {
+                if let Some(u) = judge(case, chunk, run, i, Target::LineUpper) {
+                    push(&mut acc.upper, u);
                 }
-                let Some(judged) = judge(case, samples, references, run, i, target) else {
-                    continue;
-                };
-                if natural {
-                    push(&mut all, judged);
-                    let axes_of = &samples[i].axes;
-                    for (map, cells) in case.maps.iter().zip(&mut maps) {
-                        if cells.is_empty() {
-                            continue;
-                        }
-                        if let (Some(kx), Some(ky)) = (
-                            map.x.index(axes_of.get(&map.x.axis)),
-                            map.y.index(axes_of.get(&map.y.axis)),
-                        ) {
-                            push(&mut cells[ky][kx], judged);
-                        }
-                    }
-                }
-                for (a, acc) in axes.iter_mut().enumerate() {
-                    if let Some(k) = binning.bin[a][j] {
-                        push(&mut acc[k], judged);
+            }
+            let Some(judged) = judge(case, chunk, run, i, target) else {
+                continue;
+            };
+            if p.natural {
+                push(&mut acc.all, judged);
+                for (cells, cell) in acc.maps.iter_mut().zip(&p.cells) {
+                    if let (false, Some((kx, ky))) = (cells.is_empty(), cell) {
+                        push(&mut cells[*ky][*kx], judged);
                     }
                 }
             }
-            let supported = binning
-                .members
-                .first()
-                .is_none_or(|&i| run.method.supports(&samples[i].config));
-            MaterialStats {
+            for (bins, k) in acc.axes.iter_mut().zip(&p.bins) {
+                if let Some(k) = k {
+                    push(&mut bins[*k], judged);
+                }
+            }
+        }
+    }
+
+    fn merge(&mut self, o: &MethodAcc) {
+        self.has_f64 |= o.has_f64;
+        for (a, b) in self.materials.iter_mut().zip(&o.materials) {
+            a.supported = a.supported.or(b.supported);
+            a.all.merge(&b.all);
+            a.upper.merge(&b.upper);
+            for (x, y) in a.axes.iter_mut().flatten().zip(b.axes.iter().flatten()) {
+                x.merge(y);
+            }
+            for (x, y) in a
+                .maps
+                .iter_mut()
+                .flatten()
+                .flatten()
+                .zip(b.maps.iter().flatten().flatten())
+            {
+                x.merge(y);
+            }
+        }
+    }
+
+    fn finish(&self, case: &Case, method: &Method) -> MethodStats {
+        let target = method.target();
+        let materials = case
+            .materials
+            .iter()
+            .zip(&self.materials)
+            .map(|(family, acc)| MaterialStats {
                 material: family.name.clone(),
-                supported,
-                all: all.finish(),
+                supported: acc.supported.unwrap_or(true),
+                all: acc.all.finish(),
                 axes: case
                     .bins
                     .iter()
-                    .zip(axes)
+                    .zip(&acc.axes)
                     .map(|(b, accs)| AxisStats {
                         axis: b.axis.clone(),
                         bins: accs
-                            .into_iter()
+                            .iter()
                             .enumerate()
                             .map(|(k, acc)| Bin {
                                 lo: b.edges[k],
@@ -374,113 +437,264 @@ fn method_stats(case: &Case, samples: &[Sample], references: &References, run: &
                 maps: case
                     .maps
                     .iter()
-                    .zip(maps)
+                    .zip(&acc.maps)
                     .map(|(map, cells)| MapStats {
                         x: map.x.clone(),
                         y: map.y.clone(),
                         cells: cells
-                            .into_iter()
-                            .map(|row| row.into_iter().map(BinAccumulator::finish).collect())
+                            .iter()
+                            .map(|row| row.iter().map(BinAccumulator::finish).collect())
                             .collect(),
                     })
                     .collect(),
-                against_line_upper: (target == Target::Line).then(|| upper.finish()),
+                against_line_upper: (target == Target::Line).then(|| acc.upper.finish()),
+            })
+            .collect();
+        MethodStats {
+            label: method.label.clone(),
+            describe: method.describe(),
+            id: method.id().to_string(),
+            target,
+            source: method.kernel.source.clone(),
+            kernel: method.kernel.path.clone(),
+            has_f64: self.has_f64,
+            materials,
+        }
+    }
+}
+
+/// Configuration-by-configuration differences of two methods in one bin; mergeable.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+struct PairAccumulator {
+    d32: Distribution,
+    d64: Distribution,
+}
+
+impl PairAccumulator {
+    fn push(&mut self, (d32, d64): (f64, Option<f64>)) {
+        self.d32.push(d32);
+        if let Some(d) = d64 {
+            self.d64.push(d);
+        }
+    }
+
+    fn merge(&mut self, o: &PairAccumulator) {
+        self.d32.merge(&o.d32);
+        self.d64.merge(&o.d64);
+    }
+
+    fn finish(&self) -> PairStats {
+        PairStats {
+            count: self.d32.len(),
+            diff_f32: self.d32.quantiles(),
+            diff_f64: self.d64.quantiles(),
+        }
+    }
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct PairMaterialAcc {
+    all: PairAccumulator,
+    axes: Vec<Vec<PairAccumulator>>,
+}
+
+/// A compared pair: the indices of its two methods and every bin's accumulator.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct PairAcc {
+    a: usize,
+    b: usize,
+    materials: Vec<PairMaterialAcc>,
+}
+
+impl PairAcc {
+    fn add(&mut self, chunk: &Chunk, placed: &[Placement]) {
+        let (a, b) = (&chunk.runs[self.a], &chunk.runs[self.b]);
+        let target = a.method.target();
+        for (i, p) in placed.iter().enumerate() {
+            let Some(d) = pair_diff(chunk, a, b, i, target) else {
+                continue;
+            };
+            let acc = &mut self.materials[p.material];
+            if p.natural {
+                acc.all.push(d);
             }
-        })
-        .collect();
-    MethodStats {
-        label: run.method.label.clone(),
-        describe: run.method.describe(),
-        id: run.method.id().to_string(),
-        target,
-        source: run.method.kernel.source.clone(),
-        kernel: run.method.kernel.path.clone(),
-        has_f64: run.f64.iter().any(Option::is_some),
-        materials,
-    }
-}
-
-/// The configurations of one material.
-fn members(samples: &[Sample], material: usize) -> impl Iterator<Item = usize> + '_ {
-    (0..samples.len()).filter(move |&i| samples[i].material == material)
-}
-
-fn pair_stats(idx: impl Iterator<Item = usize>, diff: &dyn Fn(usize) -> Option<(f64, Option<f64>)>) -> PairStats {
-    let (mut d32, mut d64) = (Vec::new(), Vec::new());
-    for i in idx {
-        if let Some((a, b)) = diff(i) {
-            d32.push(a);
-            if let Some(b) = b {
-                d64.push(b);
+            for (bins, k) in acc.axes.iter_mut().zip(&p.bins) {
+                if let Some(k) = k {
+                    bins[*k].push(d);
+                }
             }
         }
     }
-    PairStats {
-        count: d32.len(),
-        diff_f32: Quantiles::of(&mut d32),
-        diff_f64: Quantiles::of(&mut d64),
-    }
-}
 
-fn compare(case: &Case, samples: &[Sample], references: &References, a: &MethodRun, b: &MethodRun) -> Comparison {
-    let target = a.method.target();
-    // Differences normalised by the reference (no floor), so they read as relative errors;
-    // zero references and NaN/inf results are left out here (they have their own rows in each
-    // method's table).
-    let diff = |i: usize| -> Option<(f64, Option<f64>)> {
-        let c = &samples[i].config;
-        if !(a.method.supports(c) && b.method.supports(c) && a.method.applies(c) && b.method.applies(c)) {
-            return None;
+    fn merge(&mut self, o: &PairAcc) {
+        for (x, y) in self.materials.iter_mut().zip(&o.materials) {
+            x.all.merge(&y.all);
+            for (p, q) in x.axes.iter_mut().flatten().zip(y.axes.iter().flatten()) {
+                p.merge(q);
+            }
         }
-        let r = reference_for(references, i, target)?.value;
-        if r == 0.0 {
-            return None;
-        }
-        let (x, y) = (a.f32[i] as f64, b.f32[i] as f64);
-        if !(x.is_finite() && y.is_finite()) {
-            return None;
-        }
-        let d64 = match (a.f64[i], b.f64[i]) {
-            (Some(x), Some(y)) if x.is_finite() && y.is_finite() => Some((x - y).abs() / r.abs()),
-            _ => None,
-        };
-        Some(((x - y).abs() / r.abs(), d64))
-    };
-    let materials = case
-        .materials
-        .iter()
-        .enumerate()
-        .map(|(m, family)| PairMaterial {
-            material: family.name.clone(),
-            all: pair_stats(members(samples, m).filter(|&i| samples[i].natural()), &diff),
-            axes: case
-                .bins
+    }
+
+    fn finish(&self, case: &Case, methods: &[Method]) -> Comparison {
+        Comparison {
+            a: methods[self.a].label.clone(),
+            b: methods[self.b].label.clone(),
+            materials: case
+                .materials
                 .iter()
-                .enumerate()
-                .map(|(a, bin)| PairAxis {
-                    axis: bin.axis.clone(),
-                    bins: (0..bin.edges.len() - 1)
-                        .map(|k| PairBin {
-                            lo: bin.edges[k],
-                            hi: bin.edges[k + 1],
-                            stats: pair_stats(
-                                members(samples, m).filter(|&i| {
-                                    let s = &samples[i];
-                                    bin.index(s.axes.get(&bin.axis)) == Some(k)
-                                        && (s.natural() || s.strata.contains(&(a, k)))
-                                }),
-                                &diff,
-                            ),
+                .zip(&self.materials)
+                .map(|(family, acc)| PairMaterial {
+                    material: family.name.clone(),
+                    all: acc.all.finish(),
+                    axes: case
+                        .bins
+                        .iter()
+                        .zip(&acc.axes)
+                        .map(|(bin, accs)| PairAxis {
+                            axis: bin.axis.clone(),
+                            bins: accs
+                                .iter()
+                                .enumerate()
+                                .map(|(k, acc)| PairBin {
+                                    lo: bin.edges[k],
+                                    hi: bin.edges[k + 1],
+                                    stats: acc.finish(),
+                                })
+                                .collect(),
                         })
                         .collect(),
                 })
                 .collect(),
-        })
-        .collect();
-    Comparison {
-        a: a.method.label.clone(),
-        b: b.method.label.clone(),
-        materials,
+        }
+    }
+}
+
+/// Differences normalised by the reference (no floor), so they read as relative errors; zero
+/// references and NaN/inf results are left out here (they have their own rows in each method's
+/// table).
+fn pair_diff(chunk: &Chunk, a: &MethodRun, b: &MethodRun, i: usize, target: Target) -> Option<(f64, Option<f64>)> {
+    let c = &chunk.samples[i].config;
+    if !(a.method.supports(c) && b.method.supports(c) && a.method.applies(c) && b.method.applies(c)) {
+        return None;
+    }
+    let r = chunk.references[i].get(&target)?.value;
+    if r == 0.0 {
+        return None;
+    }
+    let (x, y) = (a.f32[i] as f64, b.f32[i] as f64);
+    if !(x.is_finite() && y.is_finite()) {
+        return None;
+    }
+    let d64 = match (a.f64[i], b.f64[i]) {
+        (Some(x), Some(y)) if x.is_finite() && y.is_finite() => Some((x - y).abs() / r.abs()),
+        _ => None,
+    };
+    Some(((x - y).abs() / r.abs(), d64))
+}
+
+/// The statistics of a sweep while it runs: every method × material × bin and every compared
+/// pair, folded in chunk by chunk and mergeable across shards. Memory per bin is bounded
+/// (`stats::Distribution`), so it does not grow with the configurations.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Accumulators {
+    methods: Vec<MethodAcc>,
+    pairs: Vec<PairAcc>,
+    /// Configurations folded in (natural and top-ups).
+    pub configurations: usize,
+}
+
+impl Accumulators {
+    /// Empty accumulators for `methods` (in the order every chunk's runs come in).
+    pub fn new(case: &Case, methods: &[Method]) -> Accumulators {
+        let index = |l: &String| {
+            methods
+                .iter()
+                .position(|m| &m.label == l)
+                .expect("case checked compare labels")
+        };
+        let pairs = case
+            .compare
+            .iter()
+            .map(|[a, b]| PairAcc {
+                a: index(a),
+                b: index(b),
+                materials: vec![
+                    PairMaterialAcc {
+                        all: PairAccumulator::default(),
+                        axes: case
+                            .bins
+                            .iter()
+                            .map(|b| vec![PairAccumulator::default(); b.edges.len() - 1])
+                            .collect(),
+                    };
+                    case.materials.len()
+                ],
+            })
+            .collect();
+        Accumulators {
+            methods: methods.iter().map(|m| MethodAcc::new(case, &m.label)).collect(),
+            pairs,
+            configurations: 0,
+        }
+    }
+
+    /// Folds in one chunk: each configuration's bins are found once, then every method and
+    /// every pair is accumulated in parallel.
+    pub fn add(&mut self, case: &Case, chunk: &Chunk) {
+        use rayon::prelude::*;
+        assert_eq!(chunk.runs.len(), self.methods.len(), "one run per method");
+        let placed: Vec<Placement> = chunk.samples.par_iter().map(|s| place(case, s)).collect();
+        let (methods, pairs) = (&mut self.methods, &mut self.pairs);
+        rayon::join(
+            || {
+                methods
+                    .par_iter_mut()
+                    .zip(chunk.runs)
+                    .for_each(|(m, run)| m.add(case, chunk, &placed, run))
+            },
+            || pairs.par_iter_mut().for_each(|p| p.add(chunk, &placed)),
+        );
+        self.configurations += chunk.samples.len();
+    }
+
+    /// Adds another part (another chunk range or shard of the same case and methods).
+    pub fn merge(&mut self, o: &Accumulators) -> Result<(), String> {
+        let labels = |a: &Accumulators| a.methods.iter().map(|m| m.label.clone()).collect::<Vec<_>>();
+        if labels(self) != labels(o) || self.pairs.len() != o.pairs.len() {
+            return Err(format!(
+                "the parts measured different methods: {:?} against {:?}",
+                labels(self),
+                labels(o)
+            ));
+        }
+        for (a, b) in self.methods.iter_mut().zip(&o.methods) {
+            a.merge(b);
+        }
+        for (a, b) in self.pairs.iter_mut().zip(&o.pairs) {
+            a.merge(b);
+        }
+        self.configurations += o.configurations;
+        Ok(())
+    }
+
+    /// The analysed summary: statistics, comparisons, checks and verdict.
+    pub fn finish(&self, case: &Case, methods: &[Method]) -> Analysis {
+        use rayon::prelude::*;
+        let stats: Vec<MethodStats> = self
+            .methods
+            .par_iter()
+            .zip(methods)
+            .map(|(acc, m)| acc.finish(case, m))
+            .collect();
+        let comparisons = self.pairs.iter().map(|p| p.finish(case, methods)).collect();
+        let checks = checks(case, &stats);
+        let verdict = Verdict::of(&checks);
+        Analysis {
+            methods: stats,
+            comparisons,
+            checks,
+            verdict,
+        }
     }
 }
 
@@ -530,28 +744,17 @@ fn checks(case: &Case, methods: &[MethodStats]) -> Vec<Check> {
     out
 }
 
+/// The whole sweep in one chunk: [`Accumulators`] fed once.
 pub fn analyse(case: &Case, samples: &[Sample], references: &References, runs: &[MethodRun]) -> Analysis {
-    use rayon::prelude::*;
-    let methods: Vec<MethodStats> = runs
-        .par_iter()
-        .map(|r| method_stats(case, samples, references, r))
-        .collect();
-    let by_label = |l: &str| {
-        runs.iter()
-            .find(|r| r.method.label == l)
-            .expect("case checked compare labels")
-    };
-    let comparisons = case
-        .compare
-        .iter()
-        .map(|[a, b]| compare(case, samples, references, by_label(a), by_label(b)))
-        .collect();
-    let checks = checks(case, &methods);
-    let verdict = Verdict::of(&checks);
-    Analysis {
-        methods,
-        comparisons,
-        checks,
-        verdict,
-    }
+    let methods: Vec<Method> = runs.iter().map(|r| r.method.clone()).collect();
+    let mut acc = Accumulators::new(case, &methods);
+    acc.add(
+        case,
+        &Chunk {
+            samples,
+            references,
+            runs,
+        },
+    );
+    acc.finish(case, &methods)
 }

@@ -146,43 +146,24 @@ pub struct Observed {
     pub materials: Vec<(bool, Vec<Obs>)>,
 }
 
+/// The gate's observations, from a sweep measured with `MeasureOptions::observe`.
 pub fn observed(setup: &Setup, measured: &Measured) -> Vec<Observed> {
-    let case = &setup.case;
-    measured
-        .runs
+    let observations = measured
+        .observations
+        .as_ref()
+        .expect("the gate's sweep keeps its observations (MeasureOptions::observe)");
+    setup
+        .methods
         .iter()
-        .map(|run| {
-            let target = run.method.target();
-            let cost = measured.costs.iter().find(|c| c.label == run.method.label);
-            let materials = (0..case.materials.len())
-                .map(|m| {
-                    let idx: Vec<usize> = (0..setup.samples.len())
-                        .filter(|&i| setup.samples[i].material == m && setup.samples[i].natural())
-                        .collect();
-                    let supported = idx
-                        .first()
-                        .is_none_or(|&i| run.method.supports(&setup.samples[i].config));
-                    let obs = idx
-                        .iter()
-                        .map(|&i| {
-                            let c = &setup.samples[i].config;
-                            let r = measured.references[i].get(&target).copied();
-                            if run.method.applies(c) {
-                                observe(run.f32[i], r)
-                            } else {
-                                Obs::NotApplicable
-                            }
-                        })
-                        .collect();
-                    (supported, obs)
-                })
-                .collect();
+        .zip(observations)
+        .map(|(method, materials)| {
+            let cost = measured.costs.iter().find(|c| c.label == method.label);
             Observed {
-                label: run.method.label.clone(),
-                kernel: run.method.kernel.path.clone(),
+                label: method.label.clone(),
+                kernel: method.kernel.path.clone(),
                 ops_total: cost.and_then(|c| c.ops.as_ref()).map(|o| o.total),
                 ns_per_eval: cost.map_or(f64::NAN, |c| c.ns_per_eval_median),
-                materials,
+                materials: materials.clone(),
             }
         })
         .collect()
@@ -286,9 +267,9 @@ fn natural_counts(setup: &Setup) -> Vec<MaterialCount> {
         .case
         .materials
         .iter()
-        .enumerate()
-        .map(|(m, f)| {
-            let n = setup.samples.iter().filter(|s| s.material == m && s.natural()).count();
+        .map(|f| {
+            // The natural sample draws exactly the family's count (degenerate draws are redrawn).
+            let n = f.count;
             MaterialCount {
                 material: f.name.clone(),
                 configurations: n,
@@ -428,6 +409,12 @@ impl GateRun {
 
     /// After the sweep: saves the baseline, compares with the loaded one (every rule to
     /// stderr), writes the JUnit file; returns the comparison, if there was a baseline.
+    /// Whether the sweep must keep per-configuration observations (saving or comparing a
+    /// baseline pairs errors configuration by configuration: O(N), small at a gate's count).
+    pub fn wants_observations(&self) -> bool {
+        self.save.is_some() || self.baseline.is_some()
+    }
+
     pub fn finish(
         &self,
         setup: &Setup,

@@ -77,11 +77,20 @@ pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
     case.compare = vec![[a.label.clone(), b.label.clone()]];
     case.claims.clear();
     case.search = None;
-    let mut setup = crate::sweep::prepare(case, &[], options.count)?;
+    let mut setup = crate::sweep::prepare_with(case, &[], options.count, false)?;
     setup.methods = vec![a.clone(), b.clone()];
     let gpu = Gpu::new(options.adapter.as_deref())?;
     eprintln!("adapter: {}", gpu.adapter);
-    let measured = crate::sweep::measure(&setup, &gpu, options.chunk)?;
+    let measured = crate::sweep::measure(
+        &setup,
+        &gpu,
+        crate::sweep::MeasureOptions {
+            chunk: options.chunk,
+            observe: true,
+            raw: None,
+            shard: None,
+        },
+    )?;
     let observed = baseline::observed(&setup, &measured);
     println!(
         "diff on case {}: A = {}, B = {} (ratios are B / A)",

@@ -1,5 +1,6 @@
 //! `linelight eval`: explicit configurations in (JSONL), references and method values
-//! out (JSONL, DESIGN §3). Input is checked whole before the GPU is touched. The `f64`
+//! out (JSONL, DESIGN §3). Input is checked whole before the GPU is touched, then streamed in
+//! chunks ([`EVAL_CHUNK`]), output in input order. The `f64`
 //! and `cpu_f32` values and the attribution come from the CPU evaluator (src/interp).
 
 use crate::methods::Method;
@@ -48,13 +49,36 @@ pub fn count_lines(path: &Path) -> anyhow::Result<u64> {
 /// Reads a JSONL file of configurations, a line at a time; every bad line is reported with
 /// its number (at most [`MAX_ERRORS`] of them, then a count).
 pub fn read_configs(path: &Path) -> anyhow::Result<Vec<Config>> {
+    let mut configs = Vec::new();
+    for_each_config(path, usize::MAX, true, &mut |c| {
+        configs.extend(c);
+        Ok(())
+    })?;
+    Ok(configs)
+}
+
+/// Configurations `eval` holds at a time: it streams its input in chunks of this many.
+pub const EVAL_CHUNK: usize = 1 << 16;
+
+/// Reads a JSONL file of configurations in chunks of at most `chunk`, handing each to `f` in
+/// order. Every line is checked first: with a bad line (at most [`MAX_ERRORS`] listed, then a
+/// count) nothing is handed on, so a caller that wants the whole input checked before any
+/// work calls it once with a no-op `f` (only the ids are held, to find repeated ones).
+/// `notes`: print the notes on corrected lines (once per input, not once per pass).
+pub fn for_each_config(
+    path: &Path,
+    chunk: usize,
+    notes: bool,
+    f: &mut dyn FnMut(Vec<Config>) -> anyhow::Result<()>,
+) -> anyhow::Result<usize> {
     use std::io::BufRead;
-    let f = std::fs::File::open(path).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
+    let file = std::fs::File::open(path).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
     let mut configs = Vec::new();
     let mut errors = Vec::new();
     let mut bad = 0usize;
+    let mut total = 0usize;
     let mut ids = BTreeSet::new();
-    for (i, line) in std::io::BufReader::new(f).split(b'\n').enumerate() {
+    for (i, line) in std::io::BufReader::new(file).split(b'\n').enumerate() {
         let line = line.map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
         let at = format!("{}:{}", path.display(), i + 1);
         let line = match std::str::from_utf8(&line) {
@@ -72,12 +96,21 @@ pub fn read_configs(path: &Path) -> anyhow::Result<Vec<Config>> {
         }
         let result = match serde_json::from_str::<Config>(line) {
             Err(e) => Err(format!("{at}: {e}")),
-            Ok(c) => check_config(c, &at, &mut ids),
+            Ok(c) => check_config(c, &at, &mut ids, notes),
         };
         match result {
-            Ok(c) => configs.push(c),
+            Ok(c) => {
+                total += 1;
+                if bad == 0 {
+                    configs.push(c);
+                    if configs.len() >= chunk {
+                        f(std::mem::take(&mut configs))?;
+                    }
+                }
+            }
             Err(e) => {
                 bad += 1;
+                configs.clear();
                 if errors.len() < MAX_ERRORS {
                     errors.push(e);
                 }
@@ -92,10 +125,13 @@ pub fn read_configs(path: &Path) -> anyhow::Result<Vec<Config>> {
         };
         anyhow::bail!("{bad} bad line(s) in {}:\n{}{more}", path.display(), errors.join("\n"));
     }
-    if configs.is_empty() {
+    if total == 0 {
         anyhow::bail!("{}: no configurations", path.display());
     }
-    Ok(configs)
+    if !configs.is_empty() {
+        f(configs)?;
+    }
+    Ok(total)
 }
 
 /// Bad lines listed in one message.
@@ -103,9 +139,9 @@ pub const MAX_ERRORS: usize = 20;
 
 /// One parsed line: the rect normal made perpendicular (recorded in the output, see
 /// [`result_row`]), degenerate configurations and repeated ids refused.
-fn check_config(mut c: Config, at: &str, ids: &mut BTreeSet<String>) -> Result<Config, String> {
+fn check_config(mut c: Config, at: &str, ids: &mut BTreeSet<String>, notes: bool) -> Result<Config, String> {
     let id = crate::case_values::clip(&c.id);
-    if c.orthonormalize_rect().is_some_and(|moved| moved > 1e-9) {
+    if c.orthonormalize_rect().is_some_and(|moved| moved > 1e-9) && notes {
         eprintln!("note: {at}: `{id}`: rect.normal made perpendicular to the segment (DESIGN §1); the output's `rect` records the normal used");
     }
     if let Err(d) = c.validate() {

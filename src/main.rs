@@ -1,7 +1,7 @@
 //! The `linelight` command line: sweep, eval, bench, fit, chain, adapters, check.
 
 use clap::{Parser, Subcommand};
-use linelight::analysis::{analyse, Verdict};
+use linelight::analysis::Verdict;
 use linelight::case::Case;
 use linelight::claims;
 use linelight::gpu::{self, Gpu};
@@ -75,10 +75,26 @@ enum Command {
         /// Override every material's count (quick runs; the committed reports use the case's).
         #[arg(long)]
         count: Option<usize>,
+        /// Evaluate shard I of N (a deterministic partition of the configurations) and write its
+        /// mergeable state to OUT/shard-I-of-N.cbor instead of a report (docs/scale.md).
+        #[arg(long, value_name = "I/N")]
+        shard: Option<String>,
         #[command(flatten)]
         gpu: GpuArgs,
         #[command(flatten)]
         gate: GateArgs,
+    },
+    /// Merge the shard states of a sharded sweep (`sweep --shard i/n`) into the report the
+    /// unsharded sweep writes (docs/scale.md).
+    Merge {
+        /// Directories holding the shard-I-of-N.cbor files (every shard exactly once).
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+        /// Reports go to OUT/<case name>/.
+        #[arg(long, default_value = "reports")]
+        out: PathBuf,
+        #[command(flatten)]
+        gpu: GpuArgs,
     },
     /// Evaluate explicit configurations (JSONL in, JSONL out; DESIGN §3).
     Eval {
@@ -290,6 +306,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             out,
             raw,
             count,
+            shard,
             gpu,
             gate,
         } => {
@@ -298,10 +315,20 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             if count == Some(0) {
                 anyhow::bail!("--count must be at least 1");
             }
+            let shard = shard.as_deref().map(sweep::parse_shard).transpose()?;
+            if shard.is_some()
+                && (raw.is_some() || gate.save_baseline.is_some() || gate.baseline.is_some() || gate.junit.is_some())
+            {
+                anyhow::bail!(
+                    "--shard writes a shard state only: --raw and the gate options belong to the unsharded sweep"
+                );
+            }
             let loaded = Case::load(&case)?;
             // Every output is checked before any work: the report folder, then --raw.
             let dir = out.join(&loaded.name);
-            check_set(&dir)?;
+            if shard.is_none() {
+                check_set(&dir)?;
+            }
             if let Some(raw) = &raw {
                 let mut inputs = vec![("the case file", case.as_path())];
                 inputs.extend(kernel_inputs(&gpu.kernels));
@@ -327,114 +354,117 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             )?;
             let device = open_gpu(&gpu)?;
             eprintln!(
-                "case {}: {} configurations, {} methods",
+                "case {}: {} natural configurations (and top-ups), {} methods",
                 setup.case.name,
-                setup.samples.len(),
+                setup.case.materials.iter().map(|m| m.count).sum::<usize>(),
                 setup.methods.len()
             );
-            let measured = sweep::measure(&setup, &device, gpu.chunk)?;
-            let t = std::time::Instant::now();
-            let analysis = analyse(&setup.case, &setup.samples, &measured.references, &measured.runs);
-            let facts = claims::Facts {
-                analysis: Some(analysis.clone()),
-                configurations: setup.samples.iter().filter(|s| s.natural()).count(),
-                costs: measured.costs.clone(),
-                disagreements: measured.disagreements.clone(),
-                found: measured.found.clone(),
-                ..claims::dry_facts(&setup.case, setup.methods.iter().map(|m| m.label.clone()).collect())
-            };
-            let claim_results = claims::evaluate(&setup.case.claims, facts);
-            let stages = report::Stages {
-                analysis_seconds: t.elapsed().as_secs_f64(),
-                until_report_seconds: started.elapsed().as_secs_f64(),
-            };
-            let input = ReportInput {
-                case_path: &case_path,
-                command_line: &command_line,
-                case: &setup.case,
-                setup: &setup,
-                measured: &measured,
-                analysis: &analysis,
-                claims: &claim_results,
-                stages,
-            };
-            // --raw is staged first and put in place after the report set: on an error
-            // neither replaces anything.
-            let staged = match &raw {
-                None => None,
-                // Streamed a block at a time: the rows never all sit in memory.
-                Some(raw) => Some(stage_output(raw, &mut |w| {
-                    for (block, samples) in setup.samples.chunks(eval::ROW_BLOCK).enumerate() {
-                        let rows: Vec<_> = samples
-                            .par_iter()
-                            .enumerate()
-                            .map(|(j, s)| {
-                                let i = block * eval::ROW_BLOCK + j;
-                                let f32s: Vec<f32> = measured.runs.iter().map(|r| r.f32[i]).collect();
-                                let f64s: Vec<Option<f64>> = measured.runs.iter().map(|r| r.f64[i]).collect();
-                                let c32s: Vec<Option<f64>> =
-                                    measured.runs.iter().map(|r| r.f32_cpu[i].map(f64::from)).collect();
-                                let mut row = eval::result_row(
-                                    &s.config,
-                                    &measured.references[i],
-                                    &setup.methods,
-                                    &f32s,
-                                    &f64s,
-                                    &c32s,
-                                );
-                                row["material"] = setup.case.materials[s.material].name.clone().into();
-                                row["axes"] = serde_json::to_value(&s.axes).expect("axes serialise");
-                                // Empty for the natural sample; a top-up lists the (axis, bin) it fills.
-                                row["strata"] = serde_json::to_value(&s.strata).expect("strata serialise");
-                                row["config"] = serde_json::to_value(&s.config).expect("config serialises");
-                                row
-                            })
-                            .collect();
-                        w.write_all(&eval::to_jsonl(&rows))?;
+            if let Some(shard) = shard {
+                let part = sweep::measure_part(
+                    &setup,
+                    &device,
+                    sweep::MeasureOptions {
+                        chunk: gpu.chunk,
+                        observe: false,
+                        raw: None,
+                        shard: Some(shard),
+                    },
+                )?;
+                let path = sweep::write_shard(&out, &case, &gpu.kernels, &part)?;
+                println!(
+                    "shard {}/{}: {} configurations; state: {}",
+                    shard.0,
+                    shard.1,
+                    part.timing.configurations,
+                    path.display()
+                );
+                return Ok(ExitCode::SUCCESS);
+            }
+            let observe = gate.wants_observations();
+            // --raw is staged while measuring (rows streamed a chunk at a time, never all in
+            // memory) and put in place after the report set: on an error neither replaces
+            // anything.
+            let (measured, staged) = match &raw {
+                None => (
+                    sweep::measure(
+                        &setup,
+                        &device,
+                        sweep::MeasureOptions {
+                            chunk: gpu.chunk,
+                            observe,
+                            raw: None,
+                            shard: None,
+                        },
+                    )?,
+                    None,
+                ),
+                Some(raw) => {
+                    let mut measured = None;
+                    let mut failed = None;
+                    let staged = stage_output(raw, &mut |w| {
+                        match sweep::measure(
+                            &setup,
+                            &device,
+                            sweep::MeasureOptions {
+                                chunk: gpu.chunk,
+                                observe,
+                                raw: Some(w),
+                                shard: None,
+                            },
+                        ) {
+                            Ok(m) => measured = Some(m),
+                            Err(e) => failed = Some(e),
+                        }
+                        Ok(())
+                    })?;
+                    if let Some(e) = failed {
+                        return Err(e);
                     }
-                    Ok(())
-                })?),
+                    (measured.expect("measured or failed"), Some(staged))
+                }
             };
-            for path in report::write_reports(&dir, &input)? {
-                eprintln!("wrote {}", path.display());
-            }
-            if let (Some(staged), Some(raw)) = (staged, &raw) {
-                staged.commit()?;
-                eprintln!("wrote {}", raw.display());
-            }
-            let gate_report = gate.finish(&setup, &measured, &analysis.checks)?;
-            let regressed = gate_report.as_ref().is_some_and(|g| g.regressed());
-            let failed = analysis.checks.iter().filter(|c| !c.pass).count();
-            let stale: Vec<&str> = claim_results
-                .iter()
-                .filter(|c| !c.holds)
-                .map(|c| c.id.as_str())
-                .collect();
-            println!(
-                "verdict: {} ({} of {} checks pass); claims: {} of {} hold{}; report: {}",
-                analysis.verdict.name(),
-                analysis.checks.len() - failed,
-                analysis.checks.len(),
-                claim_results.len() - stale.len(),
-                claim_results.len(),
-                if stale.is_empty() {
-                    String::new()
-                } else {
-                    format!(" (STALE: {})", stale.join(", "))
+            report_sweep(
+                SweepRun {
+                    case_path: &case_path,
+                    command_line: &command_line,
+                    dir: &dir,
+                    started,
+                    raw: raw.as_deref(),
                 },
-                dir.join("report.md").display()
-            );
-            if let Some(g) = &gate_report {
-                println!("{}", g.summary());
-            }
-            // 3: a finding no longer holds (the report says which); 1: a tolerance failed.
-            Ok(if !stale.is_empty() {
-                ExitCode::from(3)
-            } else if analysis.verdict == Verdict::Fail || regressed {
-                ExitCode::from(1)
-            } else {
-                ExitCode::SUCCESS
-            })
+                &setup,
+                &measured,
+                staged,
+                &gate,
+            )
+        }
+        Command::Merge { shards, out, gpu } => {
+            let started = std::time::Instant::now();
+            let command_line = shell_words::join(std::env::args());
+            let (case_path, kernels, parts) = sweep::read_shards(&shards)?;
+            let loaded = Case::load(std::path::Path::new(&case_path))?;
+            let dir = out.join(&loaded.name);
+            check_set(&dir)?;
+            let setup = sweep::prepare_with(loaded, &kernels, parts[0].count_override, false)?;
+            let part = sweep::Partial::merge_all(&setup, parts)?;
+            let gate = linelight::baseline::GateRun::prepare(None, None, None, Default::default(), &setup)?;
+            let device = open_gpu(&GpuArgs {
+                kernels: kernels.clone(),
+                ..gpu
+            })?;
+            let measured = sweep::finish(&setup, &device, part, 0)?;
+            report_sweep(
+                SweepRun {
+                    case_path: &case_path,
+                    command_line: &command_line,
+                    dir: &dir,
+                    started,
+                    raw: None,
+                },
+                &setup,
+                &measured,
+                None,
+                &gate,
+            )
         }
         Command::Eval {
             input,
@@ -460,45 +490,59 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             let lines = eval::count_lines(&input)?;
             limits::check(
                 &format!("eval of {} ({lines} lines)", input.display()),
-                limits::eval_estimate(lines, methods.len() as u64),
+                // One chunk of configurations, values and rows at a time, plus the ids (checked
+                // for repeats over the whole input).
+                limits::Bytes(
+                    limits::eval_estimate(lines.min(eval_chunk() as u64), methods.len() as u64)
+                        .0
+                        .saturating_add(64u64.saturating_mul(lines)),
+                ),
                 limits::max_memory(),
             )
             .map_err(anyhow::Error::msg)?;
-            let configs = eval::read_configs(&input)?;
+            // Every line checked before the GPU is touched; then the input is streamed a chunk
+            // at a time (GPU, references, rows), in constant memory and input order.
+            eval::for_each_config(&input, eval_chunk(), true, &mut |_| Ok(()))?;
             let device = open_gpu(&gpu)?;
             let pipelines = methods
                 .iter()
                 .map(|m| device.pipeline(m))
                 .collect::<Result<Vec<_>, _>>()?;
-            let scenes: Vec<_> = configs.iter().map(linelight::scene::GpuScene::from).collect();
-            let mut f32s = Vec::new();
-            for p in &pipelines {
-                f32s.push(device.run(p, &scenes, gpu.chunk, &mut |_| {})?.values);
-            }
-            drop(scenes);
-            // References first, all of them: one that cannot be computed is an error, and
-            // nothing is written.
-            let references: Vec<_> = configs
-                .par_iter()
-                .map(|c| {
-                    eval::targets_of(c)
-                        .into_iter()
-                        .filter_map(|t| linelight::reference::reference(c, t).map(|e| (t, e)))
-                        .collect::<std::collections::BTreeMap<_, _>>()
-                })
-                .collect();
-            eval::check_references(&input, &configs, &references)?;
+            let mut written = 0;
+            // The output is staged: a reference that cannot be computed (an error) leaves
+            // nothing in place of what was there.
             write_output(&output, &mut |w| {
-                for (block, part) in configs.chunks(eval::ROW_BLOCK).enumerate() {
-                    let at = block * eval::ROW_BLOCK..block * eval::ROW_BLOCK + part.len();
-                    let values: Vec<&[f32]> = f32s.iter().map(|v| &v[at.clone()]).collect();
-                    let rows = eval::rows(part, &methods, &values, &references[at], attribution)
-                        .map_err(std::io::Error::other)?;
-                    w.write_all(&eval::to_jsonl(&rows))?;
-                }
-                Ok(())
+                let mut chunk = |configs: Vec<linelight::scene::Config>| -> anyhow::Result<()> {
+                    let scenes: Vec<_> = configs.iter().map(linelight::scene::GpuScene::from).collect();
+                    let mut f32s = Vec::new();
+                    for p in &pipelines {
+                        f32s.push(device.run(p, &scenes, gpu.chunk, &mut |_| {})?.values);
+                    }
+                    drop(scenes);
+                    let references: Vec<_> = configs
+                        .par_iter()
+                        .map(|c| {
+                            eval::targets_of(c)
+                                .into_iter()
+                                .filter_map(|t| linelight::reference::reference(c, t).map(|e| (t, e)))
+                                .collect::<std::collections::BTreeMap<_, _>>()
+                        })
+                        .collect();
+                    eval::check_references(&input, &configs, &references)?;
+                    for (block, part) in configs.chunks(eval::ROW_BLOCK).enumerate() {
+                        let at = block * eval::ROW_BLOCK..block * eval::ROW_BLOCK + part.len();
+                        let values: Vec<&[f32]> = f32s.iter().map(|v| &v[at.clone()]).collect();
+                        let rows = eval::rows(part, &methods, &values, &references[at], attribution)?;
+                        w.write_all(&eval::to_jsonl(&rows))?;
+                    }
+                    written += configs.len();
+                    Ok(())
+                };
+                eval::for_each_config(&input, eval_chunk(), false, &mut chunk)
+                    .map(|_| ())
+                    .map_err(|e| std::io::Error::other(format!("{e:#}")))
             })?;
-            eprintln!("wrote {} results to {}", configs.len(), output.display());
+            eprintln!("wrote {written} results to {}", output.display());
             Ok(ExitCode::SUCCESS)
         }
         Command::Bench {
@@ -736,4 +780,106 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             Ok(if bad == 0 { ExitCode::SUCCESS } else { ExitCode::from(2) })
         }
     }
+}
+
+/// Where a sweep's report goes and how the run was called.
+struct SweepRun<'a> {
+    case_path: &'a str,
+    command_line: &'a str,
+    dir: &'a std::path::Path,
+    started: std::time::Instant,
+    raw: Option<&'a std::path::Path>,
+}
+
+/// Analyses a measured sweep (or merged shards), writes its report set, and gives the verdict's
+/// exit code.
+fn report_sweep(
+    run: SweepRun,
+    setup: &sweep::Setup,
+    measured: &sweep::Measured,
+    staged: Option<linelight::io::Staged>,
+    gate: &linelight::baseline::GateRun,
+) -> anyhow::Result<ExitCode> {
+    let SweepRun {
+        case_path,
+        command_line,
+        dir,
+        started,
+        raw,
+    } = run;
+    let t = std::time::Instant::now();
+    let analysis = measured.accumulators.finish(&setup.case, &setup.methods);
+    let facts = claims::Facts {
+        analysis: Some(analysis.clone()),
+        configurations: measured.natural.iter().sum(),
+        costs: measured.costs.clone(),
+        disagreements: measured.disagreements.clone(),
+        found: measured.found.clone(),
+        ..claims::dry_facts(&setup.case, setup.methods.iter().map(|m| m.label.clone()).collect())
+    };
+    let claim_results = claims::evaluate(&setup.case.claims, facts);
+    let stages = report::Stages {
+        analysis_seconds: measured.timing.statistics_seconds + t.elapsed().as_secs_f64(),
+        until_report_seconds: started.elapsed().as_secs_f64(),
+    };
+    let input = ReportInput {
+        case_path,
+        command_line,
+        case: &setup.case,
+        setup,
+        measured,
+        analysis: &analysis,
+        claims: &claim_results,
+        stages,
+    };
+    for path in report::write_reports(dir, &input)? {
+        eprintln!("wrote {}", path.display());
+    }
+    if let (Some(staged), Some(raw)) = (staged, &raw) {
+        staged.commit()?;
+        eprintln!("wrote {}", raw.display());
+    }
+    let gate_report = gate.finish(setup, measured, &analysis.checks)?;
+    let regressed = gate_report.as_ref().is_some_and(|g| g.regressed());
+    let failed = analysis.checks.iter().filter(|c| !c.pass).count();
+    let stale: Vec<&str> = claim_results
+        .iter()
+        .filter(|c| !c.holds)
+        .map(|c| c.id.as_str())
+        .collect();
+    println!(
+        "verdict: {} ({} of {} checks pass); claims: {} of {} hold{}; report: {}",
+        analysis.verdict.name(),
+        analysis.checks.len() - failed,
+        analysis.checks.len(),
+        claim_results.len() - stale.len(),
+        claim_results.len(),
+        if stale.is_empty() {
+            String::new()
+        } else {
+            format!(" (STALE: {})", stale.join(", "))
+        },
+        dir.join("report.md").display()
+    );
+    if let Some(g) = &gate_report {
+        println!("{}", g.summary());
+    }
+    // 3: a finding no longer holds (the report says which); 1: a tolerance failed.
+    Ok(if !stale.is_empty() {
+        ExitCode::from(3)
+    } else if analysis.verdict == Verdict::Fail || regressed {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+/// Configurations eval holds at a time: `eval::EVAL_CHUNK`, or `LINELIGHT_EVAL_CHUNK` (tests
+/// use a small one to cover several chunks with a few lines).
+fn eval_chunk() -> usize {
+    std::env::var("LINELIGHT_EVAL_CHUNK")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .filter(|&n: &usize| n > 0)
+        .unwrap_or(eval::EVAL_CHUNK)
 }

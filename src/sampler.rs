@@ -18,7 +18,7 @@ use rand_chacha::ChaCha8Rng;
 /// tilt of the segment. The `_o` axes are the same in the configuration transformed by M⁻¹,
 /// the diffuse configuration the LTC formulas actually integrate (equal to the plain ones for
 /// the diffuse material).
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Axes {
     pub length: f64,
     pub center: f64,
@@ -112,7 +112,7 @@ pub fn line_axes(p1: Vec3, p2: Vec3) -> (f64, f64, f64, f64, f64) {
     (near, far, subtended, foot[2] / d, t[2].abs())
 }
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Sample {
     pub config: Config,
     /// Index into the case's materials (families).
@@ -196,7 +196,7 @@ fn draw_opt(source: &mut dyn Uniforms, d: &Option<Dist>, default: f64) -> f64 {
 
 /// How one family's draws went: every degenerate draw is redrawn, counted here, and shown
 /// in the report (`summary.json` `draws`, one line in the report header).
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Draws {
     pub family: String,
     /// Draws made, accepted and rejected.
@@ -263,29 +263,115 @@ pub fn sample_case(case: &Case) -> Vec<Sample> {
 /// redrawn at most [`redraw_limit`] times per family; past that the case is refused with a
 /// message naming the family, the reason and the parameters behind it.
 pub fn sample_case_counted(case: &Case) -> Result<(Vec<Sample>, Vec<Draws>), String> {
+    let mut stream = NaturalStream::new(case);
     let mut out = Vec::new();
-    let mut all_draws = Vec::new();
-    for (index, family) in case.materials.iter().enumerate() {
-        // One stream per family: the seed mixed with the family's index.
-        let stream = case.seed ^ (index as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        let mut source = Stream(ChaCha8Rng::seed_from_u64(stream));
-        let mut draws = Draws {
-            family: family.name.clone(),
-            ..Draws::default()
-        };
-        let mut n = 0;
-        while n < family.count {
+    loop {
+        let chunk = stream.next_chunk(usize::MAX)?;
+        if chunk.is_empty() {
+            break;
+        }
+        out.extend(chunk);
+    }
+    Ok((out, stream.draws))
+}
+
+/// What topping up needs to know of one family's natural sample: its bin counts per axis and
+/// whether the family has values on the axis at all.
+#[derive(Clone, Debug, Default)]
+pub struct FamilyCounts {
+    pub members: usize,
+    /// Uniforms per configuration (from the first member).
+    pub dims: usize,
+    pub bins: Vec<Vec<usize>>,
+    pub finite: Vec<bool>,
+}
+
+impl FamilyCounts {
+    fn new(case: &Case) -> FamilyCounts {
+        FamilyCounts {
+            members: 0,
+            dims: 0,
+            bins: case.bins.iter().map(|b| vec![0; b.edges.len() - 1]).collect(),
+            finite: vec![false; case.bins.len()],
+        }
+    }
+
+    fn count(&mut self, case: &Case, s: &Sample) {
+        if self.members == 0 {
+            self.dims = s.units.len();
+        }
+        self.members += 1;
+        for (a, b) in case.bins.iter().enumerate() {
+            let v = s.axes.get(&b.axis);
+            self.finite[a] |= v.is_finite();
+            if let Some(k) = b.index(v) {
+                self.bins[a][k] += 1;
+            }
+        }
+    }
+}
+
+/// The case's natural sample, drawn a chunk at a time in the same order as
+/// [`sample_case_counted`] (family after family, one seeded stream each), so a sweep never
+/// holds all of it. Keeps each family's draw counts and bin counts (for [`top_up_counted`]).
+pub struct NaturalStream<'a> {
+    case: &'a Case,
+    family: usize,
+    n: usize,
+    source: Option<Stream>,
+    pub draws: Vec<Draws>,
+    pub counts: Vec<FamilyCounts>,
+}
+
+impl<'a> NaturalStream<'a> {
+    pub fn new(case: &'a Case) -> NaturalStream<'a> {
+        NaturalStream {
+            case,
+            family: 0,
+            n: 0,
+            source: None,
+            draws: Vec::new(),
+            counts: case.materials.iter().map(|_| FamilyCounts::new(case)).collect(),
+        }
+    }
+
+    /// The next at most `max` configurations; empty once every family is drawn.
+    pub fn next_chunk(&mut self, max: usize) -> Result<Vec<Sample>, String> {
+        let case = self.case;
+        let mut out = Vec::new();
+        while out.len() < max && self.family < case.materials.len() {
+            let index = self.family;
+            let family = &case.materials[index];
+            if self.source.is_none() {
+                // One stream per family: the seed mixed with the family's index.
+                let stream = case.seed ^ (index as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+                self.source = Some(Stream(ChaCha8Rng::seed_from_u64(stream)));
+                self.draws.push(Draws {
+                    family: family.name.clone(),
+                    ..Draws::default()
+                });
+            }
+            if self.n >= family.count {
+                self.family += 1;
+                self.n = 0;
+                self.source = None;
+                continue;
+            }
+            let source = self.source.as_mut().expect("set above");
+            let draws = self.draws.last_mut().expect("pushed with the source");
             let mut recorder = Recorder {
-                inner: &mut source,
+                inner: source,
                 units: Vec::new(),
             };
-            let s = sample_one(&mut recorder, case, index, format!("{}-{n}", family.name));
+            let s = sample_one(&mut recorder, case, index, format!("{}-{}", family.name, self.n));
             let units = recorder.units;
             draws.drawn += 1;
             match s.config.validate() {
                 Ok(()) => {
-                    out.push(Sample { units, ..s });
-                    n += 1;
+                    let s = Sample { units, ..s };
+                    self.counts[index].count(case, &s);
+                    out.push(s);
+                    self.n += 1;
                 }
                 Err(d) => {
                     draws.rejected += 1;
@@ -306,14 +392,13 @@ pub fn sample_case_counted(case: &Case) -> Result<(Vec<Sample>, Vec<Draws>), Str
                 }
             }
         }
-        all_draws.push(draws);
+        Ok(out)
     }
-    Ok((out, all_draws))
 }
 
 /// What topping up did for one family: how many draws it made, how many it kept, and the
 /// bins still below the target when the budget ran out.
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct TopUp {
     pub family: String,
     pub draws: usize,
@@ -330,28 +415,33 @@ pub struct TopUp {
 /// no weights are needed. They are counted only in the bins they were kept for (`strata`),
 /// never in a whole-material statistic. Draws are bounded: `topup_draws` × the family's count.
 pub fn top_up(case: &Case, natural: &[Sample]) -> (Vec<Sample>, Vec<TopUp>) {
+    let mut counts: Vec<FamilyCounts> = case.materials.iter().map(|_| FamilyCounts::new(case)).collect();
+    for s in natural {
+        counts[s.material].count(case, s);
+    }
+    top_up_counted(case, &counts)
+}
+
+/// [`top_up`] from the natural sample's counts alone (a streamed sweep keeps no sample).
+pub fn top_up_counted(case: &Case, counts: &[FamilyCounts]) -> (Vec<Sample>, Vec<TopUp>) {
     use rayon::prelude::*;
     let mut out = Vec::new();
     let mut reports = Vec::new();
     for (index, family) in case.materials.iter().enumerate() {
-        let members: Vec<&Sample> = natural.iter().filter(|s| s.material == index).collect();
-        let Some(first) = members.first() else { continue };
+        let c = &counts[index];
+        if c.members == 0 {
+            continue;
+        }
         let mut need: Vec<Vec<usize>> = case
             .bins
             .iter()
-            .map(|b| {
-                let mut n = vec![0usize; b.edges.len() - 1];
-                let values = members.iter().map(|s| s.axes.get(&b.axis));
+            .enumerate()
+            .map(|(a, _)| {
                 // An axis this family has no values on (alpha for diffuse) is not topped up.
-                if !members.iter().any(|s| s.axes.get(&b.axis).is_finite()) {
-                    return n;
+                if !c.finite[a] {
+                    return vec![0; c.bins[a].len()];
                 }
-                for v in values {
-                    if let Some(k) = b.index(v) {
-                        n[k] += 1;
-                    }
-                }
-                n.iter().map(|&c| case.min_per_bin.saturating_sub(c)).collect()
+                c.bins[a].iter().map(|&n| case.min_per_bin.saturating_sub(n)).collect()
             })
             .collect();
         let mut report = TopUp {
@@ -359,7 +449,7 @@ pub fn top_up(case: &Case, natural: &[Sample]) -> (Vec<Sample>, Vec<TopUp>) {
             ..TopUp::default()
         };
         let budget = family.count.saturating_mul(case.topup_draws);
-        let dims = first.units.len();
+        let dims = c.dims;
         let stream = case.seed ^ (index as u64 + 1).wrapping_mul(0xD1B5_4A32_D192_ED03) ^ 0x7070_7570;
         let mut source = Stream(ChaCha8Rng::seed_from_u64(stream));
         const BATCH: usize = 16384;

@@ -8,9 +8,9 @@
 //! candidate batch is one GPU dispatch per method; references run on all cores. Errors are
 //! relative with no floor, over configurations whose reference is not 0 (DESIGN §4).
 
-use crate::analysis::{MethodRun, References};
 use crate::case::{Case, DisagreeSpec, SearchSpec};
 use crate::gpu::{Gpu, MethodPipeline};
+use crate::methods::Method;
 use crate::reference::{self, Estimate};
 use crate::sampler::{sample_from_units, Axes, Sample};
 use crate::scene::{Config, GpuScene};
@@ -91,11 +91,11 @@ struct Point {
 /// then `score` on (values, reference). One result per candidate, in order.
 fn evaluate(
     gpu: &Gpu,
-    methods: &[(&MethodRun, &MethodPipeline)],
+    methods: &[(&Method, &MethodPipeline)],
     candidates: Vec<Sample>,
     score: &(dyn Fn(&[f32], &Estimate) -> Option<f64> + Sync),
 ) -> anyhow::Result<Vec<Option<Point>>> {
-    let target = methods[0].0.method.target();
+    let target = methods[0].0.target();
     let scenes: Vec<GpuScene> = candidates.iter().map(|s| GpuScene::from(&s.config)).collect();
     let mut per_method = Vec::new();
     for (_, pipeline) in methods {
@@ -194,67 +194,114 @@ fn seed_of(case: &Case, family: usize, tag: &str) -> u64 {
         .fold(case.seed ^ family as u64, |h, b| h.rotate_left(5) ^ b as u64)
 }
 
-/// The family's configurations a search may start from, with their score, best first.
-fn starts(
-    samples: &[Sample],
-    family: usize,
-    accept: &dyn Fn(&Config) -> bool,
-    score: &dyn Fn(usize) -> Option<f64>,
-) -> Vec<(usize, f64)> {
-    let mut s: Vec<(usize, f64)> = (0..samples.len())
-        .filter(|&i| samples[i].material == family && accept(&samples[i].config))
-        .filter_map(|i| Some((i, score(i)?)))
-        .collect();
-    s.sort_by(|a, b| b.1.total_cmp(&a.1));
-    s
+/// A configuration of the sweep's sample a search may start from: the sample, the searched
+/// methods' values on it, its reference and its score.
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
+pub struct Start {
+    pub sample: Sample,
+    pub values: Vec<f32>,
+    pub reference: Estimate,
+    pub score: f64,
 }
 
-/// Searches one method over one family for its largest error, starting from the sweep's sample.
+/// The `k` highest-scoring starts seen, in bounded memory (a sweep streams its sample past it).
+/// Ties keep the earlier configuration, as a stable sort of the whole sample would.
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
+pub struct TopK {
+    k: usize,
+    /// (the configuration's global index, the start).
+    items: Vec<(usize, Start)>,
+}
+
+impl TopK {
+    pub fn new(k: usize) -> TopK {
+        TopK { k, items: Vec::new() }
+    }
+
+    /// Whether a start of this score would be kept (checked before building it).
+    pub fn wants(&self, score: f64) -> bool {
+        self.items.len() < self.k || self.items.iter().any(|(_, s)| score >= s.score)
+    }
+
+    /// Offers configuration `index` (global: ties keep the lower index).
+    pub fn push(&mut self, index: usize, start: Start) {
+        if self.k == 0 {
+            return;
+        }
+        if self.items.len() < self.k {
+            self.items.push((index, start));
+            return;
+        }
+        // The weakest kept: lowest score, latest among equals.
+        let (w, _) = self
+            .items
+            .iter()
+            .enumerate()
+            .min_by(|(_, a), (_, b)| a.1.score.total_cmp(&b.1.score).then(b.0.cmp(&a.0)))
+            .expect("k > 0 items");
+        let weakest = &self.items[w];
+        if start.score > weakest.1.score || (start.score == weakest.1.score && index < weakest.0) {
+            self.items[w] = (index, start);
+        }
+    }
+
+    /// Adds another part's starts: the k best of both.
+    pub fn merge(&mut self, o: TopK) {
+        for (index, start) in o.items {
+            self.push(index, start);
+        }
+    }
+
+    /// Best first.
+    pub fn into_sorted(mut self) -> Vec<Start> {
+        self.items
+            .sort_by(|a, b| b.1.score.total_cmp(&a.1.score).then(a.0.cmp(&b.0)));
+        self.items.into_iter().map(|(_, s)| s).collect()
+    }
+}
+
+/// Searches one method over one family for its largest error, starting from the sweep's
+/// highest-error configurations (`starts`, best first).
 pub fn search(
     case: &Case,
     spec: &SearchSpec,
-    samples: &[Sample],
-    references: &References,
-    run: &MethodRun,
+    starts: Vec<Start>,
+    method: &Method,
     (gpu, pipeline): (&Gpu, &MethodPipeline),
     family: usize,
 ) -> anyhow::Result<Option<Found>> {
-    let target = run.method.target();
-    let accept = |c: &Config| run.method.applies(c) && run.method.supports(c);
-    let starts = starts(samples, family, &accept, &|i| {
-        rel_error(run.f32[i], references[i].get(&target)?)
-    });
+    let accept = |c: &Config| method.applies(c) && method.supports(c);
     if starts.is_empty() || spec.restarts == 0 {
         return Ok(None);
     }
-    let sample_worst = starts[0].1;
+    let sample_worst = starts[0].score;
     let current: Vec<Point> = starts
-        .iter()
+        .into_iter()
         .take(spec.restarts)
-        .map(|&(i, s)| Point {
-            sample: samples[i].clone(),
-            values: vec![run.f32[i]],
-            reference: references[i][&target],
-            score: s,
+        .map(|s| Point {
+            sample: s.sample,
+            values: s.values,
+            reference: s.reference,
+            score: s.score,
         })
         .collect();
     let how = Climb {
         steps: spec.steps,
         population: spec.population,
-        seed: seed_of(case, family, &run.method.label),
+        seed: seed_of(case, family, &method.label),
     };
     let score = |v: &[f32], r: &Estimate| rel_error(v[0], r);
     let (points, evaluations) = climb(case, family, current, &how, &accept, &mut |c| {
-        evaluate(gpu, &[(run, pipeline)], c, &score)
+        evaluate(gpu, &[(method, pipeline)], c, &score)
     })?;
     let worst = points
         .into_iter()
         .max_by(|a, b| a.score.total_cmp(&b.score))
         .expect("at least one start");
     let mut config = worst.sample.config;
-    config.id = format!("worst-{}-{}", run.method.label, case.materials[family].name);
+    config.id = format!("worst-{}-{}", method.label, case.materials[family].name);
     Ok(Some(Found {
-        method: run.method.label.clone(),
+        method: method.label.clone(),
         family: case.materials[family].name.clone(),
         sample_worst,
         worst: worst.score,
@@ -265,45 +312,40 @@ pub fn search(
     }))
 }
 
-/// Searches one family for the configurations where `a` is least accurate relative to `b`:
-/// every restart's final point, best first. Returns them and the candidates evaluated.
+/// Searches one family for the configurations where `a` is least accurate relative to `b`
+/// from the sweep's best starts (best first): every restart's final point, best first. Returns them and the candidates evaluated.
 pub fn disagreements(
     case: &Case,
     spec: &DisagreeSpec,
-    (samples, references): (&[Sample], &References),
+    starts: Vec<Start>,
     gpu: &Gpu,
-    (a, pa): (&MethodRun, &MethodPipeline),
-    (b, pb): (&MethodRun, &MethodPipeline),
+    (a, pa): (&Method, &MethodPipeline),
+    (b, pb): (&Method, &MethodPipeline),
     family: usize,
 ) -> anyhow::Result<(Vec<Disagreement>, usize)> {
-    let target = a.method.target();
     let eps = spec.epsilon;
-    let accept =
-        |c: &Config| a.method.applies(c) && b.method.applies(c) && a.method.supports(c) && b.method.supports(c);
+    let accept = |c: &Config| a.applies(c) && b.applies(c) && a.supports(c) && b.supports(c);
     let ratio_of = |va: f32, vb: f32, r: &Estimate| -> Option<f64> {
         Some(disagreement_ratio(rel_error(va, r)?, rel_error(vb, r)?, eps))
     };
-    let starts = starts(samples, family, &accept, &|i| {
-        ratio_of(a.f32[i], b.f32[i], references[i].get(&target)?)
-    });
     if starts.is_empty() || spec.restarts == 0 {
         return Ok((Vec::new(), 0));
     }
-    let sample_ratio = starts[0].1;
+    let sample_ratio = starts[0].score;
     let current: Vec<Point> = starts
-        .iter()
+        .into_iter()
         .take(spec.restarts)
-        .map(|&(i, s)| Point {
-            sample: samples[i].clone(),
-            values: vec![a.f32[i], b.f32[i]],
-            reference: references[i][&target],
-            score: s,
+        .map(|s| Point {
+            sample: s.sample,
+            values: s.values,
+            reference: s.reference,
+            score: s.score,
         })
         .collect();
     let how = Climb {
         steps: spec.steps,
         population: spec.population,
-        seed: seed_of(case, family, &format!("{}/{}", a.method.label, b.method.label)),
+        seed: seed_of(case, family, &format!("{}/{}", a.label, b.label)),
     };
     let score = |v: &[f32], r: &Estimate| ratio_of(v[0], v[1], r);
     let (mut points, evaluations) = climb(case, family, current, &how, &accept, &mut |c| {
@@ -317,11 +359,11 @@ pub fn disagreements(
         .filter(|(_, p)| p.score > 1.0)
         .map(|(k, p)| {
             let mut config = p.sample.config;
-            config.id = format!("disagree-{}-worse-than-{}-{name}-{k}", a.method.label, b.method.label);
+            config.id = format!("disagree-{}-worse-than-{}-{name}-{k}", a.label, b.label);
             let err = |v: f32| rel_error(v, &p.reference).unwrap_or(f64::NAN);
             Disagreement {
-                a: a.method.label.clone(),
-                b: b.method.label.clone(),
+                a: a.label.clone(),
+                b: b.label.clone(),
                 family: name.clone(),
                 ratio: p.score,
                 sample_ratio,
@@ -329,8 +371,8 @@ pub fn disagreements(
                 err_b: err(p.values[1]),
                 value_a: p.values[0],
                 value_b: p.values[1],
-                f64_a: a.method.eval_f64(&config),
-                f64_b: b.method.eval_f64(&config),
+                f64_a: a.eval_f64(&config),
+                f64_b: b.eval_f64(&config),
                 reference: p.reference,
                 axes: p.sample.axes,
                 config,

@@ -5,7 +5,8 @@
 //! reference is not 0: a far or dim light's relative error is what a viewer sees once exposure
 //! adapts. Configurations whose reference is exactly 0 are kept apart ("false light").
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+use sketches_ddsketch::{Config, DDSketch};
 
 /// Relative error |value − reference| / |reference|, no floor (the reference is not 0).
 pub fn relative_error(value: f64, reference: f64) -> f64 {
@@ -76,6 +77,26 @@ impl Outcome {
     }
 }
 
+/// Which kind of number a quantile is: nearest-rank over every value (exact), or read from a
+/// DDSketch of relative accuracy [`SKETCH_ALPHA`] (a bin that held more than [`EXACT_LIMIT`]
+/// values). The maximum is exact either way.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum QuantileKind {
+    #[default]
+    Exact,
+    Sketch,
+}
+
+impl QuantileKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            QuantileKind::Exact => "exact",
+            QuantileKind::Sketch => "sketch",
+        }
+    }
+}
+
 /// Order statistics of a sample of non-negative errors.
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
 pub struct Quantiles {
@@ -83,6 +104,8 @@ pub struct Quantiles {
     pub p90: f64,
     pub p99: f64,
     pub max: f64,
+    /// Exact nearest-rank, or within the sketch's relative accuracy (median, p90, p99).
+    pub kind: QuantileKind,
 }
 
 impl Quantiles {
@@ -98,7 +121,131 @@ impl Quantiles {
             p90: q(0.9),
             p99: q(0.99),
             max: values[values.len() - 1],
+            kind: QuantileKind::Exact,
         })
+    }
+}
+
+/// A bin keeps its values, for exact nearest-rank quantiles, while it holds at most this many;
+/// past that it keeps a sketch. Memory per bin is bounded either way.
+pub const EXACT_LIMIT: usize = 2048;
+
+/// The sketch's relative accuracy: a sketched quantile q̂ of true value q has |q̂ − q| ≤ α·q.
+pub const SKETCH_ALPHA: f64 = 0.01;
+
+/// Most buckets a sketch keeps (α = 1 %: about 17 decades of values at full accuracy; past
+/// that the lowest buckets are merged, so only the smallest quantiles would lose accuracy).
+const SKETCH_BINS: u32 = 2048;
+
+fn sketch_config() -> Config {
+    // Every positive value is bucketed (errors of f64 formulas reach 1e-17 and below); exact
+    // zeros are counted apart by the sketch.
+    Config::new(SKETCH_ALPHA, SKETCH_BINS, f64::MIN_POSITIVE)
+}
+
+/// A mergeable distribution of non-negative values: exact values up to [`EXACT_LIMIT`], then a
+/// DDSketch (`sketches-ddsketch`). Merging two parts gives what one pass over both would give:
+/// the same values, or the same sketch buckets.
+#[derive(Clone, Serialize, Deserialize)]
+pub enum Distribution {
+    Exact(Vec<f64>),
+    Sketch(Box<DDSketch>),
+}
+
+impl std::fmt::Debug for Distribution {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let kind = match self {
+            Distribution::Exact(_) => "Exact",
+            Distribution::Sketch(_) => "Sketch",
+        };
+        write!(f, "{kind}({} values)", self.len())
+    }
+}
+
+impl Default for Distribution {
+    fn default() -> Self {
+        Distribution::Exact(Vec::new())
+    }
+}
+
+impl Distribution {
+    pub fn len(&self) -> usize {
+        match self {
+            Distribution::Exact(v) => v.len(),
+            Distribution::Sketch(s) => s.count(),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    fn sketch_of(values: &[f64]) -> Box<DDSketch> {
+        let mut s = Box::new(DDSketch::new(sketch_config()));
+        for &v in values {
+            s.add(v);
+        }
+        s
+    }
+
+    pub fn push(&mut self, v: f64) {
+        match self {
+            Distribution::Exact(values) => {
+                values.push(v);
+                if values.len() > EXACT_LIMIT {
+                    *self = Distribution::Sketch(Self::sketch_of(values));
+                }
+            }
+            Distribution::Sketch(s) => s.add(v),
+        }
+    }
+
+    pub fn merge(&mut self, other: &Distribution) {
+        match (&mut *self, other) {
+            (Distribution::Exact(a), Distribution::Exact(b)) if a.len() + b.len() <= EXACT_LIMIT => {
+                a.extend_from_slice(b)
+            }
+            (Distribution::Sketch(a), Distribution::Sketch(b)) => {
+                a.merge(b).expect("every sketch has the same configuration")
+            }
+            (Distribution::Sketch(a), Distribution::Exact(b)) => b.iter().for_each(|&v| a.add(v)),
+            (Distribution::Exact(a), _) => {
+                let mut s = Self::sketch_of(a);
+                match other {
+                    Distribution::Exact(b) => b.iter().for_each(|&v| s.add(v)),
+                    Distribution::Sketch(b) => s.merge(b).expect("every sketch has the same configuration"),
+                }
+                *self = Distribution::Sketch(s);
+            }
+        }
+    }
+
+    /// Median, p90, p99 and max; None when empty. Exact nearest-rank while exact; from the
+    /// sketch after (clamped to the observed range, which the sketch keeps exactly).
+    pub fn quantiles(&self) -> Option<Quantiles> {
+        match self {
+            Distribution::Exact(v) => Quantiles::of(&mut v.clone()),
+            Distribution::Sketch(s) => {
+                let (lo, hi) = (s.min()?, s.max()?);
+                let n = s.count();
+                // The sketch reads rank ⌊p·(n − 1)⌋; ask for the nearest rank ⌈q·n⌉ − 1, so a
+                // sketched quantile is within α of the exact one at the same rank.
+                let q = |p: f64| {
+                    let rank = ((p * n as f64).ceil() as usize).clamp(1, n) - 1;
+                    let at = ((rank as f64 + 0.5) / (n - 1).max(1) as f64).min(1.0);
+                    s.quantile(at)
+                        .expect("quantile in [0, 1]")
+                        .map_or(f64::NAN, |v| v.clamp(lo, hi))
+                };
+                Some(Quantiles {
+                    median: q(0.5),
+                    p90: q(0.9),
+                    p99: q(0.99),
+                    max: hi,
+                    kind: QuantileKind::Sketch,
+                })
+            }
+        }
     }
 }
 
@@ -168,24 +315,27 @@ impl BinStats {
 /// method's median error: the reference could then move the statistics.
 pub const ACCURACY_MARGIN: f64 = 100.0;
 
-/// Accumulates the outcomes of one method in one bin.
-#[derive(Default, Clone)]
+/// Accumulates the outcomes of one method in one bin; mergeable (shards, parallel parts), in
+/// memory bounded whatever the count (see [`Distribution`]).
+#[derive(Default, Clone, Debug, Serialize, Deserialize)]
 pub struct BinAccumulator {
-    rel: Vec<f64>,
-    rel_floored: Vec<f64>,
+    rel: Distribution,
+    rel_floored: Distribution,
     below_floor: usize,
-    abs: Vec<f64>,
-    rel_cpu_f32: Vec<f64>,
-    rel_f64: Vec<f64>,
-    bits: Vec<f64>,
-    reference_rel: Vec<f64>,
+    abs: Distribution,
+    rel_cpu_f32: Distribution,
+    rel_f64: Distribution,
+    bits: Distribution,
+    reference_rel: Distribution,
+    /// Finite results within 1e-3, 1e-2, 1e-1 (exact counts).
+    within: [usize; 3],
     nan: usize,
     inf: usize,
     nan_f64: usize,
     zero: usize,
     zero_lit: usize,
     zero_nonfinite: usize,
-    zero_values: Vec<f64>,
+    zero_values: Distribution,
     zero_lit_f64: usize,
 }
 
@@ -212,6 +362,9 @@ impl BinAccumulator {
                 self.rel_floored.push(rel_floored);
                 self.abs.push(abs);
                 self.bits.push(bits);
+                for (w, t) in self.within.iter_mut().zip([1e-3, 1e-2, 1e-1]) {
+                    *w += (rel <= t) as usize;
+                }
             }
             Outcome::Nan => self.nan += 1,
             Outcome::Inf => self.inf += 1,
@@ -242,17 +395,44 @@ impl BinAccumulator {
         }
     }
 
-    pub fn finish(mut self) -> BinStats {
+    /// Adds another part's outcomes (the same method and bin, other configurations).
+    pub fn merge(&mut self, o: &BinAccumulator) {
+        for (a, b) in [
+            (&mut self.rel, &o.rel),
+            (&mut self.rel_floored, &o.rel_floored),
+            (&mut self.abs, &o.abs),
+            (&mut self.rel_cpu_f32, &o.rel_cpu_f32),
+            (&mut self.rel_f64, &o.rel_f64),
+            (&mut self.bits, &o.bits),
+            (&mut self.reference_rel, &o.reference_rel),
+            (&mut self.zero_values, &o.zero_values),
+        ] {
+            a.merge(b);
+        }
+        for (a, b) in self.within.iter_mut().zip(o.within) {
+            *a += b;
+        }
+        for (a, b) in [
+            (&mut self.below_floor, o.below_floor),
+            (&mut self.nan, o.nan),
+            (&mut self.inf, o.inf),
+            (&mut self.nan_f64, o.nan_f64),
+            (&mut self.zero, o.zero),
+            (&mut self.zero_lit, o.zero_lit),
+            (&mut self.zero_nonfinite, o.zero_nonfinite),
+            (&mut self.zero_lit_f64, o.zero_lit_f64),
+        ] {
+            *a += b;
+        }
+    }
+
+    pub fn finish(&self) -> BinStats {
         let total = self.rel.len() + self.nan + self.inf;
-        let within = [1e-3, 1e-2, 1e-1].map(|t| {
-            if total == 0 {
-                f64::NAN
-            } else {
-                self.rel.iter().filter(|&&e| e <= t).count() as f64 / total as f64
-            }
-        });
-        let rel = Quantiles::of(&mut self.rel);
-        let reference_rel = Quantiles::of(&mut self.reference_rel);
+        let within = self
+            .within
+            .map(|w| if total == 0 { f64::NAN } else { w as f64 / total as f64 });
+        let rel = self.rel.quantiles();
+        let reference_rel = self.reference_rel.quantiles();
         let reference_flag = match (rel, reference_rel) {
             (Some(m), Some(r)) => r.max * ACCURACY_MARGIN > m.median,
             _ => false,
@@ -262,13 +442,13 @@ impl BinAccumulator {
             nan: self.nan,
             inf: self.inf,
             rel,
-            rel_floored: Quantiles::of(&mut self.rel_floored),
+            rel_floored: self.rel_floored.quantiles(),
             below_floor: self.below_floor,
-            abs: Quantiles::of(&mut self.abs),
-            rel_cpu_f32: Quantiles::of(&mut self.rel_cpu_f32),
-            rel_f64: Quantiles::of(&mut self.rel_f64),
+            abs: self.abs.quantiles(),
+            rel_cpu_f32: self.rel_cpu_f32.quantiles(),
+            rel_f64: self.rel_f64.quantiles(),
             nan_f64: self.nan_f64,
-            bits: Quantiles::of(&mut self.bits),
+            bits: self.bits.quantiles(),
             within,
             reference_rel,
             reference_flag,
@@ -276,7 +456,7 @@ impl BinAccumulator {
                 configurations: self.zero,
                 lit: self.zero_lit,
                 nonfinite: self.zero_nonfinite,
-                value: Quantiles::of(&mut self.zero_values),
+                value: self.zero_values.quantiles(),
                 lit_f64: self.zero_lit_f64,
             },
         }
@@ -352,6 +532,57 @@ mod tests {
         );
         assert_eq!(s.false_light.value.unwrap().max, 0.25);
         assert_eq!(s.configurations(), 3);
+    }
+
+    /// A deterministic spread of errors over twelve decades.
+    fn spread(n: usize) -> Vec<f64> {
+        (0..n)
+            .map(|i| 10f64.powf(-10.0 + 12.0 * ((i * 7919) % n) as f64 / n as f64))
+            .collect()
+    }
+
+    #[test]
+    fn small_bins_stay_exact_large_ones_are_sketched_within_alpha() {
+        let mut d = Distribution::default();
+        let values = spread(EXACT_LIMIT);
+        values.iter().for_each(|&v| d.push(v));
+        assert_eq!(d.quantiles(), Quantiles::of(&mut values.clone()));
+        let values = spread(50_000);
+        let mut d = Distribution::default();
+        values.iter().for_each(|&v| d.push(v));
+        d.push(0.0);
+        let mut all = values.clone();
+        all.push(0.0);
+        let (q, exact) = (d.quantiles().unwrap(), Quantiles::of(&mut all).unwrap());
+        assert_eq!(q.kind, QuantileKind::Sketch);
+        assert_eq!(q.max, exact.max);
+        for (a, b) in [(q.median, exact.median), (q.p90, exact.p90), (q.p99, exact.p99)] {
+            // Within α of the exact value at the same (nearest) rank.
+            assert!((a - b).abs() <= SKETCH_ALPHA * b * (1.0 + 1e-9), "{a} against {b}");
+        }
+        // A jump in the distribution at the quantile's rank: the rank is the nearest rank's.
+        let mut d = Distribution::default();
+        let mut v: Vec<f64> = (0..2576).map(|i| if i < 2318 { 1e-10 } else { 1.0 }).collect();
+        v.iter().for_each(|&x| d.push(x));
+        let (q, exact) = (d.quantiles().unwrap(), Quantiles::of(&mut v).unwrap());
+        assert_eq!((q.p90, exact.p90), (1.0, 1.0));
+    }
+
+    #[test]
+    fn merging_parts_equals_one_pass() {
+        for n in [100, EXACT_LIMIT, 3 * EXACT_LIMIT, 20_000] {
+            let values = spread(n);
+            let mut one = Distribution::default();
+            values.iter().for_each(|&v| one.push(v));
+            let mut merged = Distribution::default();
+            for part in values.chunks(n / 3 + 1) {
+                let mut p = Distribution::default();
+                part.iter().for_each(|&v| p.push(v));
+                merged.merge(&p);
+            }
+            assert_eq!(merged.len(), n);
+            assert_eq!(merged.quantiles(), one.quantiles(), "n = {n}");
+        }
     }
 
     #[test]

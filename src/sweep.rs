@@ -3,7 +3,7 @@
 //! Everything that can fail on bad input (case file, kernels, adapter) fails before any
 //! measuring starts and before any report is written.
 
-use crate::analysis::{MethodRun, References};
+use crate::analysis::{Accumulators, Chunk, MethodRun, References};
 use crate::case::Case;
 use crate::gpu::Gpu;
 use crate::methods::{self, Method};
@@ -30,17 +30,36 @@ pub struct Setup {
     pub draws: Vec<sampler::Draws>,
 }
 
-/// Loads and checks everything a sweep needs, without touching the GPU.
+/// Loads and checks everything a sweep needs, without touching the GPU, and draws the whole
+/// sample into `Setup::samples` (bench and others that hold every configuration).
 pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> anyhow::Result<Setup> {
-    prepare_with(case, user_kernels, count, false)
+    let mut setup = prepare_with(case, user_kernels, count, false)?;
+    let (mut samples, draws) =
+        sampler::sample_case_counted(&setup.case).map_err(|e| anyhow::anyhow!("case `{}`: {e}", setup.case.name))?;
+    let (extra, topups) = sampler::top_up(&setup.case, &samples);
+    samples.extend(extra);
+    setup.samples = samples;
+    setup.draws = draws;
+    setup.topups = topups;
+    Ok(setup)
 }
 
-/// [`prepare`], with `raw` telling whether every configuration's values are also kept for
-/// `--raw` (counted in the memory estimate).
+/// The most configurations per family a sweep takes; stability counts beyond are
+/// `linelight scan`'s.
+pub const MAX_COUNT: usize = 1_000_000_000_000;
+
+/// [`prepare`] for a streamed sweep ([`measure`] draws the sample chunk by chunk): nothing is
+/// sampled here, `samples`, `draws` and `topups` stay empty. `raw` tells whether `--raw` rows
+/// are written (counted in the memory estimate of one chunk).
 pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, raw: bool) -> anyhow::Result<Setup> {
     let mut case = case;
     anyhow::ensure!(count != Some(0), "--count must be at least 1");
     if let Some(n) = count {
+        anyhow::ensure!(
+            n <= MAX_COUNT,
+            "--count {n}: more than the {MAX_COUNT} configurations per family a sweep takes (stability \
+             counts beyond are `linelight scan`'s)"
+        );
         // The bins' minimum shrinks with the counts, so a quick run stays quick.
         let largest = case.materials.iter().map(|m| m.count).max().unwrap_or(1).max(1);
         case.min_per_bin = (case.min_per_bin * n).div_ceil(largest).min(case.min_per_bin);
@@ -69,15 +88,19 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
             );
         }
     }
-    // Memory before the sample is allocated: counts are the user's (`--count`).
-    // Top-ups add at most `min_per_bin` per bin of each family.
+    // Memory before anything is allocated: one measuring chunk of configurations (samples,
+    // scenes, references, values, --raw rows) plus the statistics' bounded accumulators.
     let bins: u64 = case.bins.iter().map(|b| b.edges.len().saturating_sub(1) as u64).sum();
     let total = case.materials.iter().fold(0u64, |t, m| {
         t.saturating_add(m.count as u64)
             .saturating_add(bins.saturating_mul(case.min_per_bin as u64))
     });
-    let estimate =
-        crate::limits::sweep_estimate(total, methods.len() as u64, needed_targets(&methods).len() as u64, raw);
+    let estimate = crate::limits::sweep_estimate(
+        total.min(MEASURE_CHUNK as u64),
+        methods.len() as u64,
+        needed_targets(&methods).len() as u64,
+        raw,
+    );
     crate::limits::check(
         &format!("case `{}` with {total} configurations", case.name),
         estimate,
@@ -97,22 +120,18 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
         )
         .map_err(anyhow::Error::msg)?;
     }
-    let (mut samples, draws) =
-        sampler::sample_case_counted(&case).map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?;
-    let (extra, topups) = sampler::top_up(&case, &samples);
-    samples.extend(extra);
     Ok(Setup {
         case,
         methods,
-        samples,
-        topups,
+        samples: Vec::new(),
+        topups: Vec::new(),
         count_override: count,
-        draws,
+        draws: Vec::new(),
     })
 }
 
 /// Wall-clock time of each stage, measured in this run.
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Timing {
     pub configurations: usize,
     pub adapter: String,
@@ -132,12 +151,16 @@ pub struct Timing {
     pub disagree_seconds: f64,
     pub disagree_evaluations: usize,
     pub cost_seconds: f64,
+    /// Folding each chunk into the statistics (`analysis::Accumulators::add`).
+    pub statistics_seconds: f64,
+    /// Measuring chunks evaluated (of [`MEASURE_CHUNK`] configurations).
+    pub chunks: usize,
     pub total_seconds: f64,
 }
 
 pub struct Measured {
-    pub runs: Vec<MethodRun>,
-    pub references: References,
+    /// Every statistic of the sweep, folded in chunk by chunk (`analysis::Accumulators`).
+    pub accumulators: Accumulators,
     pub timing: Timing,
     /// The worst-case search's findings (cases with a `[search]`).
     pub found: Vec<crate::search::Found>,
@@ -147,6 +170,51 @@ pub struct Measured {
     pub costs: Vec<crate::bench::Cost>,
     /// Where each method's f32 rounding loses bits, on a subset (src/interp attribution).
     pub attribution: Vec<MethodAttribution>,
+    /// Configurations measured (natural and top-ups), and natural ones per family.
+    pub configurations: usize,
+    pub natural: Vec<usize>,
+    /// Each family's draws, rejected ones included (shown in the report).
+    pub draws: Vec<sampler::Draws>,
+    /// What topping up thin bins did, per family.
+    pub topups: Vec<sampler::TopUp>,
+    /// The first [`NONFINITE_KEPT`] configurations on which some method returned NaN or ±inf,
+    /// with those methods, and how many there were in all.
+    pub nonfinite: Vec<(crate::scene::Config, Vec<String>)>,
+    pub nonfinite_total: usize,
+    /// How much of `line` lies below the horizon, per family (line cases).
+    pub leak: Vec<crate::analysis::Leak>,
+    /// For the gate (`--baseline`, `--save-baseline`): per method, per family, whether
+    /// supported and the observation of every natural configuration in sample order. O(N):
+    /// kept only when asked for (a gate's case is small).
+    pub observations: Option<Observations>,
+}
+
+/// Per method, per family: whether supported, and each natural configuration's observation.
+pub type Observations = Vec<Vec<(bool, Vec<crate::baseline::Obs>)>>;
+
+/// Configurations measured at a time: their GPU results, CPU columns and references are in
+/// memory together, then folded into the statistics and dropped.
+pub const MEASURE_CHUNK: usize = 1 << 16;
+
+/// Configurations per block of the shard partition: shard i of n evaluates the blocks
+/// k ≡ i (mod n) of the global order (natural sample family by family, then top-ups).
+pub const SHARD_BLOCK: usize = 1024;
+
+/// Non-finite configurations kept for `nonfinite.jsonl` (the count is always complete).
+pub const NONFINITE_KEPT: usize = 1000;
+
+/// How a sweep measures: the GPU dispatch size, what per-configuration state to keep, where
+/// `--raw` rows go, and which shard of the configurations to evaluate.
+pub struct MeasureOptions<'a> {
+    /// Configurations per GPU dispatch (0: the runner's default).
+    pub chunk: usize,
+    /// Keep the gate's per-configuration observations ([`Measured::observations`]).
+    pub observe: bool,
+    /// `--raw`: every configuration's row (eval output format), written chunk by chunk.
+    pub raw: Option<&'a mut dyn std::io::Write>,
+    /// `--shard i/n`: evaluate only the configurations of global index g with
+    /// ⌊g / SHARD_BLOCK⌋ mod n = i.
+    pub shard: Option<(usize, usize)>,
 }
 
 /// One method's local f32 rounding error per kernel source line.
@@ -159,19 +227,40 @@ pub struct MethodAttribution {
     pub lines: Vec<crate::interp::LineSummary>,
 }
 
+impl Timing {
+    /// Adds another shard's measuring times (searches and cost are measured once, at merge).
+    fn add(&mut self, o: &Timing) {
+        self.configurations += o.configurations;
+        for (a, b) in [(&mut self.gpu, &o.gpu)] {
+            for (x, y) in a.iter_mut().zip(b) {
+                x.1 += y.1;
+            }
+        }
+        for (a, b) in [(&mut self.f64_ports, &o.f64_ports), (&mut self.f32_ports, &o.f32_ports)] {
+            for (x, y) in a.iter_mut().zip(b) {
+                x.1 += y.1;
+            }
+        }
+        self.references_seconds += o.references_seconds;
+        self.references_evaluated += o.references_evaluated;
+        self.statistics_seconds += o.statistics_seconds;
+        self.chunks += o.chunks;
+        self.total_seconds += o.total_seconds;
+    }
+}
+
 /// Configurations per method for the attribution (a shadow f64 evaluation beside the f32
 /// one costs about three plain evaluations; a spread subset keeps it to a fraction of a
 /// second per method).
 pub const ATTRIBUTION_CONFIGURATIONS: usize = 2048;
 
-/// Attribution of every method on an evenly spread subset of the configurations.
-fn attribute(methods: &[Method], configs: &[crate::scene::Config]) -> anyhow::Result<Vec<MethodAttribution>> {
+/// Attribution of every method on its spread subset of the configurations.
+fn attribute(methods: &[Method], subsets: &[Vec<crate::scene::Config>]) -> anyhow::Result<Vec<MethodAttribution>> {
     methods
         .iter()
-        .map(|m| {
-            let applies: Vec<&crate::scene::Config> = configs.iter().filter(|c| m.applies(c)).collect();
-            let step = applies.len().div_ceil(ATTRIBUTION_CONFIGURATIONS).max(1);
-            let subset: Vec<&crate::scene::Config> = applies.into_iter().step_by(step).collect();
+        .zip(subsets)
+        .map(|(m, configs)| {
+            let subset: Vec<&crate::scene::Config> = configs.iter().collect();
             let a = crate::interp::program(m)?.attribute(&subset)?;
             Ok(MethodAttribution {
                 label: m.label.clone(),
@@ -224,97 +313,366 @@ pub fn references(samples: &[crate::scene::Config], targets: &BTreeSet<Target>, 
         .collect()
 }
 
-pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measured> {
+/// What a streamed sweep keeps of its configurations while they pass: bounded state only
+/// (best starts, first non-finite ones, subsets), except the gate's observations when asked.
+/// Configurations are named by their global index (natural sample first, then top-ups), so
+/// shards' states merge into what one run keeps.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Kept {
+    /// Per `[search]` method (index into the methods) and family: the highest-error starts.
+    search: Vec<(usize, usize, crate::search::TopK)>,
+    /// Per ordered compared pair (a, b) and family: the highest-ratio starts.
+    disagree: Vec<(usize, usize, usize, crate::search::TopK)>,
+    nonfinite: Vec<(usize, crate::scene::Config, Vec<String>)>,
+    nonfinite_total: usize,
+    /// Per family: configurations with both `line` and `line_upper`, and the leaking fractions.
+    leak: Vec<(usize, crate::stats::Distribution)>,
+    #[serde(skip)]
+    observations: Option<Observations>,
+    /// Per family: the first natural configurations (the cost measurement's).
+    cost: Vec<Vec<(usize, crate::scene::Config)>>,
+    /// Per method: its spread subset for the attribution.
+    attribution: Vec<Vec<(usize, crate::scene::Config)>>,
+    natural: Vec<usize>,
+    /// Configurations measured (this part's).
+    seen: usize,
+}
+
+impl Kept {
+    /// Adds another part's state (other configurations of the same sweep).
+    fn merge(&mut self, o: Kept, per_family_cost: usize) {
+        for (a, b) in self.search.iter_mut().zip(o.search) {
+            a.2.merge(b.2);
+        }
+        for (a, b) in self.disagree.iter_mut().zip(o.disagree) {
+            a.3.merge(b.3);
+        }
+        self.nonfinite.extend(o.nonfinite);
+        self.nonfinite.sort_by_key(|x| x.0);
+        self.nonfinite.truncate(NONFINITE_KEPT);
+        self.nonfinite_total += o.nonfinite_total;
+        for (a, b) in self.leak.iter_mut().zip(&o.leak) {
+            a.0 += b.0;
+            a.1.merge(&b.1);
+        }
+        let first = |a: &mut Vec<(usize, crate::scene::Config)>, b: Vec<(usize, crate::scene::Config)>, n: usize| {
+            a.extend(b);
+            a.sort_by_key(|x| x.0);
+            a.truncate(n);
+        };
+        for (a, b) in self.cost.iter_mut().zip(o.cost) {
+            first(a, b, per_family_cost);
+        }
+        for (a, b) in self.attribution.iter_mut().zip(o.attribution) {
+            first(a, b, ATTRIBUTION_CONFIGURATIONS);
+        }
+        for (a, b) in self.natural.iter_mut().zip(&o.natural) {
+            *a += b;
+        }
+        self.seen += o.seen;
+    }
+}
+
+/// The version of the shard state file (`--shard`, docs/scale.md).
+pub const SHARD_FORMAT: u32 = 1;
+
+/// What measuring a sweep's configurations, or one shard's, leaves before the searches and
+/// the cost pass: mergeable (`linelight merge`). Written by `sweep --shard i/n` as JSON.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Partial {
+    pub format: u32,
+    pub case: String,
+    pub seed: u64,
+    pub count_override: Option<usize>,
+    /// (i, n): this part is shard i of n; (0, 1) for a whole run.
+    pub shard: (usize, usize),
+    pub methods: Vec<String>,
+    pub accumulators: Accumulators,
+    pub kept: Kept,
+    pub draws: Vec<sampler::Draws>,
+    pub topups: Vec<sampler::TopUp>,
+    pub timing: Timing,
+}
+
+impl Partial {
+    /// Merges shards 0..n of one sweep (each exactly once) into the state of the whole run.
+    pub fn merge_all(setup: &Setup, mut parts: Vec<Partial>) -> anyhow::Result<Partial> {
+        anyhow::ensure!(!parts.is_empty(), "merge: no shard states given");
+        parts.sort_by_key(|p| p.shard.0);
+        let n = parts[0].shard.1;
+        let labels: Vec<String> = setup.methods.iter().map(|m| m.label.clone()).collect();
+        for (k, p) in parts.iter().enumerate() {
+            anyhow::ensure!(
+                p.format == SHARD_FORMAT,
+                "merge: shard state format {} (this linelight reads {SHARD_FORMAT})",
+                p.format
+            );
+            anyhow::ensure!(
+                p.case == setup.case.name && p.seed == setup.case.seed && p.count_override == setup.count_override,
+                "merge: shard {}/{} is of case `{}` seed {} --count {:?}, not `{}` seed {} --count {:?}",
+                p.shard.0,
+                p.shard.1,
+                p.case,
+                p.seed,
+                p.count_override,
+                setup.case.name,
+                setup.case.seed,
+                setup.count_override
+            );
+            anyhow::ensure!(
+                p.methods == labels,
+                "merge: shard {}/{} measured methods {:?}, the case has {:?}",
+                p.shard.0,
+                p.shard.1,
+                p.methods,
+                labels
+            );
+            anyhow::ensure!(
+                p.shard == (k, n),
+                "merge: expected shards 0..{n} of {n} once each, found {}/{} in place {k}",
+                p.shard.0,
+                p.shard.1
+            );
+        }
+        anyhow::ensure!(parts.len() == n, "merge: {} of {n} shards given", parts.len());
+        let per_family_cost = COST_CONFIGURATIONS.div_ceil(setup.case.materials.len().max(1));
+        let mut it = parts.into_iter();
+        let mut all = it.next().expect("not empty");
+        for p in it {
+            all.accumulators.merge(&p.accumulators).map_err(anyhow::Error::msg)?;
+            all.kept.merge(p.kept, per_family_cost);
+            all.timing.add(&p.timing);
+        }
+        all.shard = (0, 1);
+        Ok(all)
+    }
+}
+
+/// Measures a sweep: its configurations chunk by chunk ([`measure_part`]), then the searches,
+/// the cost pass and the attribution ([`finish`]).
+pub fn measure(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow::Result<Measured> {
+    let chunk = options.chunk;
+    let part = measure_part(setup, gpu, options)?;
+    finish(setup, gpu, part, chunk)
+}
+
+/// Measures the configurations (all, or one shard's) chunk by chunk into a [`Partial`].
+pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow::Result<Partial> {
+    let MeasureOptions {
+        chunk,
+        observe,
+        mut raw,
+        shard,
+    } = options;
     let start = Instant::now();
+    let case = &setup.case;
+    let methods = &setup.methods;
     // Compile every pipeline first: a kernel error stops the sweep before any work.
     let mut pipelines = Vec::new();
-    for m in &setup.methods {
+    for m in methods {
         pipelines.push(gpu.pipeline(m)?);
     }
-    let configs: Vec<_> = setup.samples.iter().map(|s| s.config.clone()).collect();
-    let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
-    let n = configs.len();
+    let targets = needed_targets(methods);
+    let families = case.materials.len();
     let mut timing = Timing {
-        configurations: n,
         adapter: gpu.adapter.to_string(),
         ..Timing::default()
     };
-
-    let mut runs = Vec::new();
-    for (m, pipeline) in setup.methods.iter().zip(&pipelines) {
-        let pb = bar(n, &format!("GPU {}", m.label));
-        let out = gpu.run(pipeline, &scenes, chunk, &mut |done| pb.set_position(done as u64))?;
-        pb.finish_and_clear();
-        let gpu_seconds = out.wall.as_secs_f64();
-        timing.gpu.push((m.label.clone(), gpu_seconds, n as f64 / gpu_seconds));
-
-        // The kernel's f64 and cpu_f32 columns, from the CPU evaluator.
-        let t = Instant::now();
-        let f64 = m.cpu_column_or_none(&configs, crate::interp::Mode::F64);
-        let f64_seconds = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let f32_cpu: Vec<Option<f32>> = m
-            .cpu_column_or_none(&configs, crate::interp::Mode::F32)
-            .into_iter()
-            .map(|v| v.map(|x| x as f32))
-            .collect();
-        timing.f64_ports.push((m.label.clone(), f64_seconds));
-        timing.f32_ports.push((m.label.clone(), t.elapsed().as_secs_f64()));
-        let f32 = out
-            .values
+    let index = |l: &String| methods.iter().position(|m| &m.label == l).expect("case checked labels");
+    let restarts = case.search.as_ref().map_or(0, |s| s.restarts);
+    let disagree_spec = case.disagreements.clone().unwrap_or_default();
+    let expected: usize = case.materials.iter().map(|m| m.count).sum();
+    let attribution_step = expected.div_ceil(ATTRIBUTION_CONFIGURATIONS).max(1);
+    let per_family_cost = COST_CONFIGURATIONS.div_ceil(families.max(1));
+    let mut kept = Kept {
+        search: case
+            .search
             .iter()
-            .zip(&configs)
-            .map(|(&v, c)| if m.applies(c) { v } else { f32::NAN })
-            .collect();
-        runs.push(MethodRun {
-            method: m.clone(),
-            f32,
-            f32_cpu,
-            f64,
-            gpu_seconds,
-            f64_seconds,
-        });
-    }
-
-    let targets = needed_targets(&setup.methods);
-    let pb = bar(
-        n,
-        &format!(
-            "references ({})",
-            targets.iter().map(|t| t.name()).collect::<Vec<_>>().join(", ")
-        ),
+            .flat_map(|s| s.methods.iter().map(&index))
+            .flat_map(|m| (0..families).map(move |f| (m, f, crate::search::TopK::new(restarts))))
+            .collect(),
+        disagree: case
+            .compare
+            .iter()
+            .flat_map(|[a, b]| [(index(a), index(b)), (index(b), index(a))])
+            .flat_map(|(a, b)| (0..families).map(move |f| (a, b, f, crate::search::TopK::new(disagree_spec.restarts))))
+            .collect(),
+        nonfinite: Vec::new(),
+        nonfinite_total: 0,
+        leak: vec![(0, crate::stats::Distribution::default()); families],
+        observations: observe.then(|| vec![vec![(true, Vec::new()); families]; methods.len()]),
+        cost: vec![Vec::new(); families],
+        attribution: vec![Vec::new(); methods.len()],
+        natural: vec![0; families],
+        seen: 0,
+    };
+    let mut acc = Accumulators::new(case, methods);
+    let mut stream = sampler::NaturalStream::new(case);
+    let mut topups: Option<(std::vec::IntoIter<Sample>, Vec<sampler::TopUp>)> = None;
+    // Configurations drawn before the current chunk (every chunk, this shard's or not).
+    let mut offset = 0;
+    let pb = bar(expected, "measuring (GPU, CPU, references)");
+    let (mut gpu_seconds, mut f64_seconds, mut f32_seconds) = (
+        vec![0.0; methods.len()],
+        vec![0.0; methods.len()],
+        vec![0.0; methods.len()],
     );
-    let t = Instant::now();
-    let references = references(&configs, &targets, &pb);
-    pb.finish_and_clear();
-    timing.references_seconds = t.elapsed().as_secs_f64();
-    timing.references_evaluated = references.iter().map(BTreeMap::len).sum();
-    // A reference that cannot be computed is an error, never a NaN row in the report.
-    crate::eval::check_references(
-        std::path::Path::new(&format!("case `{}`", setup.case.name)),
-        &configs,
-        &references,
-    )?;
-
-    let mut found = Vec::new();
-    if let Some(spec) = &setup.case.search {
+    loop {
+        // The natural sample a chunk at a time, then the top-ups its counts call for.
+        let samples: Vec<Sample> = match &mut topups {
+            None => {
+                let c = stream
+                    .next_chunk(MEASURE_CHUNK)
+                    .map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?;
+                if c.is_empty() {
+                    let (extra, reports) = sampler::top_up_counted(case, &stream.counts);
+                    let mut it = extra.into_iter();
+                    let c: Vec<Sample> = it.by_ref().take(MEASURE_CHUNK).collect();
+                    topups = Some((it, reports));
+                    c
+                } else {
+                    c
+                }
+            }
+            Some((it, _)) => it.by_ref().take(MEASURE_CHUNK).collect(),
+        };
+        if samples.is_empty() {
+            break;
+        }
+        // Every configuration's global index; a shard keeps the blocks of SHARD_BLOCK that are its.
+        let first = offset;
+        offset += samples.len();
+        let (samples, global): (Vec<Sample>, Vec<usize>) = samples
+            .into_iter()
+            .zip(first..)
+            .filter(|&(_, g)| shard.is_none_or(|(i, n)| (g / SHARD_BLOCK) % n == i))
+            .unzip();
+        if samples.is_empty() {
+            continue;
+        }
+        timing.chunks += 1;
+        let configs: Vec<_> = samples.iter().map(|s| s.config.clone()).collect();
+        let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
+        let mut runs = Vec::new();
+        for (j, (m, pipeline)) in methods.iter().zip(&pipelines).enumerate() {
+            let out = gpu.run(pipeline, &scenes, chunk, &mut |_| {})?;
+            gpu_seconds[j] += out.wall.as_secs_f64();
+            // The kernel's f64 and cpu_f32 columns, from the CPU evaluator.
+            let t = Instant::now();
+            let f64 = m.cpu_column_or_none(&configs, crate::interp::Mode::F64);
+            f64_seconds[j] += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let f32_cpu: Vec<Option<f32>> = m
+                .cpu_column_or_none(&configs, crate::interp::Mode::F32)
+                .into_iter()
+                .map(|v| v.map(|x| x as f32))
+                .collect();
+            f32_seconds[j] += t.elapsed().as_secs_f64();
+            let f32 = out
+                .values
+                .iter()
+                .zip(&configs)
+                .map(|(&v, c)| if m.applies(c) { v } else { f32::NAN })
+                .collect();
+            runs.push(MethodRun {
+                method: m.clone(),
+                f32,
+                f32_cpu,
+                f64,
+                gpu_seconds: 0.0,
+                f64_seconds: 0.0,
+            });
+        }
         let t = Instant::now();
-        // The pipelines compiled for the runs serve the search too.
-        let jobs: Vec<(&MethodRun, &crate::gpu::MethodPipeline, usize)> = runs
-            .iter()
-            .zip(&pipelines)
-            .filter(|(r, _)| spec.methods.contains(&r.method.label))
-            .flat_map(|(r, p)| (0..setup.case.materials.len()).map(move |f| (r, p, f)))
-            .collect();
-        let pb = bar(jobs.len(), "worst-case search");
-        for (run, pipeline, family) in jobs {
+        let references = references(&configs, &targets, &ProgressBar::hidden());
+        timing.references_seconds += t.elapsed().as_secs_f64();
+        timing.references_evaluated += references.iter().map(BTreeMap::len).sum::<usize>();
+        // A reference that cannot be computed is an error, never a NaN row in the report.
+        crate::eval::check_references(
+            std::path::Path::new(&format!("case `{}`", case.name)),
+            &configs,
+            &references,
+        )?;
+        let t = Instant::now();
+        acc.add(
+            case,
+            &Chunk {
+                samples: &samples,
+                references: &references,
+                runs: &runs,
+            },
+        );
+        timing.statistics_seconds += t.elapsed().as_secs_f64();
+        keep(
+            case,
+            methods,
+            (&samples, &global),
+            &references,
+            &runs,
+            &mut kept,
+            (attribution_step, per_family_cost),
+        );
+        if let Some(w) = raw.as_mut() {
+            write_raw(*w, setup, &samples, &references, &runs)?;
+        }
+        timing.configurations += samples.len();
+        pb.inc(samples.len() as u64);
+    }
+    pb.finish_and_clear();
+    let (_, topups) = topups.unwrap_or_default();
+    for (j, m) in methods.iter().enumerate() {
+        timing.gpu.push((m.label.clone(), gpu_seconds[j], 0.0));
+        timing.f64_ports.push((m.label.clone(), f64_seconds[j]));
+        timing.f32_ports.push((m.label.clone(), f32_seconds[j]));
+    }
+    timing.total_seconds = start.elapsed().as_secs_f64();
+    Ok(Partial {
+        format: SHARD_FORMAT,
+        case: case.name.clone(),
+        seed: case.seed,
+        count_override: setup.count_override,
+        shard: shard.unwrap_or((0, 1)),
+        methods: methods.iter().map(|m| m.label.clone()).collect(),
+        accumulators: acc,
+        kept,
+        draws: stream.draws,
+        topups,
+        timing,
+    })
+}
+
+/// The searches from the kept starts, the cost pass and the attribution: a measured sweep.
+pub fn finish(setup: &Setup, gpu: &Gpu, part: Partial, _chunk: usize) -> anyhow::Result<Measured> {
+    let start = Instant::now();
+    let case = &setup.case;
+    let methods = &setup.methods;
+    let mut pipelines = Vec::new();
+    for m in methods {
+        pipelines.push(gpu.pipeline(m)?);
+    }
+    let disagree_spec = case.disagreements.clone().unwrap_or_default();
+    let Partial {
+        accumulators: acc,
+        mut kept,
+        draws,
+        topups: topup_reports,
+        mut timing,
+        ..
+    } = part;
+    for g in &mut timing.gpu {
+        g.2 = timing.configurations as f64 / g.1;
+    }
+    let mut found = Vec::new();
+    if let Some(spec) = &case.search {
+        let t = Instant::now();
+        let pb = bar(kept.search.len(), "worst-case search");
+        for (m, family, starts) in std::mem::take(&mut kept.search) {
             let f = crate::search::search(
-                &setup.case,
+                case,
                 spec,
-                &setup.samples,
-                &references,
-                run,
-                (gpu, pipeline),
+                starts.into_sorted(),
+                &methods[m],
+                (gpu, &pipelines[m]),
                 family,
             )?;
             found.extend(f);
@@ -325,32 +683,17 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
     }
     // Disagreements: every compared pair, both ways, in every family.
     let mut disagreements = Vec::new();
-    if !setup.case.compare.is_empty() {
-        let spec = setup.case.disagreements.clone().unwrap_or_default();
+    if !case.compare.is_empty() {
         let t = Instant::now();
-        let index = |l: &String| {
-            setup
-                .methods
-                .iter()
-                .position(|m| &m.label == l)
-                .expect("case checked compare labels")
-        };
-        let jobs: Vec<(usize, usize, usize)> = setup
-            .case
-            .compare
-            .iter()
-            .flat_map(|[a, b]| [(index(a), index(b)), (index(b), index(a))])
-            .flat_map(|(a, b)| (0..setup.case.materials.len()).map(move |f| (a, b, f)))
-            .collect();
-        let pb = bar(jobs.len(), "disagreement search");
-        for (a, b, family) in jobs {
+        let pb = bar(kept.disagree.len(), "disagreement search");
+        for (a, b, family, starts) in std::mem::take(&mut kept.disagree) {
             let (found, evaluations) = crate::search::disagreements(
-                &setup.case,
-                &spec,
-                (&setup.samples, &references),
+                case,
+                &disagree_spec,
+                starts.into_sorted(),
                 gpu,
-                (&runs[a], &pipelines[a]),
-                (&runs[b], &pipelines[b]),
+                (&methods[a], &pipelines[a]),
+                (&methods[b], &pipelines[b]),
                 family,
             )?;
             disagreements.extend(found);
@@ -362,24 +705,11 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
     }
     // Cost: the first configurations of every family, each method timed in interleaved rounds.
     let t = Instant::now();
-    let per_family = COST_CONFIGURATIONS.div_ceil(setup.case.materials.len());
-    let cost_configs: Vec<_> = (0..setup.case.materials.len())
-        .flat_map(|m| {
-            setup
-                .samples
-                .iter()
-                .filter(move |s| s.material == m && s.natural())
-                .take(per_family)
-        })
-        .map(|s| s.config.clone())
-        .collect();
-    let pb = bar(
-        setup.methods.len() * (COST_WARMUP + COST_REPEATS),
-        "cost (GPU timestamps)",
-    );
+    let cost_configs: Vec<_> = kept.cost.iter().flatten().map(|(_, c)| c.clone()).collect();
+    let pb = bar(methods.len() * (COST_WARMUP + COST_REPEATS), "cost (GPU timestamps)");
     let costs = crate::bench::bench_methods_with(
         gpu,
-        &setup.methods,
+        methods,
         &cost_configs,
         COST_WARMUP,
         COST_REPEATS,
@@ -388,16 +718,266 @@ pub fn measure(setup: &Setup, gpu: &Gpu, chunk: usize) -> anyhow::Result<Measure
     pb.finish_and_clear();
     timing.cost_seconds = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let attribution = attribute(&setup.methods, &configs)?;
+    let subsets: Vec<Vec<crate::scene::Config>> = kept
+        .attribution
+        .iter()
+        .map(|s| s.iter().map(|(_, c)| c.clone()).collect())
+        .collect();
+    let attribution = attribute(methods, &subsets)?;
     timing.attribution_seconds = t.elapsed().as_secs_f64();
-    timing.total_seconds = start.elapsed().as_secs_f64();
+    timing.total_seconds += start.elapsed().as_secs_f64();
+    let leak = case
+        .materials
+        .iter()
+        .zip(&kept.leak)
+        .filter(|(_, (n, _))| *n > 0)
+        .map(|(family, (n, d))| {
+            let q = d.quantiles();
+            crate::analysis::Leak {
+                material: family.name.clone(),
+                configurations: *n,
+                leaking: d.len(),
+                median_fraction: q.map_or(0.0, |q| q.median),
+                max_fraction: q.map_or(0.0, |q| q.max),
+            }
+        })
+        .collect();
     Ok(Measured {
-        attribution,
-        costs,
+        accumulators: acc,
+        timing,
         found,
         disagreements,
-        runs,
-        references,
-        timing,
+        costs,
+        attribution,
+        configurations: kept.seen,
+        natural: kept.natural,
+        draws,
+        topups: topup_reports,
+        nonfinite: kept.nonfinite.into_iter().map(|(_, c, m)| (c, m)).collect(),
+        nonfinite_total: kept.nonfinite_total,
+        leak,
+        observations: kept.observations,
     })
+}
+
+/// Folds one chunk into the bounded per-configuration state.
+fn keep(
+    case: &Case,
+    methods: &[Method],
+    (samples, global): (&[Sample], &[usize]),
+    references: &References,
+    runs: &[MethodRun],
+    kept: &mut Kept,
+    (attribution_step, per_family_cost): (usize, usize),
+) {
+    use crate::search::{disagreement_ratio, rel_error, Start};
+    let eps = case.disagreements.clone().unwrap_or_default().epsilon;
+    for (i, s) in samples.iter().enumerate() {
+        let c = &s.config;
+        let f = s.material;
+        let global = global[i];
+        kept.seen += 1;
+        for (m, family, top) in &mut kept.search {
+            let method = &methods[*m];
+            if *family != f || !(method.applies(c) && method.supports(c)) {
+                continue;
+            }
+            let Some(r) = references[i].get(&method.target()) else {
+                continue;
+            };
+            if let Some(score) = rel_error(runs[*m].f32[i], r).filter(|&x| top.wants(x)) {
+                top.push(
+                    global,
+                    Start {
+                        sample: s.clone(),
+                        values: vec![runs[*m].f32[i]],
+                        reference: *r,
+                        score,
+                    },
+                );
+            }
+        }
+        for (a, b, family, top) in &mut kept.disagree {
+            let (ma, mb) = (&methods[*a], &methods[*b]);
+            if *family != f || !(ma.applies(c) && mb.applies(c) && ma.supports(c) && mb.supports(c)) {
+                continue;
+            }
+            let Some(r) = references[i].get(&ma.target()) else {
+                continue;
+            };
+            let (va, vb) = (runs[*a].f32[i], runs[*b].f32[i]);
+            let score = rel_error(va, r)
+                .zip(rel_error(vb, r))
+                .map(|(x, y)| disagreement_ratio(x, y, eps));
+            if let Some(score) = score.filter(|&x| top.wants(x)) {
+                top.push(
+                    global,
+                    Start {
+                        sample: s.clone(),
+                        values: vec![va, vb],
+                        reference: *r,
+                        score,
+                    },
+                );
+            }
+        }
+        let bad: Vec<String> = runs
+            .iter()
+            .filter(|r| r.method.applies(c) && !r.f32[i].is_finite())
+            .map(|r| r.method.label.clone())
+            .collect();
+        if !bad.is_empty() {
+            kept.nonfinite_total += 1;
+            if kept.nonfinite.len() < NONFINITE_KEPT {
+                kept.nonfinite.push((global, c.clone(), bad));
+            }
+        }
+        if let (Some(line), Some(upper)) = (references[i].get(&Target::Line), references[i].get(&Target::LineUpper)) {
+            let fraction = ((line.value - upper.value) / line.value.abs().max(f64::MIN_POSITIVE)).max(0.0);
+            let (n, d) = &mut kept.leak[f];
+            *n += 1;
+            if fraction > 1e-6 {
+                d.push(fraction);
+            }
+        }
+        if global.is_multiple_of(attribution_step) {
+            for (subset, m) in kept.attribution.iter_mut().zip(methods) {
+                if m.applies(c) && subset.len() < ATTRIBUTION_CONFIGURATIONS {
+                    subset.push((global, c.clone()));
+                }
+            }
+        }
+        if !s.natural() {
+            continue;
+        }
+        kept.natural[f] += 1;
+        if kept.cost[f].len() < per_family_cost {
+            kept.cost[f].push((global, c.clone()));
+        }
+        if let Some(obs) = &mut kept.observations {
+            for (per_method, run) in obs.iter_mut().zip(runs) {
+                let (supported, list) = &mut per_method[f];
+                if list.is_empty() {
+                    *supported = run.method.supports(c);
+                }
+                let target = run.method.target();
+                list.push(if run.method.applies(c) {
+                    crate::baseline::observe(run.f32[i], references[i].get(&target).copied())
+                } else {
+                    crate::baseline::Obs::NotApplicable
+                });
+            }
+        }
+    }
+}
+
+/// `--raw` rows of one chunk (the eval output format plus material, axes, strata, config).
+fn write_raw(
+    w: &mut dyn std::io::Write,
+    setup: &Setup,
+    samples: &[Sample],
+    references: &References,
+    runs: &[MethodRun],
+) -> anyhow::Result<()> {
+    let rows: Vec<_> = samples
+        .par_iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let f32s: Vec<f32> = runs.iter().map(|r| r.f32[i]).collect();
+            let f64s: Vec<Option<f64>> = runs.iter().map(|r| r.f64[i]).collect();
+            let c32s: Vec<Option<f64>> = runs.iter().map(|r| r.f32_cpu[i].map(f64::from)).collect();
+            let mut row = crate::eval::result_row(&s.config, &references[i], &setup.methods, &f32s, &f64s, &c32s);
+            row["material"] = setup.case.materials[s.material].name.clone().into();
+            row["axes"] = serde_json::to_value(&s.axes).expect("axes serialise");
+            // Empty for the natural sample; a top-up lists the (axis, bin) it fills.
+            row["strata"] = serde_json::to_value(&s.strata).expect("strata serialise");
+            row["config"] = serde_json::to_value(&s.config).expect("config serialises");
+            row
+        })
+        .collect();
+    w.write_all(&crate::eval::to_jsonl(&rows))?;
+    Ok(())
+}
+
+/// `--shard I/N`: shard I (from 0) of N.
+pub fn parse_shard(text: &str) -> anyhow::Result<(usize, usize)> {
+    let bad = || anyhow::anyhow!("--shard `{text}`: write I/N with 0 ≤ I < N, e.g. 0/4");
+    let (i, n) = text.split_once('/').ok_or_else(bad)?;
+    let (i, n): (usize, usize) = (
+        i.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if n == 0 || i >= n {
+        return Err(bad());
+    }
+    Ok((i, n))
+}
+
+/// A shard state file: the case file and kernels the shard ran (merge reads them again, so
+/// every shard and the merge run from the same checkout) and its [`Partial`].
+#[derive(serde::Serialize, serde::Deserialize)]
+struct ShardFile {
+    case_file: String,
+    kernels: Vec<PathBuf>,
+    state: Partial,
+}
+
+/// Writes `OUT/shard-I-of-N.cbor` (atomically); returns its path.
+pub fn write_shard(
+    out: &std::path::Path,
+    case_file: &std::path::Path,
+    kernels: &[PathBuf],
+    part: &Partial,
+) -> anyhow::Result<PathBuf> {
+    let (i, n) = part.shard;
+    let path = out.join(format!("shard-{i}-of-{n}.cbor"));
+    std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
+    let file = ShardFile {
+        case_file: case_file.display().to_string(),
+        kernels: kernels.to_vec(),
+        state: part.clone(),
+    };
+    let mut bytes = Vec::new();
+    ciborium::into_writer(&file, &mut bytes).map_err(|e| anyhow::anyhow!("cannot encode the shard state: {e}"))?;
+    crate::io::write_bytes(&path, &bytes)?;
+    Ok(path)
+}
+
+/// Every `shard-*-of-*.cbor` in the given directories: the case file, the kernels, the states.
+pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<(String, Vec<PathBuf>, Vec<Partial>)> {
+    let mut files = Vec::new();
+    for d in dirs {
+        let entries = std::fs::read_dir(d).map_err(|e| anyhow::anyhow!("merge: cannot read {}: {e}", d.display()))?;
+        for e in entries {
+            let p = e?.path();
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+            if name.starts_with("shard-") && name.ends_with(".cbor") {
+                files.push(p);
+            }
+        }
+    }
+    files.sort();
+    anyhow::ensure!(!files.is_empty(), "merge: no shard-I-of-N.cbor in {:?}", dirs);
+    let mut first: Option<(String, Vec<PathBuf>)> = None;
+    let mut parts = Vec::new();
+    for p in files {
+        let text = std::fs::read(&p).map_err(|e| anyhow::anyhow!("merge: cannot read {}: {e}", p.display()))?;
+        let f: ShardFile = ciborium::from_reader(text.as_slice())
+            .map_err(|e| anyhow::anyhow!("merge: {}: not a shard state: {e}", p.display()))?;
+        match &first {
+            None => first = Some((f.case_file.clone(), f.kernels.clone())),
+            Some((c, k)) => anyhow::ensure!(
+                c == &f.case_file && k == &f.kernels,
+                "merge: {} ran case file {} with kernels {:?}; the first shard {} with {:?}",
+                p.display(),
+                f.case_file,
+                f.kernels,
+                c,
+                k
+            ),
+        }
+        parts.push(f.state);
+    }
+    let (case_file, kernels) = first.expect("at least one file");
+    Ok((case_file, kernels, parts))
 }

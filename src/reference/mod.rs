@@ -17,7 +17,7 @@ use lobe::Lobe;
 use quadrature::Quad;
 
 /// A reference value with its absolute error estimate (`error >= 0`).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Estimate {
     pub value: f64,
     pub error: f64,

@@ -3,8 +3,6 @@
 
 use super::{sci, ReportInput};
 use crate::analysis::{Analysis, Comparison, MethodStats, PairMaterial};
-use crate::target::Target;
-use serde::Serialize;
 
 /// Below this, two formulas evaluated in f64 are taken to be the same function.
 const SAME_FUNCTION_F64: f64 = 1e-9;
@@ -98,49 +96,9 @@ pub fn comparison(analysis: &Analysis, c: &Comparison, mat: &PairMaterial) -> St
     s
 }
 
-/// How much of `line` lies below the horizon (`line − line_upper`, the LTC leak), per material.
-#[derive(Clone, Debug, Serialize)]
-pub struct Leak {
-    pub material: String,
-    pub configurations: usize,
-    /// Configurations where more than 1e-6 of `line` comes from below the horizon.
-    pub leaking: usize,
-    pub median_fraction: f64,
-    pub max_fraction: f64,
-}
+pub use crate::analysis::Leak;
 
+/// How much of `line` lies below the horizon, per material (gathered while measuring).
 pub fn leak(input: &ReportInput) -> Vec<Leak> {
-    let refs = &input.measured.references;
-    input
-        .case
-        .materials
-        .iter()
-        .enumerate()
-        .filter_map(|(m, family)| {
-            let mut fractions: Vec<f64> = input
-                .setup
-                .samples
-                .iter()
-                .zip(refs)
-                .filter(|(s, _)| s.material == m)
-                .filter_map(|(_, r)| {
-                    let (line, upper) = (r.get(&Target::Line)?, r.get(&Target::LineUpper)?);
-                    Some(((line.value - upper.value) / line.value.abs().max(f64::MIN_POSITIVE)).max(0.0))
-                })
-                .collect();
-            if fractions.is_empty() {
-                return None;
-            }
-            let configurations = fractions.len();
-            fractions.retain(|&f| f > 1e-6);
-            fractions.sort_by(f64::total_cmp);
-            Some(Leak {
-                material: family.name.clone(),
-                configurations,
-                leaking: fractions.len(),
-                median_fraction: fractions.get(fractions.len() / 2).copied().unwrap_or(0.0),
-                max_fraction: fractions.last().copied().unwrap_or(0.0),
-            })
-        })
-        .collect()
+    input.measured.leak.clone()
 }

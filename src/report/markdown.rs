@@ -38,8 +38,8 @@ fn pct(x: f64) -> String {
 fn head(w: &mut String, input: &ReportInput) {
     let (case, a, m) = (input.case, input.analysis, input.measured);
     let _ = writeln!(w, "# {}\n", case.title);
-    let natural = input.setup.samples.iter().filter(|s| s.natural()).count();
-    let topped = input.setup.samples.len() - natural;
+    let natural: usize = input.measured.natural.iter().sum();
+    let topped = input.measured.configurations - natural;
     let per_material: Vec<String> = case
         .materials
         .iter()
@@ -59,7 +59,7 @@ fn head(w: &mut String, input: &ReportInput) {
         m.timing.adapter,
         input.command_line,
     );
-    let _ = writeln!(w, "{}\n", super::draws_line(&input.setup.draws));
+    let _ = writeln!(w, "{}\n", super::draws_line(&input.measured.draws));
     if let Some(n) = input.setup.count_override {
         let _ = writeln!(
             w,
@@ -464,9 +464,14 @@ pub fn render(input: &ReportInput) -> String {
         let _ = writeln!(w, "## NaN and inf\n");
         let _ = writeln!(
             w,
-            "{} configurations gave NaN or ±inf from at least one method; all are in `nonfinite.jsonl` \
+            "{} configurations gave NaN or ±inf from at least one method; {} are in `nonfinite.jsonl` \
              (replay with `linelight eval`).\n",
-            nonfinite.len()
+            input.measured.nonfinite_total,
+            if nonfinite.len() == input.measured.nonfinite_total {
+                "all".to_string()
+            } else {
+                format!("the first {}", nonfinite.len())
+            }
         );
         let _ = writeln!(w, "| configuration | methods |");
         let _ = writeln!(w, "|---|---|");
@@ -693,12 +698,13 @@ pub fn render(input: &ReportInput) -> String {
          variant, labelled wherever it appears, divides by max(|reference|, floor); floor per target (units \
          where the line's distance d = 1; `line` and `line_upper` floors scale as 1/d): {}.\n\
          - Bits of error = log2(1 + ULP distance between the f32 result and the f32-rounded reference).\n\
-         - Quantiles are nearest-rank over the configurations with a finite result; NaN and ±inf are counted \
-         in their own columns and never enter a quantile; the ≤ columns count them as outside.\n\
+         - Quantiles are over the configurations with a finite result; NaN and ±inf are counted \
+         in their own columns and never enter a quantile; the ≤ columns count them as outside. {}\n\
          - References: CPU f64 adaptive Gauss–Kronrod quadrature of the target's definition (DESIGN §1), \
          independent of the kernels, each with its own error estimate.\n\
          - Methods and their sources:",
-        floors.join(", ")
+        floors.join(", "),
+        quantile_kinds(a)
     );
     for ms in &a.methods {
         let _ = writeln!(
@@ -712,6 +718,32 @@ pub fn render(input: &ReportInput) -> String {
         "- Full tables: `stats.csv` (every method × material × bin), `comparisons.csv`, `summary.json`."
     );
     o
+}
+
+/// Which kind of quantile the tables show: exact nearest-rank, or read from a sketch (bins
+/// past `stats::EXACT_LIMIT` values), with how many bins are of each kind.
+fn quantile_kinds(a: &crate::analysis::Analysis) -> String {
+    use crate::stats::QuantileKind;
+    let (mut exact, mut sketch) = (0, 0);
+    for ms in &a.methods {
+        for mat in &ms.materials {
+            let bins = std::iter::once(&mat.all).chain(mat.axes.iter().flat_map(|ax| ax.bins.iter().map(|b| &b.stats)));
+            for q in bins.filter_map(|s| s.rel) {
+                match q.kind {
+                    QuantileKind::Exact => exact += 1,
+                    QuantileKind::Sketch => sketch += 1,
+                }
+            }
+        }
+    }
+    format!(
+        "A bin of at most {} values shows exact nearest-rank quantiles (every number one observed); a larger \
+         bin shows median, p90 and p99 from a DDSketch of {} % relative accuracy, and its exact maximum \
+         (`stats.csv` column `quantiles`, `summary.json` `kind`). In this run: {exact} bins exact, {sketch} \
+         sketched (method × material × bin, relative error).",
+        crate::stats::EXACT_LIMIT,
+        100.0 * crate::stats::SKETCH_ALPHA
+    )
 }
 
 /// Configurations whose reference is exactly 0: how often and how much each method lights them.
@@ -781,13 +813,8 @@ fn sampling(w: &mut String, input: &ReportInput) {
     );
     let _ = writeln!(w, "|---|---:|---:|---:|---:|---|");
     for (k, family) in case.materials.iter().enumerate() {
-        let natural = input
-            .setup
-            .samples
-            .iter()
-            .filter(|s| s.material == k && s.natural())
-            .count();
-        let t = input.setup.topups.iter().find(|t| t.family == family.name);
+        let natural = input.measured.natural[k];
+        let t = input.measured.topups.iter().find(|t| t.family == family.name);
         let (draws, kept) = t.map_or((0, 0), |t| (t.draws, t.kept));
         let thin: Vec<String> = t.map_or(Vec::new(), |t| {
             t.thin

@@ -83,14 +83,14 @@ pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<Path
         "case": input.case.name,
         "case_file": input.case_path,
         "seed": input.case.seed,
-        "configurations": input.setup.samples.len(),
+        "configurations": input.measured.configurations,
         "command_line": input.command_line,
         "count_override": input.setup.count_override,
         "statistic": "relative error |value − reference| / |reference|, no floor, over configurations whose reference is not 0; reference-0 configurations in `false_light`; `rel_floored` uses `error_floor`",
         // Degenerate draws redrawn, per family (bounded: src/sampler.rs).
-        "draws": input.setup.draws,
+        "draws": input.measured.draws,
         "error_floor": input.case.error_floor,
-        "topups": input.setup.topups,
+        "topups": input.measured.topups,
         "timing": input.measured.timing,
         "stages": input.stages,
         "leak": findings::leak(input),
@@ -176,24 +176,15 @@ fn heat_maps(input: &ReportInput) -> Vec<(String, Vec<u8>)> {
     out
 }
 
-/// Every configuration on which some method returned NaN or ±inf, with those methods:
-/// written out (`nonfinite.jsonl`) so each can be replayed with `linelight eval`.
+/// The configurations on which some method returned NaN or ±inf, with those methods (the
+/// first `sweep::NONFINITE_KEPT`; `measured.nonfinite_total` counts all): written out
+/// (`nonfinite.jsonl`) so each can be replayed with `linelight eval`.
 pub fn nonfinite<'a>(input: &'a ReportInput) -> Vec<(&'a crate::scene::Config, Vec<&'a str>)> {
     input
-        .setup
-        .samples
+        .measured
+        .nonfinite
         .iter()
-        .enumerate()
-        .filter_map(|(i, s)| {
-            let methods: Vec<&str> = input
-                .measured
-                .runs
-                .iter()
-                .filter(|r| r.method.applies(&s.config) && !r.f32[i].is_finite())
-                .map(|r| r.method.label.as_str())
-                .collect();
-            (!methods.is_empty()).then_some((&s.config, methods))
-        })
+        .map(|(c, methods)| (c, methods.iter().map(String::as_str).collect()))
         .collect()
 }
 
