@@ -16,7 +16,6 @@ pub mod claims;
 pub mod cost;
 pub mod diff;
 pub mod eval;
-pub mod glsl;
 pub mod gpu;
 pub mod interp;
 pub mod io;

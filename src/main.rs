@@ -764,7 +764,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                         let line = format!("{}: ok ({} → {}); {cpu}", path.display(), k.id, k.target);
                         if emit {
                             eprintln!("{line}");
-                            let composed = gpu::compose_with(&k, None, gpu::kernel_capabilities())?;
+                            let composed = linelight::kernel::compose_with(&k, None, gpu::kernel_capabilities())?;
                             print!("{}", composed.source);
                         } else {
                             println!("{line}");

@@ -1,8 +1,9 @@
 //! Composite methods (`//! uses: line`): the `method[inner]` spec, composition with the
 //! inner line method on lavapipe, and errors attributed to the file that has them.
 
-use linelight::gpu::{self, compose, compose_with, Gpu, KernelError};
+use linelight::gpu::{self, Gpu};
 use linelight::kernel::{builtin_kernels, KernelFile, PRELUDE_PATH};
+use linelight::kernel::{compose, compose_with, KernelError};
 use linelight::methods::{resolve, Method};
 use linelight::scene::{Config, GpuScene, Material, Rect};
 use naga::valid::Capabilities;

@@ -242,7 +242,7 @@ fn an_error_found_after_translation_names_the_glsl_line() {
     )
     .unwrap();
     let kernel = linelight::kernel::KernelFile::read(&path).unwrap();
-    let Err(e) = linelight::gpu::compose(&kernel) else {
+    let Err(e) = linelight::kernel::compose(&kernel) else {
         panic!("a header param without its specialization constant is refused");
     };
     assert_eq!(e.location.map(|l| l.0), Some(8), "{}", e.report);

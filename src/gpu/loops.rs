@@ -12,8 +12,7 @@
 //! is not the plain total) is an error, never a result.
 
 use super::device::Gpu;
-use super::diagnostic::KernelError;
-use crate::kernel::KernelFile;
+use crate::kernel::{KernelError, KernelFile};
 use crate::methods::Method;
 use crate::scene::{Config, GpuScene, Material};
 
@@ -102,7 +101,7 @@ impl Gpu {
 /// starts by adding one to a private counter, and the entry point stores the counter
 /// instead of the method's value (which it still computes: the loops depend on it).
 pub(crate) fn counting_source(source: &str) -> String {
-    let counted = super::rename::instrument_loops(source, " ll_trips += 1u; ");
+    let counted = crate::kernel::rename::instrument_loops(source, " ll_trips += 1u; ");
     format!(
         "{}\nvar<private> ll_trips: u32;\n",
         counted.replace(

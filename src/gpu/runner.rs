@@ -1,10 +1,9 @@
 //! Method pipelines and chunked runs: one pipeline per method, configurations uploaded
 //! and read back a chunk at a time through buffers reused across chunks.
 
-use super::compose::{compose_with, inner_name, ENTRY_NAME, WORKGROUP_SIZE};
 use super::device::{scoped, Gpu, GpuError};
-use super::diagnostic::KernelError;
 use crate::kernel::KernelFile;
+use crate::kernel::{compose_with, inner_name, KernelError, ENTRY_NAME, WORKGROUP_SIZE};
 use crate::methods::Method;
 use crate::scene::GpuScene;
 use std::time::{Duration, Instant};
@@ -276,7 +275,7 @@ impl ChunkBuffers {
 #[allow(clippy::type_complexity)]
 pub(crate) fn override_constants(
     method: &Method,
-    composed: &super::compose::Composed,
+    composed: &crate::kernel::Composed,
 ) -> Result<(Vec<(String, f64)>, Vec<(String, f64)>, Vec<(String, f64)>), KernelError> {
     let params = param_values(&method.kernel, &method.params)?;
     let inner_params = match (method.inner.as_deref(), &composed.inner) {

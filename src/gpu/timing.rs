@@ -13,9 +13,8 @@
 //! Nothing is read back but the timestamps: the results stay on the device (the kernel
 //! still writes them, so nothing can be optimised away).
 
-use super::compose::WORKGROUP_SIZE;
 use super::device::{scoped, Gpu, GpuError};
-use super::diagnostic::KernelError;
+use crate::kernel::{KernelError, WORKGROUP_SIZE};
 use crate::methods::Method;
 use crate::scene::GpuScene;
 use std::fmt;

@@ -20,7 +20,7 @@
 mod digits;
 mod exec;
 
-use crate::gpu::{compose_with, Composed};
+use crate::kernel::{compose_with, Composed};
 use crate::methods::Method;
 use crate::scene::Config;
 use anyhow::{anyhow, Context, Result};
@@ -118,12 +118,12 @@ impl Program {
             (Some(m), _) => params.extend(
                 param_values(&m.kernel, &m.params)
                     .into_iter()
-                    .map(|(n, v)| (crate::gpu::inner_name(&n), v)),
+                    .map(|(n, v)| (crate::kernel::inner_name(&n), v)),
             ),
             (None, Some(k)) => params.extend(
                 param_values(k, &[])
                     .into_iter()
-                    .map(|(n, v)| (crate::gpu::inner_name(&n), v)),
+                    .map(|(n, v)| (crate::kernel::inner_name(&n), v)),
             ),
             (None, None) => {}
         }

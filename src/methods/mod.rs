@@ -6,12 +6,7 @@ use crate::kernel::{KernelFile, MinvSupport};
 use crate::scene::Config;
 use crate::target::Target;
 
-/// The line method a composite uses when its spec names none: it handles every M⁻¹.
-pub const DEFAULT_INNER: &str = "line.ltc2023_full";
-
-/// The inner method of a `//! uses: line_isotropic` composite when its spec names none: the
-/// horizon-clipped line irradiance, exact for isotropic emitters on the diffuse material.
-pub const DEFAULT_INNER_ISOTROPIC: &str = "line_isotropic.karis2013_clip";
+pub use crate::kernel::{DEFAULT_INNER, DEFAULT_INNER_ISOTROPIC};
 
 #[derive(Clone, Debug)]
 pub struct Method {
@@ -327,7 +322,7 @@ pub fn validate_kernel(path: &std::path::Path, others: &[KernelFile]) -> anyhow:
     if let Some(other) = others.iter().find(|o| o.id == k.id && !same_file(o)) {
         anyhow::bail!("{}: id `{}` is already defined by {}", k.path, k.id, other.path);
     }
-    let composed = crate::gpu::compose_with(&k, None, crate::gpu::kernel_capabilities())?;
+    let composed = crate::kernel::compose_with(&k, None, crate::gpu::kernel_capabilities())?;
     // Private arrays are per invocation: a large one times the invocations in flight.
     if let Some(bytes) = crate::limits::kernel_invocation_bytes(&composed.module) {
         let in_flight = crate::limits::invocations_in_flight();

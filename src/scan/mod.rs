@@ -7,7 +7,8 @@
 //! The result is a rate with an exact (Clopper–Pearson) 95 % interval per method and family.
 
 use crate::case::{Case, Dist, MaterialKind};
-use crate::gpu::{compose_with, override_constants, scoped, Gpu};
+use crate::gpu::{override_constants, scoped, Gpu};
+use crate::kernel::compose_with;
 use crate::methods::Method;
 use crate::scene::{Config, Material};
 use crate::target::Target;

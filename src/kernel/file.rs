@@ -116,7 +116,7 @@ pub struct HeaderError {
 }
 
 /// The prelude every kernel is composed with.
-pub const PRELUDE: &str = include_str!("../kernels/prelude.wgsl");
+pub const PRELUDE: &str = include_str!("../../kernels/prelude.wgsl");
 pub const PRELUDE_PATH: &str = "kernels/prelude.wgsl";
 
 /// Built-in method kernels: (path, text), every `.wgsl` under `kernels/` but the prelude and
@@ -149,7 +149,7 @@ impl KernelFile {
         if path.extension().is_some_and(|e| e == "glsl") {
             // The header is checked on the GLSL file (its lines), then the translation is the text.
             KernelFile::parse(&shown, &text)?;
-            let (wgsl, lines) = crate::glsl::translate(&shown, &text)?;
+            let (wgsl, lines) = super::glsl::translate(&shown, &text)?;
             let mut kernel = KernelFile::parse(&shown, &wgsl)?;
             kernel.origin = Some(Arc::new(Origin { text, lines }));
             return Ok(kernel);

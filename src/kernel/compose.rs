@@ -7,8 +7,7 @@
 
 use super::diagnostic::{KernelError, SourceMap, ENTRY_PATH};
 use super::rename::{find_fn, rename_identifiers};
-use crate::kernel::{builtin_kernels, KernelFile, PRELUDE, PRELUDE_PATH};
-use crate::methods::DEFAULT_INNER;
+use super::{builtin_kernels, KernelFile, DEFAULT_INNER, PRELUDE, PRELUDE_PATH};
 use naga::common::wgsl::TypeContext;
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use naga::{Scalar, ScalarKind, Span, TypeInner};
