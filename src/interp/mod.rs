@@ -84,11 +84,10 @@ pub fn program(method: &Method) -> Result<Arc<Program>> {
     static CACHE: OnceLock<Mutex<HashMap<String, Arc<Program>>>> = OnceLock::new();
     let inner = method.inner.as_deref();
     let key = format!(
-        "{}\0{}\0{:?}\0{}\0{:?}",
-        method.kernel.path,
-        method.kernel.text,
+        "{:?}\0{:?}\0{:?}\0{:?}",
+        method.kernel.parts(),
         method.params,
-        inner.map_or("", |m| m.kernel.text.as_str()),
+        inner.map(|m| m.kernel.parts()),
         inner.map(|m| &m.params)
     );
     let cache = CACHE.get_or_init(Default::default);
