@@ -7,6 +7,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod analysis;
+pub mod app;
 pub mod baseline;
 pub mod bench;
 pub mod case;

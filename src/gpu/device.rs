@@ -62,8 +62,13 @@ pub enum GpuError {
     },
     #[error("cannot open a device on {adapter}: {message}")]
     Device { adapter: String, message: String },
+    /// The GPU failed at run time: a dispatch, a readback, a lost device (exit 4).
     #[error("GPU run of {method} failed: {message}")]
     Run { method: String, message: String },
+    /// The run is refused: the method's loops reached the driver's loop limit, so its
+    /// results may be cut short (exit 2, the method's parameters are to blame).
+    #[error("GPU run of {method} failed: {message}")]
+    LoopLimit { method: String, message: String },
 }
 
 fn no_adapter_message(requested: Option<&str>, found: &[AdapterSummary]) -> String {

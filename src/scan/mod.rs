@@ -315,15 +315,20 @@ pub fn scan(
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
+        // A device lost or a failed readback is the GPU failing at run time (exit 4).
+        let failed = |message: String| crate::gpu::GpuError::Run {
+            method: method.label.clone(),
+            message,
+        };
         device
             .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| anyhow::anyhow!("the device was lost during the scan: {e}"))?;
+            .map_err(|e| failed(format!("the device was lost during the scan: {e}")))?;
         rx.recv()?
-            .map_err(|e| anyhow::anyhow!("cannot read the scan's counts: {e}"))?;
+            .map_err(|e| failed(format!("cannot read the scan's counts: {e}")))?;
         {
             let view = slice
                 .get_mapped_range()
-                .map_err(|e| anyhow::anyhow!("cannot read the scan's counts: {e}"))?;
+                .map_err(|e| failed(format!("cannot read the scan's counts: {e}")))?;
             let c: &[u32] = bytemuck::cast_slice(&view[..32]);
             for (t, &n) in totals.iter_mut().zip(c) {
                 *t += u64::from(n);
