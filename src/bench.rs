@@ -15,7 +15,8 @@
 //! - **Analysing** ([`Cost`], [`Ratio`]): per method, the median ns per evaluation over
 //!   the repeats with its min and max (every repeat's value is kept); ratios are medians
 //!   of the per-round ratios, with their min and max.
-//! - **Reporting** ([`render`], [`run`]): a table and a ratio line per compared pair.
+//! - **Reporting** ([`render`]): a table and a ratio line per compared pair. The command
+//!   itself (sampling the case, then these three) is `app::bench`.
 //!
 //! Speed is measured, never asserted: no test checks a duration beyond its being a
 //! positive number.
@@ -24,14 +25,13 @@
 //! the CPU port uses, so the GPU/CPU ratio there compares lavapipe's compiled SIMD kernel
 //! with the Rust port, not two pieces of hardware.
 
-use crate::case::Case;
 use crate::cost::OpCount;
 use crate::gpu::{Clock, Gpu};
+use crate::interp::CpuColumns;
 use crate::methods::Method;
 use crate::scene::{Config, GpuScene};
 use std::fmt::Write as _;
 use std::hint::black_box;
-use std::path::PathBuf;
 use std::time::Instant;
 
 /// What one method costs, measured in one run.
@@ -240,23 +240,6 @@ fn time_cpu_port(method: &Method, configs: &[Config]) -> f64 {
     start.elapsed().as_nanos() as f64
 }
 
-/// What `linelight bench` was asked for.
-#[derive(Clone, Debug)]
-pub struct BenchOptions {
-    /// Case file whose sampler makes the configurations (and names the methods and pairs).
-    pub case: PathBuf,
-    /// Method specs; empty: the case's methods.
-    pub methods: Vec<String>,
-    /// Configurations per dispatch, split evenly over the case's materials.
-    pub count: usize,
-    pub repeats: usize,
-    pub warmup: usize,
-    pub adapter: Option<String>,
-    pub kernels: Vec<PathBuf>,
-    /// Also write the costs as JSON here.
-    pub json: Option<PathBuf>,
-}
-
 /// What a bench measured, ready to report.
 pub struct BenchRun {
     pub adapter: String,
@@ -270,85 +253,10 @@ pub struct BenchRun {
     pub pairs: Vec<[String; 2]>,
 }
 
-/// `linelight bench`: samples the case's configurations, measures, prints the report to
-/// stdout (progress on stderr) and writes the JSON if asked.
-pub fn run(options: &BenchOptions) -> anyhow::Result<BenchRun> {
-    anyhow::ensure!(options.count > 0, "--count must be at least 1");
-    anyhow::ensure!(options.repeats > 0, "--repeats must be at least 1");
-    if let Some(json) = &options.json {
-        // Refused before any work: the case file or a kernel as the output.
-        let mut inputs = vec![("the case file", options.case.as_path())];
-        inputs.extend(options.kernels.iter().map(|k| ("--kernel", k.as_path())));
-        crate::io::check_output("--json", json, &inputs, &[])?;
-    }
-    let mut case = Case::load(&options.case)?;
-    if !options.methods.is_empty() {
-        crate::methods::check_unique(&options.methods, "--methods")?;
-        case.methods = options.methods.clone();
-    }
-    let materials = case.materials.len();
-    anyhow::ensure!(materials > 0, "case `{}` has no materials", case.name);
-    // The methods measured decide which pairs are compared (and `prepare` checks them).
-    case.compare
-        .retain(|pair| pair.iter().all(|l| case.methods.contains(l)));
-    let setup = crate::sweep::prepare(case, &options.kernels, Some(options.count.div_ceil(materials)))?;
-    let configs = split_evenly(&setup.samples, materials, options.count);
-    for m in &setup.methods {
-        let missing = configs.iter().filter(|c| !m.applies(c)).count();
-        anyhow::ensure!(
-            missing == 0,
-            "{} (target {}) does not apply to {missing} of case `{}`'s configurations: \
-             bench it with a case whose sampler makes {} configurations",
-            m.label,
-            m.target(),
-            setup.case.name,
-            m.target()
-        );
-    }
-
-    let gpu = Gpu::new(options.adapter.as_deref())?;
-    println!("adapter: {}", gpu.adapter);
-    let pb = indicatif::ProgressBar::new(0);
-    pb.set_style(
-        indicatif::ProgressStyle::with_template("{msg:>12} [{bar:40}] {pos}/{len} (eta {eta})")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    pb.set_message("bench");
-    let costs = bench_methods_with(
-        &gpu,
-        &setup.methods,
-        &configs,
-        options.warmup,
-        options.repeats,
-        &mut |done, total| {
-            pb.set_length(total as u64);
-            pb.set_position(done as u64);
-        },
-    )?;
-    pb.finish_and_clear();
-    let bench = BenchRun {
-        adapter: gpu.adapter.to_string(),
-        case: setup.case.name.clone(),
-        materials,
-        warmup: options.warmup,
-        cpu_threads: rayon::current_num_threads(),
-        pairs: setup.case.compare.clone(),
-        costs,
-    };
-    print!("{}", render(&bench));
-    if let Some(path) = &options.json {
-        let json = serde_json::to_string_pretty(&bench.costs)?;
-        crate::report::write_atomic(path, format!("{json}\n").as_bytes())?;
-        eprintln!("wrote {}", path.display());
-    }
-    Ok(bench)
-}
-
 /// `count` of the samples, split as evenly as possible over the `materials` (the first
 /// of each material's, in sampling order); the samples hold at least ⌈count/materials⌉
 /// of each.
-fn split_evenly(samples: &[crate::sampler::Sample], materials: usize, count: usize) -> Vec<Config> {
+pub fn split_evenly(samples: &[crate::sampler::Sample], materials: usize, count: usize) -> Vec<Config> {
     let share = |i: usize| count * (i + 1) / materials - count * i / materials;
     let mut taken = vec![0; materials];
     samples
@@ -551,6 +459,7 @@ fn sig3(x: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::case::Case;
     use std::sync::OnceLock;
 
     fn gpu() -> &'static Gpu {

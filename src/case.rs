@@ -6,6 +6,9 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::Path;
 
+/// The checks of a case file's values beyond their types.
+pub mod values;
+
 /// A one-dimensional distribution of a dimensionless parameter.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(tag = "dist", rename_all = "snake_case", deny_unknown_fields)]
@@ -418,7 +421,7 @@ impl Case {
             anyhow::anyhow!("{path}: malformed case file:\n{e}")
         })?;
         case.check().map_err(|e| anyhow::anyhow!("{path}: {e}"))?;
-        crate::case_values::check(&case).map_err(|e| anyhow::anyhow!("{path}: {e}"))?;
+        values::check(&case).map_err(|e| anyhow::anyhow!("{path}: {e}"))?;
         Ok(case)
     }
 

@@ -524,7 +524,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             kernels,
             json,
         } => {
-            let options = linelight::bench::BenchOptions {
+            let options = app::BenchOptions {
                 case,
                 methods,
                 count,
@@ -534,7 +534,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
                 kernels,
                 json,
             };
-            linelight::bench::run(&options)?;
+            app::bench(&options)?;
             Ok(Status::Ok)
         }
         Command::Scan {

@@ -2,6 +2,7 @@
 //! inner line method on lavapipe, and errors attributed to the file that has them.
 
 use linelight::gpu::{self, Gpu};
+use linelight::interp::CpuColumns;
 use linelight::kernel::{builtin_kernels, KernelFile, PRELUDE_PATH};
 use linelight::kernel::{compose, compose_with, KernelError};
 use linelight::methods::{resolve, Method};

@@ -4,6 +4,7 @@
 //! conversion, frozen for this comparison (they are not built in).
 
 use linelight::gpu::Gpu;
+use linelight::interp::CpuColumns;
 use linelight::interp::Mode;
 use linelight::kernel::{builtin_kernels, KernelFile};
 use linelight::methods::{resolve, Method};

@@ -3,6 +3,7 @@
 //! what a method computes in f64 is the exact integral of the LTC it was fed.
 
 use linelight::gpu::Gpu;
+use linelight::interp::CpuColumns;
 use linelight::kernel::builtin_kernels;
 use linelight::methods::resolve;
 use linelight::reference::reference;

@@ -5,6 +5,7 @@
 
 use linelight::case::Case;
 use linelight::gpu::Gpu;
+use linelight::interp::CpuColumns;
 use linelight::methods::{kernel_set, resolve};
 use linelight::scene::GpuScene;
 use std::path::PathBuf;

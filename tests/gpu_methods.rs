@@ -3,6 +3,7 @@
 //! with the f64 reference to the accuracy its kind promises.
 
 use linelight::gpu::Gpu;
+use linelight::interp::CpuColumns;
 use linelight::kernel::builtin_kernels;
 use linelight::methods::{resolve, Method};
 use linelight::reference::reference;

@@ -4,7 +4,10 @@
 //! returns a [`Status`], and an error's [`Status`] says which exit code it is (README,
 //! "Exit status"; docs/exit-codes.md).
 
+mod bench;
 mod status;
+
+pub use bench::{bench, BenchOptions};
 
 pub use status::{status_of, Status};
 
@@ -225,7 +228,7 @@ pub fn check(kernels: &[PathBuf], emit: bool) -> Result<Status> {
                 let line = format!("{}: ok ({} → {}); {cpu}", path.display(), k.id, k.target);
                 if emit {
                     eprintln!("{line}");
-                    let composed = crate::kernel::compose_with(&k, None, gpu::kernel_capabilities())?;
+                    let composed = crate::kernel::compose_with(&k, None, crate::kernel::kernel_capabilities())?;
                     print!("{}", composed.source);
                 } else {
                     println!("{line}");

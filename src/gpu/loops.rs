@@ -85,7 +85,7 @@ impl Gpu {
                     "`{}` executes {trips} loop-body iterations per configuration, more than the {limit} \
                      this device ({}) runs before it silently stops a loop: its results would be wrong; \
                      lower its parameters (e.g. fewer samples)",
-                    crate::case_values::clip(&method.label),
+                    crate::names::clip(&method.label),
                     self.adapter.name
                 ),
             )),

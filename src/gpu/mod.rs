@@ -16,8 +16,9 @@ mod timing;
 #[cfg(test)]
 mod tests;
 
+pub use crate::kernel::kernel_capabilities;
 pub(crate) use device::scoped;
-pub use device::{kernel_capabilities, list_adapters, AdapterSummary, Gpu, GpuError};
+pub use device::{list_adapters, AdapterSummary, Gpu, GpuError};
 pub use driver_env::quiet_driver_environment;
 pub use loops::PROBE_TRIPS;
 pub(crate) use runner::override_constants;

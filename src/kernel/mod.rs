@@ -4,18 +4,21 @@
 //! file and line that caused them. The GPU (src/gpu) and the CPU evaluator (src/interp)
 //! both run what this module composes; neither is needed to compose or check a kernel.
 //!
+//! - `caps`: the shader capabilities a kernel may use.
 //! - `file`: the kernel file, its header, the built-in kernels.
 //! - `glsl`: a `.glsl` kernel, parsed by naga's GLSL front end and written back as WGSL.
 //! - `compose`: prelude + kernel + entry point; a composite with its inner line method.
 //! - `rename`: the token pass that renames the inner line method's identifiers.
 //! - `diagnostic`: kernel errors mapped back to the file and line that caused them.
 
+pub(crate) mod caps;
 mod compose;
 mod diagnostic;
 mod file;
 pub mod glsl;
 pub(crate) mod rename;
 
+pub use caps::kernel_capabilities;
 #[cfg(test)]
 pub(crate) use compose::compose_parts;
 pub use compose::{compose, compose_with, entry_point, Composed, GLUE_PATH, WORKGROUP_SIZE};

@@ -8,7 +8,8 @@ pub mod fit;
 pub mod ggx;
 pub mod table;
 
-use crate::scene::Mat3;
+/// A 3×3 matrix (`scene::Mat3` is this type: the scene builds on this module, not the reverse).
+pub type Mat3 = [[f64; 3]; 3];
 use std::collections::HashMap;
 use std::sync::Mutex;
 use table::Storage;
