@@ -97,7 +97,7 @@ enum Command {
         #[command(flatten)]
         gpu: GpuArgs,
     },
-    /// Evaluate explicit configurations (JSONL in, JSONL out; DESIGN §3).
+    /// Evaluate explicit configurations (JSONL in, JSONL out; docs/eval-format.md).
     Eval {
         #[arg(long)]
         input: PathBuf,
@@ -107,7 +107,7 @@ enum Command {
         #[arg(long, value_delimiter = ',')]
         methods: Vec<String>,
         /// Also give each line the kernel source lines where f32 rounding loses bits
-        /// (local error per operation, DESIGN §3 `attribution`).
+        /// (local error per operation, docs/eval-format.md `attribution`).
         #[arg(long)]
         attribution: bool,
         #[command(flatten)]

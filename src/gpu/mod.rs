@@ -1,4 +1,4 @@
-//! Running method kernels on the GPU (DESIGN §6): one device, one pipeline per method,
+//! Running method kernels on the GPU: one device, one pipeline per method,
 //! configurations in chunks with one readback each.
 //!
 //! - `driver_env`: keeps Mesa's stderr noise away from the user.
