@@ -460,14 +460,9 @@ fn sig3(x: f64) -> String {
 mod tests {
     use super::*;
     use crate::case::Case;
-    use std::sync::OnceLock;
 
     fn gpu() -> &'static Gpu {
-        static GPU: OnceLock<Gpu> = OnceLock::new();
-        GPU.get_or_init(|| {
-            crate::gpu::quiet_driver_environment();
-            Gpu::new(None).unwrap_or_else(|e| panic!("{e}"))
-        })
+        crate::gpu::test_gpu()
     }
 
     fn configs(n: usize) -> Vec<Config> {

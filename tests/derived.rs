@@ -3,7 +3,8 @@
 //! f64), on a seeded sample. tests/data/standalone/ holds those files as they were before the
 //! conversion, frozen for this comparison (they are not built in).
 
-use linelight::gpu::Gpu;
+mod common;
+
 use linelight::interp::CpuColumns;
 use linelight::interp::Mode;
 use linelight::kernel::{builtin_kernels, KernelFile};
@@ -107,8 +108,7 @@ fn derived_kernels_match_the_standalone_files_in_the_evaluator() {
 
 #[test]
 fn gpu_derived_kernels_match_the_standalone_files() {
-    linelight::gpu::quiet_driver_environment();
-    let gpu = Gpu::new(None).unwrap_or_else(|e| panic!("{e}"));
+    let gpu = common::gpu();
     let configs = sample(300);
     let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
     for name in CONVERTED {

@@ -128,8 +128,7 @@ mod tests {
 
     #[test]
     fn gpu_lavapipe_loop_limit_is_probed_and_a_truncating_run_is_refused() {
-        crate::gpu::quiet_driver_environment();
-        let gpu = Gpu::new(None).expect("lavapipe");
+        let gpu = crate::gpu::test_gpu();
         let limit = gpu.loop_limit().unwrap().expect("lavapipe stops long loops");
         assert!(limit > 1000 && limit < PROBE_TRIPS, "{limit}");
         // A data-dependent loop: fine below half the limit, refused at it.

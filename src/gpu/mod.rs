@@ -16,6 +16,16 @@ mod timing;
 #[cfg(test)]
 mod tests;
 
+/// The one GPU of the unit tests (lavapipe by default), opened once with the driver quiet.
+#[cfg(test)]
+pub(crate) fn test_gpu() -> &'static Gpu {
+    static GPU: std::sync::OnceLock<Gpu> = std::sync::OnceLock::new();
+    GPU.get_or_init(|| {
+        quiet_driver_environment();
+        Gpu::new(None).unwrap_or_else(|e| panic!("{e}"))
+    })
+}
+
 pub use crate::kernel::kernel_capabilities;
 pub(crate) use device::scoped;
 pub use device::{list_adapters, AdapterSummary, Gpu, GpuError};

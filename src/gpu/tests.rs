@@ -4,14 +4,9 @@ use super::*;
 use crate::kernel::{compose, KernelFile};
 use crate::methods::Method;
 use crate::scene::GpuScene;
-use std::sync::OnceLock;
 
 fn gpu() -> &'static Gpu {
-    static GPU: OnceLock<Gpu> = OnceLock::new();
-    GPU.get_or_init(|| {
-        quiet_driver_environment();
-        Gpu::new(None).unwrap_or_else(|e| panic!("{e}"))
-    })
+    crate::gpu::test_gpu()
 }
 
 /// A method without an inner line method, params as given (resolve would refuse 0).

@@ -360,15 +360,9 @@ fn read_timestamps(gpu: &Gpu, readback: &wgpu::Buffer) -> Result<[u64; 2], Strin
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::quiet_driver_environment;
-    use std::sync::OnceLock;
 
     fn gpu() -> &'static Gpu {
-        static GPU: OnceLock<Gpu> = OnceLock::new();
-        GPU.get_or_init(|| {
-            quiet_driver_environment();
-            Gpu::new(None).unwrap_or_else(|e| panic!("{e}"))
-        })
+        crate::gpu::test_gpu()
     }
 
     fn tiny_method() -> Method {
