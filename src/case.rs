@@ -2,6 +2,7 @@
 //! comparisons and tolerances of one sweep (DESIGN §5). Unknown keys are errors.
 
 use crate::target::Target;
+use anyhow::Context;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -408,8 +409,8 @@ fn default_topup_draws() -> usize {
 
 impl Case {
     pub fn load(path: &Path) -> anyhow::Result<Case> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| anyhow::anyhow!("cannot read case file {}: {e}", path.display()))?;
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("cannot read case file {}", path.display()))?;
         Case::parse(&path.display().to_string(), &text)
     }
 

@@ -81,6 +81,7 @@
 
 use crate::kernel::KernelFile;
 use crate::methods::Method;
+use anyhow::Context;
 use naga::valid::{FunctionInfo, ModuleInfo};
 use naga::{
     BinaryOperator, Block, Expression, Function, Handle, Literal, MathFunction, RelationalFunction, ScalarKind,
@@ -160,7 +161,7 @@ fn count_composed(
         Some((naga::ShaderStage::Compute, entry)),
         &constants,
     )
-    .map_err(|e| anyhow::anyhow!("{}: cannot resolve the overrides: {e}", kernel.path))?;
+    .with_context(|| format!("{}: cannot resolve the overrides", kernel.path))?;
     op_count(&module, &info, entry)
 }
 

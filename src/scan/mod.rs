@@ -12,6 +12,7 @@ use crate::kernel::compose_with;
 use crate::methods::Method;
 use crate::scene::{Config, Material};
 use crate::target::Target;
+use anyhow::Context;
 use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
@@ -220,7 +221,7 @@ pub fn scan(
             cache: None,
         })
     })
-    .map_err(|e| anyhow::anyhow!("{}: the scan pipeline does not build: {e}", method.kernel.path))?;
+    .with_context(|| format!("{}: the scan pipeline does not build", method.kernel.path))?;
 
     use wgpu::BufferUsages as U;
     let buffer = |label, size: u64, usage| {
