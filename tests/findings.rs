@@ -2,8 +2,6 @@
 //! false-light row catches light where none arrives, and the disagreement search finds the
 //! region where a pair was built to differ.
 
-use std::path::Path;
-
 mod common;
 use common::{linelight, stderr, write};
 
