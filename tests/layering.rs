@@ -40,8 +40,9 @@ const STAGES: &[(&str, &[&str])] = &[
 ];
 
 /// Edges allowed for now, with why. All of them run through the sweep → analysis → report
-/// data flow that issue 13 is rewriting (one analysed summary fed to the report); they go
-/// when it lands.
+/// data flow of issue 13 (the streamed sweep folds into the statistics as it measures, and the
+/// report is fed `Setup`/`Measured` rather than one analysed summary); they go when that flow
+/// is split into measure, analyse and report parts.
 const KNOWN: &[(&str, &str, &str)] = &[
     (
         "sweep",
@@ -49,9 +50,14 @@ const KNOWN: &[(&str, &str, &str)] = &[
         "issue 13: the measured runs (MethodRun) and the analysis types live in analysis.rs",
     ),
     (
-        "search",
-        "analysis",
-        "issue 13: the searches read MethodRun / References, defined in analysis.rs",
+        "sweep",
+        "stats",
+        "issue 13: the streamed sweep folds each chunk into the statistics while measuring",
+    ),
+    (
+        "sweep",
+        "baseline",
+        "issue 13: the streamed sweep records the gate's observations (baseline::observe) while measuring",
     ),
     (
         "report",
