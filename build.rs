@@ -1,4 +1,4 @@
-//! Lists the built-in method kernels for `src/kernel.rs`: every `.wgsl` file under
+//! Lists the built-in method kernels for `src/kernel/file.rs`: every `.wgsl` file under
 //! `kernels/`, subfolders included (`kernels/engines/`), except the prelude and
 //! `kernels/lib/` (shared pieces, not methods). Generated so a kernel added in any folder is
 //! built in without a list to keep in step.

@@ -11,7 +11,7 @@
 // - φ = 2π·i/n has no half-sample offset. This one is harmless: for a periodic integrand
 //   any offset of the rectangle rule is equally accurate (the max(0, ·) kink limits it).
 // Eq. 1.2 above the listing has |−ω_p·ω_n|, the listing max(0, −ω_p·ω_n): the listing is
-// the one-sided (front-facing) integral that DESIGN §1 defines as the target; with the
+// the one-sided (front-facing) integral that docs/conventions.md defines as the target; with the
 // absolute value the back side, hidden behind the front, would be counted too.
 // GLSL `out vec3` parameters are pointers in WGSL (the prelude's buildOrthonormalBasis).
 fn I_cylinder_numerical(p1: vec3<f32>, p2: vec3<f32>, R: f32) -> f32 {

@@ -1,14 +1,11 @@
 //! id: line.ltc2023_fix
-//! target: line
+//! derive: line.ltc2023_full
+//! replace: I_diffuse_line
 //! source: the 2023 revision of Heitz & Hill 2017 with two fixes: width factor for any M⁻¹, angle by atan2
-//! minv: full
 
 // line_ltc2023_full.wgsl (the 2023 listing with the full width factor) with one more
-// change, in I_diffuse_line: the subtended angle by atan2 instead of acos (see there).
-// Everything else is the listing: rcp(x) = 1.0 / x, rsqrt = inverseSqrt, mul(invM, v) =
-// invM * v, `c ? t : f` = select(f, t, c).
-
-const INV_PI: f32 = 0.3183098861;
+// change, in I_diffuse_line: the subtended angle by atan2 instead of acos (see the `Fix:`
+// comment below). The rest of the function is the listing's.
 
 // This function assumes that inputs are well-behaved, e.i.
 // that the line does not pass through the origin and
@@ -59,64 +56,4 @@ fn I_diffuse_line(C: vec3<f32>, A: vec3<f32>, hl: f32) -> f32 {
 
     // Guard against numerical errors.
     return INV_PI * max(0.0, i12 + i3);
-}
-
-// Computes 1 / length(mul(transpose(inverse(invM)), normalize(ortho))) for any invertible invM.
-fn ComputeLineWidthFactor(invM: mat3x3<f32>, ortho: vec3<f32>, orthoSq: f32) -> f32 {
-    // transpose(inverse(invM)) = 1 / determinant(invM) * cofactor(invM), and row i of the
-    // cofactor matrix is the cross product of the other two rows (cyclically).
-    let rows = transpose(invM);
-    let cof0 = cross(rows[1], rows[2]);
-    let cof1 = cross(rows[2], rows[0]);
-    let cof2 = cross(rows[0], rows[1]);
-
-    let det = dot(rows[0], cof0);
-    let X = vec3<f32>(dot(cof0, ortho), dot(cof1, ortho), dot(cof2, ortho)); // mul(cof, ortho)
-
-    // 1 / length(1/s * X) = abs(s) / length(X).
-    return abs(det) * inverseSqrt(dot(X, X) * orthoSq) * orthoSq; // rsqrt(x^2) * x^2 = x
-}
-
-fn I_ltc_line(invM: mat3x3<f32>, center: vec3<f32>, axis: vec3<f32>, halfLength: f32) -> f32 {
-    let ortho = cross(center, axis);
-    let orthoSq = dot(ortho, ortho);
-
-    // Check whether the line passes through the origin.
-    var quit = (orthoSq == 0.0);
-
-    // Check whether the light is entirely below the surface.
-    // We must test twice, since a linear transformation
-    // may bring the light above the surface (a side-effect).
-    quit = quit || (center.z + halfLength * abs(axis.z) <= 0.0);
-
-    // Transform into the diffuse configuration.
-    // This is a sparse matrix multiplication.
-    // Pay attention to the multiplication order
-    // (in case your matrices are transposed).
-    let C = invM * center;
-    let A = invM * axis;
-
-    // Check whether the light is entirely below the surface.
-    // We must test twice, since a linear transformation
-    // may bring the light below the surface (as expected).
-    quit = quit || (C.z + halfLength * abs(A.z) <= 0.0);
-
-    var result = 0.0;
-
-    if (!quit) {
-        let w = ComputeLineWidthFactor(invM, ortho, orthoSq);
-
-        result = I_diffuse_line(C, A, halfLength) * w;
-    }
-
-    return result;
-}
-
-// The listing takes the light as centre, unit axis and half length, the way a shipped
-// engine stores a line light; here they are derived from the end points.
-fn method(scene: Scene) -> f32 {
-    let center = (scene.p1 + scene.p2) * 0.5;
-    let axis = normalize(scene.p2 - scene.p1);
-    let halfLength = length(scene.p2 - scene.p1) * 0.5;
-    return I_ltc_line(Minv, center, axis, halfLength);
 }

@@ -1,11 +1,11 @@
 //! id: rectangle.line
 //! target: rectangle
-//! source: Heitz & Hill 2017, GPU Zen, Listing 1.11 (Eq. 1.35), scaled by W/2 as DESIGN §2 states
+//! source: Heitz & Hill 2017, GPU Zen, Listing 1.11 (Eq. 1.35), scaled by W/2 as docs/methods.md states
 //! minv: full
 //! uses: line
 
 // Listing 1.11 as published, with the listing's I_ltc_line(p1, p2) being `I_line`, the
-// line method chosen at run time. The listing gives no scale for the width; DESIGN §2
+// line method chosen at run time. The listing gives no scale for the width; docs/methods.md
 // scales it by the half-width W/2 the way Listing 1.5 scales the line by R: a cylinder of
 // radius R and a strip of width W = 2R facing the origin subtend the same width, and the
 // factor 2 of Eq. 1.6 is that diameter. W/2 is right (rectangle_line_fixed.wgsl derives it).

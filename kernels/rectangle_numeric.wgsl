@@ -1,6 +1,6 @@
 //! id: rectangle.numeric
 //! target: rectangle
-//! source: linelight: Gauss–Legendre quadrature of the thin-rectangle integral (DESIGN §1) in angles seen from the shading point
+//! source: linelight: Gauss–Legendre quadrature of the thin-rectangle integral (docs/conventions.md) in angles seen from the shading point
 //! minv: full
 //! params: NW=8 NL=64
 

@@ -8,7 +8,7 @@
 // of Equation (1.6), and we clamp the sum to 1 as explained in Section 1.2.5". Read
 // literally that adds the disks to I_line itself, which has the dimension 1/length (the
 // disks are dimensionless); Section 1.2.5 clamps R·I_line (Eq. 1.10, Listing 1.5), so
-// the sum is min(1, R·I_line + I_disk1 + I_disk2), as DESIGN §2 states.
+// the sum is min(1, R·I_line + I_disk1 + I_disk2), as docs/methods.md states.
 // The disks are Listing 1.9 (caps_point.wgsl) inlined under a name of its own, since a
 // line method composed with this kernel may define anything but `method`.
 fn tube_I_ltc_disks(p1: vec3<f32>, p2: vec3<f32>, R: f32) -> f32 {

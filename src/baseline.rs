@@ -5,12 +5,15 @@
 //! `false_light` (new light where the reference is 0); per method: `ops` (op-count growth).
 //! Timings are reported beside, never gated. The format is in docs/ci/baseline.md.
 
+use crate::io::write_atomic;
 use crate::reference::Estimate;
-use crate::report::write_atomic;
 use crate::sweep::{Measured, Setup};
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+
+/// JUnit XML of the checks and the gate's rules.
+mod junit;
 
 /// Version of the on-disk format; a baseline of another version is bad input.
 pub const FORMAT: u32 = 1;
@@ -434,7 +437,7 @@ impl GateRun {
             eprint!("{}", g.details());
         }
         if let Some(path) = &self.junit {
-            let xml = crate::report::junit::junit(&setup.case.name, checks, report.as_ref())?;
+            let xml = junit::junit(&setup.case.name, checks, report.as_ref())?;
             write_atomic(path, xml.as_bytes())?;
             eprintln!("wrote {}", path.display());
         }

@@ -2,9 +2,13 @@
 //! comparisons and tolerances of one sweep (DESIGN §5). Unknown keys are errors.
 
 use crate::target::Target;
+use anyhow::Context;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::Path;
+
+/// The checks of a case file's values beyond their types.
+pub mod values;
 
 /// A one-dimensional distribution of a dimensionless parameter.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -405,8 +409,8 @@ fn default_topup_draws() -> usize {
 
 impl Case {
     pub fn load(path: &Path) -> anyhow::Result<Case> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| anyhow::anyhow!("cannot read case file {}: {e}", path.display()))?;
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("cannot read case file {}", path.display()))?;
         Case::parse(&path.display().to_string(), &text)
     }
 
@@ -418,7 +422,7 @@ impl Case {
             anyhow::anyhow!("{path}: malformed case file:\n{e}")
         })?;
         case.check().map_err(|e| anyhow::anyhow!("{path}: {e}"))?;
-        crate::case_values::check(&case).map_err(|e| anyhow::anyhow!("{path}: {e}"))?;
+        values::check(&case).map_err(|e| anyhow::anyhow!("{path}: {e}"))?;
         Ok(case)
     }
 

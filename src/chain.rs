@@ -20,6 +20,7 @@
 
 use crate::case::Case;
 use crate::gpu::Gpu;
+use crate::interp::CpuColumns;
 use crate::ltc::Feed;
 use crate::methods::{self, Method};
 use crate::reference::reference;
@@ -509,7 +510,7 @@ pub fn write(dir: &Path, case_path: &str, case: &Case, run: &ChainRun) -> anyhow
         ("chain.json", serde_json::to_vec(&json)?),
     ] {
         let path = dir.join(name);
-        crate::report::write_atomic(&path, &bytes)?;
+        crate::io::write_atomic(&path, &bytes)?;
         written.push(path);
     }
     Ok(written)

@@ -81,6 +81,7 @@
 
 use crate::kernel::KernelFile;
 use crate::methods::Method;
+use anyhow::Context;
 use naga::valid::{FunctionInfo, ModuleInfo};
 use naga::{
     BinaryOperator, Block, Expression, Function, Handle, Literal, MathFunction, RelationalFunction, ScalarKind,
@@ -129,12 +130,7 @@ pub fn method_cost_of(method: &Method) -> anyhow::Result<OpCount> {
     count_composed(&method.kernel, &method.params, inner)
 }
 
-/// The harness's entry point (`ENTRY_NAME` in src/gpu/compose.rs).
-const ENTRY_NAME: &str = "ll_main";
-
-/// The prefix composition gives the inner line method's overrides (`inner_name` in
-/// src/gpu/compose.rs, which is private to the gpu module).
-const INNER_PREFIX: &str = "ll_inner_";
+use crate::kernel::{inner_name, ENTRY_NAME};
 
 fn count_composed(
     kernel: &KernelFile,
@@ -142,7 +138,7 @@ fn count_composed(
     inner: Option<(&KernelFile, &[f64])>,
 ) -> anyhow::Result<OpCount> {
     // Every capability: the count should not refuse a kernel a device accepts.
-    let composed = crate::gpu::compose_with(kernel, inner.map(|(k, _)| k), naga::valid::Capabilities::all())?;
+    let composed = crate::kernel::compose_with(kernel, inner.map(|(k, _)| k), naga::valid::Capabilities::all())?;
     let mut constants = naga::back::PipelineConstants::default();
     for (name, value) in param_values(kernel, params)? {
         constants.insert(name, value);
@@ -155,7 +151,7 @@ fn count_composed(
     };
     if let Some((inner, inner_params)) = inner {
         for (name, value) in param_values(inner, inner_params)? {
-            constants.insert(format!("{INNER_PREFIX}{name}"), value);
+            constants.insert(inner_name(&name), value);
         }
     }
     let entry = ENTRY_NAME;
@@ -165,7 +161,7 @@ fn count_composed(
         Some((naga::ShaderStage::Compute, entry)),
         &constants,
     )
-    .map_err(|e| anyhow::anyhow!("{}: cannot resolve the overrides: {e}", kernel.path))?;
+    .with_context(|| format!("{}: cannot resolve the overrides", kernel.path))?;
     op_count(&module, &info, entry)
 }
 

@@ -3,6 +3,7 @@
 //! chunks ([`EVAL_CHUNK`]), output in input order. The `f64`
 //! and `cpu_f32` values and the attribution come from the CPU evaluator (src/interp).
 
+use crate::interp::CpuColumns;
 use crate::methods::Method;
 use crate::reference::Estimate;
 use crate::scene::Config;
@@ -140,7 +141,7 @@ pub const MAX_ERRORS: usize = 20;
 /// One parsed line: the rect normal made perpendicular (recorded in the output, see
 /// [`result_row`]), degenerate configurations and repeated ids refused.
 fn check_config(mut c: Config, at: &str, ids: &mut BTreeSet<String>, notes: bool) -> Result<Config, String> {
-    let id = crate::case_values::clip(&c.id);
+    let id = crate::names::clip(&c.id);
     if c.orthonormalize_rect().is_some_and(|moved| moved > 1e-9) && notes {
         eprintln!("note: {at}: `{id}`: rect.normal made perpendicular to the segment (DESIGN §1); the output's `rect` records the normal used");
     }
@@ -169,7 +170,7 @@ pub fn check_references(
                 .map(move |(t, e)| {
                     format!(
                         "configuration `{}`: the {} reference cannot be computed (value {}, error {})",
-                        crate::case_values::clip(&c.id),
+                        crate::names::clip(&c.id),
                         t.name(),
                         e.value,
                         e.error

@@ -246,6 +246,12 @@ pub fn stage_output(
     Ok(staged)
 }
 
+/// Writes `contents` to `path` without destroying anything: [`write_bytes`] as an
+/// `anyhow` error (its source kept).
+pub fn write_atomic(path: &Path, contents: &[u8]) -> anyhow::Result<()> {
+    Ok(write_bytes(path, contents)?)
+}
+
 /// Writes `bytes` to `path` (see [`write_output`]).
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     write_output(path, &mut |w| w.write_all(bytes))

@@ -125,7 +125,7 @@ pub fn kernel_invocation_bytes(module: &naga::Module) -> Option<u64> {
 /// Invocations whose private memory a CPU driver holds at once: a workgroup per core.
 pub fn invocations_in_flight() -> u64 {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get() as u64);
-    u64::from(crate::gpu::WORKGROUP_SIZE) * cores
+    u64::from(crate::kernel::WORKGROUP_SIZE) * cores
 }
 
 /// Refuses an estimate above the limit, with both numbers and what to change.

@@ -2,6 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use linelight::analysis::Verdict;
+use linelight::app::{self, bounded, kernel_inputs, status_of, GpuOptions, Status};
 use linelight::case::Case;
 use linelight::claims;
 use linelight::gpu::{self, Gpu};
@@ -96,7 +97,7 @@ enum Command {
         #[command(flatten)]
         gpu: GpuArgs,
     },
-    /// Evaluate explicit configurations (JSONL in, JSONL out; DESIGN §3).
+    /// Evaluate explicit configurations (JSONL in, JSONL out; docs/eval-format.md).
     Eval {
         #[arg(long)]
         input: PathBuf,
@@ -106,7 +107,7 @@ enum Command {
         #[arg(long, value_delimiter = ',')]
         methods: Vec<String>,
         /// Also give each line the kernel source lines where f32 rounding loses bits
-        /// (local error per operation, DESIGN §3 `attribution`).
+        /// (local error per operation, docs/eval-format.md `attribution`).
         #[arg(long)]
         attribution: bool,
         #[command(flatten)]
@@ -234,8 +235,8 @@ enum Command {
 fn main() -> ExitCode {
     gpu::quiet_driver_environment();
     let cli = Cli::parse();
-    match run(cli) {
-        Ok(code) => code,
+    let status = match run(cli) {
+        Ok(status) => status,
         Err(e) => {
             // Kernel diagnostics arrive formatted by naga, already starting with `error`.
             let message = bounded(&format!("{e:#}"));
@@ -244,59 +245,27 @@ fn main() -> ExitCode {
             } else {
                 eprintln!("error: {message}");
             }
-            ExitCode::from(2)
+            status_of(&e)
+        }
+    };
+    ExitCode::from(status.code())
+}
+
+impl GpuArgs {
+    fn options(&self) -> GpuOptions {
+        GpuOptions {
+            adapter: self.adapter.clone(),
+            kernels: self.kernels.clone(),
+            chunk: self.chunk,
         }
     }
 }
 
-/// A count as typed: `1000000`, `1e9` or `1_000_000`; a positive whole number.
-fn parse_count(text: &str) -> anyhow::Result<u64> {
-    let clean = text.replace('_', "");
-    let v: f64 = clean
-        .parse()
-        .map_err(|_| anyhow::anyhow!("--count `{text}`: not a number (write e.g. 1000000 or 1e9)"))?;
-    if !((1.0..=1e15).contains(&v) && v.fract() == 0.0) {
-        anyhow::bail!("--count `{text}`: need a whole number from 1 to 1e15");
-    }
-    Ok(v as u64)
-}
-
-/// A message stays readable whatever the input: long lines (a 100 MB id, a minified JSON
-/// line) are cut, and past a screenful of lines the rest is counted.
-fn bounded(message: &str) -> String {
-    const LINE: usize = 400;
-    const LINES: usize = 40;
-    let lines: Vec<&str> = message.lines().collect();
-    let mut out: Vec<String> = lines
-        .iter()
-        .take(LINES)
-        .map(|l| {
-            if l.chars().count() > LINE {
-                let head: String = l.chars().take(LINE).collect();
-                format!("{head}… ({} more bytes)", l.len() - head.len())
-            } else {
-                l.to_string()
-            }
-        })
-        .collect();
-    if lines.len() > LINES {
-        out.push(format!("… and {} more lines", lines.len() - LINES));
-    }
-    out.join("\n")
-}
-
-/// `--kernel` files as inputs an output may not be.
-fn kernel_inputs(kernels: &[PathBuf]) -> Vec<(&'static str, &std::path::Path)> {
-    kernels.iter().map(|k| ("--kernel", k.as_path())).collect()
-}
-
 fn open_gpu(args: &GpuArgs) -> anyhow::Result<Gpu> {
-    let gpu = Gpu::new(args.adapter.as_deref())?;
-    eprintln!("adapter: {}", gpu.adapter);
-    Ok(gpu)
+    app::open_gpu(args.adapter.as_deref())
 }
 
-fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+fn run(cli: Cli) -> anyhow::Result<Status> {
     if let Some(limit) = cli.max_memory {
         limits::set_max_memory(limit);
     }
@@ -378,7 +347,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                     part.timing.configurations,
                     path.display()
                 );
-                return Ok(ExitCode::SUCCESS);
+                return Ok(Status::Ok);
             }
             let observe = gate.wants_observations();
             // --raw is staged while measuring (rows streamed a chunk at a time, never all in
@@ -543,7 +512,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                     .map_err(|e| std::io::Error::other(format!("{e:#}")))
             })?;
             eprintln!("wrote {written} results to {}", output.display());
-            Ok(ExitCode::SUCCESS)
+            Ok(Status::Ok)
         }
         Command::Bench {
             case,
@@ -555,7 +524,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             kernels,
             json,
         } => {
-            let options = linelight::bench::BenchOptions {
+            let options = app::BenchOptions {
                 case,
                 methods,
                 count,
@@ -565,8 +534,8 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 kernels,
                 json,
             };
-            linelight::bench::run(&options)?;
-            Ok(ExitCode::SUCCESS)
+            app::bench(&options)?;
+            Ok(Status::Ok)
         }
         Command::Scan {
             case,
@@ -576,102 +545,17 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             bound,
             out,
             gpu,
-        } => {
-            let command_line = shell_words::join(std::env::args());
-            let count = parse_count(&count)?;
-            let case = Case::load(&case)?;
-            let dir = out.join(format!("{}-scan", case.name));
-            check_set(&dir)?;
-            let kernels = methods::kernel_set(&gpu.kernels)?;
-            let specs: Vec<String> = if specs.is_empty() { case.methods.clone() } else { specs };
-            let mut chosen = Vec::new();
-            for s in &specs {
-                let m = methods::resolve(s, &kernels)?;
-                if matches!(
-                    m.target(),
-                    linelight::target::Target::Line | linelight::target::Target::LineUpper
-                ) {
-                    chosen.push(m);
-                } else if !specs.is_empty() && specs.len() == 1 {
-                    anyhow::bail!(
-                        "scan generates line configurations only: `{s}` approximates `{}`",
-                        m.target()
-                    );
-                }
-            }
-            if chosen.is_empty() {
-                anyhow::bail!("no line method to scan in {}", specs.join(", "));
-            }
-            // Families whose M⁻¹ comes from a fitted table are not generated on the device.
-            let scannable: Vec<usize> = (0..case.materials.len())
-                .filter(|&f| {
-                    let family = &case.materials[f];
-                    let ok = linelight::scan::generated_on_device(family.kind);
-                    if !ok {
-                        eprintln!(
-                            "note: family `{}` ({:?}) is not scanned: its M⁻¹ comes from a fitted table",
-                            family.name, family.kind
-                        );
-                    }
-                    ok
-                })
-                .collect();
-            if scannable.is_empty() {
-                anyhow::bail!(
-                    "no family of {} can be generated on the device (diffuse, ltc_sparse, ltc_full)",
-                    case.name
-                );
-            }
-            let device = open_gpu(&gpu)?;
-            let families = scannable.len() as u64;
-            let per_family = count.div_ceil(families);
-            let pb = indicatif::ProgressBar::new(per_family * families * chosen.len() as u64);
-            pb.set_style(
-                indicatif::ProgressStyle::with_template(
-                    "{msg:>40} [{bar:30}] {human_pos}/{human_len} ({per_sec}, eta {eta})",
-                )
-                .expect("valid template")
-                .progress_chars("=> "),
-            );
-            let mut results = Vec::new();
-            let mut finished = 0u64;
-            for m in &chosen {
-                for &f in &scannable {
-                    let size = linelight::scan::ScanSize {
-                        count: per_family,
-                        capture,
-                        bound,
-                    };
-                    let r = linelight::scan::scan(&device, &case, m, f, size, &mut |done, bad| {
-                        pb.set_position(finished + done);
-                        pb.set_message(format!(
-                            "{} {}: rate {:.1e}",
-                            m.label,
-                            case.materials[f].name,
-                            bad as f64 / done as f64
-                        ));
-                    })?;
-                    finished += per_family;
-                    results.push(r);
-                }
-            }
-            pb.finish_and_clear();
-            let text = linelight::scan::report::markdown(&case, &command_line, &device.adapter.to_string(), &results);
-            print!("{}", linelight::scan::report::table(&results));
-            let rows: Vec<_> = results
-                .iter()
-                .flat_map(|r| &r.captured)
-                .map(serde_json::to_value)
-                .collect::<Result<_, _>>()?;
-            let files = vec![
-                ("scan.md".to_string(), text.into_bytes()),
-                ("summary.json".to_string(), serde_json::to_vec_pretty(&results)?),
-                ("offending.jsonl".to_string(), eval::to_jsonl(&rows)),
-            ];
-            linelight::io::write_set(&dir, &files)?;
-            eprintln!("wrote {}", dir.display());
-            Ok(ExitCode::SUCCESS)
-        }
+        } => app::scan(
+            app::ScanOptions {
+                case,
+                count,
+                methods: specs,
+                capture,
+                bound,
+                out,
+            },
+            &gpu.options(),
+        ),
         Command::Fit {
             out,
             size,
@@ -688,7 +572,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_iso.csv"));
                 linelight::ltc::fit_command(&out, size)?;
             }
-            Ok(ExitCode::SUCCESS)
+            Ok(Status::Ok)
         }
         Command::Chain { case, out, count, gpu } => {
             let case_path = case.display().to_string();
@@ -699,7 +583,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             for path in linelight::chain::write(&dir, &case_path, &case, &run)? {
                 eprintln!("wrote {}", path.display());
             }
-            Ok(ExitCode::SUCCESS)
+            Ok(Status::Ok)
         }
         Command::Diff {
             case,
@@ -722,63 +606,13 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             })?;
             // As the gate: B less accurate than A on any material is exit 1.
             Ok(if outcome.regressed() {
-                ExitCode::from(1)
+                Status::ToleranceFail
             } else {
-                ExitCode::SUCCESS
+                Status::Ok
             })
         }
-        Command::Adapters => {
-            let adapters = gpu::list_adapters();
-            if adapters.is_empty() {
-                println!("no Vulkan adapter found (on Debian/Ubuntu: apt-get install mesa-vulkan-drivers)");
-            }
-            for a in adapters {
-                // The loop limit is probed on the device (src/gpu/loops.rs).
-                let limit = match Gpu::new(Some(&a.name)).map(|g| g.loop_limit()) {
-                    Ok(Ok(Some(l))) => format!("loops stop after {l} iterations"),
-                    Ok(Ok(None)) => format!("no loop limit below {}", gpu::PROBE_TRIPS),
-                    Ok(Err(e)) => format!("loop limit not probed: {e}"),
-                    Err(e) => format!("loop limit not probed: {e}"),
-                };
-                println!("{a}; {limit}");
-            }
-            Ok(ExitCode::SUCCESS)
-        }
-        Command::Check { kernels, emit } => {
-            let mut bad = 0;
-            let mut known = linelight::kernel::builtin_kernels();
-            for path in &kernels {
-                // The same validation eval, sweep and bench give a --kernel file.
-                match methods::validate_kernel(path, &known) {
-                    Ok(k) => {
-                        // The CPU evaluator gives the kernel its f64 and cpu_f32 columns.
-                        // (A composite with the default line method, as it is composed here.)
-                        let mut set = vec![k.clone()];
-                        set.extend(known.iter().filter(|b| b.id != k.id).cloned());
-                        let cpu = match methods::resolve(&k.id, &set)
-                            .and_then(|m| linelight::interp::program(&m).map(|_| ()))
-                        {
-                            Ok(()) => "CPU evaluator: ok".to_string(),
-                            Err(e) => format!("CPU evaluator: no f64/cpu_f32 values: {e:#}"),
-                        };
-                        let line = format!("{}: ok ({} → {}); {cpu}", path.display(), k.id, k.target);
-                        if emit {
-                            eprintln!("{line}");
-                            let composed = gpu::compose_with(&k, None, gpu::kernel_capabilities())?;
-                            print!("{}", composed.source);
-                        } else {
-                            println!("{line}");
-                        }
-                        known.push(k);
-                    }
-                    Err(e) => {
-                        eprintln!("{}", bounded(&format!("{e:#}")));
-                        bad += 1;
-                    }
-                }
-            }
-            Ok(if bad == 0 { ExitCode::SUCCESS } else { ExitCode::from(2) })
-        }
+        Command::Adapters => app::adapters(),
+        Command::Check { kernels, emit } => app::check(&kernels, emit),
     }
 }
 
@@ -799,7 +633,7 @@ fn report_sweep(
     measured: &sweep::Measured,
     staged: Option<linelight::io::Staged>,
     gate: &linelight::baseline::GateRun,
-) -> anyhow::Result<ExitCode> {
+) -> anyhow::Result<Status> {
     let SweepRun {
         case_path,
         command_line,
@@ -866,11 +700,11 @@ fn report_sweep(
     }
     // 3: a finding no longer holds (the report says which); 1: a tolerance failed.
     Ok(if !stale.is_empty() {
-        ExitCode::from(3)
+        Status::StaleClaim
     } else if analysis.verdict == Verdict::Fail || regressed {
-        ExitCode::from(1)
+        Status::ToleranceFail
     } else {
-        ExitCode::SUCCESS
+        Status::Ok
     })
 }
 

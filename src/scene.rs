@@ -5,7 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 pub type Vec3 = [f64; 3];
-pub type Mat3 = [[f64; 3]; 3];
+pub use crate::ltc::Mat3;
 
 /// The spherical distribution D (the cosine-weighted BRDF).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -10,6 +10,7 @@
 
 use crate::case::{Case, DisagreeSpec, SearchSpec};
 use crate::gpu::{Gpu, MethodPipeline};
+use crate::interp::CpuColumns;
 use crate::methods::Method;
 use crate::reference::{self, Estimate};
 use crate::sampler::{sample_from_units, Axes, Sample};

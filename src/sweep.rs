@@ -6,6 +6,7 @@
 use crate::analysis::{Accumulators, Chunk, MethodRun, References};
 use crate::case::Case;
 use crate::gpu::Gpu;
+use crate::interp::CpuColumns;
 use crate::methods::{self, Method};
 use crate::reference::{self, Estimate};
 use crate::sampler::{self, Sample};

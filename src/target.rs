@@ -1,4 +1,4 @@
-//! The integrals a method approximates and a reference computes (DESIGN §1).
+//! The integrals a method approximates and a reference computes (docs/conventions.md).
 
 use serde::{Deserialize, Serialize};
 use std::fmt;

@@ -1,12 +1,15 @@
 //! Composite methods (`//! uses: line`): the `method[inner]` spec, composition with the
 //! inner line method on lavapipe, and errors attributed to the file that has them.
 
-use linelight::gpu::{self, compose, compose_with, Gpu, KernelError};
+mod common;
+
+use linelight::gpu::Gpu;
+use linelight::interp::CpuColumns;
 use linelight::kernel::{builtin_kernels, KernelFile, PRELUDE_PATH};
+use linelight::kernel::{compose, compose_with, KernelError};
 use linelight::methods::{resolve, Method};
 use linelight::scene::{Config, GpuScene, Material, Rect};
 use naga::valid::Capabilities;
-use std::sync::OnceLock;
 
 /// A user composite: `SCALE` times the inner line integral. Its override shares the name
 /// `SAMPLES` with line.numeric's, which composition must keep apart.
@@ -41,11 +44,7 @@ fn kernels() -> Vec<KernelFile> {
 }
 
 fn gpu() -> &'static Gpu {
-    static GPU: OnceLock<Gpu> = OnceLock::new();
-    GPU.get_or_init(|| {
-        gpu::quiet_driver_environment();
-        Gpu::new(None).expect("lavapipe is installed (scripts/ensure-vulkan)")
-    })
+    common::gpu()
 }
 
 fn configs() -> Vec<Config> {

@@ -3,6 +3,8 @@
 //! on small fixed sets where the formula is known to be exact or to tend to the target; and
 //! the polygon integral of the thin rectangle checked in f64 against the rectangle reference.
 
+mod common;
+
 use linelight::gpu::Gpu;
 use linelight::kernel::builtin_kernels;
 use linelight::methods::resolve;
@@ -13,9 +15,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
 
-fn gpu() -> Gpu {
-    linelight::gpu::quiet_driver_environment();
-    Gpu::new(None).expect("lavapipe is installed (scripts/ensure-vulkan)")
+fn gpu() -> &'static Gpu {
+    common::gpu()
 }
 
 fn run(gpu: &Gpu, spec: &str, configs: &[Config]) -> Vec<f64> {
@@ -68,8 +69,8 @@ fn rel(v: f64, r: f64) -> f64 {
 fn karis_line_irradiance_is_exact_for_isotropic_emitters_above_the_horizon() {
     let gpu = gpu();
     let configs = segments(1, 60);
-    let clip = run(&gpu, "line_isotropic.karis2013_clip", &configs);
-    let unclipped = run(&gpu, "line_isotropic.karis2013", &configs);
+    let clip = run(gpu, "line_isotropic.karis2013_clip", &configs);
+    let unclipped = run(gpu, "line_isotropic.karis2013", &configs);
     let (mut crossing, mut differs) = (0, 0);
     for ((c, &v), &u) in configs.iter().zip(&clip).zip(&unclipped) {
         let r = reference(c, Target::LineIsotropic).unwrap().value;
@@ -124,7 +125,7 @@ fn point_light_forms_tend_to_the_target_for_short_distant_segments() {
         "line.mrp_intersection",
         "line.mrp_bisector_nohorizon",
     ] {
-        let (short, long) = (run(&gpu, spec, &configs), run(&gpu, spec, &longer));
+        let (short, long) = (run(gpu, spec, &configs), run(gpu, spec, &longer));
         for i in 0..configs.len() {
             let r = reference(&configs[i], Target::LineIsotropic).unwrap().value;
             let r_long = reference(&longer[i], Target::LineIsotropic).unwrap().value;
@@ -142,8 +143,8 @@ fn point_light_forms_tend_to_the_target_for_short_distant_segments() {
     }
     // The closest point q is within L/2 of the centre, where a point light is second-order
     // accurate; moving f = z/r³ by δ changes it by at most (1/z + 3/r)·δ, relatively.
-    let short = run(&gpu, "line_isotropic.closest_point_r2", &configs);
-    let offset = run(&gpu, "line_isotropic.closest_point", &configs);
+    let short = run(gpu, "line_isotropic.closest_point_r2", &configs);
+    let offset = run(gpu, "line_isotropic.closest_point", &configs);
     for i in 0..configs.len() {
         let c = &configs[i];
         let r = reference(c, Target::LineIsotropic).unwrap().value;
@@ -170,8 +171,8 @@ fn point_light_forms_tend_to_the_target_for_short_distant_segments() {
 fn mrp_intersection_and_bisector_forms_find_the_same_point() {
     let gpu = gpu();
     let configs = segments(3, 60);
-    let a = run(&gpu, "line.mrp_intersection", &configs);
-    let b = run(&gpu, "line.mrp_bisector", &configs);
+    let a = run(gpu, "line.mrp_intersection", &configs);
+    let b = run(gpu, "line.mrp_bisector", &configs);
     let mut compared = 0;
     for ((c, &x), &y) in configs.iter().zip(&a).zip(&b) {
         if y > 1e-3 {
@@ -302,10 +303,10 @@ fn polygon_ltc_kernels_on_the_gpu() {
     // Wide enough that f32 cancellation between the long edges stays small: each long
     // edge contributes O(1), their difference O(W), so the f32 error is O(ε/W) relatively.
     let configs = rectangles(5, 45, (0.1, 0.5));
-    let exact = run(&gpu, "rectangle.ltc_polygon", &configs);
-    let atan2 = run(&gpu, "rectangle.ltc_polygon_atan2", &configs);
-    let fit = run(&gpu, "rectangle.ltc_polygon_fit", &configs);
-    let sphere = run(&gpu, "rectangle.ltc_sphere", &configs);
+    let exact = run(gpu, "rectangle.ltc_polygon", &configs);
+    let atan2 = run(gpu, "rectangle.ltc_polygon_atan2", &configs);
+    let fit = run(gpu, "rectangle.ltc_polygon_fit", &configs);
+    let sphere = run(gpu, "rectangle.ltc_sphere", &configs);
     // The fit's own worst relative error of θ/sin θ on [−1, 1], measured here in f64.
     let fit_error = (0..=20000)
         .map(|i| {
@@ -362,8 +363,8 @@ fn polygon_ltc_kernels_on_the_gpu() {
 fn the_2017_integral_with_the_polynomial_atan_is_off_by_the_polynomial_only() {
     let gpu = gpu();
     let configs = segments(6, 60);
-    let exact = run(&gpu, "line.ltc2017", &configs);
-    let poly = run(&gpu, "line.ltc2017_atan5", &configs);
+    let exact = run(gpu, "line.ltc2017", &configs);
+    let poly = run(gpu, "line.ltc2017_atan5", &configs);
     let mut worst = 0.0f64;
     for ((c, &a), &p) in configs.iter().zip(&exact).zip(&poly) {
         // I = (Fpo(l2) − Fpo(l1))·po.z/π + …: each atan off by ≤ 1.351e-3 (published) moves I
@@ -392,8 +393,8 @@ fn isotropic_composites_take_an_isotropic_line_method() {
     for c in &mut configs {
         c.radius = Some(0.01);
     }
-    let tube = run(&gpu, "cylinder.isotropic", &configs);
-    let line = run(&gpu, "line_isotropic.karis2013_clip", &configs);
+    let tube = run(gpu, "cylinder.isotropic", &configs);
+    let line = run(gpu, "line_isotropic.karis2013_clip", &configs);
     for ((c, t), l) in configs.iter().zip(tube).zip(line) {
         let expected = 0.5 * PI * 0.01 * l;
         assert!(
@@ -414,8 +415,8 @@ fn the_intersection_form_fails_for_a_segment_pointing_at_the_shading_point() {
         segment("end-on".into(), [0.0, 0.6, 0.8], [0.0, 1.2, 1.6], Material::Diffuse),
         segment("end-on-2".into(), [0.3, 0.0, 0.4], [1.5, 0.0, 2.0], Material::Diffuse),
     ];
-    let a = run(&gpu, "line.mrp_intersection", &end_on);
-    let b = run(&gpu, "line.mrp_bisector", &end_on);
+    let a = run(gpu, "line.mrp_intersection", &end_on);
+    let b = run(gpu, "line.mrp_bisector", &end_on);
     for ((c, &x), &y) in end_on.iter().zip(&a).zip(&b) {
         let r = reference(c, Target::LineIsotropic).unwrap().value;
         assert!(r > 0.0, "{}", c.id);

@@ -1,6 +1,7 @@
 //! The CPU evaluator from outside: a user's kernel gets its f64 column, and the bits lost
 //! per source line (attribution) land where the findings say they do.
 
+use linelight::interp::CpuColumns;
 use linelight::interp::{program, Mode};
 use linelight::methods::{kernel_set, resolve};
 use linelight::scene::{Config, Material};

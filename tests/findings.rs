@@ -2,23 +2,47 @@
 //! false-light row catches light where none arrives, and the disagreement search finds the
 //! region where a pair was built to differ.
 
-use std::path::Path;
-
 mod common;
 use common::{linelight, stderr, write};
 
 /// A built-in kernel under a new id, its `method` renamed to `inner` so a test can wrap it.
+/// A derived kernel is flattened (its base's text with the replaced functions, then its own)
+/// and given its inherited target and M⁻¹ support.
 fn wrapped(builtin: &str, id: &str, method: &str) -> String {
-    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("kernels").join(builtin)).unwrap();
-    let (header, body): (Vec<&str>, Vec<&str>) = text.lines().partition(|l| l.starts_with("//!"));
-    let header: Vec<String> = header
-        .iter()
+    let path = format!("kernels/{builtin}");
+    let k = linelight::kernel::builtin_kernels()
+        .into_iter()
+        .find(|k| k.path == path)
+        .unwrap();
+    let is_header = |l: &&str| l.trim_start().starts_with("//!");
+    let mut header: Vec<String> = k
+        .text
+        .lines()
+        .filter(is_header)
+        .filter(|l| !(l.starts_with("//! derive:") || l.starts_with("//! replace:")))
         .map(|l| {
             if l.starts_with("//! id:") {
                 format!("//! id: {id}")
             } else {
                 l.to_string()
             }
+        })
+        .collect();
+    if !header.iter().any(|l| l.starts_with("//! target:")) {
+        header.push(format!("//! target: {}", k.target.name()));
+    }
+    if !header.iter().any(|l| l.starts_with("//! minv:")) {
+        let minv = serde_json::to_value(k.minv).unwrap();
+        header.push(format!("//! minv: {}", minv.as_str().unwrap()));
+    }
+    let body: Vec<String> = k
+        .parts()
+        .iter()
+        .flat_map(|(_, t)| {
+            t.lines()
+                .filter(|l| !is_header(l))
+                .map(str::to_string)
+                .collect::<Vec<_>>()
         })
         .collect();
     format!(

@@ -2,7 +2,9 @@
 //! configuration is the rotated one with the magnitude applied (CPU ports and GPU alike), and
 //! what a method computes in f64 is the exact integral of the LTC it was fed.
 
-use linelight::gpu::Gpu;
+mod common;
+
+use linelight::interp::CpuColumns;
 use linelight::kernel::builtin_kernels;
 use linelight::methods::resolve;
 use linelight::reference::reference;
@@ -87,7 +89,7 @@ fn fed_configuration_is_rotated_and_scaled() {
 
 #[test]
 fn gpu_applies_the_magnitude_like_the_cpu_port() {
-    let gpu = Gpu::new(None).expect("an adapter (lavapipe)");
+    let gpu = common::gpu();
     let kernels = builtin_kernels();
     let configs: Vec<Config> = [
         config(0.0, Roughness::Iso(0.05), "table"),

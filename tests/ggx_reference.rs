@@ -1,4 +1,4 @@
-//! `reference()` on `ggx` materials against a second quadrature written here from DESIGN §1
+//! `reference()` on `ggx` materials against a second quadrature written here from docs/conventions.md
 //! alone: its own GGX D (normalised half vector, Λ as written), composite Gauss–Legendre on
 //! equal panels in the parametrisations of `reference_independent.rs`, and the lobe's peak
 //! found by a dense search of the integrand (not from the mirror direction the reference

@@ -3,8 +3,10 @@
 //! rounding on the GPU and in the CPU evaluator (f32 and f64), over a case's configurations on
 //! all three material kinds.
 
+mod common;
+
 use linelight::case::Case;
-use linelight::gpu::Gpu;
+use linelight::interp::CpuColumns;
 use linelight::methods::{kernel_set, resolve};
 use linelight::scene::GpuScene;
 use std::path::PathBuf;
@@ -32,7 +34,6 @@ fn ulps(a: f32, b: f32) -> u64 {
 
 #[test]
 fn glsl_port_agrees_with_the_wgsl_port_on_the_gpu() {
-    linelight::gpu::quiet_driver_environment();
     let mut case = Case::load(&PathBuf::from(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/cases/line_fwt.toml"
@@ -46,7 +47,7 @@ fn glsl_port_agrees_with_the_wgsl_port_on_the_gpu() {
         .map(|s| s.config)
         .collect();
     let kernels = kernel_set(&[PathBuf::from(GLSL)]).unwrap();
-    let gpu = Gpu::new(None).unwrap();
+    let gpu = common::gpu();
     let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
     let run = |spec: &str| {
         let m = resolve(spec, &kernels).unwrap();
@@ -94,7 +95,6 @@ fn glsl_port_agrees_with_the_wgsl_port_on_the_gpu() {
 
 #[test]
 fn glsl_specialization_constants_are_the_header_params() {
-    linelight::gpu::quiet_driver_environment();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.glsl");
     std::fs::write(
@@ -106,7 +106,7 @@ fn glsl_specialization_constants_are_the_header_params() {
     )
     .unwrap();
     let kernels = kernel_set(&[path]).unwrap();
-    let gpu = Gpu::new(None).unwrap();
+    let gpu = common::gpu();
     let scenes: Vec<GpuScene> = [1.0f32, 3.0]
         .iter()
         .map(|&x| GpuScene {
@@ -128,7 +128,6 @@ fn glsl_specialization_constants_are_the_header_params() {
 
 #[test]
 fn glsl_composite_takes_any_line_method() {
-    linelight::gpu::quiet_driver_environment();
     let mut case = Case::load(&PathBuf::from(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/cases/cylinder.toml"
@@ -143,7 +142,7 @@ fn glsl_composite_takes_any_line_method() {
         .collect();
     let cyl = concat!(env!("CARGO_MANIFEST_DIR"), "/kernels/glsl/cylinder_line.glsl");
     let kernels = kernel_set(&[PathBuf::from(cyl), PathBuf::from(GLSL)]).unwrap();
-    let gpu = Gpu::new(None).unwrap();
+    let gpu = common::gpu();
     let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
     let run = |spec: &str| {
         let m = resolve(spec, &kernels).unwrap();
@@ -242,7 +241,7 @@ fn an_error_found_after_translation_names_the_glsl_line() {
     )
     .unwrap();
     let kernel = linelight::kernel::KernelFile::read(&path).unwrap();
-    let Err(e) = linelight::gpu::compose(&kernel) else {
+    let Err(e) = linelight::kernel::compose(&kernel) else {
         panic!("a header param without its specialization constant is refused");
     };
     assert_eq!(e.location.map(|l| l.0), Some(8), "{}", e.report);

@@ -2,7 +2,10 @@
 //! configurations: the WGSL port agrees with its CPU port (f32), and the method agrees
 //! with the f64 reference to the accuracy its kind promises.
 
+mod common;
+
 use linelight::gpu::Gpu;
+use linelight::interp::CpuColumns;
 use linelight::kernel::builtin_kernels;
 use linelight::methods::{resolve, Method};
 use linelight::reference::reference;
@@ -76,8 +79,7 @@ fn promised(label: &str) -> Option<f64> {
 
 #[test]
 fn every_builtin_method_runs_and_matches_its_port_and_the_reference() {
-    linelight::gpu::quiet_driver_environment();
-    let gpu = Gpu::new(None).expect("lavapipe is installed (scripts/ensure-vulkan)");
+    let gpu = common::gpu();
     let configs = fixed_set();
     let kernels = builtin_kernels();
     let mut labels: Vec<String> = kernels.iter().map(|k| k.id.clone()).collect();
@@ -85,7 +87,7 @@ fn every_builtin_method_runs_and_matches_its_port_and_the_reference() {
     let mut tested = 0;
     for label in labels {
         let m = resolve(&label, &kernels).unwrap();
-        let values = run(&gpu, &m, &configs);
+        let values = run(gpu, &m, &configs);
         assert_eq!(values.len(), configs.len());
         for (c, &v) in configs.iter().zip(&values) {
             // A `minv: ggx` kernel reads the ggx roughness, which is 0 on this set's materials
@@ -141,12 +143,11 @@ fn every_builtin_method_runs_and_matches_its_port_and_the_reference() {
 
 #[test]
 fn the_2023_listing_is_wrong_for_full_matrices_and_the_fix_is_not() {
-    linelight::gpu::quiet_driver_environment();
-    let gpu = Gpu::new(None).unwrap();
+    let gpu = common::gpu();
     let kernels = builtin_kernels();
     let full: Vec<Config> = fixed_set().into_iter().filter(|c| !c.material.is_sparse()).collect();
-    let published = run(&gpu, &resolve("line.ltc2023", &kernels).unwrap(), &full);
-    let fixed = run(&gpu, &resolve("line.ltc2023_full", &kernels).unwrap(), &full);
+    let published = run(gpu, &resolve("line.ltc2023", &kernels).unwrap(), &full);
+    let fixed = run(gpu, &resolve("line.ltc2023_full", &kernels).unwrap(), &full);
     let mut worst_published = 0.0f64;
     for ((c, &p), &f) in full.iter().zip(&published).zip(&fixed) {
         let r = reference(c, linelight::target::Target::Line).unwrap().value;

@@ -6,8 +6,7 @@
 //! the angle condition, the subtended angle by atan2, DESIGN §1's GGX D term by term; and the
 //! GPU's f32 values against the same, and the kernels' support (ggx only, no fed magnitude).
 
-use linelight::gpu::Gpu;
-use linelight::interp::Mode;
+use linelight::interp::{CpuColumns, Mode};
 use linelight::kernel::builtin_kernels;
 use linelight::methods::resolve;
 use linelight::scene::{Config, GpuScene, Material, Roughness, Vec3};
@@ -193,8 +192,7 @@ fn f64_values_match_an_independent_computation() {
 
 #[test]
 fn gpu_values_match_in_f32_and_are_not_scaled_by_the_fed_magnitude() {
-    linelight::gpu::quiet_driver_environment();
-    let gpu = Gpu::new(None).expect("lavapipe is installed (scripts/ensure-vulkan)");
+    let gpu = common::gpu();
     let kernels = builtin_kernels();
     let cs = configs(12, 40, 0.1);
     let scenes: Vec<GpuScene> = cs.iter().map(GpuScene::from).collect();

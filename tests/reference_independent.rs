@@ -1,4 +1,4 @@
-//! `reference()` against a second quadrature written here from DESIGN §1 alone: composite
+//! `reference()` against a second quadrature written here from docs/conventions.md alone: composite
 //! Gauss–Legendre on many equal panels, in parametrisations the reference does not use
 //! (l = l0 + d·sinh u for the line; the surfaces in their own area coordinates), with its
 //! own D (Listing 1.10) and its own kink location.

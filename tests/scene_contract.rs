@@ -6,8 +6,10 @@
 //! that commit) and must come out bit for bit the same. The layout test reads every member,
 //! old and new, back through a kernel on both paths.
 
+mod common;
+
 use linelight::gpu::Gpu;
-use linelight::interp::Mode;
+use linelight::interp::{CpuColumns, Mode};
 use linelight::kernel::{builtin_kernels, KernelFile};
 use linelight::methods::{resolve, Method};
 use linelight::scene::{Config, GpuScene, Material, Rect, Roughness};
@@ -15,9 +17,8 @@ use linelight::scene::{Config, GpuScene, Material, Rect, Roughness};
 const OLD: &str = include_str!("data/old_contract.wgsl");
 const RECORDED: &str = "tests/data/old_contract_values.json";
 
-fn gpu() -> Gpu {
-    linelight::gpu::quiet_driver_environment();
-    Gpu::new(None).expect("lavapipe is installed (scripts/ensure-vulkan)")
+fn gpu() -> &'static Gpu {
+    common::gpu()
 }
 
 fn method(path: &str, text: &str) -> Method {
@@ -111,7 +112,7 @@ fn evaluate(gpu: &Gpu) -> Recorded {
 #[test]
 #[ignore]
 fn record_old_contract_values() {
-    let r = evaluate(&gpu());
+    let r = evaluate(gpu());
     std::fs::write(RECORDED, serde_json::to_string_pretty(&r).unwrap() + "\n").unwrap();
 }
 
@@ -119,7 +120,7 @@ fn record_old_contract_values() {
 fn an_old_contract_kernel_gives_the_values_recorded_before_the_scene_grew() {
     let gpu = gpu();
     let recorded: Recorded = serde_json::from_str(&std::fs::read_to_string(RECORDED).unwrap()).unwrap();
-    let now = evaluate(&gpu);
+    let now = evaluate(gpu);
     // The evaluator is deterministic on any machine; the GPU's values are the driver's,
     // comparable bit for bit only on the adapter they were recorded on.
     assert_eq!(now.cpu_f32_bits, recorded.cpu_f32_bits, "evaluator f32");
@@ -167,7 +168,7 @@ fn every_scene_member_reads_back_on_the_gpu_and_in_the_evaluator() {
     kernels.push(KernelFile::parse("probe.wgsl", PROBE).unwrap());
     for k in 0..29 {
         let m = resolve(&format!("user.scene_probe@{k}"), &kernels).unwrap();
-        let raw = gpu_values(&gpu, &m, &cs);
+        let raw = gpu_values(gpu, &m, &cs);
         let cpu = m.cpu_column(&cs, Mode::F32).unwrap();
         for ((c, g), cpu) in cs.iter().zip(raw).zip(cpu) {
             let input = linelight::scene::SceneInput::new(c);

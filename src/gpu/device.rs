@@ -1,24 +1,13 @@
 //! The one device every method runs on: Vulkan only, headless, lavapipe by default so
 //! results do not depend on whichever GPU the machine happens to have.
 
+use crate::kernel::caps::{naga_capabilities, OPTIONAL_FEATURES};
 use naga::valid::Capabilities;
 use std::fmt;
 
 /// What the user is told to install when lavapipe is missing.
 const INSTALL_HINT: &str = "linelight runs its kernels on Mesa's lavapipe (a CPU Vulkan driver); \
 on Debian/Ubuntu install it with `apt-get install mesa-vulkan-drivers`";
-
-/// Requested when the adapter has them: timestamps to time dispatches, and the shader
-/// types and operations a kernel may `enable`.
-const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY
-    .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS)
-    .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES)
-    .union(wgpu::Features::SHADER_F16)
-    .union(wgpu::Features::SHADER_F64)
-    .union(wgpu::Features::SHADER_I16)
-    .union(wgpu::Features::SHADER_INT64)
-    .union(wgpu::Features::SUBGROUP)
-    .union(wgpu::Features::SUBGROUP_BARRIER);
 
 /// An adapter as the user sees it in messages and reports.
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
@@ -62,8 +51,13 @@ pub enum GpuError {
     },
     #[error("cannot open a device on {adapter}: {message}")]
     Device { adapter: String, message: String },
+    /// The GPU failed at run time: a dispatch, a readback, a lost device (exit 4).
     #[error("GPU run of {method} failed: {message}")]
     Run { method: String, message: String },
+    /// The run is refused: the method's loops reached the driver's loop limit, so its
+    /// results may be cut short (exit 2, the method's parameters are to blame).
+    #[error("GPU run of {method} failed: {message}")]
+    LoopLimit { method: String, message: String },
 }
 
 fn no_adapter_message(requested: Option<&str>, found: &[AdapterSummary]) -> String {
@@ -232,28 +226,4 @@ pub(crate) fn scoped<T>(device: &wgpu::Device, f: impl FnOnce() -> T) -> Result<
         Some(e) => Err(e),
         None => Ok(value),
     }
-}
-
-/// The shader capabilities kernels are checked with before any device is open: those of
-/// every feature linelight requests when the adapter has it. A device without one of them
-/// then refuses the kernel when its pipeline is made, naming the device.
-pub fn kernel_capabilities() -> Capabilities {
-    naga_capabilities(OPTIONAL_FEATURES)
-}
-
-/// The shader capabilities the requested features grant (as wgpu maps them), so naga
-/// accepts exactly what wgpu will.
-fn naga_capabilities(features: wgpu::Features) -> Capabilities {
-    let mut caps = Capabilities::default();
-    for (feature, cap) in [
-        (wgpu::Features::SHADER_F16, Capabilities::SHADER_FLOAT16),
-        (wgpu::Features::SHADER_F64, Capabilities::FLOAT64),
-        (wgpu::Features::SHADER_I16, Capabilities::SHADER_INT16),
-        (wgpu::Features::SHADER_INT64, Capabilities::SHADER_INT64),
-        (wgpu::Features::SUBGROUP, Capabilities::SUBGROUP),
-        (wgpu::Features::SUBGROUP_BARRIER, Capabilities::SUBGROUP_BARRIER),
-    ] {
-        caps.set(cap, features.contains(feature));
-    }
-    caps
 }

@@ -12,8 +12,7 @@
 //! is not the plain total) is an error, never a result.
 
 use super::device::Gpu;
-use super::diagnostic::KernelError;
-use crate::kernel::KernelFile;
+use crate::kernel::{KernelError, KernelFile};
 use crate::methods::Method;
 use crate::scene::{Config, GpuScene, Material};
 
@@ -86,7 +85,7 @@ impl Gpu {
                     "`{}` executes {trips} loop-body iterations per configuration, more than the {limit} \
                      this device ({}) runs before it silently stops a loop: its results would be wrong; \
                      lower its parameters (e.g. fewer samples)",
-                    crate::case_values::clip(&method.label),
+                    crate::names::clip(&method.label),
                     self.adapter.name
                 ),
             )),
@@ -102,7 +101,7 @@ impl Gpu {
 /// starts by adding one to a private counter, and the entry point stores the counter
 /// instead of the method's value (which it still computes: the loops depend on it).
 pub(crate) fn counting_source(source: &str) -> String {
-    let counted = super::rename::instrument_loops(source, " ll_trips += 1u; ");
+    let counted = crate::kernel::rename::instrument_loops(source, " ll_trips += 1u; ");
     format!(
         "{}\nvar<private> ll_trips: u32;\n",
         counted.replace(
@@ -129,8 +128,7 @@ mod tests {
 
     #[test]
     fn gpu_lavapipe_loop_limit_is_probed_and_a_truncating_run_is_refused() {
-        crate::gpu::quiet_driver_environment();
-        let gpu = Gpu::new(None).expect("lavapipe");
+        let gpu = crate::gpu::test_gpu();
         let limit = gpu.loop_limit().unwrap().expect("lavapipe stops long loops");
         assert!(limit > 1000 && limit < PROBE_TRIPS, "{limit}");
         // A data-dependent loop: fine below half the limit, refused at it.

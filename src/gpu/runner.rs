@@ -1,10 +1,9 @@
 //! Method pipelines and chunked runs: one pipeline per method, configurations uploaded
 //! and read back a chunk at a time through buffers reused across chunks.
 
-use super::compose::{compose_with, inner_name, ENTRY_NAME, WORKGROUP_SIZE};
 use super::device::{scoped, Gpu, GpuError};
-use super::diagnostic::KernelError;
 use crate::kernel::KernelFile;
+use crate::kernel::{compose_with, inner_name, KernelError, ENTRY_NAME, WORKGROUP_SIZE};
 use crate::methods::Method;
 use crate::scene::GpuScene;
 use std::time::{Duration, Instant};
@@ -150,14 +149,17 @@ impl Gpu {
             let trips = self.run(counter, scenes, chunk, &mut |_| {})?.values;
             let cut: Vec<usize> = (0..trips.len()).filter(|&i| trips[i] >= *limit as f32).collect();
             if let Some(&first) = cut.first() {
-                return Err(fail(format!(
+                return Err(GpuError::LoopLimit {
+                    method: pipeline.id.clone(),
+                    message: format!(
                     "on {} of {} configurations (the first is number {}) its loops ran {limit} or more iterations, \
                      half this device's loop limit, near which the driver silently stops loops: those results \
                      may be truncated and are not reported; lower the method's parameters",
                     cut.len(),
                     trips.len(),
-                    first + 1
-                )));
+                        first + 1
+                    ),
+                });
             }
         }
         Ok(RunOutput { values, wall })
@@ -276,7 +278,7 @@ impl ChunkBuffers {
 #[allow(clippy::type_complexity)]
 pub(crate) fn override_constants(
     method: &Method,
-    composed: &super::compose::Composed,
+    composed: &crate::kernel::Composed,
 ) -> Result<(Vec<(String, f64)>, Vec<(String, f64)>, Vec<(String, f64)>), KernelError> {
     let params = param_values(&method.kernel, &method.params)?;
     let inner_params = match (method.inner.as_deref(), &composed.inner) {

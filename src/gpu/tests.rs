@@ -1,19 +1,12 @@
 //! These run on lavapipe: without it they fail, they do not skip.
 
-use super::compose::compose_parts;
 use super::*;
-use crate::kernel::{KernelFile, PRELUDE_PATH};
+use crate::kernel::{compose, KernelFile};
 use crate::methods::Method;
 use crate::scene::GpuScene;
-use naga::valid::Capabilities;
-use std::sync::OnceLock;
 
 fn gpu() -> &'static Gpu {
-    static GPU: OnceLock<Gpu> = OnceLock::new();
-    GPU.get_or_init(|| {
-        quiet_driver_environment();
-        Gpu::new(None).unwrap_or_else(|e| panic!("{e}"))
-    })
+    crate::gpu::test_gpu()
 }
 
 /// A method without an inner line method, params as given (resolve would refuse 0).
@@ -135,18 +128,6 @@ fn gpu_float_param_from_the_spec() {
 }
 
 #[test]
-fn gpu_header_param_without_override_is_reported() {
-    let k = kernel(
-        "noparam.wgsl",
-        "//! params: SAMPLES=4\n",
-        "fn method(scene: Scene) -> f32 { return 0.0; }\n",
-    );
-    let e = compose(&k).unwrap_err();
-    assert_eq!((e.path.as_str(), e.location.map(|l| l.0)), ("noparam.wgsl", Some(3)));
-    assert!(e.to_string().contains("override SAMPLES"), "{e}");
-}
-
-#[test]
 fn gpu_kernel_error_names_its_file_and_line() {
     let k = kernel(
         "user/bad.wgsl",
@@ -165,82 +146,6 @@ fn gpu_kernel_error_names_its_file_and_line() {
     assert_eq!(e.location, Some((7, 25)));
     // The same error through the device path.
     assert_eq!(gpu().pipeline(&method(&k, &[])).err().unwrap().to_string(), text);
-}
-
-#[test]
-fn gpu_validation_error_names_its_file_and_line() {
-    let k = kernel(
-        "ret.wgsl",
-        "",
-        "fn method(scene: Scene) -> f32 {\n    return scene.flags;\n}\n",
-    );
-    let e = compose(&k).unwrap_err();
-    assert_eq!(e.path, "ret.wgsl", "{e}");
-    assert!(e.to_string().contains("ret.wgsl:4:"), "{e}");
-}
-
-#[test]
-fn gpu_unclosed_kernel_is_blamed_on_the_kernel() {
-    let k = kernel("open.wgsl", "", "fn method(scene: Scene) -> f32 {\n    return 1.0;\n");
-    let e = compose(&k).unwrap_err();
-    assert_eq!(e.path, "open.wgsl", "{e}");
-}
-
-#[test]
-fn gpu_prelude_error_is_attributed_to_the_prelude() {
-    let prelude = format!(
-        "{}\nfn broken() -> f32 {{\n    return nope;\n}}\n",
-        crate::kernel::PRELUDE
-    );
-    let line = prelude.lines().position(|l| l.contains("nope")).unwrap() + 1;
-    let k = kernel("fine.wgsl", "", "fn method(scene: Scene) -> f32 { return 1.0; }\n");
-    let e = compose_parts(&prelude, &k, None, Capabilities::default()).unwrap_err();
-    assert_eq!(e.path, PRELUDE_PATH);
-    assert!(e.to_string().contains(&format!("{PRELUDE_PATH}:{line}:12")), "{e}");
-}
-
-#[test]
-fn gpu_redefinition_points_at_both_files() {
-    let k = kernel(
-        "dup.wgsl",
-        "",
-        "const PI: f32 = 3.0;\nfn method(scene: Scene) -> f32 { return PI; }\n",
-    );
-    let e = compose(&k).unwrap_err().to_string();
-    assert!(
-        e.contains("dup.wgsl:3:") && e.contains(&format!("{PRELUDE_PATH}:6:")),
-        "{e}"
-    );
-}
-
-#[test]
-fn gpu_missing_or_wrong_method_is_reported() {
-    let k = kernel("none.wgsl", "", "fn evaluate(scene: Scene) -> f32 { return 1.0; }\n");
-    let e = compose(&k).unwrap_err().to_string();
-    assert!(
-        e.starts_with("none.wgsl: ") && e.contains("fn method(scene: Scene) -> f32"),
-        "{e}"
-    );
-
-    let k = kernel(
-        "sig.wgsl",
-        "",
-        "\nfn method(p: vec3<f32>) -> f32 {\n    return p.x;\n}\n",
-    );
-    let e = compose(&k).unwrap_err();
-    assert_eq!(e.location.map(|l| l.0), Some(4), "{e}");
-    assert!(e.to_string().contains("found `fn method(vec3<f32>) -> f32`"), "{e}");
-}
-
-#[test]
-fn gpu_reserved_names_are_rejected() {
-    let k = kernel(
-        "ll.wgsl",
-        "",
-        "fn ll_main() {}\nfn method(scene: Scene) -> f32 { return 1.0; }\n",
-    );
-    let e = compose(&k).unwrap_err();
-    assert_eq!((e.path.as_str(), e.location.map(|l| l.0)), ("ll.wgsl", Some(3)), "{e}");
 }
 
 #[test]

@@ -13,9 +13,8 @@
 //! Nothing is read back but the timestamps: the results stay on the device (the kernel
 //! still writes them, so nothing can be optimised away).
 
-use super::compose::WORKGROUP_SIZE;
 use super::device::{scoped, Gpu, GpuError};
-use super::diagnostic::KernelError;
+use crate::kernel::{KernelError, WORKGROUP_SIZE};
 use crate::methods::Method;
 use crate::scene::GpuScene;
 use std::fmt;
@@ -361,15 +360,9 @@ fn read_timestamps(gpu: &Gpu, readback: &wgpu::Buffer) -> Result<[u64; 2], Strin
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::quiet_driver_environment;
-    use std::sync::OnceLock;
 
     fn gpu() -> &'static Gpu {
-        static GPU: OnceLock<Gpu> = OnceLock::new();
-        GPU.get_or_init(|| {
-            quiet_driver_environment();
-            Gpu::new(None).unwrap_or_else(|e| panic!("{e}"))
-        })
+        crate::gpu::test_gpu()
     }
 
     fn tiny_method() -> Method {

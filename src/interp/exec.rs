@@ -92,7 +92,7 @@ fn or_into(a: &mut [bool], b: &[bool]) {
     }
 }
 
-/// log2(1 + ulp distance) between two f32 values (DESIGN §4 bits); 32 when one is NaN.
+/// log2(1 + ulp distance) between two f32 values (docs/statistics.md bits); 32 when one is NaN.
 pub fn ulp_bits(a: f32, b: f32) -> f64 {
     if a == b || (a.is_nan() && b.is_nan()) {
         return 0.0;

@@ -20,7 +20,7 @@
 mod digits;
 mod exec;
 
-use crate::gpu::{compose_with, Composed};
+use crate::kernel::{compose_with, Composed};
 use crate::methods::Method;
 use crate::scene::Config;
 use anyhow::{anyhow, Context, Result};
@@ -84,11 +84,10 @@ pub fn program(method: &Method) -> Result<Arc<Program>> {
     static CACHE: OnceLock<Mutex<HashMap<String, Arc<Program>>>> = OnceLock::new();
     let inner = method.inner.as_deref();
     let key = format!(
-        "{}\0{}\0{:?}\0{}\0{:?}",
-        method.kernel.path,
-        method.kernel.text,
+        "{:?}\0{:?}\0{:?}\0{:?}",
+        method.kernel.parts(),
         method.params,
-        inner.map_or("", |m| m.kernel.text.as_str()),
+        inner.map(|m| m.kernel.parts()),
         inner.map(|m| &m.params)
     );
     let cache = CACHE.get_or_init(Default::default);
@@ -98,6 +97,82 @@ pub fn program(method: &Method) -> Result<Arc<Program>> {
     let p = Arc::new(Program::new(method).with_context(|| format!("CPU evaluator for {}", method.describe()))?);
     cache.lock().expect("cache lock").insert(key, p.clone());
     Ok(p)
+}
+
+/// A method's `f64` and `cpu_f32` columns from its own kernel on the CPU evaluator. A trait
+/// of this module, so that the method (src/methods) does not depend on the evaluator.
+pub trait CpuColumns {
+    /// The kernel's `f64` (or `cpu_f32`) column on `configs`: None where the method does not
+    /// apply to a configuration. For a `ggx` configuration the kernel sees the fed (rotated)
+    /// configuration, and an LTC method's result is multiplied by the fed magnitude in the
+    /// mode's precision, as a shader multiplies; a `minv: ggx` kernel evaluates the lobe itself
+    /// and is not scaled ([`Method::magnitude`]).
+    fn cpu_column(&self, configs: &[Config], mode: Mode) -> Result<Vec<Option<f64>>>;
+    /// [`CpuColumns::cpu_column`], or where the evaluator cannot run this kernel (an `f16`
+    /// kernel, an IR construct it lacks) no values, with a note on stderr once per method:
+    /// the GPU column still stands.
+    fn cpu_column_or_none(&self, configs: &[Config], mode: Mode) -> Vec<Option<f64>>;
+    /// The kernel's own formula in double precision for one configuration; None when the
+    /// evaluator cannot run this kernel (the reason is in [`CpuColumns::cpu_column`]'s error).
+    fn eval_f64(&self, config: &Config) -> Option<f64>;
+    /// The kernel in IEEE single precision on the CPU (beside the GPU's f32).
+    fn eval_f32_cpu(&self, config: &Config) -> Option<f32>;
+}
+
+impl CpuColumns for Method {
+    fn cpu_column(&self, configs: &[Config], mode: Mode) -> Result<Vec<Option<f64>>> {
+        let program = program(self)?;
+        let inputs: Vec<&Config> = configs.iter().filter(|c| self.applies(c)).collect();
+        let magnitudes = inputs.iter().map(|c| self.magnitude(c));
+        let mut values = program.eval(&inputs, mode)?.into_iter().zip(magnitudes);
+        let scaled = |(v, magnitude): (f64, f64)| match mode {
+            Mode::F32 => f64::from(v as f32 * magnitude as f32),
+            _ => v * magnitude,
+        };
+        Ok(configs
+            .iter()
+            .map(|c| {
+                if self.applies(c) {
+                    values.next().map(scaled)
+                } else {
+                    None
+                }
+            })
+            .collect())
+    }
+
+    fn cpu_column_or_none(&self, configs: &[Config], mode: Mode) -> Vec<Option<f64>> {
+        match self.cpu_column(configs, mode) {
+            Ok(v) => v,
+            Err(e) => {
+                static NOTED: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+                let mut noted = NOTED.lock().unwrap_or_else(|p| p.into_inner());
+                if !noted.contains(&self.label) {
+                    noted.push(self.label.clone());
+                    eprintln!("note: `{}` has no f64/cpu_f32 values: {e:#}", self.label);
+                }
+                vec![None; configs.len()]
+            }
+        }
+    }
+
+    fn eval_f64(&self, config: &Config) -> Option<f64> {
+        cpu_one(self, config, Mode::F64)
+    }
+
+    fn eval_f32_cpu(&self, config: &Config) -> Option<f32> {
+        cpu_one(self, config, Mode::F32).map(|v| v as f32)
+    }
+}
+
+/// One configuration's value in `mode`.
+fn cpu_one(method: &Method, config: &Config, mode: Mode) -> Option<f64> {
+    method
+        .cpu_column(std::slice::from_ref(config), mode)
+        .ok()?
+        .into_iter()
+        .next()
+        .flatten()
 }
 
 fn param_values(kernel: &crate::kernel::KernelFile, values: &[f64]) -> Vec<(String, f64)> {
@@ -118,12 +193,12 @@ impl Program {
             (Some(m), _) => params.extend(
                 param_values(&m.kernel, &m.params)
                     .into_iter()
-                    .map(|(n, v)| (crate::gpu::inner_name(&n), v)),
+                    .map(|(n, v)| (crate::kernel::inner_name(&n), v)),
             ),
             (None, Some(k)) => params.extend(
                 param_values(k, &[])
                     .into_iter()
-                    .map(|(n, v)| (crate::gpu::inner_name(&n), v)),
+                    .map(|(n, v)| (crate::kernel::inner_name(&n), v)),
             ),
             (None, None) => {}
         }

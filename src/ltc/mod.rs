@@ -8,7 +8,9 @@ pub mod fit;
 pub mod ggx;
 pub mod table;
 
-use crate::scene::Mat3;
+/// A 3×3 matrix (`scene::Mat3` is this type: the scene builds on this module, not the reverse).
+pub type Mat3 = [[f64; 3]; 3];
+use anyhow::Context;
 use std::collections::HashMap;
 use std::sync::Mutex;
 use table::Storage;
@@ -257,8 +259,8 @@ pub fn fit_command(out: &std::path::Path, size: usize) -> anyhow::Result<()> {
     let csv = t.to_csv(&header);
     // Written whole or not at all.
     let tmp = out.with_extension("csv.tmp");
-    std::fs::write(&tmp, &csv).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", tmp.display()))?;
-    std::fs::rename(&tmp, out).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
+    std::fs::write(&tmp, &csv).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, out).with_context(|| format!("cannot write {}", out.display()))?;
     let l1: Vec<f64> = fits.iter().map(|f| f.l1).collect();
     let worst = l1.iter().copied().fold(0.0, f64::max);
     let record = serde_json::json!({
@@ -273,7 +275,7 @@ pub fn fit_command(out: &std::path::Path, size: usize) -> anyhow::Result<()> {
     });
     let run = out.with_extension("run.json");
     std::fs::write(&run, serde_json::to_string_pretty(&record)? + "\n")
-        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", run.display()))?;
+        .with_context(|| format!("cannot write {}", run.display()))?;
     eprintln!(
         "wrote {} and {}: {} entries in {seconds:.1} s on {threads} thread(s); largest relative L1 fit error {worst:.3e}",
         out.display(),

@@ -1,17 +1,12 @@
 //! Methods under test: a kernel file, the values of its parameters and the inner line
 //! method of a composite (`cylinder.line[line.ltc2023]`). Its `f64` and `cpu_f32` columns
-//! come from the same kernel on the CPU evaluator (src/interp).
+//! come from the same kernel on the CPU evaluator (src/interp, `interp::CpuColumns`).
 
 use crate::kernel::{KernelFile, MinvSupport};
 use crate::scene::Config;
 use crate::target::Target;
 
-/// The line method a composite uses when its spec names none: it handles every M⁻¹.
-pub const DEFAULT_INNER: &str = "line.ltc2023_full";
-
-/// The inner method of a `//! uses: line_isotropic` composite when its spec names none: the
-/// horizon-clipped line irradiance, exact for isotropic emitters on the diffuse material.
-pub const DEFAULT_INNER_ISOTROPIC: &str = "line_isotropic.karis2013_clip";
+pub use crate::kernel::{DEFAULT_INNER, DEFAULT_INNER_ISOTROPIC};
 
 #[derive(Clone, Debug)]
 pub struct Method {
@@ -74,33 +69,6 @@ impl Method {
         }
     }
 
-    /// The kernel's `f64` (or `cpu_f32`) column on `configs` from the CPU evaluator
-    /// (src/interp): None where the method does not apply to a configuration.
-    ///
-    /// For a `ggx` configuration the kernel sees the fed (rotated) configuration, and an LTC
-    /// method's result is multiplied by the fed magnitude in the mode's precision, as a shader
-    /// multiplies; a `minv: ggx` kernel evaluates the lobe itself and is not scaled.
-    pub fn cpu_column(&self, configs: &[Config], mode: crate::interp::Mode) -> anyhow::Result<Vec<Option<f64>>> {
-        let program = crate::interp::program(self)?;
-        let inputs: Vec<&Config> = configs.iter().filter(|c| self.applies(c)).collect();
-        let magnitudes = inputs.iter().map(|c| self.magnitude(c));
-        let mut values = program.eval(&inputs, mode)?.into_iter().zip(magnitudes);
-        let scaled = |(v, magnitude): (f64, f64)| match mode {
-            crate::interp::Mode::F32 => f64::from(v as f32 * magnitude as f32),
-            _ => v * magnitude,
-        };
-        Ok(configs
-            .iter()
-            .map(|c| {
-                if self.applies(c) {
-                    values.next().map(scaled)
-                } else {
-                    None
-                }
-            })
-            .collect())
-    }
-
     /// Whether the method's result is multiplied by a `ggx` configuration's fed magnitude:
     /// an LTC method's is, a `minv: ggx` kernel's (which evaluates the GGX lobe) is not.
     /// A composite follows its inner line method (its own formula is linear in `I_line`).
@@ -108,49 +76,13 @@ impl Method {
         self.kernel.minv != MinvSupport::Ggx && self.inner.as_ref().is_none_or(|inner| inner.scaled_by_magnitude())
     }
 
-    fn magnitude(&self, config: &Config) -> f64 {
+    /// The factor the method's value on `config` is multiplied by: a `ggx` configuration's
+    /// fed magnitude when [`Method::scaled_by_magnitude`], else 1.
+    pub fn magnitude(&self, config: &Config) -> f64 {
         match config.material.fed() {
             Some(fed) if self.scaled_by_magnitude() => fed.magnitude,
             _ => 1.0,
         }
-    }
-
-    /// [`Method::cpu_column`], or where the evaluator cannot run this kernel (an `f16` kernel,
-    /// an IR construct it lacks) no values, with a note on stderr once per method: the GPU
-    /// column still stands.
-    pub fn cpu_column_or_none(&self, configs: &[Config], mode: crate::interp::Mode) -> Vec<Option<f64>> {
-        match self.cpu_column(configs, mode) {
-            Ok(v) => v,
-            Err(e) => {
-                static NOTED: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
-                let mut noted = NOTED.lock().unwrap_or_else(|p| p.into_inner());
-                if !noted.contains(&self.label) {
-                    noted.push(self.label.clone());
-                    eprintln!("note: `{}` has no f64/cpu_f32 values: {e:#}", self.label);
-                }
-                vec![None; configs.len()]
-            }
-        }
-    }
-
-    /// The kernel's own formula in double precision (the CPU evaluator, src/interp), for
-    /// one configuration; None when the evaluator cannot run this kernel (the reason is
-    /// in [`Method::cpu_column`]'s error).
-    pub fn eval_f64(&self, config: &Config) -> Option<f64> {
-        self.cpu_one(config, crate::interp::Mode::F64)
-    }
-
-    /// The kernel in IEEE single precision on the CPU (beside the GPU's f32).
-    pub fn eval_f32_cpu(&self, config: &Config) -> Option<f32> {
-        self.cpu_one(config, crate::interp::Mode::F32).map(|v| v as f32)
-    }
-
-    fn cpu_one(&self, config: &Config, mode: crate::interp::Mode) -> Option<f64> {
-        self.cpu_column(std::slice::from_ref(config), mode)
-            .ok()?
-            .into_iter()
-            .next()
-            .flatten()
     }
 }
 
@@ -248,7 +180,7 @@ fn resolve_plain(spec: &str, head: &str, kernels: &[KernelFile]) -> anyhow::Resu
         let known: Vec<_> = kernels.iter().map(|k| k.id.as_str()).collect();
         anyhow::anyhow!(
             "unknown method `{}` (known: {})",
-            crate::case_values::clip(id),
+            crate::names::clip(id),
             known.join(", ")
         )
     })?;
@@ -271,7 +203,7 @@ fn resolve_plain(spec: &str, head: &str, kernels: &[KernelFile]) -> anyhow::Resu
         for ((slot, v), p) in params.iter_mut().zip(values).zip(&kernel.params) {
             *slot = p
                 .value(v)
-                .map_err(|e| anyhow::anyhow!("`{}`: {e}", crate::case_values::clip(spec)))?;
+                .map_err(|e| anyhow::anyhow!("`{}`: {e}", crate::names::clip(spec)))?;
         }
     }
     Ok(Method {
@@ -290,7 +222,7 @@ pub fn check_unique(specs: &[String], flag: &str) -> anyhow::Result<()> {
         if let Some(j) = specs[..i].iter().position(|o| o == s) {
             anyhow::bail!(
                 "{flag}: `{}` is listed twice (entries {} and {})",
-                crate::case_values::clip(s),
+                crate::names::clip(s),
                 j + 1,
                 i + 1
             );
@@ -327,7 +259,7 @@ pub fn validate_kernel(path: &std::path::Path, others: &[KernelFile]) -> anyhow:
     if let Some(other) = others.iter().find(|o| o.id == k.id && !same_file(o)) {
         anyhow::bail!("{}: id `{}` is already defined by {}", k.path, k.id, other.path);
     }
-    let composed = crate::gpu::compose_with(&k, None, crate::gpu::kernel_capabilities())?;
+    let composed = crate::kernel::compose_with(&k, None, crate::kernel::kernel_capabilities())?;
     // Private arrays are per invocation: a large one times the invocations in flight.
     if let Some(bytes) = crate::limits::kernel_invocation_bytes(&composed.module) {
         let in_flight = crate::limits::invocations_in_flight();

@@ -1,4 +1,4 @@
-//! Independent double-precision references for the target integrals of DESIGN §1.
+//! Independent double-precision references for the target integrals of docs/conventions.md.
 //!
 //! Every target is integrated from its definition by adaptive Gauss–Kronrod quadrature; no
 //! closed form from the papers is used, so a method and its reference share no algebra. The
@@ -56,7 +56,7 @@ fn sum(a: Estimate, b: Estimate) -> Estimate {
     }
 }
 
-/// D(ω) in f64 for a unit ω (DESIGN §1): `max(0, ω.z)/π` for the diffuse material, Listing
+/// D(ω) in f64 for a unit ω (docs/conventions.md): `max(0, ω.z)/π` for the diffuse material, Listing
 /// 1.10 (with |det M⁻¹|) for an LTC, the GGX lobe for `ggx` (not its fed LTC).
 pub fn distribution(material: &Material, w: Vec3) -> f64 {
     match material {

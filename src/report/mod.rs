@@ -6,7 +6,6 @@ mod attribution;
 pub mod chart;
 mod csv;
 mod findings;
-pub mod junit;
 mod markdown;
 mod svg;
 
@@ -15,10 +14,8 @@ use crate::case::Case;
 use crate::sweep::{Measured, Setup};
 use std::path::{Path, PathBuf};
 
-/// Writes `contents` to `path` without destroying anything (see `crate::io`).
-pub fn write_atomic(path: &Path, contents: &[u8]) -> anyhow::Result<()> {
-    Ok(crate::io::write_bytes(path, contents)?)
-}
+pub use crate::io::write_atomic;
+pub use crate::names::{chart_file, map_file};
 
 /// Formats a non-negative statistic compactly: `3.1e-07`, `0`, or `—` when absent.
 pub fn sci(x: Option<f64>) -> String {
@@ -143,22 +140,6 @@ pub fn write_reports(dir: &Path, input: &ReportInput) -> anyhow::Result<Vec<Path
     Ok(crate::io::write_set(dir, &files)?)
 }
 
-/// Where a map's SVG goes, relative to the report.
-pub fn map_file(method: &str, material: &str, x: &str, y: &str) -> String {
-    let clean = |s: &str| {
-        s.chars()
-            .map(|c| if c.is_ascii_alphanumeric() || c == '.' { c } else { '_' })
-            .collect::<String>()
-    };
-    format!(
-        "maps/{}__{}__{}_{}.svg",
-        clean(method),
-        clean(material),
-        clean(x),
-        clean(y)
-    )
-}
-
 fn heat_maps(input: &ReportInput) -> Vec<(String, Vec<u8>)> {
     let mut out = Vec::new();
     for (k, map) in input.case.maps.iter().enumerate() {
@@ -186,15 +167,6 @@ pub fn nonfinite<'a>(input: &'a ReportInput) -> Vec<(&'a crate::scene::Config, V
         .iter()
         .map(|(c, methods)| (c, methods.iter().map(String::as_str).collect()))
         .collect()
-}
-
-/// Where a material's speed-against-accuracy chart goes, relative to the report.
-pub fn chart_file(material: &str) -> String {
-    let clean: String = material
-        .chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '.' { c } else { '_' })
-        .collect();
-    format!("speed_accuracy__{clean}.svg")
 }
 
 /// The chart's points for one material: every supported method with a measured cost.

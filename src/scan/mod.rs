@@ -7,10 +7,12 @@
 //! The result is a rate with an exact (Clopper–Pearson) 95 % interval per method and family.
 
 use crate::case::{Case, Dist, MaterialKind};
-use crate::gpu::{compose_with, override_constants, scoped, Gpu};
+use crate::gpu::{override_constants, scoped, Gpu};
+use crate::kernel::compose_with;
 use crate::methods::Method;
 use crate::scene::{Config, Material};
 use crate::target::Target;
+use anyhow::Context;
 use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
@@ -219,7 +221,7 @@ pub fn scan(
             cache: None,
         })
     })
-    .map_err(|e| anyhow::anyhow!("{}: the scan pipeline does not build: {e}", method.kernel.path))?;
+    .with_context(|| format!("{}: the scan pipeline does not build", method.kernel.path))?;
 
     use wgpu::BufferUsages as U;
     let buffer = |label, size: u64, usage| {
@@ -314,15 +316,20 @@ pub fn scan(
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
+        // A device lost or a failed readback is the GPU failing at run time (exit 4).
+        let failed = |message: String| crate::gpu::GpuError::Run {
+            method: method.label.clone(),
+            message,
+        };
         device
             .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| anyhow::anyhow!("the device was lost during the scan: {e}"))?;
+            .map_err(|e| failed(format!("the device was lost during the scan: {e}")))?;
         rx.recv()?
-            .map_err(|e| anyhow::anyhow!("cannot read the scan's counts: {e}"))?;
+            .map_err(|e| failed(format!("cannot read the scan's counts: {e}")))?;
         {
             let view = slice
                 .get_mapped_range()
-                .map_err(|e| anyhow::anyhow!("cannot read the scan's counts: {e}"))?;
+                .map_err(|e| failed(format!("cannot read the scan's counts: {e}")))?;
             let c: &[u32] = bytemuck::cast_slice(&view[..32]);
             for (t, &n) in totals.iter_mut().zip(c) {
                 *t += u64::from(n);

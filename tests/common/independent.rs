@@ -1,5 +1,5 @@
 //! What the independent-reference tests (tests/reference_independent.rs,
-//! tests/ggx_reference.rs, tests/mrp_specular.rs) share, written from DESIGN §1 alone and never from src/: vector
+//! tests/ggx_reference.rs, tests/mrp_specular.rs) share, written from docs/conventions.md alone and never from src/: vector
 //! arithmetic on `[f64; 3]`, Gauss–Legendre nodes by Newton on Pₙ, a basis about a
 //! direction, and the GGX lobe term by term.
 
@@ -71,7 +71,7 @@ pub fn basis(t: Vec3) -> (Vec3, Vec3) {
     (e1, cross(t, e1))
 }
 
-/// DESIGN §1 `ggx`, written from the text: NDF(h)·G2(v, ω)/(4 v.z) for ω.z > 0, with the
+/// docs/conventions.md `ggx`, written from the text: NDF(h)·G2(v, ω)/(4 v.z) for ω.z > 0, with the
 /// normalised half vector and height-correlated Smith Λ as written.
 pub fn ggx_d(alpha: [f64; 2], v: Vec3, w: Vec3) -> f64 {
     if w[2] <= 0.0 {

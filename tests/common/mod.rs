@@ -1,4 +1,4 @@
-//! What the command-line tests share: running the binary, its stderr, writing an input file.
+//! What the tests share: running the binary, its stderr, writing an input file, the GPU.
 #![allow(dead_code)] // each test binary uses its own share of these
 
 pub mod independent;
@@ -23,4 +23,13 @@ pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
     p
+}
+
+/// The one GPU (lavapipe by default) of a test binary, opened once with the driver quiet.
+pub fn gpu() -> &'static linelight::gpu::Gpu {
+    static GPU: std::sync::OnceLock<linelight::gpu::Gpu> = std::sync::OnceLock::new();
+    GPU.get_or_init(|| {
+        linelight::gpu::quiet_driver_environment();
+        linelight::gpu::Gpu::new(None).unwrap_or_else(|e| panic!("lavapipe is installed (scripts/ensure-vulkan): {e}"))
+    })
 }

@@ -115,6 +115,62 @@ pub(crate) fn find_fn(text: &str, name: &str) -> Option<Range<usize>> {
         .map(|w| w[1].start..w[1].start + name.len())
 }
 
+/// Every module-scope function of `text`: its name and the range of its whole declaration,
+/// from `fn` (or the attributes before it) to its closing brace.
+pub(crate) fn fn_decls(text: &str) -> Vec<(String, Range<usize>)> {
+    let tokens = tokens(text);
+    let mut out = Vec::new();
+    let mut depth = 0usize;
+    let mut i = 0;
+    while i < tokens.len() {
+        let t = tokens[i];
+        match (t.kind, t.text) {
+            (Kind::Punct, "{") => depth += 1,
+            (Kind::Punct, "}") => depth = depth.saturating_sub(1),
+            (Kind::Ident, "fn") if depth == 0 => {
+                if let Some(name) = tokens.get(i + 1).filter(|n| n.kind == Kind::Ident) {
+                    // `@attr` or `@attr(...)` right before `fn` belongs to the declaration.
+                    let mut start = i;
+                    while start >= 2 && tokens[start - 1].kind == Kind::Ident && tokens[start - 2].text == "@" {
+                        start -= 2;
+                    }
+                    let body = tokens[i..].iter().position(|t| t.text == "{").map(|p| i + p);
+                    let mut end = None;
+                    let mut d = 0usize;
+                    for (j, t) in tokens.iter().enumerate().skip(body.unwrap_or(tokens.len())) {
+                        match t.text {
+                            "{" => d += 1,
+                            "}" => {
+                                d -= 1;
+                                if d == 0 {
+                                    end = Some(j);
+                                    break;
+                                }
+                            }
+                            _ => {}
+                        }
+                    }
+                    let Some(end) = end else {
+                        break;
+                    };
+                    out.push((name.text.to_string(), tokens[start].start..tokens[end].start + 1));
+                    i = end + 1;
+                    continue;
+                }
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    out
+}
+
+/// `text` with `range` blanked: only its newlines stay, so every line keeps its number.
+pub(crate) fn blank(text: &str, range: Range<usize>) -> String {
+    let hole: String = text[range.clone()].chars().filter(|&c| c == '\n').collect();
+    format!("{}{hole}{}", &text[..range.start], &text[range.end..])
+}
+
 /// Identifiers, numbers and single punctuation characters; whitespace and comments
 /// (line comments and nested block comments) are skipped. WGSL has no string literals.
 fn tokens(text: &str) -> Vec<Token<'_>> {
@@ -183,6 +239,19 @@ fn block_comment_end(text: &str, start: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn function_declarations_span_their_bodies() {
+        let text = "// fn c() {}\nfn a(x: f32) -> f32 {\n    if (x > 0.0) { return x; }\n    return -x;\n}\n@must_use fn b() -> f32 { return 1.0; }\n";
+        let decls = fn_decls(text);
+        let names: Vec<&str> = decls.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["a", "b"]);
+        assert!(text[decls[0].1.clone()].starts_with("fn a(") && text[decls[0].1.clone()].ends_with("-x;\n}"));
+        assert_eq!(&text[decls[1].1.clone()], "@must_use fn b() -> f32 { return 1.0; }");
+        let blanked = blank(text, decls[0].1.clone());
+        assert_eq!(blanked.lines().count(), text.lines().count());
+        assert_eq!(fn_decls(&blanked).len(), 1);
+    }
 
     fn rename(text: &str) -> String {
         let renames = [

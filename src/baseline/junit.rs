@@ -2,8 +2,8 @@
 //! case's tolerance checks and, with `--baseline`, the gate's rules (src/baseline.rs); each
 //! failure carries its numbers. Written with quick-junit.
 
+use super::{Change, GateReport};
 use crate::analysis::Check;
-use crate::baseline::{Change, GateReport};
 use quick_junit::{NonSuccessKind, Report, TestCase, TestCaseStatus, TestSuite};
 
 fn testcase(method: &str, material: &str, rule: &str, status: TestCaseStatus) -> TestCase {

@@ -3,7 +3,7 @@
 //!
 //! Measuring, analysing and reporting are separate, as criterion.rs and hyperfine do it:
 //!
-//! - **Measuring** ([`bench_methods`]): the configurations are uploaded once
+//! - **Measuring** (this file, [`bench_methods`]): the configurations are uploaded once
 //!   ([`crate::gpu::DispatchTimer`]); every method is compiled before anything is timed.
 //!   Then `warmup` untimed rounds and `repeats` timed rounds. One round runs every method
 //!   once on the GPU (one dispatch over all configurations, its own submission, waited on,
@@ -12,10 +12,11 @@
 //!   same configurations on all cores (rayon). The order of the methods rotates from round
 //!   to round, so drift and machine noise spread evenly over the methods, and the ratios
 //!   between methods, and between GPU and CPU, are taken within one run.
-//! - **Analysing** ([`Cost`], [`Ratio`]): per method, the median ns per evaluation over
+//! - **Analysing** (`analyse.rs`: [`Cost`] spreads, [`Ratio`]): per method, the median ns per evaluation over
 //!   the repeats with its min and max (every repeat's value is kept); ratios are medians
 //!   of the per-round ratios, with their min and max.
-//! - **Reporting** ([`render`], [`run`]): a table and a ratio line per compared pair.
+//! - **Reporting** (`report.rs`, [`render`]): a table and a ratio line per compared pair. The command
+//!   itself (sampling the case, then these three) is `app::bench`.
 //!
 //! Speed is measured, never asserted: no test checks a duration beyond its being a
 //! positive number.
@@ -24,14 +25,18 @@
 //! the CPU port uses, so the GPU/CPU ratio there compares lavapipe's compiled SIMD kernel
 //! with the Rust port, not two pieces of hardware.
 
-use crate::case::Case;
+mod analyse;
+mod report;
+
 use crate::cost::OpCount;
-use crate::gpu::{Clock, Gpu};
+use crate::gpu::Gpu;
+use crate::interp::CpuColumns;
 use crate::methods::Method;
 use crate::scene::{Config, GpuScene};
-use std::fmt::Write as _;
+use analyse::Spread;
+pub use analyse::{cpu_time_ratio, gpu_time_ratio, Ratio};
+pub use report::render;
 use std::hint::black_box;
-use std::path::PathBuf;
 use std::time::Instant;
 
 /// What one method costs, measured in one run.
@@ -65,71 +70,6 @@ pub struct Cost {
     pub gpu_ns_per_eval: Vec<f64>,
     /// CPU f32 port ns per evaluation of each timed repeat (empty without a port).
     pub cpu_f32_ns_per_eval_runs: Vec<f64>,
-}
-
-/// A ratio between two measurements taken round by round in one run.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct Ratio {
-    pub median: f64,
-    pub min: f64,
-    pub max: f64,
-    /// Rounds it was taken over.
-    pub rounds: usize,
-}
-
-impl Ratio {
-    /// The per-round ratios `numerator[r] / denominator[r]`; None if either is empty or
-    /// their lengths differ.
-    pub fn per_round(numerator: &[f64], denominator: &[f64]) -> Option<Ratio> {
-        if numerator.is_empty() || numerator.len() != denominator.len() {
-            return None;
-        }
-        let ratios: Vec<f64> = numerator.iter().zip(denominator).map(|(a, b)| a / b).collect();
-        let s = Spread::of(&ratios);
-        Some(Ratio {
-            median: s.median,
-            min: s.min,
-            max: s.max,
-            rounds: ratios.len(),
-        })
-    }
-}
-
-/// GPU time of `a` over GPU time of `b`, round by round: above 1, `b` is the faster.
-pub fn gpu_time_ratio(a: &Cost, b: &Cost) -> Option<Ratio> {
-    Ratio::per_round(&a.gpu_ns_per_eval, &b.gpu_ns_per_eval)
-}
-
-/// CPU f32 port time of `a` over that of `b`, round by round (None without both ports).
-pub fn cpu_time_ratio(a: &Cost, b: &Cost) -> Option<Ratio> {
-    Ratio::per_round(&a.cpu_f32_ns_per_eval_runs, &b.cpu_f32_ns_per_eval_runs)
-}
-
-/// Median (mean of the middle two for an even count), min and max.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Spread {
-    median: f64,
-    min: f64,
-    max: f64,
-}
-
-impl Spread {
-    /// Of a non-empty slice without NaN.
-    fn of(xs: &[f64]) -> Spread {
-        let mut v = xs.to_vec();
-        v.sort_by(f64::total_cmp);
-        let n = v.len();
-        let median = if n % 2 == 1 {
-            v[n / 2]
-        } else {
-            0.5 * (v[n / 2 - 1] + v[n / 2])
-        };
-        Spread {
-            median,
-            min: v[0],
-            max: v[n - 1],
-        }
-    }
 }
 
 /// Whether the CPU evaluator runs `method` (every kernel it can compose and evaluate:
@@ -240,23 +180,6 @@ fn time_cpu_port(method: &Method, configs: &[Config]) -> f64 {
     start.elapsed().as_nanos() as f64
 }
 
-/// What `linelight bench` was asked for.
-#[derive(Clone, Debug)]
-pub struct BenchOptions {
-    /// Case file whose sampler makes the configurations (and names the methods and pairs).
-    pub case: PathBuf,
-    /// Method specs; empty: the case's methods.
-    pub methods: Vec<String>,
-    /// Configurations per dispatch, split evenly over the case's materials.
-    pub count: usize,
-    pub repeats: usize,
-    pub warmup: usize,
-    pub adapter: Option<String>,
-    pub kernels: Vec<PathBuf>,
-    /// Also write the costs as JSON here.
-    pub json: Option<PathBuf>,
-}
-
 /// What a bench measured, ready to report.
 pub struct BenchRun {
     pub adapter: String,
@@ -270,85 +193,10 @@ pub struct BenchRun {
     pub pairs: Vec<[String; 2]>,
 }
 
-/// `linelight bench`: samples the case's configurations, measures, prints the report to
-/// stdout (progress on stderr) and writes the JSON if asked.
-pub fn run(options: &BenchOptions) -> anyhow::Result<BenchRun> {
-    anyhow::ensure!(options.count > 0, "--count must be at least 1");
-    anyhow::ensure!(options.repeats > 0, "--repeats must be at least 1");
-    if let Some(json) = &options.json {
-        // Refused before any work: the case file or a kernel as the output.
-        let mut inputs = vec![("the case file", options.case.as_path())];
-        inputs.extend(options.kernels.iter().map(|k| ("--kernel", k.as_path())));
-        crate::io::check_output("--json", json, &inputs, &[])?;
-    }
-    let mut case = Case::load(&options.case)?;
-    if !options.methods.is_empty() {
-        crate::methods::check_unique(&options.methods, "--methods")?;
-        case.methods = options.methods.clone();
-    }
-    let materials = case.materials.len();
-    anyhow::ensure!(materials > 0, "case `{}` has no materials", case.name);
-    // The methods measured decide which pairs are compared (and `prepare` checks them).
-    case.compare
-        .retain(|pair| pair.iter().all(|l| case.methods.contains(l)));
-    let setup = crate::sweep::prepare(case, &options.kernels, Some(options.count.div_ceil(materials)))?;
-    let configs = split_evenly(&setup.samples, materials, options.count);
-    for m in &setup.methods {
-        let missing = configs.iter().filter(|c| !m.applies(c)).count();
-        anyhow::ensure!(
-            missing == 0,
-            "{} (target {}) does not apply to {missing} of case `{}`'s configurations: \
-             bench it with a case whose sampler makes {} configurations",
-            m.label,
-            m.target(),
-            setup.case.name,
-            m.target()
-        );
-    }
-
-    let gpu = Gpu::new(options.adapter.as_deref())?;
-    println!("adapter: {}", gpu.adapter);
-    let pb = indicatif::ProgressBar::new(0);
-    pb.set_style(
-        indicatif::ProgressStyle::with_template("{msg:>12} [{bar:40}] {pos}/{len} (eta {eta})")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    pb.set_message("bench");
-    let costs = bench_methods_with(
-        &gpu,
-        &setup.methods,
-        &configs,
-        options.warmup,
-        options.repeats,
-        &mut |done, total| {
-            pb.set_length(total as u64);
-            pb.set_position(done as u64);
-        },
-    )?;
-    pb.finish_and_clear();
-    let bench = BenchRun {
-        adapter: gpu.adapter.to_string(),
-        case: setup.case.name.clone(),
-        materials,
-        warmup: options.warmup,
-        cpu_threads: rayon::current_num_threads(),
-        pairs: setup.case.compare.clone(),
-        costs,
-    };
-    print!("{}", render(&bench));
-    if let Some(path) = &options.json {
-        let json = serde_json::to_string_pretty(&bench.costs)?;
-        crate::report::write_atomic(path, format!("{json}\n").as_bytes())?;
-        eprintln!("wrote {}", path.display());
-    }
-    Ok(bench)
-}
-
 /// `count` of the samples, split as evenly as possible over the `materials` (the first
 /// of each material's, in sampling order); the samples hold at least ⌈count/materials⌉
 /// of each.
-fn split_evenly(samples: &[crate::sampler::Sample], materials: usize, count: usize) -> Vec<Config> {
+pub fn split_evenly(samples: &[crate::sampler::Sample], materials: usize, count: usize) -> Vec<Config> {
     let share = |i: usize| count * (i + 1) / materials - count * i / materials;
     let mut taken = vec![0; materials];
     samples
@@ -362,203 +210,13 @@ fn split_evenly(samples: &[crate::sampler::Sample], materials: usize, count: usi
         .collect()
 }
 
-/// The report: a header, one row per method, a note on the op counts, and a ratio line
-/// per compared pair (everything after the adapter line `run` prints).
-pub fn render(bench: &BenchRun) -> String {
-    let mut out = String::new();
-    let Some(first) = bench.costs.first() else {
-        return "no methods measured\n".to_string();
-    };
-    let _ = writeln!(
-        out,
-        "case {}: {} configurations per dispatch ({} material(s)); {} warm-up + {} timed rounds, \
-         methods interleaved in rotated order",
-        bench.case, first.configurations, bench.materials, bench.warmup, first.repeats
-    );
-    let clock = if first.clock == Clock::Wall.name() {
-        "wall clock of submit + wait (this adapter has no timestamp queries)"
-    } else {
-        "GPU timestamps at the beginning and end of the compute pass"
-    };
-    let _ = writeln!(
-        out,
-        "GPU: {clock}; CPU: the kernel in f32 on the CPU evaluator (src/interp), {} thread(s) (rayon)\n",
-        bench.cpu_threads
-    );
-
-    let header = [
-        "method",
-        "GPU ns/eval median [min–max]",
-        "Mconfigs/s",
-        "CPU f32 ns/eval median [min–max]",
-        "GPU/CPU speed",
-        "ops arith / transc / total",
-    ];
-    let mut rows: Vec<[String; 6]> = Vec::new();
-    let mut open_loops = false;
-    for c in &bench.costs {
-        let cpu = match c.cpu_f32_ns_per_eval {
-            Some(median) => {
-                let s = Spread::of(&c.cpu_f32_ns_per_eval_runs);
-                format!("{} [{}–{}]", sig(median), sig(s.min), sig(s.max))
-            }
-            None => "no port".to_string(),
-        };
-        let ops = match &c.ops {
-            Some(o) => {
-                let open = o.loops > 0 && o.loop_trips.is_none();
-                open_loops |= open;
-                format!(
-                    "{} / {} / {}{}",
-                    o.arithmetic,
-                    o.transcendental,
-                    o.total,
-                    if open { " *" } else { "" }
-                )
-            }
-            None => "–".to_string(),
-        };
-        rows.push([
-            c.label.clone(),
-            format!(
-                "{} [{}–{}]",
-                sig(c.ns_per_eval_median),
-                sig(c.ns_per_eval_min),
-                sig(c.ns_per_eval_max)
-            ),
-            sig(c.configs_per_second / 1e6),
-            cpu,
-            c.gpu_cpu_speed_ratio
-                .map_or("–".to_string(), |r| format!("{}×", sig(r))),
-            ops,
-        ]);
-    }
-    let widths: Vec<usize> = (0..header.len())
-        .map(|j| {
-            rows.iter()
-                .map(|r| r[j].chars().count())
-                .chain([header[j].chars().count()])
-                .max()
-                .unwrap_or(0)
-        })
-        .collect();
-    let line = |cells: &[&str]| {
-        let mut s = String::new();
-        for (j, cell) in cells.iter().enumerate() {
-            let pad = widths[j] - cell.chars().count();
-            if j == 0 {
-                s.push_str(&format!("{cell}{}", " ".repeat(pad)));
-            } else {
-                s.push_str(&format!("  {}{cell}", " ".repeat(pad)));
-            }
-        }
-        s.push('\n');
-        s
-    };
-    out.push_str(&line(&header));
-    for r in &rows {
-        out.push_str(&line(&r.iter().map(String::as_str).collect::<Vec<_>>()));
-    }
-    let _ = writeln!(
-        out,
-        "\nGPU/CPU speed: median of the per-round CPU ns / GPU ns (above 1: the dispatch is faster).\n\
-         ops: one invocation's operation count from the naga IR (src/cost.rs); \
-         total = arithmetic + other math + {}×transcendental + branches.",
-        crate::cost::TRANSCENDENTAL_WEIGHT
-    );
-    if open_loops {
-        out.push_str("* a loop without a static trip count, its body counted once.\n");
-    }
-    for c in bench.costs.iter().filter(|c| c.ops_error.is_some()) {
-        let _ = writeln!(
-            out,
-            "ops of {}: {}",
-            c.label,
-            c.ops_error.as_deref().unwrap_or_default()
-        );
-    }
-
-    let pairs: Vec<(&Cost, &Cost)> = bench
-        .pairs
-        .iter()
-        .filter_map(|[a, b]| {
-            let find = |l: &str| bench.costs.iter().find(|c| c.label == l);
-            Some((find(a)?, find(b)?))
-        })
-        .collect();
-    if !pairs.is_empty() {
-        out.push_str(
-            "\nCompared pairs: time per evaluation of the first over the second, median [min–max] of the \
-             per-round ratios, one run (above 1: the second is faster).\n",
-        );
-    }
-    for (a, b) in pairs {
-        let Some(g) = gpu_time_ratio(a, b) else {
-            continue;
-        };
-        let _ = write!(
-            out,
-            "  {} / {}: GPU {} [{}–{}] over {} rounds",
-            a.label,
-            b.label,
-            sig3(g.median),
-            sig3(g.min),
-            sig3(g.max),
-            g.rounds
-        );
-        if let Some(c) = cpu_time_ratio(a, b) {
-            let _ = write!(out, ", CPU f32 {} [{}–{}]", sig3(c.median), sig3(c.min), sig3(c.max));
-        }
-        // The noise rule: a ratio whose per-round range includes 1 is no measurable difference.
-        let verdict = if g.min <= 1.0 && 1.0 <= g.max {
-            "no measurable difference on the GPU (the per-round range includes 1)".to_string()
-        } else if g.min > 1.0 {
-            format!("on the GPU {} is faster in every round", b.label)
-        } else {
-            format!("on the GPU {} is faster in every round", a.label)
-        };
-        let _ = writeln!(out, ": {verdict}");
-    }
-    out
-}
-
-/// Three significant digits, without exponent for everyday magnitudes.
-fn sig(x: f64) -> String {
-    if !x.is_finite() {
-        return x.to_string();
-    }
-    let a = x.abs();
-    if a >= 1e7 || (a < 1e-3 && a != 0.0) {
-        return format!("{x:.2e}");
-    }
-    let decimals = if a >= 100.0 {
-        0
-    } else if a >= 10.0 {
-        1
-    } else if a >= 1.0 {
-        2
-    } else {
-        3
-    };
-    format!("{x:.decimals$}")
-}
-
-/// Ratios: always three decimals, so that close ratios stay comparable.
-fn sig3(x: f64) -> String {
-    format!("{x:.3}")
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::sync::OnceLock;
+    use crate::case::Case;
 
     fn gpu() -> &'static Gpu {
-        static GPU: OnceLock<Gpu> = OnceLock::new();
-        GPU.get_or_init(|| {
-            crate::gpu::quiet_driver_environment();
-            Gpu::new(None).unwrap_or_else(|e| panic!("{e}"))
-        })
+        crate::gpu::test_gpu()
     }
 
     fn configs(n: usize) -> Vec<Config> {

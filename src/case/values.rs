@@ -4,7 +4,8 @@
 //! configurations, positive floors and tolerances, duplicate methods, search sizes.
 
 use crate::case::{Case, Dist, Geometry, MaterialFamily};
-use crate::report::{chart_file, map_file};
+pub use crate::names::clip;
+use crate::names::{chart_file, map_file};
 use std::collections::BTreeMap;
 
 /// A case name becomes a folder under `--out`: letters, digits, `.`, `_`, `-`, starting
@@ -29,17 +30,6 @@ fn range(d: &Dist) -> (f64, f64) {
         Dist::Fixed { value } => (value, value),
         Dist::Uniform { min, max } | Dist::LogUniform { min, max } => (min, max),
         Dist::SignedLogUniform { max, .. } => (-max, max),
-    }
-}
-
-/// A name as it may appear in a message: at most 80 characters.
-pub fn clip(s: &str) -> String {
-    const MAX: usize = 80;
-    if s.chars().count() <= MAX {
-        s.to_string()
-    } else {
-        let head: String = s.chars().take(MAX).collect();
-        format!("{head}… ({} bytes)", s.len())
     }
 }
 

@@ -7,8 +7,7 @@
 
 use super::diagnostic::{KernelError, SourceMap, ENTRY_PATH};
 use super::rename::{find_fn, rename_identifiers};
-use crate::kernel::{builtin_kernels, KernelFile, PRELUDE, PRELUDE_PATH};
-use crate::methods::DEFAULT_INNER;
+use super::{builtin_kernels, KernelFile, DEFAULT_INNER, PRELUDE, PRELUDE_PATH};
 use naga::common::wgsl::TypeContext;
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use naga::{Scalar, ScalarKind, Span, TypeInner};
@@ -129,7 +128,10 @@ pub(crate) fn compose_parts(
         (true, Some(inner)) => Some(inner.clone()),
         (true, None) => Some(default_inner()),
     };
-    let (directives, body) = split_directives(&kernel.text);
+    // A derived kernel is several files (its base's, then its own): each part keeps every
+    // line of its file, so errors name the file and line they are in.
+    let parts = split_parts(kernel);
+    let body: String = parts.iter().map(|(_, _, b)| b.as_str()).collect();
 
     // The kernel on its own first (a composite with a stand-in `I_line`), so that its
     // contract is checked before any name of the inner method can clash with its own.
@@ -140,13 +142,13 @@ pub(crate) fn compose_parts(
     if let Some(origin) = &kernel.origin {
         c.map.translated_from(&kernel.path, origin);
     }
-    c.push(&kernel.path, &directives);
+    c.push_directives(&parts);
     c.push(PRELUDE_PATH, prelude);
     if kernel.uses_line {
         c.push(GLUE_PATH, STAND_IN);
     }
     let kernel_start = c.source.len();
-    c.push(&kernel.path, &body);
+    c.push_bodies(&parts);
     if let Some(name) = find_fn(&body, "I_line").filter(|_| kernel.uses_line) {
         let span = Span::from(kernel_start + name.start..kernel_start + name.end);
         return Err(c.map.diagnose(
@@ -169,7 +171,7 @@ pub(crate) fn compose_parts(
     check_contract(&c.map, &c.source, kernel_start..c.source.len(), &body, kernel, &module)?;
 
     if let Some(inner) = &inner {
-        c = with_inner(prelude, inner, &kernel.path, &directives, &body, capabilities)?;
+        c = with_inner(prelude, inner, &kernel.path, &parts, capabilities)?;
         if let Some(origin) = &kernel.origin {
             c.map.translated_from(&kernel.path, origin);
         }
@@ -188,14 +190,13 @@ pub(crate) fn compose_parts(
     })
 }
 
-/// A composite (its `directives` and `body`, already checked) with its inner line method
-/// and the glue between them, without the entry point.
+/// A composite (its `parts`, already checked) with its inner line method and the glue
+/// between them, without the entry point.
 fn with_inner(
     prelude: &str,
     inner: &KernelFile,
     path: &str,
-    directives: &str,
-    body: &str,
+    parts: &[(String, String, String)],
     capabilities: Capabilities,
 ) -> Result<Composition, KernelError> {
     if inner.uses_line {
@@ -212,21 +213,39 @@ fn with_inner(
         let name = o.name.as_deref()?;
         Some((name, inner_name(name)))
     }));
-    let (inner_directives, inner_body) = split_directives(&inner.text);
-    let (renamed, edits) = rename_identifiers(&inner_body, &renames);
+    let inner_parts = split_parts(inner);
 
     let mut c = Composition::new(path, capabilities);
     if let Some(origin) = &inner.origin {
         c.map.translated_from(&inner.path, origin);
     }
-    c.push(&inner.path, &inner_directives);
-    c.push(path, directives);
+    c.push_directives(&inner_parts);
+    c.push_directives(parts);
     c.push(PRELUDE_PATH, prelude);
-    c.map
-        .push_renamed(&mut c.source, &inner.path, &inner_body, &renamed, edits);
+    for (inner_path, _, inner_body) in &inner_parts {
+        let (renamed, edits) = rename_identifiers(inner_body, &renames);
+        c.map
+            .push_renamed(&mut c.source, inner_path, inner_body, &renamed, edits);
+    }
     c.push(GLUE_PATH, LINE_GLUE);
-    c.push(path, body);
+    c.push_bodies(parts);
     Ok(c)
+}
+
+/// The kernel's source parts (one file, or a derived kernel's files) as (path, directives,
+/// body), each body ending in a newline so that the bodies join as they are composed.
+fn split_parts(kernel: &KernelFile) -> Vec<(String, String, String)> {
+    kernel
+        .parts()
+        .into_iter()
+        .map(|(path, text)| {
+            let (directives, mut body) = split_directives(&text);
+            if !body.ends_with('\n') {
+                body.push('\n');
+            }
+            (path, directives, body)
+        })
+        .collect()
 }
 
 fn default_inner() -> KernelFile {
@@ -256,6 +275,18 @@ impl Composition {
     fn push(&mut self, path: &str, text: &str) {
         if !text.is_empty() {
             self.map.push(&mut self.source, path, text);
+        }
+    }
+
+    fn push_directives(&mut self, parts: &[(String, String, String)]) {
+        for (path, directives, _) in parts {
+            self.push(path, directives);
+        }
+    }
+
+    fn push_bodies(&mut self, parts: &[(String, String, String)]) {
+        for (path, _, body) in parts {
+            self.push(path, body);
         }
     }
 

@@ -47,6 +47,9 @@ pub struct KernelFile {
     /// which of its lines each line of the translation came from, so that errors and
     /// attributed lines name the file the user wrote.
     pub origin: Option<Arc<Origin>>,
+    /// `//! derive: BASE` + `//! replace: F G`: a kernel that is its base with the named
+    /// functions replaced by this file's (kernels/README.md). None: a standalone kernel.
+    pub derived: Option<Derivation>,
 }
 
 /// The file a translated kernel came from.
@@ -68,6 +71,15 @@ impl Origin {
     }
 }
 
+/// What a derived kernel is made from.
+#[derive(Clone, Debug)]
+pub struct Derivation {
+    /// The base kernel (itself standalone or derived).
+    pub base: Box<KernelFile>,
+    /// The base's functions this file replaces, in header order.
+    pub replace: Vec<String>,
+}
+
 /// A pipeline-overridable constant of the header (`//! params: SAMPLES=64 SCALE=0.5`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Param {
@@ -82,7 +94,7 @@ pub struct Param {
 impl Param {
     /// `v` as a value of this param, or why not.
     pub fn value(&self, v: &str) -> Result<f64, String> {
-        let shown = crate::case_values::clip(v);
+        let shown = crate::names::clip(v);
         if self.float {
             return v
                 .parse::<f64>()
@@ -116,7 +128,7 @@ pub struct HeaderError {
 }
 
 /// The prelude every kernel is composed with.
-pub const PRELUDE: &str = include_str!("../kernels/prelude.wgsl");
+pub const PRELUDE: &str = include_str!("../../kernels/prelude.wgsl");
 pub const PRELUDE_PATH: &str = "kernels/prelude.wgsl";
 
 /// Built-in method kernels: (path, text), every `.wgsl` under `kernels/` but the prelude and
@@ -135,11 +147,45 @@ pub fn valid_id(id: &str) -> bool {
             .all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-'))
 }
 
+/// The built-in kernels, in path order. A derived one is parsed after its base.
 pub fn builtin_kernels() -> Vec<KernelFile> {
-    BUILTIN
-        .iter()
-        .map(|(path, text)| KernelFile::parse(path, text).expect("built-in kernel header is valid"))
-        .collect()
+    static KERNELS: std::sync::OnceLock<Vec<KernelFile>> = std::sync::OnceLock::new();
+    KERNELS
+        .get_or_init(|| {
+            let mut done: Vec<KernelFile> = Vec::new();
+            let mut pending: Vec<(&str, &str)> = BUILTIN.to_vec();
+            while !pending.is_empty() {
+                let before = pending.len();
+                let mut waiting = Vec::new();
+                for (path, text) in pending {
+                    let ready = derive_of(text).is_none_or(|base| done.iter().any(|k| k.id == base));
+                    if ready {
+                        let lookup = |id: &str| done.iter().find(|k| k.id == id).cloned();
+                        let k = KernelFile::parse_with(path, text, &lookup)
+                            .unwrap_or_else(|e| panic!("built-in kernel header is valid: {e}"));
+                        done.push(k);
+                    } else {
+                        waiting.push((path, text));
+                    }
+                }
+                pending = waiting;
+                assert!(
+                    pending.len() < before,
+                    "built-in kernels derive in a circle: {pending:?}"
+                );
+            }
+            done.sort_by(|a, b| a.path.cmp(&b.path));
+            done
+        })
+        .clone()
+}
+
+/// The `//! derive:` value of a kernel text, read without parsing the rest.
+fn derive_of(text: &str) -> Option<&str> {
+    text.lines().find_map(|l| {
+        let (key, value) = l.trim_start().strip_prefix("//!")?.split_once(':')?;
+        (key.trim() == "derive").then_some(value.trim())
+    })
 }
 
 impl KernelFile {
@@ -149,7 +195,7 @@ impl KernelFile {
         if path.extension().is_some_and(|e| e == "glsl") {
             // The header is checked on the GLSL file (its lines), then the translation is the text.
             KernelFile::parse(&shown, &text)?;
-            let (wgsl, lines) = crate::glsl::translate(&shown, &text)?;
+            let (wgsl, lines) = super::glsl::translate(&shown, &text)?;
             let mut kernel = KernelFile::parse(&shown, &wgsl)?;
             kernel.origin = Some(Arc::new(Origin { text, lines }));
             return Ok(kernel);
@@ -157,7 +203,35 @@ impl KernelFile {
         Ok(KernelFile::parse(&shown, &text)?)
     }
 
+    /// Parses a kernel file; a derived one (`//! derive:`) is derived from a built-in kernel.
     pub fn parse(path: &str, text: &str) -> Result<KernelFile, HeaderError> {
+        KernelFile::parse_with(path, text, &|id| builtin_kernels().into_iter().find(|k| k.id == id))
+    }
+
+    /// The source parts of the kernel, in composition order: (path, text), each text with
+    /// every line of its file. A standalone kernel is its own file; a derived kernel is its
+    /// base's parts, each replaced function blanked where it stood, then its own file.
+    pub fn parts(&self) -> Vec<(String, String)> {
+        let Some(d) = &self.derived else {
+            return vec![(self.path.clone(), self.text.clone())];
+        };
+        let mut parts = d.base.parts();
+        for name in &d.replace {
+            for (_, text) in parts.iter_mut() {
+                if let Some((_, range)) = super::rename::fn_decls(text).into_iter().find(|(n, _)| n == name) {
+                    *text = super::rename::blank(text, range);
+                }
+            }
+        }
+        parts.push((self.path.clone(), self.text.clone()));
+        parts
+    }
+
+    fn parse_with(
+        path: &str,
+        text: &str,
+        base_of: &dyn Fn(&str) -> Option<KernelFile>,
+    ) -> Result<KernelFile, HeaderError> {
         let err = |line: usize, message: String| HeaderError {
             path: path.to_string(),
             line,
@@ -165,6 +239,7 @@ impl KernelFile {
         };
         let (mut id, mut target, mut source, mut minv, mut params) = (None, None, None, None, Vec::new());
         let mut uses_line = false;
+        let (mut derive, mut replace) = (None::<(String, usize)>, None::<(Vec<String>, usize)>);
         // Each key once: with two `id` lines the last would silently win.
         let mut seen: Vec<(String, usize)> = Vec::new();
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
@@ -174,7 +249,7 @@ impl KernelFile {
                 continue;
             };
             let lineno = i + 1;
-            let raw = &crate::case_values::clip(raw);
+            let raw = &crate::names::clip(raw);
             let Some((key, value)) = rest.split_once(':') else {
                 return Err(err(
                     lineno,
@@ -190,7 +265,7 @@ impl KernelFile {
                 ));
             }
             seen.push((key_name.to_string(), lineno));
-            let value_shown = crate::case_values::clip(value);
+            let value_shown = crate::names::clip(value);
             let value_shown = value_shown.as_str();
             match key_name {
                 "id" => id = Some(value.to_string()),
@@ -240,7 +315,7 @@ impl KernelFile {
                                 format!(
                                     "params must be `NAME=integer ...` (an identifier, then 1 to 4294967295) \
                                      or `NAME=float` (written with a '.' or an exponent), got `{}`",
-                                    crate::case_values::clip(item)
+                                    crate::names::clip(item)
                                 ),
                             )
                         })?);
@@ -259,12 +334,24 @@ impl KernelFile {
                     };
                     uses_line = true;
                 }
+                "derive" => derive = Some((value.to_string(), lineno)),
+                "replace" => {
+                    let names: Vec<String> = value
+                        .split(|c: char| c == ',' || c.is_whitespace())
+                        .filter(|n| !n.is_empty())
+                        .map(str::to_string)
+                        .collect();
+                    if names.is_empty() {
+                        return Err(err(lineno, "`//! replace:` names no function".to_string()));
+                    }
+                    replace = Some((names, lineno));
+                }
                 other => {
                     return Err(err(
                         lineno,
                         format!(
-                            "unknown header key `{}` (id, target, source, minv, params, uses)",
-                            crate::case_values::clip(other)
+                            "unknown header key `{}` (id, target, source, minv, params, uses, derive, replace)",
+                            crate::names::clip(other)
                         ),
                     ))
                 }
@@ -272,6 +359,7 @@ impl KernelFile {
         }
         let missing = |what: &str| err(1, format!("missing `//! {what}: ...` header line"));
         let id: String = id.ok_or_else(|| missing("id"))?;
+        let line_of = |key: &str| seen.iter().find(|(k, _)| k == key).map_or(1, |(_, l)| *l);
         let id_line = seen.iter().find(|(k, _)| k == "id").map_or(1, |(_, l)| *l);
         if !valid_id(&id) {
             return Err(err(
@@ -279,10 +367,61 @@ impl KernelFile {
                 format!(
                     "id `{}` must be 1–{MAX_ID} letters, digits, '.', '_' or '-' (no '@', ',', brackets or spaces: \
                      they separate parameters and inner methods in a method spec)",
-                    crate::case_values::clip(&id)
+                    crate::names::clip(&id)
                 ),
             ));
         }
+        let derived = match (derive, replace) {
+            (None, None) => None,
+            (Some((_, line)), None) => {
+                return Err(err(
+                    line,
+                    "a derived kernel names the functions it replaces: add `//! replace: NAME ...`".to_string(),
+                ))
+            }
+            (None, Some((_, line))) => {
+                return Err(err(
+                    line,
+                    "`//! replace:` needs `//! derive: BASE_ID`, the kernel whose functions it replaces".to_string(),
+                ))
+            }
+            (Some((base_id, line)), Some((replace, replace_line))) => {
+                let base = base_of(&base_id).ok_or_else(|| {
+                    err(
+                        line,
+                        format!(
+                            "unknown base kernel `{}`: a derived kernel's base is a built-in kernel id (linelight methods)",
+                            crate::names::clip(&base_id)
+                        ),
+                    )
+                })?;
+                check_derivation(text, &base, &replace, replace_line, &err)?;
+                for (key, same) in [
+                    ("target", target.is_none_or(|t| t == base.target)),
+                    (
+                        "uses",
+                        !uses_line || (base.uses_line && uses_target == base.uses_target),
+                    ),
+                ] {
+                    if !same {
+                        return Err(err(
+                            line_of(key),
+                            format!("`//! {key}:` of a derived kernel is its base's ({base_id}): drop the line"),
+                        ));
+                    }
+                }
+                target = Some(base.target);
+                minv = minv.or(Some(base.minv));
+                if !seen.iter().any(|(k, _)| k == "params") {
+                    params = base.params.clone();
+                }
+                (uses_line, uses_target) = (base.uses_line, base.uses_target);
+                Some(Derivation {
+                    base: Box::new(base),
+                    replace,
+                })
+            }
+        };
         Ok(KernelFile {
             path: path.to_string(),
             text: text.to_string(),
@@ -294,8 +433,51 @@ impl KernelFile {
             uses_line,
             uses_target,
             origin: None,
+            derived,
         })
     }
+}
+
+/// A derived kernel's file defines exactly the functions it replaces, each one the base has.
+fn check_derivation(
+    text: &str,
+    base: &KernelFile,
+    replace: &[String],
+    replace_line: usize,
+    err: &dyn Fn(usize, String) -> HeaderError,
+) -> Result<(), HeaderError> {
+    let own = super::rename::fn_decls(text);
+    let base_fns: Vec<String> = base
+        .parts()
+        .iter()
+        .flat_map(|(_, t)| super::rename::fn_decls(t))
+        .map(|(n, _)| n)
+        .collect();
+    for (i, name) in replace.iter().enumerate() {
+        let shown = crate::names::clip(name);
+        if replace[..i].contains(name) {
+            return Err(err(replace_line, format!("`{shown}` is named twice in `//! replace:`")));
+        }
+        if !base_fns.contains(name) {
+            return Err(err(
+                replace_line,
+                format!("`{shown}`: the base kernel {} has no function of that name", base.id),
+            ));
+        }
+        if !own.iter().any(|(n, _)| n == name) {
+            return Err(err(
+                replace_line,
+                format!("`{shown}` is to be replaced, but this file does not define `fn {shown}`"),
+            ));
+        }
+    }
+    if let Some((name, range)) = own.iter().find(|(n, _)| !replace.contains(n)) {
+        return Err(err(
+            text[..range.start].matches('\n').count() + 1,
+            format!("`fn {name}` is not in `//! replace:`: a derived kernel holds only the functions it replaces"),
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -362,6 +544,49 @@ mod tests {
         ids.sort();
         ids.dedup();
         assert_eq!(ids.len(), n, "two built-in kernels share an id");
+    }
+
+    #[test]
+    fn derived_kernel_inherits_and_errors_name_the_line() {
+        let k = KernelFile::parse(
+            "d.wgsl",
+            "//! id: line.d\n//! derive: line.ltc2017\n//! replace: Fwt\nfn Fwt(d: f32, l: f32) -> f32 { return 0.0; }\n",
+        )
+        .unwrap();
+        assert_eq!((k.target, k.minv), (Target::Line, MinvSupport::Full));
+        let parts = k.parts();
+        assert_eq!(parts.len(), 2);
+        assert_eq!(parts[0].0, "kernels/line_ltc2017.wgsl");
+        assert!(!parts[0].1.contains("fn Fwt") && parts[0].1.contains("fn Fpo"));
+        let base = builtin_kernels().into_iter().find(|k| k.id == "line.ltc2017").unwrap();
+        assert_eq!(
+            parts[0].1.lines().count(),
+            base.text.lines().count(),
+            "line numbers kept"
+        );
+        let e = |text: &str| KernelFile::parse("d.wgsl", text).unwrap_err().to_string();
+        let head = "//! id: line.d\n//! derive: line.ltc2017\n";
+        assert_eq!(
+            e(&format!("{head}//! replace: Nope\n")),
+            "d.wgsl:3: `Nope`: the base kernel line.ltc2017 has no function of that name"
+        );
+        assert_eq!(
+            e(&format!("{head}//! replace: Fwt\n")),
+            "d.wgsl:3: `Fwt` is to be replaced, but this file does not define `fn Fwt`"
+        );
+        assert_eq!(
+            e(&format!("{head}//! replace: Fwt\nfn Fwt() {{}}\n\nfn extra() {{}}\n")),
+            "d.wgsl:6: `fn extra` is not in `//! replace:`: a derived kernel holds only the functions it replaces"
+        );
+        assert!(e(&format!(
+            "{head}//! target: cylinder\n//! replace: Fwt\nfn Fwt() {{}}\n"
+        ))
+        .starts_with("d.wgsl:3: `//! target:` of a derived kernel is its base's"));
+        assert!(e("//! id: line.d\n//! derive: line.nope\n//! replace: Fwt\n")
+            .starts_with("d.wgsl:2: unknown base kernel `line.nope`"));
+        assert!(e("//! id: line.d\n//! derive: line.ltc2017\n")
+            .starts_with("d.wgsl:2: a derived kernel names the functions"));
+        assert!(e("//! id: line.d\n//! target: line\n//! replace: Fwt\n").starts_with("d.wgsl:3: `//! replace:` needs"));
     }
 
     #[test]

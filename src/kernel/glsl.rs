@@ -8,9 +8,9 @@
 //! came from (`kernel::Origin`), so later errors and attribution name GLSL lines too.
 //! Specialization constants become the overrides the header's `params` set.
 
-use crate::kernel::HeaderError;
+use super::HeaderError;
 
-pub const GLSL_PRELUDE: &str = include_str!("../kernels/prelude.glsl");
+pub const GLSL_PRELUDE: &str = include_str!("../../kernels/prelude.glsl");
 
 /// Names the GLSL prelude declares: dropped from the translation, the WGSL prelude has them.
 const PRELUDE_NAMES: &[&str] = &[

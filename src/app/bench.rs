@@ -1,0 +1,96 @@
+//! `linelight bench`: the case sampled (the app layer's `prepare`), then the bench's
+//! measure, analyse and report parts (src/bench.rs).
+
+use std::path::PathBuf;
+
+/// What `linelight bench` was asked for.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    /// Case file whose sampler makes the configurations (and names the methods and pairs).
+    pub case: PathBuf,
+    /// Method specs; empty: the case's methods.
+    pub methods: Vec<String>,
+    /// Configurations per dispatch, split evenly over the case's materials.
+    pub count: usize,
+    pub repeats: usize,
+    pub warmup: usize,
+    pub adapter: Option<String>,
+    pub kernels: Vec<PathBuf>,
+    /// Also write the costs as JSON here.
+    pub json: Option<PathBuf>,
+}
+
+/// `linelight bench`: samples the case's configurations, measures, prints the report to
+/// stdout (progress on stderr) and writes the JSON if asked.
+pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::bench::BenchRun> {
+    anyhow::ensure!(options.count > 0, "--count must be at least 1");
+    anyhow::ensure!(options.repeats > 0, "--repeats must be at least 1");
+    if let Some(json) = &options.json {
+        // Refused before any work: the case file or a kernel as the output.
+        let mut inputs = vec![("the case file", options.case.as_path())];
+        inputs.extend(options.kernels.iter().map(|k| ("--kernel", k.as_path())));
+        crate::io::check_output("--json", json, &inputs, &[])?;
+    }
+    let mut case = crate::case::Case::load(&options.case)?;
+    if !options.methods.is_empty() {
+        crate::methods::check_unique(&options.methods, "--methods")?;
+        case.methods = options.methods.clone();
+    }
+    let materials = case.materials.len();
+    anyhow::ensure!(materials > 0, "case `{}` has no materials", case.name);
+    // The methods measured decide which pairs are compared (and `prepare` checks them).
+    case.compare
+        .retain(|pair| pair.iter().all(|l| case.methods.contains(l)));
+    let setup = crate::sweep::prepare(case, &options.kernels, Some(options.count.div_ceil(materials)))?;
+    let configs = crate::bench::split_evenly(&setup.samples, materials, options.count);
+    for m in &setup.methods {
+        let missing = configs.iter().filter(|c| !m.applies(c)).count();
+        anyhow::ensure!(
+            missing == 0,
+            "{} (target {}) does not apply to {missing} of case `{}`'s configurations: \
+             bench it with a case whose sampler makes {} configurations",
+            m.label,
+            m.target(),
+            setup.case.name,
+            m.target()
+        );
+    }
+
+    let gpu = crate::gpu::Gpu::new(options.adapter.as_deref())?;
+    println!("adapter: {}", gpu.adapter);
+    let pb = indicatif::ProgressBar::new(0);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{msg:>12} [{bar:40}] {pos}/{len} (eta {eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    pb.set_message("bench");
+    let costs = crate::bench::bench_methods_with(
+        &gpu,
+        &setup.methods,
+        &configs,
+        options.warmup,
+        options.repeats,
+        &mut |done, total| {
+            pb.set_length(total as u64);
+            pb.set_position(done as u64);
+        },
+    )?;
+    pb.finish_and_clear();
+    let bench = crate::bench::BenchRun {
+        adapter: gpu.adapter.to_string(),
+        case: setup.case.name.clone(),
+        materials,
+        warmup: options.warmup,
+        cpu_threads: rayon::current_num_threads(),
+        pairs: setup.case.compare.clone(),
+        costs,
+    };
+    print!("{}", crate::bench::render(&bench));
+    if let Some(path) = &options.json {
+        let json = serde_json::to_string_pretty(&bench.costs)?;
+        crate::io::write_atomic(path, format!("{json}\n").as_bytes())?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(bench)
+}

@@ -1,0 +1,245 @@
+//! The app layer: what each command does with the stages (measure → analyse → report), its
+//! inputs checked before any work; `main.rs` parses the command line and calls these (sweep,
+//! merge and eval still run in `main.rs`: their bodies were being rewritten for issue 13). Each
+//! returns a [`Status`], and an error's [`Status`] says which exit code it is (README,
+//! "Exit status"; docs/exit-codes.md).
+
+mod bench;
+mod status;
+
+pub use bench::{bench, BenchOptions};
+
+pub use status::{status_of, Status};
+
+use crate::gpu::{self, Gpu};
+use crate::io::check_set;
+use crate::{eval, methods};
+use anyhow::Result;
+use std::path::{Path, PathBuf};
+
+/// The device options every GPU command takes.
+pub struct GpuOptions {
+    /// Any part of the adapter's name (default: lavapipe / llvmpipe).
+    pub adapter: Option<String>,
+    /// `--kernel` files.
+    pub kernels: Vec<PathBuf>,
+    /// Configurations per dispatch and readback.
+    pub chunk: usize,
+}
+
+/// `--kernel` files as inputs an output may not be.
+pub fn kernel_inputs(kernels: &[PathBuf]) -> Vec<(&'static str, &Path)> {
+    kernels.iter().map(|k| ("--kernel", k.as_path())).collect()
+}
+
+/// Opens the adapter asked for and says which it is.
+pub fn open_gpu(adapter: Option<&str>) -> Result<Gpu> {
+    let gpu = Gpu::new(adapter)?;
+    eprintln!("adapter: {}", gpu.adapter);
+    Ok(gpu)
+}
+
+/// A count as typed: `1000000`, `1e9` or `1_000_000`; a positive whole number.
+pub fn parse_count(text: &str) -> Result<u64> {
+    let clean = text.replace('_', "");
+    let v: f64 = clean
+        .parse()
+        .map_err(|_| anyhow::anyhow!("--count `{text}`: not a number (write e.g. 1000000 or 1e9)"))?;
+    if !((1.0..=1e15).contains(&v) && v.fract() == 0.0) {
+        anyhow::bail!("--count `{text}`: need a whole number from 1 to 1e15");
+    }
+    Ok(v as u64)
+}
+
+/// A message stays readable whatever the input: long lines (a 100 MB id, a minified JSON
+/// line) are cut, and past a screenful of lines the rest is counted.
+pub fn bounded(message: &str) -> String {
+    const LINE: usize = 400;
+    const LINES: usize = 40;
+    let lines: Vec<&str> = message.lines().collect();
+    let mut out: Vec<String> = lines
+        .iter()
+        .take(LINES)
+        .map(|l| {
+            if l.chars().count() > LINE {
+                let head: String = l.chars().take(LINE).collect();
+                format!("{head}… ({} more bytes)", l.len() - head.len())
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    if lines.len() > LINES {
+        out.push(format!("… and {} more lines", lines.len() - LINES));
+    }
+    out.join("\n")
+}
+
+/// Options of `linelight scan`.
+pub struct ScanOptions {
+    pub case: PathBuf,
+    pub count: String,
+    pub methods: Vec<String>,
+    pub capture: usize,
+    pub bound: Option<f64>,
+    pub out: PathBuf,
+}
+
+/// `linelight scan`: the stability scan on the device (docs/scan.md).
+pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
+    let ScanOptions {
+        case,
+        count,
+        methods: specs,
+        capture,
+        bound,
+        out,
+    } = options;
+    let command_line = shell_words::join(std::env::args());
+    let count = parse_count(&count)?;
+    let case = crate::case::Case::load(&case)?;
+    let dir = out.join(format!("{}-scan", case.name));
+    check_set(&dir)?;
+    let kernels = methods::kernel_set(&gpu.kernels)?;
+    let specs: Vec<String> = if specs.is_empty() { case.methods.clone() } else { specs };
+    let mut chosen = Vec::new();
+    for s in &specs {
+        let m = methods::resolve(s, &kernels)?;
+        if matches!(
+            m.target(),
+            crate::target::Target::Line | crate::target::Target::LineUpper
+        ) {
+            chosen.push(m);
+        } else if !specs.is_empty() && specs.len() == 1 {
+            anyhow::bail!(
+                "scan generates line configurations only: `{s}` approximates `{}`",
+                m.target()
+            );
+        }
+    }
+    if chosen.is_empty() {
+        anyhow::bail!("no line method to scan in {}", specs.join(", "));
+    }
+    // Families whose M⁻¹ comes from a fitted table are not generated on the device.
+    let scannable: Vec<usize> = (0..case.materials.len())
+        .filter(|&f| {
+            let family = &case.materials[f];
+            let ok = crate::scan::generated_on_device(family.kind);
+            if !ok {
+                eprintln!(
+                    "note: family `{}` ({:?}) is not scanned: its M⁻¹ comes from a fitted table",
+                    family.name, family.kind
+                );
+            }
+            ok
+        })
+        .collect();
+    if scannable.is_empty() {
+        anyhow::bail!(
+            "no family of {} can be generated on the device (diffuse, ltc_sparse, ltc_full)",
+            case.name
+        );
+    }
+    let device = open_gpu(gpu.adapter.as_deref())?;
+    let families = scannable.len() as u64;
+    let per_family = count.div_ceil(families);
+    let pb = indicatif::ProgressBar::new(per_family * families * chosen.len() as u64);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{msg:>40} [{bar:30}] {human_pos}/{human_len} ({per_sec}, eta {eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    let mut results = Vec::new();
+    let mut finished = 0u64;
+    for m in &chosen {
+        for &f in &scannable {
+            let size = crate::scan::ScanSize {
+                count: per_family,
+                capture,
+                bound,
+            };
+            let r = crate::scan::scan(&device, &case, m, f, size, &mut |done, bad| {
+                pb.set_position(finished + done);
+                pb.set_message(format!(
+                    "{} {}: rate {:.1e}",
+                    m.label,
+                    case.materials[f].name,
+                    bad as f64 / done as f64
+                ));
+            })?;
+            finished += per_family;
+            results.push(r);
+        }
+    }
+    pb.finish_and_clear();
+    let text = crate::scan::report::markdown(&case, &command_line, &device.adapter.to_string(), &results);
+    print!("{}", crate::scan::report::table(&results));
+    let rows: Vec<_> = results
+        .iter()
+        .flat_map(|r| &r.captured)
+        .map(serde_json::to_value)
+        .collect::<Result<_, _>>()?;
+    let files = vec![
+        ("scan.md".to_string(), text.into_bytes()),
+        ("summary.json".to_string(), serde_json::to_vec_pretty(&results)?),
+        ("offending.jsonl".to_string(), eval::to_jsonl(&rows)),
+    ];
+    crate::io::write_set(&dir, &files)?;
+    eprintln!("wrote {}", dir.display());
+    Ok(Status::Ok)
+}
+
+/// `linelight adapters`: each Vulkan adapter and its loop limit as probed.
+pub fn adapters() -> Result<Status> {
+    let adapters = gpu::list_adapters();
+    if adapters.is_empty() {
+        println!("no Vulkan adapter found (on Debian/Ubuntu: apt-get install mesa-vulkan-drivers)");
+    }
+    for a in adapters {
+        // The loop limit is probed on the device (src/gpu/loops.rs).
+        let limit = match Gpu::new(Some(&a.name)).map(|g| g.loop_limit()) {
+            Ok(Ok(Some(l))) => format!("loops stop after {l} iterations"),
+            Ok(Ok(None)) => format!("no loop limit below {}", gpu::PROBE_TRIPS),
+            Ok(Err(e)) => format!("loop limit not probed: {e}"),
+            Err(e) => format!("loop limit not probed: {e}"),
+        };
+        println!("{a}; {limit}");
+    }
+    Ok(Status::Ok)
+}
+
+/// `linelight check`: each kernel file validated as every command validates a `--kernel`
+/// file; `emit` prints the composed modules. Bad input (2) when one does not validate.
+pub fn check(kernels: &[PathBuf], emit: bool) -> Result<Status> {
+    let mut bad = 0;
+    let mut known = crate::kernel::builtin_kernels();
+    for path in kernels {
+        // The same validation eval, sweep and bench give a --kernel file.
+        match methods::validate_kernel(path, &known) {
+            Ok(k) => {
+                // The CPU evaluator gives the kernel its f64 and cpu_f32 columns.
+                // (A composite with the default line method, as it is composed here.)
+                let mut set = vec![k.clone()];
+                set.extend(known.iter().filter(|b| b.id != k.id).cloned());
+                let cpu = match methods::resolve(&k.id, &set).and_then(|m| crate::interp::program(&m).map(|_| ())) {
+                    Ok(()) => "CPU evaluator: ok".to_string(),
+                    Err(e) => format!("CPU evaluator: no f64/cpu_f32 values: {e:#}"),
+                };
+                let line = format!("{}: ok ({} → {}); {cpu}", path.display(), k.id, k.target);
+                if emit {
+                    eprintln!("{line}");
+                    let composed = crate::kernel::compose_with(&k, None, crate::kernel::kernel_capabilities())?;
+                    print!("{}", composed.source);
+                } else {
+                    println!("{line}");
+                }
+                known.push(k);
+            }
+            Err(e) => {
+                eprintln!("{}", bounded(&format!("{e:#}")));
+                bad += 1;
+            }
+        }
+    }
+    Ok(if bad == 0 { Status::Ok } else { Status::BadInput })
+}

@@ -1,0 +1,37 @@
+//! Method kernels without a device: the kernel file and its `//!` header (`file`), GLSL
+//! kernels translated to WGSL (`glsl`), and composition: prelude + kernel + entry point
+//! (+ a composite's inner line method), validated by naga, with errors mapped back to the
+//! file and line that caused them. The GPU (src/gpu) and the CPU evaluator (src/interp)
+//! both run what this module composes; neither is needed to compose or check a kernel.
+//!
+//! - `caps`: the shader capabilities a kernel may use.
+//! - `file`: the kernel file, its header, the built-in kernels.
+//! - `glsl`: a `.glsl` kernel, parsed by naga's GLSL front end and written back as WGSL.
+//! - `compose`: prelude + kernel + entry point; a composite with its inner line method.
+//! - `rename`: the token pass that renames the inner line method's identifiers.
+//! - `diagnostic`: kernel errors mapped back to the file and line that caused them.
+
+pub(crate) mod caps;
+mod compose;
+mod diagnostic;
+mod file;
+pub mod glsl;
+pub(crate) mod rename;
+
+pub use caps::kernel_capabilities;
+#[cfg(test)]
+pub(crate) use compose::compose_parts;
+pub use compose::{compose, compose_with, entry_point, Composed, GLUE_PATH, WORKGROUP_SIZE};
+pub(crate) use compose::{inner_name, ENTRY_NAME};
+pub use diagnostic::{KernelError, ENTRY_PATH};
+pub use file::*;
+
+/// The line method a composite uses when its spec names none: it handles every M⁻¹.
+pub const DEFAULT_INNER: &str = "line.ltc2023_full";
+
+/// The inner method of a `//! uses: line_isotropic` composite when its spec names none: the
+/// horizon-clipped line irradiance, exact for isotropic emitters on the diffuse material.
+pub const DEFAULT_INNER_ISOTROPIC: &str = "line_isotropic.karis2013_clip";
+
+#[cfg(test)]
+mod tests;
