@@ -98,6 +98,12 @@ impl Fed {
 
 type Key = ([u64; 2], [u64; 3], Feed);
 
+/// At most this many exact fits are cached. A sweep's configurations are continuous, so a
+/// cache of every (α, view) it meets grows with the count (it was most of a 3M sweep's
+/// memory): only the expensive per-configuration fits are kept, and the cache is emptied
+/// when full. A fit is deterministic, so a miss recomputes the same value.
+const CACHE_LIMIT: usize = 1 << 14;
+
 fn cache() -> &'static Mutex<HashMap<Key, Fed>> {
     static C: std::sync::OnceLock<Mutex<HashMap<Key, Fed>>> = std::sync::OnceLock::new();
     C.get_or_init(|| Mutex::new(HashMap::new()))
@@ -105,11 +111,13 @@ fn cache() -> &'static Mutex<HashMap<Key, Fed>> {
 
 /// The LTC fed for roughness (αx, αy) and a unit view with vz > 0. The 2D tables are
 /// isotropic: an anisotropic roughness needs `Fit`, `Aniso` or `AnisoF16`. Exact fits are
-/// cached per (α, view).
+/// cached per (α, view), at most [`CACHE_LIMIT`] of them; table look-ups are not cached.
 pub fn feed(alpha: [f64; 2], view: [f64; 3], feed: Feed) -> Result<Fed, String> {
     let key = (alpha.map(f64::to_bits), view.map(f64::to_bits), feed);
-    if let Some(f) = cache().lock().expect("cache").get(&key) {
-        return Ok(*f);
+    if feed == Feed::Fit {
+        if let Some(f) = cache().lock().expect("cache").get(&key) {
+            return Ok(*f);
+        }
     }
     let phi = view[1].atan2(view[0]);
     let (s, c) = if view[0] == 0.0 && view[1] == 0.0 {
@@ -196,7 +204,13 @@ pub fn feed(alpha: [f64; 2], view: [f64; 3], feed: Feed) -> Result<Fed, String> 
             }
         }
     };
-    cache().lock().expect("cache").insert(key, fed);
+    if feed == Feed::Fit {
+        let mut cache = cache().lock().expect("cache");
+        if cache.len() >= CACHE_LIMIT {
+            cache.clear();
+        }
+        cache.insert(key, fed);
+    }
     Ok(fed)
 }
 
