@@ -109,6 +109,14 @@ fn cache() -> &'static Mutex<HashMap<Key, Fed>> {
     C.get_or_init(|| Mutex::new(HashMap::new()))
 }
 
+/// Caches a fit, emptying the cache first when it holds `CACHE_LIMIT` of them.
+fn remember(cache: &mut HashMap<Key, Fed>, key: Key, fed: Fed) {
+    if cache.len() >= CACHE_LIMIT {
+        cache.clear();
+    }
+    cache.insert(key, fed);
+}
+
 /// The LTC fed for roughness (αx, αy) and a unit view with vz > 0. The 2D tables are
 /// isotropic: an anisotropic roughness needs `Fit`, `Aniso` or `AnisoF16`. Exact fits are
 /// cached per (α, view), at most [`CACHE_LIMIT`] of them; table look-ups are not cached.
@@ -205,11 +213,7 @@ pub fn feed(alpha: [f64; 2], view: [f64; 3], feed: Feed) -> Result<Fed, String> 
         }
     };
     if feed == Feed::Fit {
-        let mut cache = cache().lock().expect("cache");
-        if cache.len() >= CACHE_LIMIT {
-            cache.clear();
-        }
-        cache.insert(key, fed);
+        remember(&mut cache().lock().expect("cache"), key, fed);
     }
     Ok(fed)
 }
@@ -297,4 +301,34 @@ pub fn fit_command(out: &std::path::Path, size: usize) -> anyhow::Result<()> {
         size * size
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The cache must not grow with a sweep's count: table look-ups are not cached, and the
+    /// exact fits stay at most `CACHE_LIMIT`.
+    #[test]
+    fn the_feed_cache_is_bounded() {
+        // (Other tests may cache fits meanwhile: look for these keys, not at the length.)
+        let v = [0.3, 0.0, (1.0f64 - 0.09).sqrt()];
+        for i in 0..1000 {
+            let a = 0.05 + 0.9 * (i as f64 / 1000.0);
+            feed([a, a], v, Feed::Table).expect("table");
+            let key = ([a, a].map(f64::to_bits), v.map(f64::to_bits), Feed::Table);
+            assert!(
+                !cache().lock().expect("cache").contains_key(&key),
+                "a table look-up was cached"
+            );
+        }
+        // Filling past the limit empties it: the length never exceeds CACHE_LIMIT.
+        let fed = feed([0.5, 0.5], [0.0, 0.0, 1.0], Feed::Table).expect("table");
+        let mut c = HashMap::new();
+        for i in 0..(2 * CACHE_LIMIT + 10) {
+            remember(&mut c, ([i as u64, 0], [0, 0, 0], Feed::Fit), fed);
+            assert!(c.len() <= CACHE_LIMIT);
+        }
+        assert_eq!(c.len(), 10);
+    }
 }
