@@ -309,13 +309,3 @@ fn attribution_column(m: &Method, configs: &[Config]) -> anyhow::Result<Vec<Opti
         })
         .collect())
 }
-
-/// Serialises rows as JSONL.
-pub fn to_jsonl(rows: &[Value]) -> Vec<u8> {
-    let mut out = Vec::new();
-    for r in rows {
-        out.extend(serde_json::to_vec(r).expect("JSON values serialise"));
-        out.push(b'\n');
-    }
-    out
-}

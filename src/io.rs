@@ -517,3 +517,14 @@ mod tests {
         assert_eq!(fs::read_to_string(&target).unwrap(), "new");
     }
 }
+
+/// Serialises rows as JSONL (one compact JSON value per line): eval's output, the report's
+/// replayable files, `--raw`.
+pub fn to_jsonl(rows: &[serde_json::Value]) -> Vec<u8> {
+    let mut out = Vec::new();
+    for r in rows {
+        out.extend(serde_json::to_vec(r).expect("JSON values serialise"));
+        out.push(b'\n');
+    }
+    out
+}

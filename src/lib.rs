@@ -33,5 +33,6 @@ pub mod scan;
 pub mod scene;
 pub mod search;
 pub mod stats;
+pub mod summary;
 pub mod sweep;
 pub mod target;

@@ -7,7 +7,8 @@ use linelight::case::Case;
 use linelight::claims;
 use linelight::gpu::{self, Gpu};
 use linelight::io::{check_output, check_set, stage_output, write_output};
-use linelight::report::{self, ReportInput};
+use linelight::report;
+use linelight::summary::{self, Summary};
 use linelight::{eval, limits, methods, sweep};
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -502,7 +503,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
                         let at = block * eval::ROW_BLOCK..block * eval::ROW_BLOCK + part.len();
                         let values: Vec<&[f32]> = f32s.iter().map(|v| &v[at.clone()]).collect();
                         let rows = eval::rows(part, &methods, &values, &references[at], attribution)?;
-                        w.write_all(&eval::to_jsonl(&rows))?;
+                        w.write_all(&linelight::io::to_jsonl(&rows))?;
                     }
                     written += configs.len();
                     Ok(())
@@ -652,20 +653,21 @@ fn report_sweep(
         ..claims::dry_facts(&setup.case, setup.methods.iter().map(|m| m.label.clone()).collect())
     };
     let claim_results = claims::evaluate(&setup.case.claims, facts);
-    let stages = report::Stages {
+    let stages = summary::Stages {
         analysis_seconds: measured.timing.statistics_seconds + t.elapsed().as_secs_f64(),
         until_report_seconds: started.elapsed().as_secs_f64(),
     };
-    let input = ReportInput {
-        case_path,
-        command_line,
-        case: &setup.case,
+    let input = Summary::new(
+        summary::RunInfo {
+            case_path,
+            command_line,
+            stages,
+        },
         setup,
         measured,
-        analysis: &analysis,
-        claims: &claim_results,
-        stages,
-    };
+        analysis,
+        claim_results,
+    )?;
     for path in report::write_reports(dir, &input)? {
         eprintln!("wrote {}", path.display());
     }
@@ -673,6 +675,7 @@ fn report_sweep(
         staged.commit()?;
         eprintln!("wrote {}", raw.display());
     }
+    let (analysis, claim_results) = (&input.analysis, &input.claims);
     let gate_report = gate.finish(setup, measured, &analysis.checks)?;
     let regressed = gate_report.as_ref().is_some_and(|g| g.regressed());
     let failed = analysis.checks.iter().filter(|c| !c.pass).count();

@@ -896,7 +896,7 @@ fn write_raw(
             row
         })
         .collect();
-    w.write_all(&crate::eval::to_jsonl(&rows))?;
+    w.write_all(&crate::io::to_jsonl(&rows))?;
     Ok(())
 }
 

@@ -33,7 +33,7 @@ const STAGES: &[(&str, &[&str])] = &[
             "sweep",
         ],
     ),
-    ("analyse", &["stats", "analysis", "claims"]),
+    ("analyse", &["stats", "analysis", "claims", "summary"]),
     ("report", &["report"]),
     ("verdict", &["baseline"]),
     ("app", &["app", "diff", "chain"]),
@@ -58,16 +58,6 @@ const KNOWN: &[(&str, &str, &str)] = &[
         "sweep",
         "baseline",
         "issue 13: the streamed sweep records the gate's observations (baseline::observe) while measuring",
-    ),
-    (
-        "report",
-        "sweep",
-        "issue 13: the report is fed Setup / Measured, not one analysed summary",
-    ),
-    (
-        "report",
-        "eval",
-        "issue 13: the report writes JSONL rows with eval::to_jsonl",
     ),
 ];
 

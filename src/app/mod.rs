@@ -13,7 +13,7 @@ pub use status::{status_of, Status};
 
 use crate::gpu::{self, Gpu};
 use crate::io::check_set;
-use crate::{eval, methods};
+use crate::methods;
 use anyhow::Result;
 use std::path::{Path, PathBuf};
 
@@ -182,7 +182,7 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
     let files = vec![
         ("scan.md".to_string(), text.into_bytes()),
         ("summary.json".to_string(), serde_json::to_vec_pretty(&results)?),
-        ("offending.jsonl".to_string(), eval::to_jsonl(&rows)),
+        ("offending.jsonl".to_string(), crate::io::to_jsonl(&rows)),
     ];
     crate::io::write_set(&dir, &files)?;
     eprintln!("wrote {}", dir.display());

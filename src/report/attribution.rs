@@ -2,13 +2,13 @@
 //! most bits (local error, src/interp), as a short Markdown table. Kept apart from
 //! `markdown.rs`, which only calls [`render`].
 
-use crate::sweep::MethodAttribution;
+use crate::summary::Attribution;
 use std::fmt::Write;
 
 /// Lines shown per method.
 const TOP: usize = 5;
 
-pub fn render(methods: &[MethodAttribution]) -> String {
+pub fn render(methods: &[Attribution]) -> String {
     let mut o = String::new();
     if methods.is_empty() {
         return o;
@@ -31,9 +31,9 @@ pub fn render(methods: &[MethodAttribution]) -> String {
             let _ = writeln!(
                 o,
                 "| `{}:{}` | `{}` | {:.2} | {:.2} |",
-                l.line.path,
-                l.line.line,
-                l.line.text.trim().replace('|', "\\|"),
+                l.path,
+                l.line,
+                l.text.trim().replace('|', "\\|"),
                 l.mean,
                 l.p99
             );
@@ -46,22 +46,18 @@ pub fn render(methods: &[MethodAttribution]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::interp::{Line, LineSummary};
+    use crate::summary::BitsLine;
 
     #[test]
     fn a_table_per_method_top_lines_first() {
-        let line = |n: usize, text: &str, mean: f64| LineSummary {
-            line: Line {
-                path: "kernels/k.wgsl".into(),
-                line: n,
-                text: text.into(),
-            },
+        let line = |n: usize, text: &str, mean: f64| BitsLine {
+            path: "kernels/k.wgsl".into(),
+            line: n,
+            text: text.into(),
             mean,
             p99: 2.0 * mean,
-            max: 3.0 * mean,
-            configs: 10,
         };
-        let m = MethodAttribution {
+        let m = Attribution {
             label: "line.k".into(),
             configurations: 10,
             lines: (0..7).map(|i| line(i + 1, "let a = b | c;", 7.0 - i as f64)).collect(),

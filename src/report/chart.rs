@@ -17,21 +17,7 @@
 
 use std::fmt::Write;
 
-/// One method on the chart.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ChartPoint {
-    /// Method label, e.g. `line.ltc2023` or `cylinder.numeric@16x32`.
-    pub label: String,
-    /// Method id without parameters, e.g. `cylinder.numeric`: one colour per group, and the
-    /// points of a group with more than one point are joined by a curve in order of cost.
-    pub group: String,
-    /// Cost in ns per evaluation (> 0).
-    pub cost: f64,
-    /// Median relative error (≥ 0).
-    pub median: f64,
-    /// p99 relative error (≥ 0).
-    pub p99: f64,
-}
+pub use crate::summary::ChartPoint;
 
 /// Indices (ascending) of the points on the Pareto front of cost against error (the p99 when
 /// `by_p99`, else the median): those that no other point dominates, i.e. no other point is

@@ -1,7 +1,7 @@
 //! Measured findings, written as sentences from the statistics: where two methods
 //! differ, by how much, and whether f64 says it is the formula or the rounding.
 
-use super::{sci, ReportInput};
+use super::sci;
 use crate::analysis::{Analysis, Comparison, MethodStats, PairMaterial};
 
 /// Below this, two formulas evaluated in f64 are taken to be the same function.
@@ -94,11 +94,4 @@ pub fn comparison(analysis: &Analysis, c: &Comparison, mat: &PairMaterial) -> St
         );
     }
     s
-}
-
-pub use crate::analysis::Leak;
-
-/// How much of `line` lies below the horizon, per material (gathered while measuring).
-pub fn leak(input: &ReportInput) -> Vec<Leak> {
-    input.measured.leak.clone()
 }

@@ -1,9 +1,10 @@
 //! The Markdown report: verdict and findings first, then the tables they come from.
 
 use super::findings;
-use super::{sci, ReportInput};
+use super::sci;
 use crate::analysis::Verdict;
 use crate::stats::{BinStats, ACCURACY_MARGIN};
+use crate::summary::Summary;
 use std::fmt::Write;
 
 fn q3(s: &BinStats, f: impl Fn(&BinStats) -> Option<crate::stats::Quantiles>) -> [String; 4] {
@@ -35,11 +36,11 @@ fn pct(x: f64) -> String {
 }
 
 /// Header, STALE claims, verdict, findings and the at-a-glance table.
-fn head(w: &mut String, input: &ReportInput) {
-    let (case, a, m) = (input.case, input.analysis, input.measured);
+fn head(w: &mut String, input: &Summary) {
+    let (case, a, m) = (&input.case, &input.analysis, input);
     let _ = writeln!(w, "# {}\n", case.title);
-    let natural: usize = input.measured.natural.iter().sum();
-    let topped = input.measured.configurations - natural;
+    let natural: usize = input.natural.iter().sum();
+    let topped = input.configurations - natural;
     let per_material: Vec<String> = case
         .materials
         .iter()
@@ -59,8 +60,8 @@ fn head(w: &mut String, input: &ReportInput) {
         m.timing.adapter,
         input.command_line,
     );
-    let _ = writeln!(w, "{}\n", super::draws_line(&input.measured.draws));
-    if let Some(n) = input.setup.count_override {
+    let _ = writeln!(w, "{}\n", super::draws_line(&input.draws));
+    if let Some(n) = input.count_override {
         let _ = writeln!(
             w,
             "> **Warning: not the gate.** `--count {n}` replaced the case's counts, so this run samples other \
@@ -169,8 +170,8 @@ fn head(w: &mut String, input: &ReportInput) {
     let _ = writeln!(w);
 }
 
-pub fn render(input: &ReportInput) -> String {
-    let (case, a, m) = (input.case, input.analysis, input.measured);
+pub fn render(input: &Summary) -> String {
+    let (case, a, m) = (&input.case, &input.analysis, input);
     let mut o = String::new();
     head(&mut o, input);
     let w = &mut o;
@@ -459,15 +460,15 @@ pub fn render(input: &ReportInput) -> String {
         }
         let _ = writeln!(w);
     }
-    let nonfinite = super::nonfinite(input);
+    let nonfinite = &input.nonfinite;
     if !nonfinite.is_empty() {
         let _ = writeln!(w, "## NaN and inf\n");
         let _ = writeln!(
             w,
             "{} configurations gave NaN or ±inf from at least one method; {} are in `nonfinite.jsonl` \
              (replay with `linelight eval`).\n",
-            input.measured.nonfinite_total,
-            if nonfinite.len() == input.measured.nonfinite_total {
+            input.nonfinite_total,
+            if nonfinite.len() == input.nonfinite_total {
                 "all".to_string()
             } else {
                 format!("the first {}", nonfinite.len())
@@ -486,7 +487,7 @@ pub fn render(input: &ReportInput) -> String {
     }
 
     // Leak below the horizon.
-    let leaks = findings::leak(input);
+    let leaks = &input.leak;
     if !leaks.is_empty() {
         let _ = writeln!(w, "## Light from below the horizon (`line` − `line_upper`)\n");
         let _ = writeln!(
@@ -599,8 +600,8 @@ pub fn render(input: &ReportInput) -> String {
             );
         }
         for (k, family) in case.materials.iter().enumerate() {
-            let points = super::chart_points(input, k);
-            let front = super::chart::pareto_front(&points, true);
+            let points = &input.charts[k];
+            let front = super::chart::pareto_front(points, true);
             let names: Vec<String> = front.iter().map(|&i| format!("`{}`", points[i].label)).collect();
             let _ = writeln!(w, "- Pareto front by p99 on `{}`: {}.", family.name, names.join(", "));
         }
@@ -747,8 +748,8 @@ fn quantile_kinds(a: &crate::analysis::Analysis) -> String {
 }
 
 /// Configurations whose reference is exactly 0: how often and how much each method lights them.
-fn false_light(w: &mut String, input: &ReportInput) {
-    let a = input.analysis;
+fn false_light(w: &mut String, input: &Summary) {
+    let a = &input.analysis;
     let any = a
         .methods
         .iter()
@@ -795,8 +796,8 @@ fn false_light(w: &mut String, input: &ReportInput) {
 }
 
 /// How the sample was drawn: the natural sample, the top-ups of thin bins, the bins still thin.
-fn sampling(w: &mut String, input: &ReportInput) {
-    let case = input.case;
+fn sampling(w: &mut String, input: &Summary) {
+    let case = &input.case;
     let _ = writeln!(w, "## Sampling\n");
     let _ = writeln!(
         w,
@@ -813,8 +814,8 @@ fn sampling(w: &mut String, input: &ReportInput) {
     );
     let _ = writeln!(w, "|---|---:|---:|---:|---:|---|");
     for (k, family) in case.materials.iter().enumerate() {
-        let natural = input.measured.natural[k];
-        let t = input.measured.topups.iter().find(|t| t.family == family.name);
+        let natural = input.natural[k];
+        let t = input.topups.iter().find(|t| t.family == family.name);
         let (draws, kept) = t.map_or((0, 0), |t| (t.draws, t.kept));
         let thin: Vec<String> = t.map_or(Vec::new(), |t| {
             t.thin
@@ -839,8 +840,8 @@ fn sampling(w: &mut String, input: &ReportInput) {
 
 /// The disagreement search: per compared pair, both ways, the configurations where one method is
 /// least accurate relative to the other, with the region they fall in.
-fn disagreements(w: &mut String, input: &ReportInput) {
-    let m = input.measured;
+fn disagreements(w: &mut String, input: &Summary) {
+    let m = input;
     if input.case.compare.is_empty() {
         return;
     }
