@@ -10,20 +10,7 @@ use crate::target::Target;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-/// What was measured for one method over all configurations of a sweep.
-pub struct MethodRun {
-    pub method: Method,
-    /// GPU results, one per configuration (NaN where the method does not apply).
-    pub f32: Vec<f32>,
-    /// The CPU ports in f32 and f64, where one exists and applies.
-    pub f32_cpu: Vec<Option<f32>>,
-    pub f64: Vec<Option<f64>>,
-    pub gpu_seconds: f64,
-    pub f64_seconds: f64,
-}
-
-/// References per configuration, by target.
-pub type References = Vec<BTreeMap<Target, Estimate>>;
+pub use crate::sweep::{MethodRun, References};
 
 #[derive(Clone, Debug, Serialize)]
 pub struct Bin {
@@ -757,4 +744,60 @@ pub fn analyse(case: &Case, samples: &[Sample], references: &References, runs: &
         },
     );
     acc.finish(case, &methods)
+}
+
+/// How much of `line` lies below the horizon, per family, while a sweep runs: configurations
+/// with both `line` and `line_upper` references, and the fractions of those that leak.
+/// Mergeable across shards; [`LeakAccumulator::finish`] gives the report's [`Leak`] rows.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct LeakAccumulator {
+    families: Vec<(usize, Distribution)>,
+}
+
+impl LeakAccumulator {
+    pub fn new(families: usize) -> LeakAccumulator {
+        LeakAccumulator {
+            families: vec![(0, Distribution::default()); families],
+        }
+    }
+
+    /// Folds in one chunk's references.
+    pub fn add(&mut self, chunk: &Chunk) {
+        for (s, r) in chunk.samples.iter().zip(chunk.references) {
+            if let (Some(line), Some(upper)) = (r.get(&Target::Line), r.get(&Target::LineUpper)) {
+                let fraction = ((line.value - upper.value) / line.value.abs().max(f64::MIN_POSITIVE)).max(0.0);
+                let (n, d) = &mut self.families[s.material];
+                *n += 1;
+                if fraction > 1e-6 {
+                    d.push(fraction);
+                }
+            }
+        }
+    }
+
+    pub fn merge(&mut self, o: &LeakAccumulator) {
+        for (a, b) in self.families.iter_mut().zip(&o.families) {
+            a.0 += b.0;
+            a.1.merge(&b.1);
+        }
+    }
+
+    /// One row per family with `line` configurations.
+    pub fn finish(&self, case: &Case) -> Vec<Leak> {
+        case.materials
+            .iter()
+            .zip(&self.families)
+            .filter(|(_, (n, _))| *n > 0)
+            .map(|(family, (n, d))| {
+                let q = d.quantiles();
+                Leak {
+                    material: family.name.clone(),
+                    configurations: *n,
+                    leaking: d.len(),
+                    median_fraction: q.map_or(0.0, |q| q.median),
+                    max_fraction: q.map_or(0.0, |q| q.max),
+                }
+            })
+            .collect()
+    }
 }

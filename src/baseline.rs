@@ -149,12 +149,37 @@ pub struct Observed {
     pub materials: Vec<(bool, Vec<Obs>)>,
 }
 
-/// The gate's observations, from a sweep measured with `MeasureOptions::observe`.
-pub fn observed(setup: &Setup, measured: &Measured) -> Vec<Observed> {
-    let observations = measured
-        .observations
-        .as_ref()
-        .expect("the gate's sweep keeps its observations (MeasureOptions::observe)");
+/// Per method, per family: whether supported, and each natural configuration's observation,
+/// in sample order. O(N): kept only for the gate (`--baseline`, `--save-baseline`), whose case
+/// is small.
+pub type Observations = Vec<Vec<(bool, Vec<Obs>)>>;
+
+/// Empty observations for `methods` methods over `families` families.
+pub fn observations(methods: usize, families: usize) -> Observations {
+    vec![vec![(true, Vec::new()); families]; methods]
+}
+
+/// Folds one measured chunk's natural configurations into `obs` (chunks in sample order).
+pub fn observe_chunk(obs: &mut Observations, chunk: &crate::analysis::Chunk) {
+    for (i, s) in chunk.samples.iter().enumerate().filter(|(_, s)| s.natural()) {
+        let c = &s.config;
+        for (per_method, run) in obs.iter_mut().zip(chunk.runs) {
+            let (supported, list) = &mut per_method[s.material];
+            if list.is_empty() {
+                *supported = run.method.supports(c);
+            }
+            let target = run.method.target();
+            list.push(if run.method.applies(c) {
+                observe(run.f32[i], chunk.references[i].get(&target).copied())
+            } else {
+                Obs::NotApplicable
+            });
+        }
+    }
+}
+
+/// The gate's observations of a measured sweep, with each method's cost.
+pub fn observed(setup: &Setup, measured: &Measured, observations: &Observations) -> Vec<Observed> {
     setup
         .methods
         .iter()
@@ -194,9 +219,14 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
 }
 
 /// Writes DIR/baseline.json and DIR/errors/<method>/<material>.txt; returns the paths.
-pub fn save(dir: &Path, setup: &Setup, measured: &Measured) -> anyhow::Result<Vec<std::path::PathBuf>> {
+pub fn save(
+    dir: &Path,
+    setup: &Setup,
+    measured: &Measured,
+    observations: &Observations,
+) -> anyhow::Result<Vec<std::path::PathBuf>> {
     let case = &setup.case;
-    let obs = observed(setup, measured);
+    let obs = observed(setup, measured, observations);
     let mut written = Vec::new();
     let mut methods = Vec::new();
     for o in &obs {
@@ -421,18 +451,19 @@ impl GateRun {
     pub fn finish(
         &self,
         setup: &Setup,
-        measured: &Measured,
+        (measured, observations): (&Measured, Option<&Observations>),
         checks: &[crate::analysis::Check],
     ) -> anyhow::Result<Option<GateReport>> {
+        let observations = || observations.expect("the gate's sweep keeps its observations (wants_observations)");
         if let Some(dir) = &self.save {
-            for path in save(dir, setup, measured)? {
+            for path in save(dir, setup, measured, observations())? {
                 eprintln!("wrote {}", path.display());
             }
         }
         let report = self
             .baseline
             .as_ref()
-            .map(|b| compare(b, setup, measured, self.options));
+            .map(|b| compare(b, setup, (measured, observations()), self.options));
         if let Some(g) = &report {
             eprint!("{}", g.details());
         }
@@ -602,8 +633,13 @@ fn g(x: f64) -> String {
     format!("{x:.4}")
 }
 
-pub fn compare(loaded: &Loaded, setup: &Setup, measured: &Measured, options: GateOptions) -> GateReport {
-    let obs = observed(setup, measured);
+pub fn compare(
+    loaded: &Loaded,
+    setup: &Setup,
+    (measured, observations): (&Measured, &Observations),
+    options: GateOptions,
+) -> GateReport {
+    let obs = observed(setup, measured, observations);
     let mut rules = Vec::new();
     let mut timings = Vec::new();
     for (entry, base_errors) in loaded.baseline.methods.iter().zip(&loaded.errors) {

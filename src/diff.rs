@@ -81,17 +81,18 @@ pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
     setup.methods = vec![a.clone(), b.clone()];
     let gpu = Gpu::new(options.adapter.as_deref())?;
     eprintln!("adapter: {}", gpu.adapter);
-    let measured = crate::sweep::measure(
+    let swept = crate::app::sweep::measure(
         &setup,
         &gpu,
         crate::sweep::MeasureOptions {
             chunk: options.chunk,
-            observe: true,
             raw: None,
             shard: None,
         },
+        true,
     )?;
-    let observed = baseline::observed(&setup, &measured);
+    let observations = swept.observations.as_ref().expect("measured with observe");
+    let observed = baseline::observed(&setup, &swept.measured, observations);
     println!(
         "diff on case {}: A = {}, B = {} (ratios are B / A)",
         setup.case.name, a.label, b.label
@@ -143,7 +144,7 @@ pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
         );
     }
     println!("  where they disagree most (disagreement search, both ways):");
-    for d in &measured.disagreements {
+    for d in &swept.measured.disagreements {
         let who = if d.a == a.label { "A" } else { "B" };
         println!(
             "    {who} worse on {}: err {who} {:.3e} against {:.3e} (×{:.3e}; the sample's largest ×{:.3e}) at {}",
@@ -156,7 +157,8 @@ pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
         );
     }
     if let Some(path) = &options.output {
-        let rows: Vec<_> = measured
+        let rows: Vec<_> = swept
+            .measured
             .disagreements
             .iter()
             .map(|d| serde_json::to_value(&d.config))

@@ -330,22 +330,22 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
                 setup.methods.len()
             );
             if let Some(shard) = shard {
-                let part = sweep::measure_part(
+                let part = app::sweep::measure_part(
                     &setup,
                     &device,
                     sweep::MeasureOptions {
                         chunk: gpu.chunk,
-                        observe: false,
                         raw: None,
                         shard: Some(shard),
                     },
+                    false,
                 )?;
-                let path = sweep::write_shard(&out, &case, &gpu.kernels, &part)?;
+                let path = app::sweep::write_shard(&out, &case, &gpu.kernels, &part)?;
                 println!(
                     "shard {}/{}: {} configurations; state: {}",
                     shard.0,
                     shard.1,
-                    part.timing.configurations,
+                    part.measured.configurations(),
                     path.display()
                 );
                 return Ok(Status::Ok);
@@ -356,15 +356,15 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             // anything.
             let (measured, staged) = match &raw {
                 None => (
-                    sweep::measure(
+                    app::sweep::measure(
                         &setup,
                         &device,
                         sweep::MeasureOptions {
                             chunk: gpu.chunk,
-                            observe,
                             raw: None,
                             shard: None,
                         },
+                        observe,
                     )?,
                     None,
                 ),
@@ -372,15 +372,15 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
                     let mut measured = None;
                     let mut failed = None;
                     let staged = stage_output(raw, &mut |w| {
-                        match sweep::measure(
+                        match app::sweep::measure(
                             &setup,
                             &device,
                             sweep::MeasureOptions {
                                 chunk: gpu.chunk,
-                                observe,
                                 raw: Some(w),
                                 shard: None,
                             },
+                            observe,
                         ) {
                             Ok(m) => measured = Some(m),
                             Err(e) => failed = Some(e),
@@ -410,18 +410,18 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
         Command::Merge { shards, out, gpu } => {
             let started = std::time::Instant::now();
             let command_line = shell_words::join(std::env::args());
-            let (case_path, kernels, parts) = sweep::read_shards(&shards)?;
+            let (case_path, kernels, parts) = app::sweep::read_shards(&shards)?;
             let loaded = Case::load(std::path::Path::new(&case_path))?;
             let dir = out.join(&loaded.name);
             check_set(&dir)?;
             let setup = sweep::prepare_with(loaded, &kernels, parts[0].count_override, false)?;
-            let part = sweep::Partial::merge_all(&setup, parts)?;
+            let part = app::sweep::Partial::merge_all(&setup, parts)?;
             let gate = linelight::baseline::GateRun::prepare(None, None, None, Default::default(), &setup)?;
             let device = open_gpu(&GpuArgs {
                 kernels: kernels.clone(),
                 ..gpu
             })?;
-            let measured = sweep::finish(&setup, &device, part, 0)?;
+            let measured = app::sweep::finish(&setup, &device, part)?;
             report_sweep(
                 SweepRun {
                     case_path: &case_path,
@@ -631,7 +631,7 @@ struct SweepRun<'a> {
 fn report_sweep(
     run: SweepRun,
     setup: &sweep::Setup,
-    measured: &sweep::Measured,
+    swept: &app::sweep::Swept,
     staged: Option<linelight::io::Staged>,
     gate: &linelight::baseline::GateRun,
 ) -> anyhow::Result<Status> {
@@ -643,7 +643,8 @@ fn report_sweep(
         raw,
     } = run;
     let t = std::time::Instant::now();
-    let analysis = measured.accumulators.finish(&setup.case, &setup.methods);
+    let measured = &swept.measured;
+    let analysis = swept.accumulators.finish(&setup.case, &setup.methods);
     let facts = claims::Facts {
         analysis: Some(analysis.clone()),
         configurations: measured.natural.iter().sum(),
@@ -665,6 +666,7 @@ fn report_sweep(
         },
         setup,
         measured,
+        swept.leak.clone(),
         analysis,
         claim_results,
     )?;
@@ -676,7 +678,7 @@ fn report_sweep(
         eprintln!("wrote {}", raw.display());
     }
     let (analysis, claim_results) = (&input.analysis, &input.claims);
-    let gate_report = gate.finish(setup, measured, &analysis.checks)?;
+    let gate_report = gate.finish(setup, (measured, swept.observations.as_ref()), &analysis.checks)?;
     let regressed = gate_report.as_ref().is_some_and(|g| g.regressed());
     let failed = analysis.checks.iter().filter(|c| !c.pass).count();
     let stale: Vec<&str> = claim_results

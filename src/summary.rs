@@ -121,6 +121,7 @@ impl Summary {
         run: RunInfo,
         setup: &Setup,
         measured: &Measured,
+        leak: Vec<Leak>,
         analysis: Analysis,
         claims: Vec<ClaimResult>,
     ) -> Result<Summary, serde_json::Error> {
@@ -181,7 +182,7 @@ impl Summary {
             stages: run.stages,
             analysis,
             claims,
-            leak: measured.leak.clone(),
+            leak,
             found: measured.found.clone(),
             disagreements: measured.disagreements.clone(),
             costs: measured.costs.clone(),

@@ -3,7 +3,6 @@
 //! Everything that can fail on bad input (case file, kernels, adapter) fails before any
 //! measuring starts and before any report is written.
 
-use crate::analysis::{Accumulators, Chunk, MethodRun, References};
 use crate::case::Case;
 use crate::gpu::Gpu;
 use crate::interp::CpuColumns;
@@ -17,6 +16,32 @@ use rayon::prelude::*;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 use std::time::Instant;
+
+/// What was measured for one method over a chunk of configurations.
+pub struct MethodRun {
+    pub method: Method,
+    /// GPU results, one per configuration (NaN where the method does not apply).
+    pub f32: Vec<f32>,
+    /// The CPU evaluator in f32 and f64, where the method applies.
+    pub f32_cpu: Vec<Option<f32>>,
+    pub f64: Vec<Option<f64>>,
+    pub gpu_seconds: f64,
+    pub f64_seconds: f64,
+}
+
+/// References per configuration, by target.
+pub type References = Vec<BTreeMap<Target, Estimate>>;
+
+/// One chunk of measured configurations, handed to the caller of [`measure_part`] (the app
+/// layer folds it into the statistics and the gate's observations), then dropped.
+pub struct MeasuredChunk<'a> {
+    pub samples: &'a [Sample],
+    /// Each configuration's global index (natural sample first, then top-ups).
+    pub global: &'a [usize],
+    pub references: &'a References,
+    /// One per method, in the setup's order; this chunk's values only.
+    pub runs: &'a [MethodRun],
+}
 
 pub struct Setup {
     pub case: Case,
@@ -152,7 +177,7 @@ pub struct Timing {
     pub disagree_seconds: f64,
     pub disagree_evaluations: usize,
     pub cost_seconds: f64,
-    /// Folding each chunk into the statistics (`analysis::Accumulators::add`).
+    /// Folding each chunk into the statistics (`analysis::Accumulators::add`, by the app layer).
     pub statistics_seconds: f64,
     /// Measuring chunks evaluated (of [`MEASURE_CHUNK`] configurations).
     pub chunks: usize,
@@ -160,8 +185,6 @@ pub struct Timing {
 }
 
 pub struct Measured {
-    /// Every statistic of the sweep, folded in chunk by chunk (`analysis::Accumulators`).
-    pub accumulators: Accumulators,
     pub timing: Timing,
     /// The worst-case search's findings (cases with a `[search]`).
     pub found: Vec<crate::search::Found>,
@@ -182,16 +205,7 @@ pub struct Measured {
     /// with those methods, and how many there were in all.
     pub nonfinite: Vec<(crate::scene::Config, Vec<String>)>,
     pub nonfinite_total: usize,
-    /// How much of `line` lies below the horizon, per family (line cases).
-    pub leak: Vec<crate::analysis::Leak>,
-    /// For the gate (`--baseline`, `--save-baseline`): per method, per family, whether
-    /// supported and the observation of every natural configuration in sample order. O(N):
-    /// kept only when asked for (a gate's case is small).
-    pub observations: Option<Observations>,
 }
-
-/// Per method, per family: whether supported, and each natural configuration's observation.
-pub type Observations = Vec<Vec<(bool, Vec<crate::baseline::Obs>)>>;
 
 /// Configurations measured at a time: their GPU results, CPU columns and references are in
 /// memory together, then folded into the statistics and dropped.
@@ -204,13 +218,11 @@ pub const SHARD_BLOCK: usize = 1024;
 /// Non-finite configurations kept for `nonfinite.jsonl` (the count is always complete).
 pub const NONFINITE_KEPT: usize = 1000;
 
-/// How a sweep measures: the GPU dispatch size, what per-configuration state to keep, where
-/// `--raw` rows go, and which shard of the configurations to evaluate.
+/// How a sweep measures: the GPU dispatch size, where `--raw` rows go, and which shard of the
+/// configurations to evaluate.
 pub struct MeasureOptions<'a> {
     /// Configurations per GPU dispatch (0: the runner's default).
     pub chunk: usize,
-    /// Keep the gate's per-configuration observations ([`Measured::observations`]).
-    pub observe: bool,
     /// `--raw`: every configuration's row (eval output format), written chunk by chunk.
     pub raw: Option<&'a mut dyn std::io::Write>,
     /// `--shard i/n`: evaluate only the configurations of global index g with
@@ -230,7 +242,7 @@ pub struct MethodAttribution {
 
 impl Timing {
     /// Adds another shard's measuring times (searches and cost are measured once, at merge).
-    fn add(&mut self, o: &Timing) {
+    pub fn add(&mut self, o: &Timing) {
         self.configurations += o.configurations;
         for (a, b) in [(&mut self.gpu, &o.gpu)] {
             for (x, y) in a.iter_mut().zip(b) {
@@ -326,10 +338,6 @@ pub struct Kept {
     disagree: Vec<(usize, usize, usize, crate::search::TopK)>,
     nonfinite: Vec<(usize, crate::scene::Config, Vec<String>)>,
     nonfinite_total: usize,
-    /// Per family: configurations with both `line` and `line_upper`, and the leaking fractions.
-    leak: Vec<(usize, crate::stats::Distribution)>,
-    #[serde(skip)]
-    observations: Option<Observations>,
     /// Per family: the first natural configurations (the cost measurement's).
     cost: Vec<Vec<(usize, crate::scene::Config)>>,
     /// Per method: its spread subset for the attribution.
@@ -352,10 +360,6 @@ impl Kept {
         self.nonfinite.sort_by_key(|x| x.0);
         self.nonfinite.truncate(NONFINITE_KEPT);
         self.nonfinite_total += o.nonfinite_total;
-        for (a, b) in self.leak.iter_mut().zip(&o.leak) {
-            a.0 += b.0;
-            a.1.merge(&b.1);
-        }
         let first = |a: &mut Vec<(usize, crate::scene::Config)>, b: Vec<(usize, crate::scene::Config)>, n: usize| {
             a.extend(b);
             a.sort_by_key(|x| x.0);
@@ -374,97 +378,39 @@ impl Kept {
     }
 }
 
-/// The version of the shard state file (`--shard`, docs/scale.md).
-pub const SHARD_FORMAT: u32 = 1;
-
 /// What measuring a sweep's configurations, or one shard's, leaves before the searches and
-/// the cost pass: mergeable (`linelight merge`). Written by `sweep --shard i/n` as JSON.
+/// the cost pass: the bounded kept state, the draws and the times; mergeable across shards.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub struct Partial {
-    pub format: u32,
-    pub case: String,
-    pub seed: u64,
-    pub count_override: Option<usize>,
-    /// (i, n): this part is shard i of n; (0, 1) for a whole run.
-    pub shard: (usize, usize),
-    pub methods: Vec<String>,
-    pub accumulators: Accumulators,
+pub struct Part {
     pub kept: Kept,
     pub draws: Vec<sampler::Draws>,
     pub topups: Vec<sampler::TopUp>,
     pub timing: Timing,
 }
 
-impl Partial {
-    /// Merges shards 0..n of one sweep (each exactly once) into the state of the whole run.
-    pub fn merge_all(setup: &Setup, mut parts: Vec<Partial>) -> anyhow::Result<Partial> {
-        anyhow::ensure!(!parts.is_empty(), "merge: no shard states given");
-        parts.sort_by_key(|p| p.shard.0);
-        let n = parts[0].shard.1;
-        let labels: Vec<String> = setup.methods.iter().map(|m| m.label.clone()).collect();
-        for (k, p) in parts.iter().enumerate() {
-            anyhow::ensure!(
-                p.format == SHARD_FORMAT,
-                "merge: shard state format {} (this linelight reads {SHARD_FORMAT})",
-                p.format
-            );
-            anyhow::ensure!(
-                p.case == setup.case.name && p.seed == setup.case.seed && p.count_override == setup.count_override,
-                "merge: shard {}/{} is of case `{}` seed {} --count {:?}, not `{}` seed {} --count {:?}",
-                p.shard.0,
-                p.shard.1,
-                p.case,
-                p.seed,
-                p.count_override,
-                setup.case.name,
-                setup.case.seed,
-                setup.count_override
-            );
-            anyhow::ensure!(
-                p.methods == labels,
-                "merge: shard {}/{} measured methods {:?}, the case has {:?}",
-                p.shard.0,
-                p.shard.1,
-                p.methods,
-                labels
-            );
-            anyhow::ensure!(
-                p.shard == (k, n),
-                "merge: expected shards 0..{n} of {n} once each, found {}/{} in place {k}",
-                p.shard.0,
-                p.shard.1
-            );
-        }
-        anyhow::ensure!(parts.len() == n, "merge: {} of {n} shards given", parts.len());
-        let per_family_cost = COST_CONFIGURATIONS.div_ceil(setup.case.materials.len().max(1));
-        let mut it = parts.into_iter();
-        let mut all = it.next().expect("not empty");
-        for p in it {
-            all.accumulators.merge(&p.accumulators).map_err(anyhow::Error::msg)?;
-            all.kept.merge(p.kept, per_family_cost);
-            all.timing.add(&p.timing);
-        }
-        all.shard = (0, 1);
-        Ok(all)
+impl Part {
+    /// Adds another part (other configurations of the same sweep).
+    pub fn merge(&mut self, o: Part, case: &Case) {
+        self.kept
+            .merge(o.kept, COST_CONFIGURATIONS.div_ceil(case.materials.len().max(1)));
+        self.timing.add(&o.timing);
+    }
+
+    /// Configurations measured.
+    pub fn configurations(&self) -> usize {
+        self.timing.configurations
     }
 }
 
-/// Measures a sweep: its configurations chunk by chunk ([`measure_part`]), then the searches,
-/// the cost pass and the attribution ([`finish`]).
-pub fn measure(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow::Result<Measured> {
-    let chunk = options.chunk;
-    let part = measure_part(setup, gpu, options)?;
-    finish(setup, gpu, part, chunk)
-}
-
-/// Measures the configurations (all, or one shard's) chunk by chunk into a [`Partial`].
-pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow::Result<Partial> {
-    let MeasureOptions {
-        chunk,
-        observe,
-        mut raw,
-        shard,
-    } = options;
+/// Measures the configurations (all, or one shard's) chunk by chunk into a [`Part`], handing
+/// each measured chunk to `fold` before it is dropped.
+pub fn measure_part(
+    setup: &Setup,
+    gpu: &Gpu,
+    options: MeasureOptions,
+    fold: &mut dyn FnMut(&MeasuredChunk) -> anyhow::Result<()>,
+) -> anyhow::Result<Part> {
+    let MeasureOptions { chunk, mut raw, shard } = options;
     let start = Instant::now();
     let case = &setup.case;
     let methods = &setup.methods;
@@ -500,14 +446,11 @@ pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow
             .collect(),
         nonfinite: Vec::new(),
         nonfinite_total: 0,
-        leak: vec![(0, crate::stats::Distribution::default()); families],
-        observations: observe.then(|| vec![vec![(true, Vec::new()); families]; methods.len()]),
         cost: vec![Vec::new(); families],
         attribution: vec![Vec::new(); methods.len()],
         natural: vec![0; families],
         seen: 0,
     };
-    let mut acc = Accumulators::new(case, methods);
     let mut stream = sampler::NaturalStream::new(case);
     let mut topups: Option<(std::vec::IntoIter<Sample>, Vec<sampler::TopUp>)> = None;
     // Configurations drawn before the current chunk (every chunk, this shard's or not).
@@ -594,16 +537,12 @@ pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow
             &configs,
             &references,
         )?;
-        let t = Instant::now();
-        acc.add(
-            case,
-            &Chunk {
-                samples: &samples,
-                references: &references,
-                runs: &runs,
-            },
-        );
-        timing.statistics_seconds += t.elapsed().as_secs_f64();
+        fold(&MeasuredChunk {
+            samples: &samples,
+            global: &global,
+            references: &references,
+            runs: &runs,
+        })?;
         keep(
             case,
             methods,
@@ -627,14 +566,7 @@ pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow
         timing.f32_ports.push((m.label.clone(), f32_seconds[j]));
     }
     timing.total_seconds = start.elapsed().as_secs_f64();
-    Ok(Partial {
-        format: SHARD_FORMAT,
-        case: case.name.clone(),
-        seed: case.seed,
-        count_override: setup.count_override,
-        shard: shard.unwrap_or((0, 1)),
-        methods: methods.iter().map(|m| m.label.clone()).collect(),
-        accumulators: acc,
+    Ok(Part {
         kept,
         draws: stream.draws,
         topups,
@@ -643,7 +575,7 @@ pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions) -> anyhow
 }
 
 /// The searches from the kept starts, the cost pass and the attribution: a measured sweep.
-pub fn finish(setup: &Setup, gpu: &Gpu, part: Partial, _chunk: usize) -> anyhow::Result<Measured> {
+pub fn finish(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<Measured> {
     let start = Instant::now();
     let case = &setup.case;
     let methods = &setup.methods;
@@ -652,13 +584,11 @@ pub fn finish(setup: &Setup, gpu: &Gpu, part: Partial, _chunk: usize) -> anyhow:
         pipelines.push(gpu.pipeline(m)?);
     }
     let disagree_spec = case.disagreements.clone().unwrap_or_default();
-    let Partial {
-        accumulators: acc,
+    let Part {
         mut kept,
         draws,
         topups: topup_reports,
         mut timing,
-        ..
     } = part;
     for g in &mut timing.gpu {
         g.2 = timing.configurations as f64 / g.1;
@@ -727,24 +657,7 @@ pub fn finish(setup: &Setup, gpu: &Gpu, part: Partial, _chunk: usize) -> anyhow:
     let attribution = attribute(methods, &subsets)?;
     timing.attribution_seconds = t.elapsed().as_secs_f64();
     timing.total_seconds += start.elapsed().as_secs_f64();
-    let leak = case
-        .materials
-        .iter()
-        .zip(&kept.leak)
-        .filter(|(_, (n, _))| *n > 0)
-        .map(|(family, (n, d))| {
-            let q = d.quantiles();
-            crate::analysis::Leak {
-                material: family.name.clone(),
-                configurations: *n,
-                leaking: d.len(),
-                median_fraction: q.map_or(0.0, |q| q.median),
-                max_fraction: q.map_or(0.0, |q| q.max),
-            }
-        })
-        .collect();
     Ok(Measured {
-        accumulators: acc,
         timing,
         found,
         disagreements,
@@ -756,8 +669,6 @@ pub fn finish(setup: &Setup, gpu: &Gpu, part: Partial, _chunk: usize) -> anyhow:
         topups: topup_reports,
         nonfinite: kept.nonfinite.into_iter().map(|(_, c, m)| (c, m)).collect(),
         nonfinite_total: kept.nonfinite_total,
-        leak,
-        observations: kept.observations,
     })
 }
 
@@ -833,14 +744,6 @@ fn keep(
                 kept.nonfinite.push((global, c.clone(), bad));
             }
         }
-        if let (Some(line), Some(upper)) = (references[i].get(&Target::Line), references[i].get(&Target::LineUpper)) {
-            let fraction = ((line.value - upper.value) / line.value.abs().max(f64::MIN_POSITIVE)).max(0.0);
-            let (n, d) = &mut kept.leak[f];
-            *n += 1;
-            if fraction > 1e-6 {
-                d.push(fraction);
-            }
-        }
         if global.is_multiple_of(attribution_step) {
             for (subset, m) in kept.attribution.iter_mut().zip(methods) {
                 if m.applies(c) && subset.len() < ATTRIBUTION_CONFIGURATIONS {
@@ -854,20 +757,6 @@ fn keep(
         kept.natural[f] += 1;
         if kept.cost[f].len() < per_family_cost {
             kept.cost[f].push((global, c.clone()));
-        }
-        if let Some(obs) = &mut kept.observations {
-            for (per_method, run) in obs.iter_mut().zip(runs) {
-                let (supported, list) = &mut per_method[f];
-                if list.is_empty() {
-                    *supported = run.method.supports(c);
-                }
-                let target = run.method.target();
-                list.push(if run.method.applies(c) {
-                    crate::baseline::observe(run.f32[i], references[i].get(&target).copied())
-                } else {
-                    crate::baseline::Obs::NotApplicable
-                });
-            }
         }
     }
 }
@@ -912,73 +801,4 @@ pub fn parse_shard(text: &str) -> anyhow::Result<(usize, usize)> {
         return Err(bad());
     }
     Ok((i, n))
-}
-
-/// A shard state file: the case file and kernels the shard ran (merge reads them again, so
-/// every shard and the merge run from the same checkout) and its [`Partial`].
-#[derive(serde::Serialize, serde::Deserialize)]
-struct ShardFile {
-    case_file: String,
-    kernels: Vec<PathBuf>,
-    state: Partial,
-}
-
-/// Writes `OUT/shard-I-of-N.cbor` (atomically); returns its path.
-pub fn write_shard(
-    out: &std::path::Path,
-    case_file: &std::path::Path,
-    kernels: &[PathBuf],
-    part: &Partial,
-) -> anyhow::Result<PathBuf> {
-    let (i, n) = part.shard;
-    let path = out.join(format!("shard-{i}-of-{n}.cbor"));
-    std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
-    let file = ShardFile {
-        case_file: case_file.display().to_string(),
-        kernels: kernels.to_vec(),
-        state: part.clone(),
-    };
-    let mut bytes = Vec::new();
-    ciborium::into_writer(&file, &mut bytes).map_err(|e| anyhow::anyhow!("cannot encode the shard state: {e}"))?;
-    crate::io::write_bytes(&path, &bytes)?;
-    Ok(path)
-}
-
-/// Every `shard-*-of-*.cbor` in the given directories: the case file, the kernels, the states.
-pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<(String, Vec<PathBuf>, Vec<Partial>)> {
-    let mut files = Vec::new();
-    for d in dirs {
-        let entries = std::fs::read_dir(d).map_err(|e| anyhow::anyhow!("merge: cannot read {}: {e}", d.display()))?;
-        for e in entries {
-            let p = e?.path();
-            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
-            if name.starts_with("shard-") && name.ends_with(".cbor") {
-                files.push(p);
-            }
-        }
-    }
-    files.sort();
-    anyhow::ensure!(!files.is_empty(), "merge: no shard-I-of-N.cbor in {:?}", dirs);
-    let mut first: Option<(String, Vec<PathBuf>)> = None;
-    let mut parts = Vec::new();
-    for p in files {
-        let text = std::fs::read(&p).map_err(|e| anyhow::anyhow!("merge: cannot read {}: {e}", p.display()))?;
-        let f: ShardFile = ciborium::from_reader(text.as_slice())
-            .map_err(|e| anyhow::anyhow!("merge: {}: not a shard state: {e}", p.display()))?;
-        match &first {
-            None => first = Some((f.case_file.clone(), f.kernels.clone())),
-            Some((c, k)) => anyhow::ensure!(
-                c == &f.case_file && k == &f.kernels,
-                "merge: {} ran case file {} with kernels {:?}; the first shard {} with {:?}",
-                p.display(),
-                f.case_file,
-                f.kernels,
-                c,
-                k
-            ),
-        }
-        parts.push(f.state);
-    }
-    let (case_file, kernels) = first.expect("at least one file");
-    Ok((case_file, kernels, parts))
 }

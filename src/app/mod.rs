@@ -6,6 +6,7 @@
 
 mod bench;
 mod status;
+pub mod sweep;
 
 pub use bench::{bench, BenchOptions};
 
