@@ -77,7 +77,7 @@ pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
     case.compare = vec![[a.label.clone(), b.label.clone()]];
     case.claims.clear();
     case.search = None;
-    let mut setup = crate::sweep::prepare_with(case, &[], options.count, false)?;
+    let mut setup = crate::app::sweep::prepare_with(case, &[], options.count, false)?;
     setup.methods = vec![a.clone(), b.clone()];
     let gpu = Gpu::new(options.adapter.as_deref())?;
     eprintln!("adapter: {}", gpu.adapter);

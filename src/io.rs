@@ -417,6 +417,17 @@ pub fn write_set(dir: &Path, files: &[(String, Vec<u8>)]) -> Result<Vec<PathBuf>
     Ok(files.iter().map(|(f, _)| dir.join(f)).collect())
 }
 
+/// Serialises rows as JSONL (one compact JSON value per line): eval's output, the report's
+/// replayable files, `--raw`.
+pub fn to_jsonl(rows: &[serde_json::Value]) -> Vec<u8> {
+    let mut out = Vec::new();
+    for r in rows {
+        out.extend(serde_json::to_vec(r).expect("JSON values serialise"));
+        out.push(b'\n');
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -516,15 +527,4 @@ mod tests {
         assert!(fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
         assert_eq!(fs::read_to_string(&target).unwrap(), "new");
     }
-}
-
-/// Serialises rows as JSONL (one compact JSON value per line): eval's output, the report's
-/// replayable files, `--raw`.
-pub fn to_jsonl(rows: &[serde_json::Value]) -> Vec<u8> {
-    let mut out = Vec::new();
-    for r in rows {
-        out.extend(serde_json::to_vec(r).expect("JSON values serialise"));
-        out.push(b'\n');
-    }
-    out
 }

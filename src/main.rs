@@ -1,16 +1,11 @@
-//! The `linelight` command line: sweep, eval, bench, fit, chain, adapters, check.
+//! The `linelight` command line: sweep, merge, eval, bench, scan, fit, chain, diff, adapters,
+//! check. It only parses the arguments and dispatches to the app layer (`src/app/`).
 
 use clap::{Parser, Subcommand};
-use linelight::analysis::Verdict;
-use linelight::app::{self, bounded, kernel_inputs, status_of, GpuOptions, Status};
+use linelight::app::{self, bounded, status_of, GpuOptions, Status};
 use linelight::case::Case;
-use linelight::claims;
-use linelight::gpu::{self, Gpu};
-use linelight::io::{check_output, check_set, stage_output, write_output};
-use linelight::report;
-use linelight::summary::{self, Summary};
-use linelight::{eval, limits, methods, sweep};
-use rayon::prelude::*;
+use linelight::gpu;
+use linelight::limits;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -262,7 +257,7 @@ impl GpuArgs {
     }
 }
 
-fn open_gpu(args: &GpuArgs) -> anyhow::Result<Gpu> {
+fn open_gpu(args: &GpuArgs) -> anyhow::Result<linelight::gpu::Gpu> {
     app::open_gpu(args.adapter.as_deref())
 }
 
@@ -279,242 +274,39 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             shard,
             gpu,
             gate,
-        } => {
-            let started = std::time::Instant::now();
-            let case_path = case.display().to_string();
-            if count == Some(0) {
-                anyhow::bail!("--count must be at least 1");
-            }
-            let shard = shard.as_deref().map(sweep::parse_shard).transpose()?;
-            if shard.is_some()
-                && (raw.is_some() || gate.save_baseline.is_some() || gate.baseline.is_some() || gate.junit.is_some())
-            {
-                anyhow::bail!(
-                    "--shard writes a shard state only: --raw and the gate options belong to the unsharded sweep"
-                );
-            }
-            let loaded = Case::load(&case)?;
-            // Every output is checked before any work: the report folder, then --raw.
-            let dir = out.join(&loaded.name);
-            if shard.is_none() {
-                check_set(&dir)?;
-            }
-            if let Some(raw) = &raw {
-                let mut inputs = vec![("the case file", case.as_path())];
-                inputs.extend(kernel_inputs(&gpu.kernels));
-                check_output("--raw", raw, &inputs, &[&dir])?;
-            }
-            let command_line = shell_words::join(std::env::args());
-            let setup = sweep::prepare_with(loaded, &gpu.kernels, count, raw.is_some())?;
-            // A claim that names what the case does not have is bad input, found before measuring.
-            let labels = setup.methods.iter().map(|m| m.label.clone()).collect();
-            claims::check(&setup.case.claims, claims::dry_facts(&setup.case, labels))
-                .map_err(|e| anyhow::anyhow!("{case_path}: {e}"))?;
-            // A baseline that does not fit this run is bad input, found before measuring.
-            let gate = linelight::baseline::GateRun::prepare(
-                gate.save_baseline,
-                gate.baseline.as_deref(),
-                gate.junit,
-                linelight::baseline::GateOptions {
+        } => app::sweep::sweep(
+            app::sweep::SweepOptions {
+                case,
+                out,
+                raw,
+                count,
+                shard,
+                gate: app::sweep::GateFlags {
+                    save_baseline: gate.save_baseline,
+                    baseline: gate.baseline,
+                    junit: gate.junit,
                     noise: gate.noise,
                     ops_growth: gate.ops_growth,
-                    ..Default::default()
                 },
-                &setup,
-            )?;
-            let device = open_gpu(&gpu)?;
-            eprintln!(
-                "case {}: {} natural configurations (and top-ups), {} methods",
-                setup.case.name,
-                setup.case.materials.iter().map(|m| m.count).sum::<usize>(),
-                setup.methods.len()
-            );
-            if let Some(shard) = shard {
-                let part = app::sweep::measure_part(
-                    &setup,
-                    &device,
-                    sweep::MeasureOptions {
-                        chunk: gpu.chunk,
-                        raw: None,
-                        shard: Some(shard),
-                    },
-                    false,
-                )?;
-                let path = app::sweep::write_shard(&out, &case, &gpu.kernels, &part)?;
-                println!(
-                    "shard {}/{}: {} configurations; state: {}",
-                    shard.0,
-                    shard.1,
-                    part.measured.configurations(),
-                    path.display()
-                );
-                return Ok(Status::Ok);
-            }
-            let observe = gate.wants_observations();
-            // --raw is staged while measuring (rows streamed a chunk at a time, never all in
-            // memory) and put in place after the report set: on an error neither replaces
-            // anything.
-            let (measured, staged) = match &raw {
-                None => (
-                    app::sweep::measure(
-                        &setup,
-                        &device,
-                        sweep::MeasureOptions {
-                            chunk: gpu.chunk,
-                            raw: None,
-                            shard: None,
-                        },
-                        observe,
-                    )?,
-                    None,
-                ),
-                Some(raw) => {
-                    let mut measured = None;
-                    let mut failed = None;
-                    let staged = stage_output(raw, &mut |w| {
-                        match app::sweep::measure(
-                            &setup,
-                            &device,
-                            sweep::MeasureOptions {
-                                chunk: gpu.chunk,
-                                raw: Some(w),
-                                shard: None,
-                            },
-                            observe,
-                        ) {
-                            Ok(m) => measured = Some(m),
-                            Err(e) => failed = Some(e),
-                        }
-                        Ok(())
-                    })?;
-                    if let Some(e) = failed {
-                        return Err(e);
-                    }
-                    (measured.expect("measured or failed"), Some(staged))
-                }
-            };
-            report_sweep(
-                SweepRun {
-                    case_path: &case_path,
-                    command_line: &command_line,
-                    dir: &dir,
-                    started,
-                    raw: raw.as_deref(),
-                },
-                &setup,
-                &measured,
-                staged,
-                &gate,
-            )
-        }
-        Command::Merge { shards, out, gpu } => {
-            let started = std::time::Instant::now();
-            let command_line = shell_words::join(std::env::args());
-            let (case_path, kernels, parts) = app::sweep::read_shards(&shards)?;
-            let loaded = Case::load(std::path::Path::new(&case_path))?;
-            let dir = out.join(&loaded.name);
-            check_set(&dir)?;
-            let setup = sweep::prepare_with(loaded, &kernels, parts[0].count_override, false)?;
-            let part = app::sweep::Partial::merge_all(&setup, parts)?;
-            let gate = linelight::baseline::GateRun::prepare(None, None, None, Default::default(), &setup)?;
-            let device = open_gpu(&GpuArgs {
-                kernels: kernels.clone(),
-                ..gpu
-            })?;
-            let measured = app::sweep::finish(&setup, &device, part)?;
-            report_sweep(
-                SweepRun {
-                    case_path: &case_path,
-                    command_line: &command_line,
-                    dir: &dir,
-                    started,
-                    raw: None,
-                },
-                &setup,
-                &measured,
-                None,
-                &gate,
-            )
-        }
+            },
+            &gpu.options(),
+        ),
+        Command::Merge { shards, out, gpu } => app::sweep::merge(&shards, &out, &gpu.options()),
         Command::Eval {
             input,
             output,
-            methods: specs,
+            methods,
             attribution,
             gpu,
-        } => {
-            let mut inputs = vec![("--input", input.as_path())];
-            inputs.extend(kernel_inputs(&gpu.kernels));
-            check_output("--output", &output, &inputs, &[])?;
-            let kernels = methods::kernel_set(&gpu.kernels)?;
-            let specs = if specs.is_empty() {
-                kernels.iter().map(|k| k.id.clone()).collect()
-            } else {
-                specs
-            };
-            methods::check_unique(&specs, "--methods")?;
-            let methods = specs
-                .iter()
-                .map(|s| methods::resolve(s, &kernels))
-                .collect::<anyhow::Result<Vec<_>>>()?;
-            let lines = eval::count_lines(&input)?;
-            limits::check(
-                &format!("eval of {} ({lines} lines)", input.display()),
-                // One chunk of configurations, values and rows at a time, plus the ids (checked
-                // for repeats over the whole input).
-                limits::Bytes(
-                    limits::eval_estimate(lines.min(eval_chunk() as u64), methods.len() as u64)
-                        .0
-                        .saturating_add(64u64.saturating_mul(lines)),
-                ),
-                limits::max_memory(),
-            )
-            .map_err(anyhow::Error::msg)?;
-            // Every line checked before the GPU is touched; then the input is streamed a chunk
-            // at a time (GPU, references, rows), in constant memory and input order.
-            eval::for_each_config(&input, eval_chunk(), true, &mut |_| Ok(()))?;
-            let device = open_gpu(&gpu)?;
-            let pipelines = methods
-                .iter()
-                .map(|m| device.pipeline(m))
-                .collect::<Result<Vec<_>, _>>()?;
-            let mut written = 0;
-            // The output is staged: a reference that cannot be computed (an error) leaves
-            // nothing in place of what was there.
-            write_output(&output, &mut |w| {
-                let mut chunk = |configs: Vec<linelight::scene::Config>| -> anyhow::Result<()> {
-                    let scenes: Vec<_> = configs.iter().map(linelight::scene::GpuScene::from).collect();
-                    let mut f32s = Vec::new();
-                    for p in &pipelines {
-                        f32s.push(device.run(p, &scenes, gpu.chunk, &mut |_| {})?.values);
-                    }
-                    drop(scenes);
-                    let references: Vec<_> = configs
-                        .par_iter()
-                        .map(|c| {
-                            eval::targets_of(c)
-                                .into_iter()
-                                .filter_map(|t| linelight::reference::reference(c, t).map(|e| (t, e)))
-                                .collect::<std::collections::BTreeMap<_, _>>()
-                        })
-                        .collect();
-                    eval::check_references(&input, &configs, &references)?;
-                    for (block, part) in configs.chunks(eval::ROW_BLOCK).enumerate() {
-                        let at = block * eval::ROW_BLOCK..block * eval::ROW_BLOCK + part.len();
-                        let values: Vec<&[f32]> = f32s.iter().map(|v| &v[at.clone()]).collect();
-                        let rows = eval::rows(part, &methods, &values, &references[at], attribution)?;
-                        w.write_all(&linelight::io::to_jsonl(&rows))?;
-                    }
-                    written += configs.len();
-                    Ok(())
-                };
-                eval::for_each_config(&input, eval_chunk(), false, &mut chunk)
-                    .map(|_| ())
-                    .map_err(|e| std::io::Error::other(format!("{e:#}")))
-            })?;
-            eprintln!("wrote {written} results to {}", output.display());
-            Ok(Status::Ok)
-        }
+        } => app::eval::eval(
+            app::eval::EvalOptions {
+                input,
+                output,
+                methods,
+                attribution,
+            },
+            &gpu.options(),
+        ),
         Command::Bench {
             case,
             methods,
@@ -615,110 +407,4 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
         Command::Adapters => app::adapters(),
         Command::Check { kernels, emit } => app::check(&kernels, emit),
     }
-}
-
-/// Where a sweep's report goes and how the run was called.
-struct SweepRun<'a> {
-    case_path: &'a str,
-    command_line: &'a str,
-    dir: &'a std::path::Path,
-    started: std::time::Instant,
-    raw: Option<&'a std::path::Path>,
-}
-
-/// Analyses a measured sweep (or merged shards), writes its report set, and gives the verdict's
-/// exit code.
-fn report_sweep(
-    run: SweepRun,
-    setup: &sweep::Setup,
-    swept: &app::sweep::Swept,
-    staged: Option<linelight::io::Staged>,
-    gate: &linelight::baseline::GateRun,
-) -> anyhow::Result<Status> {
-    let SweepRun {
-        case_path,
-        command_line,
-        dir,
-        started,
-        raw,
-    } = run;
-    let t = std::time::Instant::now();
-    let measured = &swept.measured;
-    let analysis = swept.accumulators.finish(&setup.case, &setup.methods);
-    let facts = claims::Facts {
-        analysis: Some(analysis.clone()),
-        configurations: measured.natural.iter().sum(),
-        costs: measured.costs.clone(),
-        disagreements: measured.disagreements.clone(),
-        found: measured.found.clone(),
-        ..claims::dry_facts(&setup.case, setup.methods.iter().map(|m| m.label.clone()).collect())
-    };
-    let claim_results = claims::evaluate(&setup.case.claims, facts);
-    let stages = summary::Stages {
-        analysis_seconds: measured.timing.statistics_seconds + t.elapsed().as_secs_f64(),
-        until_report_seconds: started.elapsed().as_secs_f64(),
-    };
-    let input = Summary::new(
-        summary::RunInfo {
-            case_path,
-            command_line,
-            stages,
-        },
-        setup,
-        measured,
-        swept.leak.clone(),
-        analysis,
-        claim_results,
-    )?;
-    for path in report::write_reports(dir, &input)? {
-        eprintln!("wrote {}", path.display());
-    }
-    if let (Some(staged), Some(raw)) = (staged, &raw) {
-        staged.commit()?;
-        eprintln!("wrote {}", raw.display());
-    }
-    let (analysis, claim_results) = (&input.analysis, &input.claims);
-    let gate_report = gate.finish(setup, (measured, swept.observations.as_ref()), &analysis.checks)?;
-    let regressed = gate_report.as_ref().is_some_and(|g| g.regressed());
-    let failed = analysis.checks.iter().filter(|c| !c.pass).count();
-    let stale: Vec<&str> = claim_results
-        .iter()
-        .filter(|c| !c.holds)
-        .map(|c| c.id.as_str())
-        .collect();
-    println!(
-        "verdict: {} ({} of {} checks pass); claims: {} of {} hold{}; report: {}",
-        analysis.verdict.name(),
-        analysis.checks.len() - failed,
-        analysis.checks.len(),
-        claim_results.len() - stale.len(),
-        claim_results.len(),
-        if stale.is_empty() {
-            String::new()
-        } else {
-            format!(" (STALE: {})", stale.join(", "))
-        },
-        dir.join("report.md").display()
-    );
-    if let Some(g) = &gate_report {
-        println!("{}", g.summary());
-    }
-    // 3: a finding no longer holds (the report says which); 1: a tolerance failed.
-    Ok(if !stale.is_empty() {
-        Status::StaleClaim
-    } else if analysis.verdict == Verdict::Fail || regressed {
-        Status::ToleranceFail
-    } else {
-        Status::Ok
-    })
-}
-
-/// Configurations eval holds at a time: `eval::EVAL_CHUNK`, or `LINELIGHT_EVAL_CHUNK` (tests
-/// use a small one to cover several chunks with a few lines).
-fn eval_chunk() -> usize {
-    std::env::var("LINELIGHT_EVAL_CHUNK")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .filter(|&n: &usize| n > 0)
-        .unwrap_or(eval::EVAL_CHUNK)
 }

@@ -6,7 +6,7 @@
 use crate::case::Case;
 use crate::gpu::Gpu;
 use crate::interp::CpuColumns;
-use crate::methods::{self, Method};
+use crate::methods::Method;
 use crate::reference::{self, Estimate};
 use crate::sampler::{self, Sample};
 use crate::scene::GpuScene;
@@ -14,7 +14,6 @@ use crate::target::Target;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::PathBuf;
 use std::time::Instant;
 
 /// What was measured for one method over a chunk of configurations.
@@ -54,106 +53,6 @@ pub struct Setup {
     pub count_override: Option<usize>,
     /// Each family's draws, rejected ones included (shown in the report).
     pub draws: Vec<sampler::Draws>,
-}
-
-/// Loads and checks everything a sweep needs, without touching the GPU, and draws the whole
-/// sample into `Setup::samples` (bench and others that hold every configuration).
-pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> anyhow::Result<Setup> {
-    let mut setup = prepare_with(case, user_kernels, count, false)?;
-    let (mut samples, draws) =
-        sampler::sample_case_counted(&setup.case).map_err(|e| anyhow::anyhow!("case `{}`: {e}", setup.case.name))?;
-    let (extra, topups) = sampler::top_up(&setup.case, &samples);
-    samples.extend(extra);
-    setup.samples = samples;
-    setup.draws = draws;
-    setup.topups = topups;
-    Ok(setup)
-}
-
-/// The most configurations per family a sweep takes; stability counts beyond are
-/// `linelight scan`'s.
-pub const MAX_COUNT: usize = 1_000_000_000_000;
-
-/// [`prepare`] for a streamed sweep ([`measure`] draws the sample chunk by chunk): nothing is
-/// sampled here, `samples`, `draws` and `topups` stay empty. `raw` tells whether `--raw` rows
-/// are written (counted in the memory estimate of one chunk).
-pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, raw: bool) -> anyhow::Result<Setup> {
-    let mut case = case;
-    anyhow::ensure!(count != Some(0), "--count must be at least 1");
-    if let Some(n) = count {
-        anyhow::ensure!(
-            n <= MAX_COUNT,
-            "--count {n}: more than the {MAX_COUNT} configurations per family a sweep takes (stability \
-             counts beyond are `linelight scan`'s)"
-        );
-        // The bins' minimum shrinks with the counts, so a quick run stays quick.
-        let largest = case.materials.iter().map(|m| m.count).max().unwrap_or(1).max(1);
-        case.min_per_bin = (case.min_per_bin * n).div_ceil(largest).min(case.min_per_bin);
-        for m in &mut case.materials {
-            m.count = n;
-        }
-    }
-    let kernels = methods::kernel_set(user_kernels)?;
-    let mut methods = Vec::new();
-    for spec in &case.methods {
-        methods.push(methods::resolve(spec, &kernels).map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?);
-    }
-    // `--kernel FILE`: the case's methods plus every kernel given (unless the case names it).
-    for path in user_kernels {
-        let k = crate::kernel::KernelFile::read(path)?;
-        if !methods.iter().any(|m| m.id() == k.id) {
-            methods.push(methods::resolve(&k.id, &kernels)?);
-        }
-    }
-    for [a, b] in &case.compare {
-        let target = |l: &String| methods.iter().find(|m| &m.label == l).map(|m| m.target());
-        if target(a) != target(b) {
-            anyhow::bail!(
-                "case `{}`: compare [{a}, {b}]: the two methods approximate different targets",
-                case.name
-            );
-        }
-    }
-    // Memory before anything is allocated: one measuring chunk of configurations (samples,
-    // scenes, references, values, --raw rows) plus the statistics' bounded accumulators.
-    let bins: u64 = case.bins.iter().map(|b| b.edges.len().saturating_sub(1) as u64).sum();
-    let total = case.materials.iter().fold(0u64, |t, m| {
-        t.saturating_add(m.count as u64)
-            .saturating_add(bins.saturating_mul(case.min_per_bin as u64))
-    });
-    let estimate = crate::limits::sweep_estimate(
-        total.min(MEASURE_CHUNK as u64),
-        methods.len() as u64,
-        needed_targets(&methods).len() as u64,
-        raw,
-    );
-    crate::limits::check(
-        &format!("case `{}` with {total} configurations", case.name),
-        estimate,
-        crate::limits::max_memory(),
-    )
-    .map_err(anyhow::Error::msg)?;
-    if let Some(search) = &case.search {
-        // One step's candidates (samples, scenes, references) at a time.
-        let batch = (search.restarts as u64).saturating_mul(search.population as u64);
-        crate::limits::check(
-            &format!(
-                "case `{}`: [search] with {} × {} candidates per step",
-                case.name, search.restarts, search.population
-            ),
-            crate::limits::search_estimate(batch),
-            crate::limits::max_memory(),
-        )
-        .map_err(anyhow::Error::msg)?;
-    }
-    Ok(Setup {
-        case,
-        methods,
-        samples: Vec::new(),
-        topups: Vec::new(),
-        count_override: count,
-        draws: Vec::new(),
-    })
 }
 
 /// Wall-clock time of each stage, measured in this run.

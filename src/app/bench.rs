@@ -41,7 +41,7 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::bench::BenchRun> {
     // The methods measured decide which pairs are compared (and `prepare` checks them).
     case.compare
         .retain(|pair| pair.iter().all(|l| case.methods.contains(l)));
-    let setup = crate::sweep::prepare(case, &options.kernels, Some(options.count.div_ceil(materials)))?;
+    let setup = crate::app::sweep::prepare(case, &options.kernels, Some(options.count.div_ceil(materials)))?;
     let configs = crate::bench::split_evenly(&setup.samples, materials, options.count);
     for m in &setup.methods {
         let missing = configs.iter().filter(|c| !m.applies(c)).count();

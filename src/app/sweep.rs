@@ -4,12 +4,406 @@
 //! before it is dropped. Also the shard state files (`--shard`, `linelight merge`,
 //! docs/scale.md), which hold both the measure stage's kept state and the statistics.
 
-use crate::analysis::{Accumulators, Chunk, Leak, LeakAccumulator};
+use super::{kernel_inputs, open_gpu, GpuOptions, Status};
+use crate::analysis::{Accumulators, Chunk, Leak, LeakAccumulator, Verdict};
 use crate::baseline::Observations;
+use crate::case::Case;
 use crate::gpu::Gpu;
+use crate::io::{check_output, check_set, stage_output};
+use crate::summary::Summary;
 use crate::sweep::{self, MeasureOptions, Measured, Setup};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// The CI gate's options of `linelight sweep` (docs/ci/): baselines and JUnit.
+pub struct GateFlags {
+    /// `--save-baseline DIR`.
+    pub save_baseline: Option<PathBuf>,
+    /// `--baseline DIR`: any regression exits 1.
+    pub baseline: Option<PathBuf>,
+    /// `--junit FILE`.
+    pub junit: Option<PathBuf>,
+    pub noise: f64,
+    pub ops_growth: f64,
+}
+
+/// Options of `linelight sweep`.
+pub struct SweepOptions {
+    /// The case file.
+    pub case: PathBuf,
+    /// Reports go to OUT/<case name>/ (shard states to OUT/).
+    pub out: PathBuf,
+    /// `--raw FILE`: every configuration's values.
+    pub raw: Option<PathBuf>,
+    /// `--count`: every material's count.
+    pub count: Option<usize>,
+    /// `--shard I/N`, as typed.
+    pub shard: Option<String>,
+    pub gate: GateFlags,
+}
+
+/// `linelight sweep`: the case's inputs checked, measured (or one shard of it), analysed,
+/// reported, and the verdict's status.
+pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
+    let SweepOptions {
+        case,
+        out,
+        raw,
+        count,
+        shard,
+        gate,
+    } = options;
+    let started = std::time::Instant::now();
+    let case_path = case.display().to_string();
+    if count == Some(0) {
+        anyhow::bail!("--count must be at least 1");
+    }
+    let shard = shard.as_deref().map(crate::sweep::parse_shard).transpose()?;
+    if shard.is_some()
+        && (raw.is_some() || gate.save_baseline.is_some() || gate.baseline.is_some() || gate.junit.is_some())
+    {
+        anyhow::bail!("--shard writes a shard state only: --raw and the gate options belong to the unsharded sweep");
+    }
+    let loaded = crate::case::Case::load(&case)?;
+    // Every output is checked before any work: the report folder, then --raw.
+    let dir = out.join(&loaded.name);
+    if shard.is_none() {
+        check_set(&dir)?;
+    }
+    if let Some(raw) = &raw {
+        let mut inputs = vec![("the case file", case.as_path())];
+        inputs.extend(kernel_inputs(&gpu.kernels));
+        check_output("--raw", raw, &inputs, &[&dir])?;
+    }
+    let command_line = shell_words::join(std::env::args());
+    let setup = prepare_with(loaded, &gpu.kernels, count, raw.is_some())?;
+    // A claim that names what the case does not have is bad input, found before measuring.
+    let labels = setup.methods.iter().map(|m| m.label.clone()).collect();
+    crate::claims::check(&setup.case.claims, crate::claims::dry_facts(&setup.case, labels))
+        .map_err(|e| anyhow::anyhow!("{case_path}: {e}"))?;
+    // A baseline that does not fit this run is bad input, found before measuring.
+    let gate = crate::baseline::GateRun::prepare(
+        gate.save_baseline,
+        gate.baseline.as_deref(),
+        gate.junit,
+        crate::baseline::GateOptions {
+            noise: gate.noise,
+            ops_growth: gate.ops_growth,
+            ..Default::default()
+        },
+        &setup,
+    )?;
+    let device = open_gpu(gpu.adapter.as_deref())?;
+    eprintln!(
+        "case {}: {} natural configurations (and top-ups), {} methods",
+        setup.case.name,
+        setup.case.materials.iter().map(|m| m.count).sum::<usize>(),
+        setup.methods.len()
+    );
+    if let Some(shard) = shard {
+        let part = measure_part(
+            &setup,
+            &device,
+            crate::sweep::MeasureOptions {
+                chunk: gpu.chunk,
+                raw: None,
+                shard: Some(shard),
+            },
+            false,
+        )?;
+        let path = write_shard(&out, &case, &gpu.kernels, &part)?;
+        println!(
+            "shard {}/{}: {} configurations; state: {}",
+            shard.0,
+            shard.1,
+            part.measured.configurations(),
+            path.display()
+        );
+        return Ok(Status::Ok);
+    }
+    let observe = gate.wants_observations();
+    // --raw is staged while measuring (rows streamed a chunk at a time, never all in
+    // memory) and put in place after the report set: on an error neither replaces
+    // anything.
+    let (measured, staged) = match &raw {
+        None => (
+            measure(
+                &setup,
+                &device,
+                crate::sweep::MeasureOptions {
+                    chunk: gpu.chunk,
+                    raw: None,
+                    shard: None,
+                },
+                observe,
+            )?,
+            None,
+        ),
+        Some(raw) => {
+            let mut measured = None;
+            let mut failed = None;
+            let staged = stage_output(raw, &mut |w| {
+                match measure(
+                    &setup,
+                    &device,
+                    crate::sweep::MeasureOptions {
+                        chunk: gpu.chunk,
+                        raw: Some(w),
+                        shard: None,
+                    },
+                    observe,
+                ) {
+                    Ok(m) => measured = Some(m),
+                    Err(e) => failed = Some(e),
+                }
+                Ok(())
+            })?;
+            if let Some(e) = failed {
+                return Err(e);
+            }
+            (measured.expect("measured or failed"), Some(staged))
+        }
+    };
+    report_sweep(
+        SweepRun {
+            case_path: &case_path,
+            command_line: &command_line,
+            dir: &dir,
+            started,
+            raw: raw.as_deref(),
+        },
+        &setup,
+        &measured,
+        staged,
+        &gate,
+    )
+}
+
+/// `linelight merge`: the shard states of a sharded sweep merged into the report the unsharded
+/// sweep writes.
+pub fn merge(shards: &[PathBuf], out: &Path, gpu: &GpuOptions) -> anyhow::Result<Status> {
+    let started = std::time::Instant::now();
+    let command_line = shell_words::join(std::env::args());
+    let (case_path, kernels, parts) = read_shards(shards)?;
+    let loaded = crate::case::Case::load(std::path::Path::new(&case_path))?;
+    let dir = out.join(&loaded.name);
+    check_set(&dir)?;
+    let setup = prepare_with(loaded, &kernels, parts[0].count_override, false)?;
+    let part = Partial::merge_all(&setup, parts)?;
+    let gate = crate::baseline::GateRun::prepare(None, None, None, Default::default(), &setup)?;
+    let device = open_gpu(gpu.adapter.as_deref())?;
+    let measured = finish(&setup, &device, part)?;
+    report_sweep(
+        SweepRun {
+            case_path: &case_path,
+            command_line: &command_line,
+            dir: &dir,
+            started,
+            raw: None,
+        },
+        &setup,
+        &measured,
+        None,
+        &gate,
+    )
+}
+
+/// Where a sweep's report goes and how the run was called.
+struct SweepRun<'a> {
+    case_path: &'a str,
+    command_line: &'a str,
+    dir: &'a std::path::Path,
+    started: std::time::Instant,
+    raw: Option<&'a std::path::Path>,
+}
+
+/// Analyses a measured sweep (or merged shards), writes its report set, and gives the verdict's
+/// exit code.
+fn report_sweep(
+    run: SweepRun,
+    setup: &crate::sweep::Setup,
+    swept: &Swept,
+    staged: Option<crate::io::Staged>,
+    gate: &crate::baseline::GateRun,
+) -> anyhow::Result<Status> {
+    let SweepRun {
+        case_path,
+        command_line,
+        dir,
+        started,
+        raw,
+    } = run;
+    let t = std::time::Instant::now();
+    let measured = &swept.measured;
+    let analysis = swept.accumulators.finish(&setup.case, &setup.methods);
+    let facts = crate::claims::Facts {
+        analysis: Some(analysis.clone()),
+        configurations: measured.natural.iter().sum(),
+        costs: measured.costs.clone(),
+        disagreements: measured.disagreements.clone(),
+        found: measured.found.clone(),
+        ..crate::claims::dry_facts(&setup.case, setup.methods.iter().map(|m| m.label.clone()).collect())
+    };
+    let claim_results = crate::claims::evaluate(&setup.case.claims, facts);
+    let stages = crate::summary::Stages {
+        analysis_seconds: measured.timing.statistics_seconds + t.elapsed().as_secs_f64(),
+        until_report_seconds: started.elapsed().as_secs_f64(),
+    };
+    let input = Summary::new(
+        crate::summary::RunInfo {
+            case_path,
+            command_line,
+            stages,
+        },
+        setup,
+        measured,
+        swept.leak.clone(),
+        analysis,
+        claim_results,
+    )?;
+    for path in crate::report::write_reports(dir, &input)? {
+        eprintln!("wrote {}", path.display());
+    }
+    if let (Some(staged), Some(raw)) = (staged, &raw) {
+        staged.commit()?;
+        eprintln!("wrote {}", raw.display());
+    }
+    let (analysis, claim_results) = (&input.analysis, &input.claims);
+    let gate_report = gate.finish(setup, (measured, swept.observations.as_ref()), &analysis.checks)?;
+    let regressed = gate_report.as_ref().is_some_and(|g| g.regressed());
+    let failed = analysis.checks.iter().filter(|c| !c.pass).count();
+    let stale: Vec<&str> = claim_results
+        .iter()
+        .filter(|c| !c.holds)
+        .map(|c| c.id.as_str())
+        .collect();
+    println!(
+        "verdict: {} ({} of {} checks pass); claims: {} of {} hold{}; report: {}",
+        analysis.verdict.name(),
+        analysis.checks.len() - failed,
+        analysis.checks.len(),
+        claim_results.len() - stale.len(),
+        claim_results.len(),
+        if stale.is_empty() {
+            String::new()
+        } else {
+            format!(" (STALE: {})", stale.join(", "))
+        },
+        dir.join("report.md").display()
+    );
+    if let Some(g) = &gate_report {
+        println!("{}", g.summary());
+    }
+    // 3: a finding no longer holds (the report says which); 1: a tolerance failed.
+    Ok(if !stale.is_empty() {
+        Status::StaleClaim
+    } else if analysis.verdict == Verdict::Fail || regressed {
+        Status::ToleranceFail
+    } else {
+        Status::Ok
+    })
+}
+
+/// Loads and checks everything a sweep needs, without touching the GPU, and draws the whole
+/// sample into `Setup::samples` (bench and others that hold every configuration).
+pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> anyhow::Result<Setup> {
+    let mut setup = prepare_with(case, user_kernels, count, false)?;
+    let (mut samples, draws) = crate::sampler::sample_case_counted(&setup.case)
+        .map_err(|e| anyhow::anyhow!("case `{}`: {e}", setup.case.name))?;
+    let (extra, topups) = crate::sampler::top_up(&setup.case, &samples);
+    samples.extend(extra);
+    setup.samples = samples;
+    setup.draws = draws;
+    setup.topups = topups;
+    Ok(setup)
+}
+
+/// The most configurations per family a sweep takes; stability counts beyond are
+/// `linelight scan`'s.
+pub const MAX_COUNT: usize = 1_000_000_000_000;
+
+/// [`prepare`] for a streamed sweep ([`crate::sweep::measure_part`] draws the sample chunk by chunk): nothing is
+/// sampled here, `samples`, `draws` and `topups` stay empty. `raw` tells whether `--raw` rows
+/// are written (counted in the memory estimate of one chunk).
+pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, raw: bool) -> anyhow::Result<Setup> {
+    let mut case = case;
+    anyhow::ensure!(count != Some(0), "--count must be at least 1");
+    if let Some(n) = count {
+        anyhow::ensure!(
+            n <= MAX_COUNT,
+            "--count {n}: more than the {MAX_COUNT} configurations per family a sweep takes (stability \
+             counts beyond are `linelight scan`'s)"
+        );
+        // The bins' minimum shrinks with the counts, so a quick run stays quick.
+        let largest = case.materials.iter().map(|m| m.count).max().unwrap_or(1).max(1);
+        case.min_per_bin = (case.min_per_bin * n).div_ceil(largest).min(case.min_per_bin);
+        for m in &mut case.materials {
+            m.count = n;
+        }
+    }
+    let kernels = crate::methods::kernel_set(user_kernels)?;
+    let mut methods = Vec::new();
+    for spec in &case.methods {
+        methods
+            .push(crate::methods::resolve(spec, &kernels).map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?);
+    }
+    // `--kernel FILE`: the case's methods plus every kernel given (unless the case names it).
+    for path in user_kernels {
+        let k = crate::kernel::KernelFile::read(path)?;
+        if !methods.iter().any(|m| m.id() == k.id) {
+            methods.push(crate::methods::resolve(&k.id, &kernels)?);
+        }
+    }
+    for [a, b] in &case.compare {
+        let target = |l: &String| methods.iter().find(|m| &m.label == l).map(|m| m.target());
+        if target(a) != target(b) {
+            anyhow::bail!(
+                "case `{}`: compare [{a}, {b}]: the two methods approximate different targets",
+                case.name
+            );
+        }
+    }
+    // Memory before anything is allocated: one measuring chunk of configurations (samples,
+    // scenes, references, values, --raw rows) plus the statistics' bounded accumulators.
+    let bins: u64 = case.bins.iter().map(|b| b.edges.len().saturating_sub(1) as u64).sum();
+    let total = case.materials.iter().fold(0u64, |t, m| {
+        t.saturating_add(m.count as u64)
+            .saturating_add(bins.saturating_mul(case.min_per_bin as u64))
+    });
+    let estimate = crate::limits::sweep_estimate(
+        total.min(crate::sweep::MEASURE_CHUNK as u64),
+        methods.len() as u64,
+        crate::sweep::needed_targets(&methods).len() as u64,
+        raw,
+    );
+    crate::limits::check(
+        &format!("case `{}` with {total} configurations", case.name),
+        estimate,
+        crate::limits::max_memory(),
+    )
+    .map_err(anyhow::Error::msg)?;
+    if let Some(search) = &case.search {
+        // One step's candidates (samples, scenes, references) at a time.
+        let batch = (search.restarts as u64).saturating_mul(search.population as u64);
+        crate::limits::check(
+            &format!(
+                "case `{}`: [search] with {} × {} candidates per step",
+                case.name, search.restarts, search.population
+            ),
+            crate::limits::search_estimate(batch),
+            crate::limits::max_memory(),
+        )
+        .map_err(anyhow::Error::msg)?;
+    }
+    Ok(Setup {
+        case,
+        methods,
+        samples: Vec::new(),
+        topups: Vec::new(),
+        count_override: count,
+        draws: Vec::new(),
+    })
+}
 
 /// The version of the shard state file (`--shard`, docs/scale.md).
 pub const SHARD_FORMAT: u32 = 2;

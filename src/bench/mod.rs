@@ -226,7 +226,7 @@ mod tests {
         )))
         .expect("the line_fwt case loads");
         let materials = case.materials.len();
-        let setup = crate::sweep::prepare(case, &[], Some(n.div_ceil(materials))).unwrap();
+        let setup = crate::app::sweep::prepare(case, &[], Some(n.div_ceil(materials))).unwrap();
         split_evenly(&setup.samples, materials, n)
     }
 
@@ -310,7 +310,7 @@ mod tests {
         )))
         .unwrap();
         let materials = case.materials.len();
-        let setup = crate::sweep::prepare(case, &[], Some(4)).unwrap();
+        let setup = crate::app::sweep::prepare(case, &[], Some(4)).unwrap();
         let picked = split_evenly(&setup.samples, materials, 10);
         assert_eq!(picked.len(), 10);
         // 3 + 3 + 4 over three families, 2 + 3 + 2 + 3 over four: the first of each

@@ -1,0 +1,107 @@
+//! `linelight eval`: explicit configurations (JSONL in, JSONL out; docs/eval-format.md), every
+//! line checked before the GPU is touched, then streamed a chunk at a time.
+
+use super::{kernel_inputs, open_gpu, GpuOptions, Status};
+use crate::io::{check_output, write_output};
+use rayon::prelude::*;
+use std::path::PathBuf;
+
+/// Options of `linelight eval`.
+pub struct EvalOptions {
+    pub input: PathBuf,
+    pub output: PathBuf,
+    /// Method specs (`id` or `id@N`); empty: every built-in and `--kernel` method.
+    pub methods: Vec<String>,
+    /// `--attribution`: each line's kernel source lines where f32 rounding loses bits.
+    pub attribution: bool,
+}
+
+pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
+    let EvalOptions {
+        input,
+        output,
+        methods: specs,
+        attribution,
+    } = options;
+    let mut inputs = vec![("--input", input.as_path())];
+    inputs.extend(kernel_inputs(&gpu.kernels));
+    check_output("--output", &output, &inputs, &[])?;
+    let kernels = crate::methods::kernel_set(&gpu.kernels)?;
+    let specs = if specs.is_empty() {
+        kernels.iter().map(|k| k.id.clone()).collect()
+    } else {
+        specs
+    };
+    crate::methods::check_unique(&specs, "--methods")?;
+    let methods = specs
+        .iter()
+        .map(|s| crate::methods::resolve(s, &kernels))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let lines = crate::eval::count_lines(&input)?;
+    crate::limits::check(
+        &format!("eval of {} ({lines} lines)", input.display()),
+        // One chunk of configurations, values and rows at a time, plus the ids (checked
+        // for repeats over the whole input).
+        crate::limits::Bytes(
+            crate::limits::eval_estimate(lines.min(eval_chunk() as u64), methods.len() as u64)
+                .0
+                .saturating_add(64u64.saturating_mul(lines)),
+        ),
+        crate::limits::max_memory(),
+    )
+    .map_err(anyhow::Error::msg)?;
+    // Every line checked before the GPU is touched; then the input is streamed a chunk
+    // at a time (GPU, references, rows), in constant memory and input order.
+    crate::eval::for_each_config(&input, eval_chunk(), true, &mut |_| Ok(()))?;
+    let device = open_gpu(gpu.adapter.as_deref())?;
+    let pipelines = methods
+        .iter()
+        .map(|m| device.pipeline(m))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut written = 0;
+    // The output is staged: a reference that cannot be computed (an error) leaves
+    // nothing in place of what was there.
+    write_output(&output, &mut |w| {
+        let mut chunk = |configs: Vec<crate::scene::Config>| -> anyhow::Result<()> {
+            let scenes: Vec<_> = configs.iter().map(crate::scene::GpuScene::from).collect();
+            let mut f32s = Vec::new();
+            for p in &pipelines {
+                f32s.push(device.run(p, &scenes, gpu.chunk, &mut |_| {})?.values);
+            }
+            drop(scenes);
+            let references: Vec<_> = configs
+                .par_iter()
+                .map(|c| {
+                    crate::eval::targets_of(c)
+                        .into_iter()
+                        .filter_map(|t| crate::reference::reference(c, t).map(|e| (t, e)))
+                        .collect::<std::collections::BTreeMap<_, _>>()
+                })
+                .collect();
+            crate::eval::check_references(&input, &configs, &references)?;
+            for (block, part) in configs.chunks(crate::eval::ROW_BLOCK).enumerate() {
+                let at = block * crate::eval::ROW_BLOCK..block * crate::eval::ROW_BLOCK + part.len();
+                let values: Vec<&[f32]> = f32s.iter().map(|v| &v[at.clone()]).collect();
+                let rows = crate::eval::rows(part, &methods, &values, &references[at], attribution)?;
+                w.write_all(&crate::io::to_jsonl(&rows))?;
+            }
+            written += configs.len();
+            Ok(())
+        };
+        crate::eval::for_each_config(&input, eval_chunk(), false, &mut chunk)
+            .map(|_| ())
+            .map_err(|e| std::io::Error::other(format!("{e:#}")))
+    })?;
+    eprintln!("wrote {written} results to {}", output.display());
+    Ok(Status::Ok)
+}
+
+/// Configurations eval holds at a time: `crate::eval::EVAL_CHUNK`, or `LINELIGHT_EVAL_CHUNK` (tests
+/// use a small one to cover several chunks with a few lines).
+fn eval_chunk() -> usize {
+    std::env::var("LINELIGHT_EVAL_CHUNK")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .filter(|&n: &usize| n > 0)
+        .unwrap_or(crate::eval::EVAL_CHUNK)
+}
