@@ -1,4 +1,4 @@
-//! Baselines for the CI gate (DESIGN use 3): what `sweep --save-baseline DIR` writes, and how
+//! Baselines for the CI gate (docs/ci/): what `sweep --save-baseline DIR` writes, and how
 //! `sweep --baseline DIR` compares a run with it. The same seed gives the same configurations,
 //! so every comparison is paired, configuration by configuration. Rules per method × material:
 //! `error` (bootstrap of the log error ratios, with a noise threshold), `nan` (new NaN/inf),

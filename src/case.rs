@@ -1,5 +1,5 @@
 //! A case file (`cases/*.toml`): the distributions, seed, materials, methods, bin axes,
-//! comparisons and tolerances of one sweep (DESIGN §5). Unknown keys are errors.
+//! comparisons and tolerances of one sweep (docs/statistics.md, "Sweeps"). Unknown keys are errors.
 
 use crate::target::Target;
 use anyhow::Context;
@@ -168,7 +168,7 @@ pub enum MaterialKind {
     Diffuse,
     LtcSparse,
     LtcFull,
-    /// The GGX lobe of DESIGN §1; LTC methods are fed a fitted LTC (src/ltc).
+    /// The GGX lobe of docs/conventions.md; LTC methods are fed a fitted LTC (src/ltc).
     Ggx,
     /// An `ltc` material whose M⁻¹ is the fitted GGX LTC of a drawn (α, view, anisotropy) as
     /// the `ltc` feed gives it, in the frame where the view lies in the xz-plane: realistic
@@ -604,7 +604,7 @@ impl Case {
             .expect("checked: every family has a geometry")
     }
 
-    /// The relative-error floor for a target (DESIGN §4), in units where the line's distance
+    /// The relative-error floor for a target (docs/statistics.md), in units where the line's distance
     /// d = 1; documented in the report.
     pub fn floor(&self, target: Target) -> f64 {
         self.error_floor.get(target.name()).copied().unwrap_or(1e-6)

@@ -1,5 +1,5 @@
 //! `linelight eval`: explicit configurations in (JSONL), references and method values
-//! out (JSONL, DESIGN §3). Input is checked whole before the GPU is touched, then streamed in
+//! out (JSONL, docs/eval-format.md). Input is checked whole before the GPU is touched, then streamed in
 //! chunks ([`EVAL_CHUNK`]), output in input order. The `f64`
 //! and `cpu_f32` values and the attribution come from the CPU evaluator (src/interp).
 
@@ -12,7 +12,7 @@ use serde_json::{json, Map, Value};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
-/// A number as DESIGN §3 writes it: NaN and infinities as strings, never dropped.
+/// A number as docs/eval-format.md writes it: NaN and infinities as strings, never dropped.
 pub fn number(x: f64) -> Value {
     if x.is_nan() {
         json!("NaN")
@@ -143,7 +143,7 @@ pub const MAX_ERRORS: usize = 20;
 fn check_config(mut c: Config, at: &str, ids: &mut BTreeSet<String>, notes: bool) -> Result<Config, String> {
     let id = crate::names::clip(&c.id);
     if c.orthonormalize_rect().is_some_and(|moved| moved > 1e-9) && notes {
-        eprintln!("note: {at}: `{id}`: rect.normal made perpendicular to the segment (DESIGN §1); the output's `rect` records the normal used");
+        eprintln!("note: {at}: `{id}`: rect.normal made perpendicular to the segment (docs/conventions.md); the output's `rect` records the normal used");
     }
     if let Err(d) = c.validate() {
         Err(format!("{at}: configuration `{id}` is degenerate: {d}"))
@@ -241,7 +241,7 @@ pub fn result_row(
 
 /// Every output line of `linelight eval`: `f32s[m][i]` is method m's GPU value on
 /// configuration i; the `f64` and `cpu_f32` columns come from the CPU evaluator, and with
-/// `attribution` each line gets its methods' source lines by bits lost (DESIGN §3).
+/// `attribution` each line gets its methods' source lines by bits lost (docs/eval-format.md).
 pub fn rows(
     configs: &[Config],
     methods: &[Method],

@@ -1,6 +1,6 @@
 //! One configuration: a shading point at the origin (normal +z), a light segment and a
 //! material. This is what `eval` reads, what the sampler makes and what every method and
-//! reference is evaluated on (DESIGN §1, §3).
+//! reference is evaluated on (docs/conventions.md, docs/eval-format.md).
 
 use serde::{Deserialize, Serialize};
 
@@ -15,7 +15,7 @@ pub enum Material {
     Diffuse,
     /// Linearly transformed cosine; `minv` is M⁻¹, row-major, `ω_o = M⁻¹·ω`.
     Ltc { minv: Mat3 },
-    /// The GGX lobe of DESIGN §1 (height-correlated Smith, F = 1). References integrate it;
+    /// The GGX lobe of docs/conventions.md (height-correlated Smith, F = 1). References integrate it;
     /// LTC methods are given `fed`: the LTC of `ltc` (a table look-up or an exact fit) in the
     /// frame rotated about z so that the view lies in the xz-plane, and its magnitude.
     Ggx {
@@ -50,7 +50,7 @@ pub type Fed = crate::ltc::Fed;
 
 impl Material {
     /// A `ggx` material with its LTC fed from `ltc` (None: our table for isotropic
-    /// roughness, an exact fit for anisotropic). Checks α and the view (DESIGN §1).
+    /// roughness, an exact fit for anisotropic). Checks α and the view (docs/conventions.md).
     pub fn ggx(alpha: Roughness, view: Vec3, ltc: Option<&str>) -> Result<Material, String> {
         let a = alpha.xy();
         if !a.iter().all(|x| x.is_finite() && *x > 0.0 && *x <= 1.0) {
@@ -189,7 +189,7 @@ pub struct Rect {
     pub width: f64,
 }
 
-/// One explicit configuration, as in DESIGN §3.
+/// One explicit configuration, as in docs/eval-format.md.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Config {
@@ -296,8 +296,8 @@ impl Config {
         length(cross(self.p1, e)) / length(e)
     }
 
-    /// Makes `rect.normal` the unit vector perpendicular to the segment that DESIGN §1 asks
-    /// for, by removing its component along ω_t (the DESIGN's own example has one). Returns
+    /// Makes `rect.normal` the unit vector perpendicular to the segment that docs/conventions.md
+    /// asks for, by removing its component along ω_t (the example in docs/eval-format.md has one). Returns
     /// how far the normal moved, or None when there is no rectangle or the normal is (nearly)
     /// parallel to the segment, which `validate` then rejects.
     pub fn orthonormalize_rect(&mut self) -> Option<f64> {
@@ -366,7 +366,7 @@ impl Config {
         Ok(())
     }
 
-    /// Checks the configuration is one the targets are defined on (DESIGN §1):
+    /// Checks the configuration is one the targets are defined on (docs/conventions.md):
     /// degenerate ones are reported, never silently evaluated.
     pub fn validate(&self) -> Result<(), Degenerate> {
         let mut all = [self.p1, self.p2].concat();

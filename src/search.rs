@@ -6,7 +6,7 @@
 //! Random restarts are the family's own random sample (its highest-scoring configurations);
 //! local refinement is a (1, λ) hill climb in the uniforms with a shrinking step. Every
 //! candidate batch is one GPU dispatch per method; references run on all cores. Errors are
-//! relative with no floor, over configurations whose reference is not 0 (DESIGN §4).
+//! relative with no floor, over configurations whose reference is not 0 (docs/statistics.md).
 
 use crate::case::{Case, DisagreeSpec, SearchSpec};
 use crate::gpu::{Gpu, MethodPipeline};

@@ -1,4 +1,4 @@
-//! Error measures and per-bin statistics (DESIGN §4). Measuring is elsewhere; this
+//! Error measures and per-bin statistics (docs/statistics.md). Measuring is elsewhere; this
 //! module only turns values and references into numbers about them.
 //!
 //! The primary statistic is the relative error with no floor, over the configurations whose
@@ -249,7 +249,7 @@ impl Distribution {
     }
 }
 
-/// Light a method returns where the reference is exactly 0 (DESIGN §4, "false light"): how
+/// Light a method returns where the reference is exactly 0 (docs/statistics.md, "false light"): how
 /// often and how much. Such configurations never enter the relative-error statistics.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct FalseLight {

@@ -3,7 +3,7 @@
 //! computation written here in the configuration's own frame (no rotation into the kernels'
 //! frame): the horizon clip by its crossing parameter, the point by minimising the distance
 //! to the reflection line over the segment (golden section), the diffuse point by bisecting
-//! the angle condition, the subtended angle by atan2, DESIGN §1's GGX D term by term; and the
+//! the angle condition, the subtended angle by atan2, the GGX D of docs/conventions.md term by term; and the
 //! GPU's f32 values against the same, and the kernels' support (ggx only, no fed magnitude).
 
 use linelight::interp::{CpuColumns, Mode};

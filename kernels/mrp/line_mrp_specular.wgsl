@@ -1,6 +1,6 @@
 //! id: line.mrp_specular
 //! target: line_isotropic
-//! source: seed 002 (Tt Games, "Line lights", most representative point): specular MRP, the closest point of the segment to the reflection ray, with the listing's horizon handling; shaded as a point light with the ggx lobe (DESIGN §1), no normalization (the seed gives none)
+//! source: seed 002 (Tt Games, "Line lights", most representative point): specular MRP, the closest point of the segment to the reflection ray, with the listing's horizon handling; shaded as a point light with the ggx lobe (docs/conventions.md), no normalization (the seed gives none)
 //! minv: ggx
 
 // The listing gives the point only; like the diffuse ports (line_mrp_intersection.wgsl) it
@@ -43,7 +43,7 @@ fn mrp_specular_point(A: vec3<f32>, B: vec3<f32>, R: vec3<f32>) -> vec3<f32> {
     return A + AB * t;
 }
 
-// DESIGN §1's ggx lobe, the cosine-weighted BRDF a point light is shaded with (F = 1):
+// The ggx lobe of docs/conventions.md, the cosine-weighted BRDF a point light is shaded with (F = 1):
 // D(ω) = NDF(h)·G2(v, ω)/(4 v.z) for ω.z > 0, height-correlated Smith, roughness ax along
 // `tangent` and ay along cross(+z, tangent), in the scene's frame.
 fn mrp_lambda(w: vec3<f32>, ax: f32, ay: f32) -> f32 {

@@ -7,7 +7,7 @@
 //! paper (a 60-line routine: no crate was worth the dependency tree on this machine).
 //!
 //! Isotropic: M = [X Y Z]·[[m11,0,m13],[0,m22,0],[0,0,1]] with Z the lobe's mean direction
-//! (in the xz-plane, where the view lies), so M⁻¹ has the sparse form of DESIGN §1. General
+//! (in the xz-plane, where the view lies), so M⁻¹ has the sparse form of docs/conventions.md. General
 //! (anisotropic, any view): the same frame and [[m00,m01,m02],[m10,m11,m12],[0,0,1]], started
 //! from several guesses, keeping the best (seed 004, Sec. 4, explains why a single start fails).
 
@@ -76,7 +76,7 @@ impl Ltc {
         }
     }
 
-    /// The density (integrates to 1), DESIGN §1's `ltc` form.
+    /// The density (integrates to 1), the `ltc` form of docs/conventions.md.
     pub fn eval(&self, w: V3) -> f64 {
         let wo = mat_vec(&self.minv, w);
         let l = dot(wo, wo).sqrt();
@@ -232,7 +232,7 @@ fn mean_frame(mean: V3) -> M3 {
     [[x[0], y[0], z[0]], [x[1], y[1], z[1]], [x[2], y[2], z[2]]]
 }
 
-/// M⁻¹ scaled so that its (2,2) entry is 1 (DESIGN §1's sparse form) when that is safe.
+/// M⁻¹ scaled so that its (2,2) entry is 1 (the sparse form of docs/conventions.md) when that is safe.
 fn normalized(minv: M3) -> M3 {
     let s = minv[2][2];
     if s.abs() > 1e-12 {

@@ -1,4 +1,4 @@
-//! The GGX lobe the LTC fits approximate (DESIGN §1, `ggx`), in f64, with the sampling
+//! The GGX lobe the LTC fits approximate (docs/conventions.md, material `ggx`), in f64, with the sampling
 //! the fit's objective uses. Written here for the fitter; the references have their own
 //! copy (`reference::lobe`), so a reference never shares code with what it judges.
 

@@ -6,7 +6,7 @@
 //! r = a/(N−1), α = max(r², MIN_ALPHA), and x = t/(N−1) with cos θ = 1 − x² (θ ≤ 1.57).
 //! A shader looks up (u, v) = (sqrt α, sqrt(1 − cos θ)) with the half-texel scale and bias
 //! of seed 003 and hardware bilinear filtering with clamp-to-edge. The texture holds M⁻¹
-//! in DESIGN §1's sparse form [[a,0,b],[0,c,0],[d,0,1]] (the form the 2023 listing builds),
+//! in the sparse form of docs/conventions.md [[a,0,b],[0,c,0],[d,0,1]] (the form the 2023 listing builds),
 //! as (a, b, c, d) in one RGBA texture, and (magnitude, Fresnel) in a second.
 
 use super::fit::M3;

@@ -1,6 +1,6 @@
-//! The distribution D of DESIGN §1 in f64: every LTC material as Listing 1.10 evaluates it
+//! The distribution D of docs/conventions.md in f64: every LTC material as Listing 1.10 evaluates it
 //! (Eq. 1.24; diffuse is M⁻¹ = I), and the GGX lobe of the `ggx` material (written here from
-//! DESIGN §1, independently of the fitter's copy in `ltc::ggx`). The integrators see a lobe
+//! docs/conventions.md, independently of the fitter's copy in `ltc::ggx`). The integrators see a lobe
 //! only through this interface: `eval`, `circle` (D along a great circle, with its peak),
 //! `support` (the half-space D lives in), `mirror` (the direction a sharp lobe peaks at) and
 //! `condition`.
@@ -21,7 +21,7 @@ pub(crate) struct LtcLobe {
     scale: f64,
 }
 
-/// D(ω) = NDF(h)·G2(v, ω)/(4 v.z) for ω.z > 0 (DESIGN §1, `ggx`).
+/// D(ω) = NDF(h)·G2(v, ω)/(4 v.z) for ω.z > 0 (docs/conventions.md, `ggx`).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct GgxLobe {
     ax: f64,

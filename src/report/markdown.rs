@@ -701,7 +701,7 @@ pub fn render(input: &Summary) -> String {
          - Bits of error = log2(1 + ULP distance between the f32 result and the f32-rounded reference).\n\
          - Quantiles are over the configurations with a finite result; NaN and ±inf are counted \
          in their own columns and never enter a quantile; the ≤ columns count them as outside. {}\n\
-         - References: CPU f64 adaptive Gauss–Kronrod quadrature of the target's definition (DESIGN §1), \
+         - References: CPU f64 adaptive Gauss–Kronrod quadrature of the target's definition (docs/targets.md), \
          independent of the kernels, each with its own error estimate.\n\
          - Methods and their sources:",
         floors.join(", "),

@@ -11,7 +11,7 @@
 // (ω_p·ωt)·ωt and ωn ⟂ ωt, so |ω_p·ωn| = ‖ω_p × ωt‖·|u·ωn|, and u·ωn = −ω⊥·(ωn × ωt):
 //     lim I_rect/W = |ω⊥·ωb|·∫ D ‖ω_p × ωt‖/‖p‖² dl = |ω⊥·ωb|·I_line/2,
 // I_line being Eq. 1.6 (with its factor 2). So I_rect ≈ (W/2)·|ω⊥·ωb|·I_line: the W/2
-// scale of DESIGN §2 is right, and Listing 1.11's |ω⊥·ωn| must be |ω⊥·ωb|, i.e. the
+// scale of docs/methods.md is right, and Listing 1.11's |ω⊥·ωn| must be |ω⊥·ωb|, i.e. the
 // listing is correct if its `wn` is read as the width direction instead of the normal.
 // |ω⊥·ωb| = sqrt(1 − (ω⊥·ωn)²) when ωn ⟂ ωt. No clamp, as in Listing 1.11.
 fn rect_I_line_rectangle_fixed(p1: vec3<f32>, p2: vec3<f32>, wn: vec3<f32>) -> f32 {
