@@ -8,6 +8,7 @@
 use crate::io::write_atomic;
 use crate::reference::Estimate;
 use crate::sweep::{Measured, Setup};
+use anyhow::Context;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -322,16 +323,15 @@ pub struct Loaded {
 /// any mismatch is bad input (exit 2), found before measuring.
 pub fn load(dir: &Path, setup: &Setup) -> anyhow::Result<Loaded> {
     let path = dir.join("baseline.json");
-    let text =
-        std::fs::read_to_string(&path).map_err(|e| anyhow::anyhow!("cannot read baseline {}: {e}", path.display()))?;
-    let mut baseline: Baseline = serde_json::from_str(&text)
-        .map_err(|e| anyhow::anyhow!("{}: not a linelight baseline: {e}", path.display()))?;
+    let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read baseline {}", path.display()))?;
+    let mut baseline: Baseline =
+        serde_json::from_str(&text).with_context(|| format!("{}: not a linelight baseline", path.display()))?;
     // Timings are optional (reported, never gated): a baseline without timings.json
     // compares the same.
     let timings = dir.join("timings.json");
     if let Ok(text) = std::fs::read_to_string(&timings) {
-        let t: Timings = serde_json::from_str(&text)
-            .map_err(|e| anyhow::anyhow!("{}: not linelight timings: {e}", timings.display()))?;
+        let t: Timings =
+            serde_json::from_str(&text).with_context(|| format!("{}: not linelight timings", timings.display()))?;
         for m in &mut baseline.methods {
             if let Some((_, ns)) = t.ns_per_eval.iter().find(|(l, _)| *l == m.label) {
                 m.ns_per_eval = *ns;
@@ -382,7 +382,7 @@ pub fn load(dir: &Path, setup: &Setup) -> anyhow::Result<Loaded> {
             };
             let file = dir.join(rel);
             let text = std::fs::read_to_string(&file)
-                .map_err(|e| anyhow::anyhow!("cannot read baseline errors {}: {e}", file.display()))?;
+                .with_context(|| format!("cannot read baseline errors {}", file.display()))?;
             let obs = text
                 .lines()
                 .enumerate()

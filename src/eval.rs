@@ -8,6 +8,7 @@ use crate::methods::Method;
 use crate::reference::Estimate;
 use crate::scene::Config;
 use crate::target::Target;
+use anyhow::Context;
 use serde_json::{json, Map, Value};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -31,7 +32,7 @@ pub const ROW_BLOCK: usize = 4096;
 /// Lines in a file, counted without holding it (for the memory estimate).
 pub fn count_lines(path: &Path) -> anyhow::Result<u64> {
     use std::io::BufRead;
-    let f = std::fs::File::open(path).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
+    let f = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut r = std::io::BufReader::new(f);
     let mut buf = Vec::new();
     let mut n = 0u64;
@@ -39,7 +40,7 @@ pub fn count_lines(path: &Path) -> anyhow::Result<u64> {
         buf.clear();
         let got = r
             .read_until(b'\n', &mut buf)
-            .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
+            .with_context(|| format!("cannot read {}", path.display()))?;
         if got == 0 {
             return Ok(n);
         }
@@ -73,14 +74,14 @@ pub fn for_each_config(
     f: &mut dyn FnMut(Vec<Config>) -> anyhow::Result<()>,
 ) -> anyhow::Result<usize> {
     use std::io::BufRead;
-    let file = std::fs::File::open(path).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
+    let file = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut configs = Vec::new();
     let mut errors = Vec::new();
     let mut bad = 0usize;
     let mut total = 0usize;
     let mut ids = BTreeSet::new();
     for (i, line) in std::io::BufReader::new(file).split(b'\n').enumerate() {
-        let line = line.map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
+        let line = line.with_context(|| format!("cannot read {}", path.display()))?;
         let at = format!("{}:{}", path.display(), i + 1);
         let line = match std::str::from_utf8(&line) {
             Ok(l) => l.strip_prefix('\u{feff}').filter(|_| i == 0).unwrap_or(l),

@@ -12,6 +12,7 @@ use crate::gpu::Gpu;
 use crate::io::{check_output, check_set, stage_output};
 use crate::summary::Summary;
 use crate::sweep::{self, MeasureOptions, Measured, Setup};
+use anyhow::Context;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -344,8 +345,7 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
     let kernels = crate::methods::kernel_set(user_kernels)?;
     let mut methods = Vec::new();
     for spec in &case.methods {
-        methods
-            .push(crate::methods::resolve(spec, &kernels).map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?);
+        methods.push(crate::methods::resolve(spec, &kernels).with_context(|| format!("case `{}`", case.name))?);
     }
     // `--kernel FILE`: the case's methods plus every kernel given (unless the case names it).
     for path in user_kernels {
@@ -563,14 +563,14 @@ struct ShardFile {
 pub fn write_shard(out: &Path, case_file: &Path, kernels: &[PathBuf], part: &Partial) -> anyhow::Result<PathBuf> {
     let (i, n) = part.shard;
     let path = out.join(format!("shard-{i}-of-{n}.cbor"));
-    std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let file = ShardFile {
         case_file: case_file.display().to_string(),
         kernels: kernels.to_vec(),
         state: part.clone(),
     };
     let mut bytes = Vec::new();
-    ciborium::into_writer(&file, &mut bytes).map_err(|e| anyhow::anyhow!("cannot encode the shard state: {e}"))?;
+    ciborium::into_writer(&file, &mut bytes).context("cannot encode the shard state")?;
     crate::io::write_bytes(&path, &bytes)?;
     Ok(path)
 }
@@ -579,7 +579,7 @@ pub fn write_shard(out: &Path, case_file: &Path, kernels: &[PathBuf], part: &Par
 pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<(String, Vec<PathBuf>, Vec<Partial>)> {
     let mut files = Vec::new();
     for d in dirs {
-        let entries = std::fs::read_dir(d).map_err(|e| anyhow::anyhow!("merge: cannot read {}: {e}", d.display()))?;
+        let entries = std::fs::read_dir(d).with_context(|| format!("merge: cannot read {}", d.display()))?;
         for e in entries {
             let p = e?.path();
             let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
@@ -593,9 +593,9 @@ pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<(String, Vec<PathBuf>, Ve
     let mut first: Option<(String, Vec<PathBuf>)> = None;
     let mut parts = Vec::new();
     for p in files {
-        let text = std::fs::read(&p).map_err(|e| anyhow::anyhow!("merge: cannot read {}: {e}", p.display()))?;
+        let text = std::fs::read(&p).with_context(|| format!("merge: cannot read {}", p.display()))?;
         let f: ShardFile = ciborium::from_reader(text.as_slice())
-            .map_err(|e| anyhow::anyhow!("merge: {}: not a shard state: {e}", p.display()))?;
+            .with_context(|| format!("merge: {}: not a shard state", p.display()))?;
         match &first {
             None => first = Some((f.case_file.clone(), f.kernels.clone())),
             Some((c, k)) => anyhow::ensure!(

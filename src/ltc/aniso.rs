@@ -29,6 +29,7 @@
 use super::fit::{self, Ltc, M3};
 use super::ggx::Ggx;
 use super::table::Storage;
+use anyhow::Context;
 use std::f64::consts::FRAC_PI_2;
 
 /// The table's axes: θ ∈ [0, THETA_MAX], φ ∈ [0, π/2], α_max ∈ [ALPHA_MIN, 1], r ∈ [RATIO_MIN, 1].
@@ -545,8 +546,8 @@ pub fn fit_command(out: &std::path::Path, size: [usize; 4]) -> anyhow::Result<()
     );
     let csv = table.to_csv(&header);
     let tmp = out.with_extension("csv.tmp");
-    std::fs::write(&tmp, &csv).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", tmp.display()))?;
-    std::fs::rename(&tmp, out).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
+    std::fs::write(&tmp, &csv).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, out).with_context(|| format!("cannot write {}", out.display()))?;
     let l1: Vec<f64> = table.entries.iter().map(|e| e.l1).collect();
     let worst = l1.iter().copied().fold(0.0, f64::max);
     let mut sorted = l1.clone();
@@ -566,7 +567,7 @@ pub fn fit_command(out: &std::path::Path, size: [usize; 4]) -> anyhow::Result<()
     });
     let run = out.with_extension("run.json");
     std::fs::write(&run, serde_json::to_string_pretty(&record)? + "\n")
-        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", run.display()))?;
+        .with_context(|| format!("cannot write {}", run.display()))?;
     eprintln!(
         "wrote {} and {}: {} entries ({fitted} fitted) in {seconds:.1} s on {threads} thread(s); relative L1 fit error median {median:.3e}, largest {worst:.3e}",
         out.display(),

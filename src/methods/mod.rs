@@ -5,6 +5,7 @@
 use crate::kernel::{KernelFile, MinvSupport};
 use crate::scene::Config;
 use crate::target::Target;
+use anyhow::Context;
 
 pub use crate::kernel::{DEFAULT_INNER, DEFAULT_INNER_ISOTROPIC};
 
@@ -121,7 +122,7 @@ fn resolve_unjudged(spec: &str, kernels: &[KernelFile]) -> anyhow::Result<Method
         DEFAULT_INNER
     });
     let (inner_head, nested) = split_inner(inner_spec)?;
-    let inner = resolve_plain(inner_spec, inner_head, kernels).map_err(|e| anyhow::anyhow!("`{spec}`: {e}"))?;
+    let inner = resolve_plain(inner_spec, inner_head, kernels).with_context(|| format!("`{spec}`"))?;
     let k = &inner.kernel;
     if k.uses_line {
         anyhow::bail!(
