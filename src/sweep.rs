@@ -225,8 +225,9 @@ pub fn references(samples: &[crate::scene::Config], targets: &BTreeSet<Target>, 
         .collect()
 }
 
-/// What a streamed sweep keeps of its configurations while they pass: bounded state only
-/// (best starts, first non-finite ones, subsets), except the gate's observations when asked.
+/// What the measure stage keeps of a streamed sweep's configurations while they pass: bounded
+/// state only (best starts, first non-finite ones, subsets; the gate's observations are the
+/// app layer's).
 /// Configurations are named by their global index (natural sample first, then top-ups), so
 /// shards' states merge into what one run keeps.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
