@@ -406,7 +406,7 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
 }
 
 /// The version of the shard state file (`--shard`, docs/scale.md).
-pub const SHARD_FORMAT: u32 = 2;
+pub const SHARD_FORMAT: u32 = 3;
 
 /// What measuring a sweep's configurations, or one shard's, leaves before the searches and
 /// the cost pass: mergeable (`linelight merge`). Written by `sweep --shard i/n`.
