@@ -114,10 +114,12 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
         )?;
         let path = write_shard(&out, &case, &gpu.kernels, &part)?;
         println!(
-            "shard {}/{}: {} configurations; state: {}",
+            "shard {}/{}: {} configurations in {:.1} s (drawing all of the sweep's: {:.1} s); state: {}",
             shard.0,
             shard.1,
             part.measured.configurations(),
+            part.measured.timing.total_seconds,
+            part.measured.timing.sampling_seconds,
             path.display()
         );
         return Ok(Status::Ok);
