@@ -254,6 +254,8 @@ enum Judged {
         f64: Option<Outcome>,
         reference_rel: f64,
         below_floor: bool,
+        /// The GPU value, and the f64 one, are exactly 0 (missed light).
+        dark: (bool, bool),
     },
     /// The reference is exactly 0.
     Zero { gpu: f32, f64: Option<f64> },
@@ -267,7 +269,8 @@ fn push(acc: &mut BinAccumulator, j: Judged) {
             f64,
             reference_rel,
             below_floor,
-        } => acc.push(gpu, cpu, f64, reference_rel, below_floor),
+            dark,
+        } => acc.push(gpu, cpu, f64, reference_rel, below_floor, dark),
         Judged::Zero { gpu, f64 } => acc.push_zero(gpu, f64),
     }
 }
@@ -293,6 +296,7 @@ fn judge(case: &Case, chunk: &Chunk, run: &MethodRun, i: usize, judged: Target) 
         f64: run.f64[i].map(|v| Outcome::of_f64(v, r.value, floor)),
         reference_rel: r.error / r.value.abs(),
         below_floor: r.value.abs() < floor,
+        dark: (run.f32[i] == 0.0, run.f64[i] == Some(0.0)),
     })
 }
 

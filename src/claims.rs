@@ -280,6 +280,9 @@ fn engine(facts: Rc<Facts>) -> Engine {
     both!("below_floor", "bin_below_floor", |s: &BinStats| Some(
         s.below_floor as f64
     ));
+    // Missed light: a non-zero reference, the method exactly 0 (f32 GPU; f64 formula).
+    both!("dark", "bin_dark", |s: &BinStats| Some(s.dark as f64));
+    both!("dark_f64", "bin_dark_f64", |s: &BinStats| Some(s.dark_f64 as f64));
     // False light: configurations whose reference is exactly 0.
     both!("zero", "bin_zero", |s: &BinStats| Some(
         s.false_light.configurations as f64

@@ -297,6 +297,13 @@ pub struct BinStats {
     pub reference_flag: bool,
     /// Configurations whose reference is exactly 0.
     pub false_light: FalseLight,
+    /// Missed light: configurations with a non-zero reference where the method (f32, GPU)
+    /// returns exactly 0. Their relative error is exactly 1, so they sit in every quantile
+    /// as a plateau at 1; counted here so the cause reads as such.
+    pub dark: usize,
+    /// The same formula in f64 returns exactly 0 there too (the formula's own missed light,
+    /// not rounding).
+    pub dark_f64: usize,
 }
 
 impl BinStats {
@@ -337,12 +344,18 @@ pub struct BinAccumulator {
     zero_nonfinite: usize,
     zero_values: Distribution,
     zero_lit_f64: usize,
+    /// Non-zero reference, result exactly 0 (f32 GPU; f64 formula).
+    #[serde(default)]
+    dark: usize,
+    #[serde(default)]
+    dark_f64: usize,
 }
 
 impl BinAccumulator {
     /// One configuration with a non-zero reference: the GPU result, the CPU f32 and f64
-    /// evaluations where they exist, the reference's own relative error estimate, and whether
-    /// the reference lies below the floor of the floored variant.
+    /// evaluations where they exist, the reference's own relative error estimate, whether
+    /// the reference lies below the floor of the floored variant, and whether the GPU and
+    /// f64 results are exactly 0 (missed light).
     pub fn push(
         &mut self,
         gpu: Outcome,
@@ -350,7 +363,10 @@ impl BinAccumulator {
         f64_outcome: Option<Outcome>,
         reference_rel: f64,
         below_floor: bool,
+        (dark, dark_f64): (bool, bool),
     ) {
+        self.dark += dark as usize;
+        self.dark_f64 += dark_f64 as usize;
         match gpu {
             Outcome::Finite {
                 rel,
@@ -421,6 +437,8 @@ impl BinAccumulator {
             (&mut self.zero_lit, o.zero_lit),
             (&mut self.zero_nonfinite, o.zero_nonfinite),
             (&mut self.zero_lit_f64, o.zero_lit_f64),
+            (&mut self.dark, o.dark),
+            (&mut self.dark_f64, o.dark_f64),
         ] {
             *a += b;
         }
@@ -459,6 +477,8 @@ impl BinAccumulator {
                 value: self.zero_values.quantiles(),
                 lit_f64: self.zero_lit_f64,
             },
+            dark: self.dark,
+            dark_f64: self.dark_f64,
         }
     }
 }
@@ -495,9 +515,30 @@ mod tests {
     #[test]
     fn nan_and_inf_are_counted_not_averaged() {
         let mut acc = BinAccumulator::default();
-        acc.push(Outcome::of_f32(f32::NAN, 1.0, 1e-6), None, None, 0.0, false);
-        acc.push(Outcome::of_f32(f32::INFINITY, 1.0, 1e-6), None, None, 0.0, false);
-        acc.push(Outcome::of_f32(1.001, 1.0, 1e-6), None, None, 0.0, false);
+        acc.push(
+            Outcome::of_f32(f32::NAN, 1.0, 1e-6),
+            None,
+            None,
+            0.0,
+            false,
+            (false, false),
+        );
+        acc.push(
+            Outcome::of_f32(f32::INFINITY, 1.0, 1e-6),
+            None,
+            None,
+            0.0,
+            false,
+            (false, false),
+        );
+        acc.push(
+            Outcome::of_f32(1.001, 1.0, 1e-6),
+            None,
+            None,
+            0.0,
+            false,
+            (false, false),
+        );
         let s = acc.finish();
         assert_eq!((s.count, s.nan, s.inf), (1, 1, 1));
         assert!((s.rel.unwrap().max - 1e-3).abs() < 1e-6);
@@ -507,10 +548,24 @@ mod tests {
     #[test]
     fn inaccurate_reference_is_flagged() {
         let mut acc = BinAccumulator::default();
-        acc.push(Outcome::of_f32(1.0001, 1.0, 1e-6), None, None, 1e-5, false);
+        acc.push(
+            Outcome::of_f32(1.0001, 1.0, 1e-6),
+            None,
+            None,
+            1e-5,
+            false,
+            (false, false),
+        );
         assert!(acc.finish().reference_flag);
         let mut acc = BinAccumulator::default();
-        acc.push(Outcome::of_f32(1.0001, 1.0, 1e-6), None, None, 1e-12, false);
+        acc.push(
+            Outcome::of_f32(1.0001, 1.0, 1e-6),
+            None,
+            None,
+            1e-12,
+            false,
+            (false, false),
+        );
         assert!(!acc.finish().reference_flag);
     }
 
@@ -518,7 +573,7 @@ mod tests {
     fn no_floor_and_zero_references_apart() {
         // A dim light: the floored variant hides a 100 % error, the primary statistic shows it.
         let mut acc = BinAccumulator::default();
-        acc.push(Outcome::of_f32(2e-9, 1e-9, 1e-6), None, None, 0.0, true);
+        acc.push(Outcome::of_f32(2e-9, 1e-9, 1e-6), None, None, 0.0, true, (false, false));
         // A reference of exactly 0 lit by the method: false light, not a relative error.
         acc.push_zero(0.25, Some(0.0));
         acc.push_zero(0.0, Some(0.0));
@@ -532,6 +587,36 @@ mod tests {
         );
         assert_eq!(s.false_light.value.unwrap().max, 0.25);
         assert_eq!(s.configurations(), 3);
+    }
+
+    #[test]
+    fn missed_light_is_counted_and_merges() {
+        // Non-zero references: one result exactly 0 in f32 only (rounding), one 0 in both
+        // (the formula's own), one lit.
+        let mut a = BinAccumulator::default();
+        a.push(
+            Outcome::of_f32(0.0, 1.0, 1e-6),
+            None,
+            Some(Outcome::of_f64(1e-3, 1.0, 1e-6)),
+            0.0,
+            false,
+            (true, false),
+        );
+        a.push(
+            Outcome::of_f32(0.0, 1.0, 1e-6),
+            None,
+            Some(Outcome::of_f64(0.0, 1.0, 1e-6)),
+            0.0,
+            false,
+            (true, true),
+        );
+        let mut b = BinAccumulator::default();
+        b.push(Outcome::of_f32(0.5, 1.0, 1e-6), None, None, 0.0, false, (false, false));
+        a.merge(&b);
+        let s = a.finish();
+        assert_eq!((s.count, s.dark, s.dark_f64), (3, 2, 1));
+        // The missed ones are relative error exactly 1 in the statistics.
+        assert_eq!(s.rel.unwrap().max, 1.0);
     }
 
     /// A deterministic spread of errors over twelve decades.

@@ -78,6 +78,11 @@ pub struct Timing {
     pub cost_seconds: f64,
     /// Folding each chunk into the statistics (`analysis::Accumulators::add`, by the app layer).
     pub statistics_seconds: f64,
+    /// Drawing the configurations (natural sample and top-ups). A shard draws them all (the
+    /// top-ups need the whole natural sample's bin counts) and measures its own: this is what
+    /// that costs each shard.
+    #[serde(default)]
+    pub sampling_seconds: f64,
     /// Measuring chunks evaluated (of [`MEASURE_CHUNK`] configurations).
     pub chunks: usize,
     pub total_seconds: f64,
@@ -156,6 +161,7 @@ impl Timing {
         self.references_seconds += o.references_seconds;
         self.references_evaluated += o.references_evaluated;
         self.statistics_seconds += o.statistics_seconds;
+        self.sampling_seconds += o.sampling_seconds;
         self.chunks += o.chunks;
         self.total_seconds += o.total_seconds;
     }
@@ -363,6 +369,7 @@ pub fn measure_part(
     );
     loop {
         // The natural sample a chunk at a time, then the top-ups its counts call for.
+        let t = Instant::now();
         let samples: Vec<Sample> = match &mut topups {
             None => {
                 let c = stream
@@ -380,6 +387,7 @@ pub fn measure_part(
             }
             Some((it, _)) => it.by_ref().take(MEASURE_CHUNK).collect(),
         };
+        timing.sampling_seconds += t.elapsed().as_secs_f64();
         if samples.is_empty() {
             break;
         }

@@ -114,10 +114,12 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
         )?;
         let path = write_shard(&out, &case, &gpu.kernels, &part)?;
         println!(
-            "shard {}/{}: {} configurations; state: {}",
+            "shard {}/{}: {} configurations in {:.1} s (drawing all of the sweep's: {:.1} s); state: {}",
             shard.0,
             shard.1,
             part.measured.configurations(),
+            part.measured.timing.total_seconds,
+            part.measured.timing.sampling_seconds,
             path.display()
         );
         return Ok(Status::Ok);
@@ -406,7 +408,7 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
 }
 
 /// The version of the shard state file (`--shard`, docs/scale.md).
-pub const SHARD_FORMAT: u32 = 2;
+pub const SHARD_FORMAT: u32 = 3;
 
 /// What measuring a sweep's configurations, or one shard's, leaves before the searches and
 /// the cost pass: mergeable (`linelight merge`). Written by `sweep --shard i/n`.

@@ -42,6 +42,7 @@ fn stats_row(s: &BinStats) -> Vec<String> {
     cols.push(f.value.map_or(String::new(), |q| format!("{:e}", q.max)));
     // Which kind the relative-error quantiles of the row are (exact nearest-rank or sketch).
     cols.push(s.rel.map_or(String::new(), |q| q.kind.name().to_string()));
+    cols.extend([s.dark, s.dark_f64].map(|n| n.to_string()));
     cols
 }
 
@@ -51,7 +52,7 @@ pub fn stats(analysis: &Analysis) -> String {
          cpu_f32_rel_median,cpu_f32_rel_p90,cpu_f32_rel_p99,cpu_f32_rel_max,f64_rel_median,f64_rel_p90,f64_rel_p99,f64_rel_max,f64_nan,\
          bits_median,bits_p90,bits_p99,bits_max,within_1e-3,within_1e-2,within_1e-1,reference_rel_max,reference_flag,\
          floored_rel_median,floored_rel_p90,floored_rel_p99,floored_rel_max,below_floor,\
-         zero_reference,false_lit,false_nonfinite,false_lit_f64,false_value_max,quantiles";
+         zero_reference,false_lit,false_nonfinite,false_lit_f64,false_value_max,quantiles,dark,dark_f64";
     let mut rows = Vec::new();
     for m in &analysis.methods {
         for mat in &m.materials {
