@@ -1,6 +1,6 @@
 //! "Where the bits go": per method, the kernel source lines whose f32 operations lose the
 //! most bits (local error, src/interp), as a short Markdown table. Kept apart from
-//! `markdown.rs`, which only calls [`render`].
+//! `markdown/`, which only calls [`render`].
 
 use crate::summary::Attribution;
 use std::fmt::Write;

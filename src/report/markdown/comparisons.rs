@@ -1,0 +1,114 @@
+//! Method against method: the measured differences (findings sentences), the |a − b| tables
+//! per compared pair, and the search for where compared methods disagree most.
+
+use crate::report::sci;
+use crate::summary::Summary;
+use std::fmt::Write;
+
+/// One sentence per compared pair and material.
+pub(super) fn measured_differences(w: &mut String, input: &Summary) {
+    let a = &input.analysis;
+    if !a.comparisons.is_empty() {
+        let _ = writeln!(w, "## Measured differences\n");
+        for c in &a.comparisons {
+            for mat in &c.materials {
+                let _ = writeln!(w, "{}", crate::report::findings::comparison(a, c, mat));
+            }
+        }
+        let _ = writeln!(w);
+    }
+}
+
+/// |a − b| / reference per compared pair, material and axis bin.
+pub(super) fn comparison_tables(w: &mut String, input: &Summary) {
+    let a = &input.analysis;
+    for c in &a.comparisons {
+        let _ = writeln!(w, "## `{}` against `{}`\n", c.a, c.b);
+        let _ = writeln!(
+            w,
+            "|a − b| / reference, configuration by configuration (p99 and max; f32 GPU / f64 CPU).\n"
+        );
+        for mat in &c.materials {
+            for axis in &mat.axes {
+                let _ = writeln!(w, "Material `{}`, by `{}`:\n", mat.material, axis.axis);
+                let _ = writeln!(w, "| {} | n | f32 p99 | f32 max | f64 p99 | f64 max |", axis.axis);
+                let _ = writeln!(w, "|---|---:|---:|---:|---:|---:|");
+                for b in &axis.bins {
+                    let s = &b.stats;
+                    let _ = writeln!(
+                        w,
+                        "| [{}, {}) | {} | {} | {} | {} | {} |",
+                        b.lo,
+                        b.hi,
+                        s.count,
+                        sci(s.diff_f32.map(|q| q.p99)),
+                        sci(s.diff_f32.map(|q| q.max)),
+                        sci(s.diff_f64.map(|q| q.p99)),
+                        sci(s.diff_f64.map(|q| q.max)),
+                    );
+                }
+                let _ = writeln!(w);
+            }
+        }
+    }
+}
+
+/// The disagreement search: per compared pair, both ways, the configurations where one method is
+/// least accurate relative to the other, with the region they fall in.
+pub(super) fn disagreements(w: &mut String, input: &Summary) {
+    if input.case.compare.is_empty() {
+        return;
+    }
+    let eps = input.case.disagreements.clone().unwrap_or_default().epsilon;
+    let _ = writeln!(w, "## Where the compared methods disagree\n");
+    let _ = writeln!(
+        w,
+        "For every compared pair (A, B) and both ways, a search (restarts from the sample's largest ratios, \
+         then a hill climb in the family's dimensionless parameters) for the configurations that maximise \
+         err_A / max(err_B, ε), ε = {}, relative errors with no floor. Every configuration found is in \
+         `disagreements.jsonl` (eval input format; replay with `linelight eval`); its id names the pair and \
+         the direction. Region: the configuration's axes in the transformed (diffuse) configuration.\n",
+        sci(Some(eps))
+    );
+    for [x, y] in &input.case.compare {
+        for (a, b) in [(x, y), (y, x)] {
+            let mut found: Vec<_> = input.disagreements.iter().filter(|d| &d.a == a && &d.b == b).collect();
+            found.sort_by(|p, q| q.ratio.total_cmp(&p.ratio));
+            let _ = writeln!(w, "### `{a}` less accurate than `{b}`\n");
+            if found.is_empty() {
+                let _ = writeln!(w, "Nowhere found: in no family does `{a}` lose to `{b}`.\n");
+                continue;
+            }
+            let _ = writeln!(
+                w,
+                "| family | ratio | in sample | err A (f32) | err B (f32) | A f64 | B f64 | reference | reach_near_o | reach_o | subtended_o | height_o | tilt_o |"
+            );
+            let _ = writeln!(w, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+            for d in found.iter().take(6) {
+                let f = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.6e}"));
+                let x = &d.axes;
+                let _ = writeln!(
+                    w,
+                    "| `{}` | {} | {} | {} | {} | {} | {} | {:.6e} | {} | {} | {} | {:.2} | {:.3} |",
+                    d.family,
+                    sci(Some(d.ratio)),
+                    sci(Some(d.sample_ratio)),
+                    sci(Some(d.err_a)),
+                    sci(Some(d.err_b)),
+                    f(d.f64_a),
+                    f(d.f64_b),
+                    d.reference.value,
+                    sci(Some(x.reach_near_o)),
+                    sci(Some(x.reach_o)),
+                    sci(Some(x.subtended_o)),
+                    x.height_o,
+                    x.tilt_o,
+                );
+            }
+            if found.len() > 6 {
+                let _ = writeln!(w, "\n{} more in `disagreements.jsonl`.", found.len() - 6);
+            }
+            let _ = writeln!(w);
+        }
+    }
+}

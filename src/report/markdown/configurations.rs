@@ -1,0 +1,113 @@
+//! The configurations themselves: how the sample was drawn, and the ones singled out for
+//! replay (the worst found by the search, those giving NaN or inf).
+
+use super::share;
+use crate::report::sci;
+use crate::summary::Summary;
+use std::fmt::Write;
+
+/// How the sample was drawn: the natural sample, the top-ups of thin bins, the bins still thin.
+pub(super) fn sampling(w: &mut String, input: &Summary) {
+    let case = &input.case;
+    let _ = writeln!(w, "## Sampling\n");
+    let _ = writeln!(
+        w,
+        "Every family is first drawn from the case's distributions (the natural sample: the *all* rows, \
+         the maps and the verdict use only it). Then every bin of every axis that holds fewer than {} \
+         configurations is topped up: more configurations are drawn from the same distributions and kept \
+         only for the thin bins they fall in (rejection sampling), so within a bin they follow the natural \
+         distribution and need no weights; they are counted only in the bins they were kept for.\n",
+        case.min_per_bin
+    );
+    let _ = writeln!(
+        w,
+        "| family | natural | top-up draws | kept | acceptance | bins still thin |"
+    );
+    let _ = writeln!(w, "|---|---:|---:|---:|---:|---|");
+    for (k, family) in case.materials.iter().enumerate() {
+        let natural = input.natural[k];
+        let t = input.topups.iter().find(|t| t.family == family.name);
+        let (draws, kept) = t.map_or((0, 0), |t| (t.draws, t.kept));
+        let thin: Vec<String> = t.map_or(Vec::new(), |t| {
+            t.thin
+                .iter()
+                .map(|(axis, lo, hi, n)| format!("`{axis}` [{lo}, {hi}): {n}"))
+                .collect()
+        });
+        let _ = writeln!(
+            w,
+            "| `{}` | {natural} | {draws} | {kept} | {} | {} |",
+            family.name,
+            share(kept, draws),
+            if thin.is_empty() {
+                "none".to_string()
+            } else {
+                thin.join(", ")
+            }
+        );
+    }
+    let _ = writeln!(w);
+}
+
+/// The worst-case search: worst error in the sample and after refinement, per method and family.
+pub(super) fn worst_cases(w: &mut String, input: &Summary) {
+    if !input.found.is_empty() {
+        let _ = writeln!(w, "## Worst cases found\n");
+        let _ = writeln!(
+            w,
+            "For each method and family: the worst relative error in the random sample, and after the \
+             search refined the worst starting points (∞: NaN or inf). Every configuration is in \
+             `worst.jsonl`; replay with `linelight eval --input worst.jsonl --output out.jsonl`.\n"
+        );
+        let _ = writeln!(
+            w,
+            "| method | family | worst in sample | worst found | evaluations | value (f32) | reference | id |"
+        );
+        let _ = writeln!(w, "|---|---|---:|---:|---:|---:|---:|---|");
+        for f in &input.found {
+            let _ = writeln!(
+                w,
+                "| `{}` | `{}` | {} | {} | {} | {:e} | {:e} ± {:.0e} | `{}` |",
+                f.method,
+                f.family,
+                sci(Some(f.sample_worst)),
+                sci(Some(f.worst)),
+                f.evaluations,
+                f.value,
+                f.reference.value,
+                f.reference.error,
+                f.config.id
+            );
+        }
+        let _ = writeln!(w);
+    }
+}
+
+/// The configurations that gave NaN or ±inf, with the methods that did.
+pub(super) fn nonfinite(w: &mut String, input: &Summary) {
+    let nonfinite = &input.nonfinite;
+    if !nonfinite.is_empty() {
+        let _ = writeln!(w, "## NaN and inf\n");
+        let _ = writeln!(
+            w,
+            "{} configurations gave NaN or ±inf from at least one method; {} are in `nonfinite.jsonl` \
+             (replay with `linelight eval`).\n",
+            input.nonfinite_total,
+            if nonfinite.len() == input.nonfinite_total {
+                "all".to_string()
+            } else {
+                format!("the first {}", nonfinite.len())
+            }
+        );
+        let _ = writeln!(w, "| configuration | methods |");
+        let _ = writeln!(w, "|---|---|");
+        for (c, methods) in nonfinite.iter().take(40) {
+            let names: Vec<String> = methods.iter().map(|m| format!("`{m}`")).collect();
+            let _ = writeln!(w, "| `{}` | {} |", c.id, names.join(", "));
+        }
+        if nonfinite.len() > 40 {
+            let _ = writeln!(w, "| … {} more in `nonfinite.jsonl` | |", nonfinite.len() - 40);
+        }
+        let _ = writeln!(w);
+    }
+}

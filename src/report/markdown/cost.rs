@@ -1,0 +1,158 @@
+//! What the methods and the run cost: GPU and CPU time per evaluation with op counts, speed
+//! ratios and Pareto fronts, and the wall-clock split of this sweep.
+
+use crate::summary::Summary;
+use std::fmt::Write;
+
+/// Cost per evaluation and speed against accuracy (nothing when costs were not measured).
+pub(super) fn speed_against_accuracy(w: &mut String, input: &Summary) {
+    if input.costs.is_empty() {
+        return;
+    }
+    let c0 = &input.costs[0];
+    let _ = writeln!(w, "## Speed against accuracy\n");
+    let _ = writeln!(
+        w,
+        "Cost per evaluation on {} ({} clock), {} configurations per dispatch, {} interleaved repeats \
+         after warm-up; median [min–max]. CPU f32: the same formula as plain Rust on all cores, in the \
+         same rounds. ops: one invocation's operation count from the naga IR (a deterministic cost; \
+         total = arithmetic + other + 8 × transcendental + branches). Timings are measured in this run, \
+         on this machine: compare ratios, not absolute numbers, across machines.\n",
+        input.timing.adapter, c0.clock, c0.configurations, c0.repeats
+    );
+    let _ = writeln!(
+        w,
+        "| method | GPU ns/eval | Mconfigs/s | CPU f32 ns/eval | ops arith / transc / total |"
+    );
+    let _ = writeln!(w, "|---|---:|---:|---:|---:|");
+    for c in &input.costs {
+        let ops = c.ops.as_ref().map_or("—".to_string(), |o| {
+            format!("{} / {} / {}", o.arithmetic, o.transcendental, o.total)
+        });
+        let cpu = c.cpu_f32_ns_per_eval.map_or("—".to_string(), |v| format!("{v:.0}"));
+        let _ = writeln!(
+            w,
+            "| `{}` | {:.0} [{:.0}–{:.0}] | {:.2} | {cpu} | {ops} |",
+            c.label,
+            c.ns_per_eval_median,
+            c.ns_per_eval_min,
+            c.ns_per_eval_max,
+            c.configs_per_second / 1e6
+        );
+    }
+    let _ = writeln!(w);
+    speed_notes(w, input);
+}
+
+/// The speed sentence per compared pair, the charts and the Pareto front per material.
+fn speed_notes(w: &mut String, input: &Summary) {
+    let case = &input.case;
+    for [x, y] in &case.compare {
+        let (Some(cx), Some(cy)) = (
+            input.costs.iter().find(|c| &c.label == x),
+            input.costs.iter().find(|c| &c.label == y),
+        ) else {
+            continue;
+        };
+        // The noise rule: a ratio whose per-round range includes 1 is no measurable difference.
+        let _ = writeln!(
+            w,
+            "- `{x}` against `{y}`, measured in this run: {}.",
+            crate::claims::speed_sentence(x, y, cx, cy)
+        );
+    }
+    let _ = writeln!(w);
+    for family in &case.materials {
+        let _ = writeln!(
+            w,
+            "![speed against accuracy, {}]({})\n",
+            family.name,
+            crate::report::chart_file(&family.name)
+        );
+    }
+    for (k, family) in case.materials.iter().enumerate() {
+        let points = &input.charts[k];
+        let front = crate::report::chart::pareto_front(points, true);
+        let names: Vec<String> = front.iter().map(|&i| format!("`{}`", points[i].label)).collect();
+        let _ = writeln!(w, "- Pareto front by p99 on `{}`: {}.", family.name, names.join(", "));
+    }
+    let _ = writeln!(w);
+}
+
+/// Wall-clock time per method and of the references in this run.
+pub(super) fn timing(w: &mut String, input: &Summary) {
+    let t = &input.timing;
+    let _ = writeln!(w, "## Timing (this run)\n");
+    let _ = writeln!(
+        w,
+        "Wall-clock time of one run on {} ({} configurations): GPU time includes upload, dispatch \
+         and readback; f64 ports run on all CPU cores. Cost per method as measured by GPU timestamps \
+         is `linelight bench`'s job; these numbers say what the sweep itself spent.\n",
+        t.adapter, t.configurations
+    );
+    let _ = writeln!(
+        w,
+        "| method | GPU s | configs/s (GPU) | CPU f32 port s (all cores) | CPU f32 / GPU | f64 port s |"
+    );
+    let _ = writeln!(w, "|---|---:|---:|---:|---:|---:|");
+    for (((label, s, rate), (_, f)), (_, c)) in t.gpu.iter().zip(&t.f64_ports).zip(&t.f32_ports) {
+        let _ = writeln!(
+            w,
+            "| `{label}` | {s:.3} | {rate:.3e} | {c:.3} | {:.2} | {f:.3} |",
+            c / s
+        );
+    }
+    let _ = writeln!(
+        w,
+        "\nReferences: {} integrals in {:.2} s ({:.0} per second).\n",
+        t.references_evaluated,
+        t.references_seconds,
+        t.references_evaluated as f64 / t.references_seconds,
+    );
+}
+
+/// Harness throughput (where the measuring time went) and the whole sweep's time.
+pub(super) fn throughput(w: &mut String, input: &Summary) {
+    let t = &input.timing;
+    let gpu: f64 = t.gpu.iter().map(|g| g.1).sum();
+    let ports: f64 = t.f64_ports.iter().chain(&t.f32_ports).map(|p| p.1).sum();
+    let other =
+        (t.total_seconds - gpu - ports - t.references_seconds - t.search_seconds - t.disagree_seconds - t.cost_seconds)
+            .max(0.0);
+    let pct = |x: f64| 100.0 * x / t.total_seconds;
+    let _ = writeln!(
+        w,
+        "Harness throughput: {} configurations × {} methods measured in {:.2} s, {:.0} configurations per \
+         second end to end (statistics and report writing excluded). Split: GPU runs {:.2} s ({:.0} %), CPU \
+         ports (f64 and f32) {:.2} s ({:.0} %), references {:.2} s ({:.0} %), worst-case search {:.2} s ({:.0} %), \
+         disagreement search {:.2} s ({:.0} %, {} candidates), cost measurement {:.2} s ({:.0} %), set-up and \
+         the rest {:.2} s ({:.0} %).\n",
+        t.configurations,
+        t.gpu.len(),
+        t.total_seconds,
+        t.configurations as f64 / t.total_seconds,
+        gpu,
+        pct(gpu),
+        ports,
+        pct(ports),
+        t.references_seconds,
+        pct(t.references_seconds),
+        t.search_seconds,
+        pct(t.search_seconds),
+        t.disagree_seconds,
+        pct(t.disagree_seconds),
+        t.disagree_evaluations,
+        t.cost_seconds,
+        pct(t.cost_seconds),
+        other,
+        pct(other),
+    );
+
+    let _ = writeln!(
+        w,
+        "The whole sweep, from the command's start to this report (sampling, top-ups, GPU runs, CPU \
+         evaluations, references, searches, statistics and claims; writing the files excluded): {:.1} s, of \
+         which statistics and claims {:.2} s.\n",
+        input.stages.until_report_seconds, input.stages.analysis_seconds
+    );
+}

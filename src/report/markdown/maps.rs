@@ -1,0 +1,62 @@
+//! The validity maps: per map, method and material, the chart and the table of where the
+//! relative error stays under each threshold.
+
+use crate::summary::Summary;
+use std::fmt::Write;
+
+/// Every validity map of the case, for the methods it shows.
+pub(super) fn validity_maps(w: &mut String, input: &Summary) {
+    let (case, a) = (&input.case, &input.analysis);
+    for (k, map) in case.maps.iter().enumerate() {
+        let _ = writeln!(w, "## Validity map: `{}` × `{}`\n", map.x.axis, map.y.axis);
+        for ms in a.methods.iter().filter(|m| map.shows(&m.label)) {
+            for mat in &ms.materials {
+                let stats = &mat.maps[k];
+                let file = crate::report::map_file(&ms.label, &mat.material, &map.x.axis, &map.y.axis);
+                let _ = writeln!(
+                    w,
+                    "### `{}` on `{}`\n\n![{} on {}]({file})\n",
+                    ms.label, mat.material, ms.label, mat.material
+                );
+                let _ = writeln!(
+                    w,
+                    "Where the relative error stays under each threshold, from the smallest `{}` up: for 99 % \
+                     of configurations (p99), and for half of them (median):\n",
+                    map.x.axis
+                );
+                let _ = writeln!(
+                    w,
+                    "| {} | n | p99 ≤ 1 % | p99 ≤ 5 % | p99 ≤ 10 % | median ≤ 1 % | median ≤ 10 % |",
+                    map.y.axis
+                );
+                let _ = writeln!(w, "|---|---:|---|---|---|---|---|");
+                let p99 = |q: &crate::stats::Quantiles| q.p99;
+                let median = |q: &crate::stats::Quantiles| q.median;
+                let limits = [
+                    (0.01, p99 as fn(&_) -> f64),
+                    (0.05, p99),
+                    (0.1, p99),
+                    (0.01, median),
+                    (0.1, median),
+                ]
+                .map(|(t, q)| crate::report::svg::valid_up_to(stats, t, q));
+                for ky in (0..map.y.edges.len() - 1).rev() {
+                    let n: usize = stats.cells[ky].iter().map(|c| c.count + c.nan + c.inf).sum();
+                    let cells = limits.iter().map(|l| match l[ky] {
+                        Some(x) if x == *map.x.edges.last().unwrap() => format!("whole range (≤ {x})"),
+                        Some(x) => format!("{} < {x}", map.x.axis),
+                        None => "nowhere".into(),
+                    });
+                    let _ = writeln!(
+                        w,
+                        "| [{}, {}) | {n} | {} |",
+                        map.y.edges[ky],
+                        map.y.edges[ky + 1],
+                        cells.collect::<Vec<_>>().join(" | ")
+                    );
+                }
+                let _ = writeln!(w);
+            }
+        }
+    }
+}

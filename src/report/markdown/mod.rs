@@ -1,0 +1,78 @@
+//! The Markdown report (`report.md`): verdict and findings first, then the tables they come
+//! from. [`render`] is the report's table of contents; each section is written by one function
+//! in a sibling file, grouped by what the sections are about, and the cell formatters they
+//! share are here.
+
+mod accuracy;
+mod comparisons;
+mod configurations;
+mod cost;
+mod maps;
+mod reading;
+mod verdict;
+
+use crate::stats::BinStats;
+use crate::summary::Summary;
+use std::fmt::Write;
+
+/// The report, section by section, in reading order.
+pub fn render(input: &Summary) -> String {
+    let mut o = String::new();
+    let w = &mut o;
+    // What was run and what it concludes.
+    verdict::header(w, input);
+    verdict::stale_claims(w, input);
+    verdict::verdict(w, input);
+    verdict::findings(w, input);
+    verdict::at_a_glance(w, input);
+    comparisons::measured_differences(w, input);
+    // The tables the conclusions come from.
+    accuracy::error_tables(w, input);
+    accuracy::convergence(w, input);
+    maps::validity_maps(w, input);
+    comparisons::comparison_tables(w, input);
+    accuracy::false_light(w, input);
+    configurations::sampling(w, input);
+    comparisons::disagreements(w, input);
+    configurations::worst_cases(w, input);
+    configurations::nonfinite(w, input);
+    accuracy::below_horizon(w, input);
+    // What it cost, where the bits go, how long the run took.
+    cost::speed_against_accuracy(w, input);
+    let _ = write!(w, "{}", super::attribution::render(&input.attribution));
+    cost::timing(w, input);
+    cost::throughput(w, input);
+    // Definitions.
+    reading::how_to_read(w, input);
+    o
+}
+
+/// Median, p90, p99 and max of the quantiles `f` picks from `s`, formatted (`—` when absent).
+fn q3(s: &BinStats, f: impl Fn(&BinStats) -> Option<crate::stats::Quantiles>) -> [String; 4] {
+    let q = f(s);
+    [
+        q.map(|q| q.median),
+        q.map(|q| q.p90),
+        q.map(|q| q.p99),
+        q.map(|q| q.max),
+    ]
+    .map(super::sci)
+}
+
+/// `part` as a percentage of `whole`.
+fn share(part: usize, whole: usize) -> String {
+    if whole == 0 {
+        "—".into()
+    } else {
+        format!("{:.1} %", 100.0 * part as f64 / whole as f64)
+    }
+}
+
+/// A fraction as a percentage with one decimal (`—` for NaN).
+fn pct(x: f64) -> String {
+    if x.is_nan() {
+        "—".into()
+    } else {
+        format!("{:.1}", 100.0 * x)
+    }
+}
