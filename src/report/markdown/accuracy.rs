@@ -1,6 +1,6 @@
 //! Accuracy against the reference: the error table per material and its per-axis view, the
-//! convergence of methods run at several sample counts, false light (reference 0) and the
-//! light from below the horizon.
+//! convergence of methods run at several sample counts, false light (reference 0), missed
+//! light (the method 0 where light arrives) and the light from below the horizon.
 
 use super::{pct, q3, share};
 use crate::report::sci;
@@ -219,6 +219,53 @@ pub(super) fn false_light(w: &mut String, input: &Summary) {
                 f.nonfinite
             );
         }
+    }
+    let _ = writeln!(w);
+}
+
+/// Missed light: configurations whose reference is not 0 where a method returns exactly 0.
+/// They stay in the error statistics (each an error of exactly 1); the count names the cause.
+pub(super) fn missed_light(w: &mut String, input: &Summary) {
+    let a = &input.analysis;
+    let rows: Vec<_> = a
+        .methods
+        .iter()
+        .flat_map(|ms| ms.materials.iter().map(move |mat| (ms, mat)))
+        .filter(|(_, mat)| mat.all.dark > 0)
+        .collect();
+    if rows.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        w,
+        "## Missed light
+"
+    );
+    let _ = writeln!(
+        w,
+        "Configurations whose reference is not 0 (light arrives) where the method returns exactly 0. \
+         They are in every error statistic above, each a relative error of exactly 1, so a quantile \
+         that reads exactly 1.0 is usually them. \"0 in f64\" counts those where the same formula in \
+         f64 returns 0 too: the light is lost by the formula, not by rounding.\n"
+    );
+    let _ = writeln!(
+        w,
+        "| method | material | lit configurations | 0 (f32, GPU) | 0 in f64 |"
+    );
+    let _ = writeln!(w, "|---|---|---:|---:|---:|");
+    for (ms, mat) in rows {
+        let s = &mat.all;
+        let lit = s.lit_configurations();
+        let _ = writeln!(
+            w,
+            "| `{}` | `{}` | {} | {} ({}) | {} |",
+            ms.label,
+            mat.material,
+            lit,
+            s.dark,
+            share(s.dark, lit),
+            s.dark_f64
+        );
     }
     let _ = writeln!(w);
 }

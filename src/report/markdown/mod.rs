@@ -32,6 +32,7 @@ pub fn render(input: &Summary) -> String {
     maps::validity_maps(w, input);
     comparisons::comparison_tables(w, input);
     accuracy::false_light(w, input);
+    accuracy::missed_light(w, input);
     configurations::sampling(w, input);
     comparisons::disagreements(w, input);
     configurations::worst_cases(w, input);
