@@ -86,13 +86,13 @@ pub(super) fn timing(w: &mut String, input: &Summary) {
     let _ = writeln!(
         w,
         "Wall-clock time of one run on {} ({} configurations): GPU time includes upload, dispatch \
-         and readback; f64 ports run on all CPU cores. Cost per method as measured by GPU timestamps \
+         and readback; the CPU evaluator (the kernel's f32 and f64 columns) runs on all CPU cores. Cost per method as measured by GPU timestamps \
          is `linelight bench`'s job; these numbers say what the sweep itself spent.\n",
         t.adapter, t.configurations
     );
     let _ = writeln!(
         w,
-        "| method | GPU s | configs/s (GPU) | CPU f32 port s (all cores) | CPU f32 / GPU | f64 port s |"
+        "| method | GPU s | configs/s (GPU) | CPU f32 evaluator s (all cores) | CPU f32 / GPU | f64 evaluator s |"
     );
     let _ = writeln!(w, "|---|---:|---:|---:|---:|---:|");
     for (((label, s, rate), (_, f)), (_, c)) in t.gpu.iter().zip(&t.f64_ports).zip(&t.f32_ports) {
@@ -116,21 +116,30 @@ pub(super) fn throughput(w: &mut String, input: &Summary) {
     let t = &input.timing;
     let gpu: f64 = t.gpu.iter().map(|g| g.1).sum();
     let ports: f64 = t.f64_ports.iter().chain(&t.f32_ports).map(|p| p.1).sum();
-    let other =
-        (t.total_seconds - gpu - ports - t.references_seconds - t.search_seconds - t.disagree_seconds - t.cost_seconds)
-            .max(0.0);
+    let other = (t.total_seconds
+        - gpu
+        - ports
+        - t.references_seconds
+        - t.search_seconds
+        - t.disagree_seconds
+        - t.cost_seconds
+        - t.sampling_seconds
+        - t.statistics_seconds)
+        .max(0.0);
     let pct = |x: f64| 100.0 * x / t.total_seconds;
     let _ = writeln!(
         w,
         "Harness throughput: {} configurations × {} methods measured in {:.2} s, {:.0} configurations per \
-         second end to end (statistics and report writing excluded). Split: GPU runs {:.2} s ({:.0} %), CPU \
-         ports (f64 and f32) {:.2} s ({:.0} %), references {:.2} s ({:.0} %), worst-case search {:.2} s ({:.0} %), \
-         disagreement search {:.2} s ({:.0} %, {} candidates), cost measurement {:.2} s ({:.0} %), set-up and \
-         the rest {:.2} s ({:.0} %).\n",
+         second end to end (report writing excluded). Split: drawing the configurations {:.2} s ({:.0} %, one \
+         thread), GPU runs {:.2} s ({:.0} %), CPU evaluator (f64 and f32) {:.2} s ({:.0} %), references {:.2} s ({:.0} %), worst-case search {:.2} s ({:.0} %), \
+         disagreement search {:.2} s ({:.0} %, {} candidates), cost measurement {:.2} s ({:.0} %), folding into the \
+         statistics {:.2} s ({:.0} %), set-up and the rest {:.2} s ({:.0} %).\n",
         t.configurations,
         t.gpu.len(),
         t.total_seconds,
         t.configurations as f64 / t.total_seconds,
+        t.sampling_seconds,
+        pct(t.sampling_seconds),
         gpu,
         pct(gpu),
         ports,
@@ -144,6 +153,8 @@ pub(super) fn throughput(w: &mut String, input: &Summary) {
         t.disagree_evaluations,
         t.cost_seconds,
         pct(t.cost_seconds),
+        t.statistics_seconds,
+        pct(t.statistics_seconds),
         other,
         pct(other),
     );
