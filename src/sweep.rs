@@ -78,15 +78,11 @@ pub struct Timing {
     pub cost_seconds: f64,
     /// Folding each chunk into the statistics (`analysis::Accumulators::add`, by the app layer).
     pub statistics_seconds: f64,
-    /// Drawing the configurations (natural sample and top-ups), on its own thread while the
-    /// previous chunk is measured. A shard draws them all (the top-ups need the whole natural
-    /// sample's bin counts) and measures its own: this is what that costs each shard.
+    /// Drawing the configurations (natural sample and top-ups). A shard draws them all (the
+    /// top-ups need the whole natural sample's bin counts) and measures its own: this is what
+    /// that costs each shard.
     #[serde(default)]
     pub sampling_seconds: f64,
-    /// Of the measuring, the time spent waiting for the next chunk to be drawn: what drawing
-    /// adds to the wall time.
-    #[serde(default)]
-    pub sampling_wait_seconds: f64,
     /// Measuring chunks evaluated (of [`MEASURE_CHUNK`] configurations).
     pub chunks: usize,
     pub total_seconds: f64,
@@ -166,7 +162,6 @@ impl Timing {
         self.references_evaluated += o.references_evaluated;
         self.statistics_seconds += o.statistics_seconds;
         self.sampling_seconds += o.sampling_seconds;
-        self.sampling_wait_seconds += o.sampling_wait_seconds;
         self.chunks += o.chunks;
         self.total_seconds += o.total_seconds;
     }
@@ -362,6 +357,8 @@ pub fn measure_part(
         natural: vec![0; families],
         seen: 0,
     };
+    let mut stream = sampler::NaturalStream::new(case);
+    let mut topups: Option<(std::vec::IntoIter<Sample>, Vec<sampler::TopUp>)> = None;
     // Configurations drawn before the current chunk (every chunk, this shard's or not).
     let mut offset = 0;
     let pb = bar(expected, "measuring (GPU, CPU, references)");
@@ -370,104 +367,107 @@ pub fn measure_part(
         vec![0.0; methods.len()],
         vec![0.0; methods.len()],
     );
-    // The configurations are drawn on their own thread, one chunk ahead of the measuring (a
-    // rendezvous channel: at most one drawn chunk waits), in the order one thread draws them.
-    let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Sample>>(0);
-    let (measured, drawn) = std::thread::scope(|scope| {
-        let producer = scope.spawn(move || draw_chunks(case, &tx));
-        let mut measure = || -> anyhow::Result<()> {
-            loop {
-                let t = Instant::now();
-                let Ok(samples) = rx.recv() else {
-                    break;
-                };
-                timing.sampling_wait_seconds += t.elapsed().as_secs_f64();
-                // Every configuration's global index; a shard keeps the blocks of SHARD_BLOCK that are its.
-                let first = offset;
-                offset += samples.len();
-                let (samples, global): (Vec<Sample>, Vec<usize>) = samples
-                    .into_iter()
-                    .zip(first..)
-                    .filter(|&(_, g)| shard.is_none_or(|(i, n)| (g / SHARD_BLOCK) % n == i))
-                    .unzip();
-                if samples.is_empty() {
-                    continue;
+    loop {
+        // The natural sample a chunk at a time, then the top-ups its counts call for.
+        let t = Instant::now();
+        let samples: Vec<Sample> = match &mut topups {
+            None => {
+                let c = stream
+                    .next_chunk(MEASURE_CHUNK)
+                    .map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?;
+                if c.is_empty() {
+                    let (extra, reports) = sampler::top_up_counted(case, &stream.counts);
+                    let mut it = extra.into_iter();
+                    let c: Vec<Sample> = it.by_ref().take(MEASURE_CHUNK).collect();
+                    topups = Some((it, reports));
+                    c
+                } else {
+                    c
                 }
-                timing.chunks += 1;
-                let configs: Vec<_> = samples.iter().map(|s| s.config.clone()).collect();
-                let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
-                let mut runs = Vec::new();
-                for (j, (m, pipeline)) in methods.iter().zip(&pipelines).enumerate() {
-                    let out = gpu.run(pipeline, &scenes, chunk, &mut |_| {})?;
-                    gpu_seconds[j] += out.wall.as_secs_f64();
-                    // The kernel's f64 and cpu_f32 columns, from the CPU evaluator.
-                    let t = Instant::now();
-                    let f64 = m.cpu_column_or_none(&configs, crate::interp::Mode::F64);
-                    f64_seconds[j] += t.elapsed().as_secs_f64();
-                    let t = Instant::now();
-                    let f32_cpu: Vec<Option<f32>> = m
-                        .cpu_column_or_none(&configs, crate::interp::Mode::F32)
-                        .into_iter()
-                        .map(|v| v.map(|x| x as f32))
-                        .collect();
-                    f32_seconds[j] += t.elapsed().as_secs_f64();
-                    let f32 = out
-                        .values
-                        .iter()
-                        .zip(&configs)
-                        .map(|(&v, c)| if m.applies(c) { v } else { f32::NAN })
-                        .collect();
-                    runs.push(MethodRun {
-                        method: m.clone(),
-                        f32,
-                        f32_cpu,
-                        f64,
-                        gpu_seconds: 0.0,
-                        f64_seconds: 0.0,
-                    });
-                }
-                let t = Instant::now();
-                let references = references(&configs, &targets, &ProgressBar::hidden());
-                timing.references_seconds += t.elapsed().as_secs_f64();
-                timing.references_evaluated += references.iter().map(BTreeMap::len).sum::<usize>();
-                // A reference that cannot be computed is an error, never a NaN row in the report.
-                crate::eval::check_references(
-                    std::path::Path::new(&format!("case `{}`", case.name)),
-                    &configs,
-                    &references,
-                )?;
-                fold(&MeasuredChunk {
-                    samples: &samples,
-                    global: &global,
-                    references: &references,
-                    runs: &runs,
-                })?;
-                keep(
-                    case,
-                    methods,
-                    (&samples, &global),
-                    &references,
-                    &runs,
-                    &mut kept,
-                    (attribution_step, per_family_cost),
-                );
-                if let Some(w) = raw.as_mut() {
-                    write_raw(*w, setup, &samples, &references, &runs)?;
-                }
-                timing.configurations += samples.len();
-                pb.inc(samples.len() as u64);
             }
-            Ok(())
+            Some((it, _)) => it.by_ref().take(MEASURE_CHUNK).collect(),
         };
-        let measured = measure();
-        // On an error the receiver goes here, and the drawing thread stops at its next send.
-        drop(rx);
-        (measured, producer.join().expect("the drawing thread does not panic"))
-    });
-    measured?;
-    let (draws, topups, sampling_seconds) = drawn.map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?;
-    timing.sampling_seconds = sampling_seconds;
+        timing.sampling_seconds += t.elapsed().as_secs_f64();
+        if samples.is_empty() {
+            break;
+        }
+        // Every configuration's global index; a shard keeps the blocks of SHARD_BLOCK that are its.
+        let first = offset;
+        offset += samples.len();
+        let (samples, global): (Vec<Sample>, Vec<usize>) = samples
+            .into_iter()
+            .zip(first..)
+            .filter(|&(_, g)| shard.is_none_or(|(i, n)| (g / SHARD_BLOCK) % n == i))
+            .unzip();
+        if samples.is_empty() {
+            continue;
+        }
+        timing.chunks += 1;
+        let configs: Vec<_> = samples.iter().map(|s| s.config.clone()).collect();
+        let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
+        let mut runs = Vec::new();
+        for (j, (m, pipeline)) in methods.iter().zip(&pipelines).enumerate() {
+            let out = gpu.run(pipeline, &scenes, chunk, &mut |_| {})?;
+            gpu_seconds[j] += out.wall.as_secs_f64();
+            // The kernel's f64 and cpu_f32 columns, from the CPU evaluator.
+            let t = Instant::now();
+            let f64 = m.cpu_column_or_none(&configs, crate::interp::Mode::F64);
+            f64_seconds[j] += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let f32_cpu: Vec<Option<f32>> = m
+                .cpu_column_or_none(&configs, crate::interp::Mode::F32)
+                .into_iter()
+                .map(|v| v.map(|x| x as f32))
+                .collect();
+            f32_seconds[j] += t.elapsed().as_secs_f64();
+            let f32 = out
+                .values
+                .iter()
+                .zip(&configs)
+                .map(|(&v, c)| if m.applies(c) { v } else { f32::NAN })
+                .collect();
+            runs.push(MethodRun {
+                method: m.clone(),
+                f32,
+                f32_cpu,
+                f64,
+                gpu_seconds: 0.0,
+                f64_seconds: 0.0,
+            });
+        }
+        let t = Instant::now();
+        let references = references(&configs, &targets, &ProgressBar::hidden());
+        timing.references_seconds += t.elapsed().as_secs_f64();
+        timing.references_evaluated += references.iter().map(BTreeMap::len).sum::<usize>();
+        // A reference that cannot be computed is an error, never a NaN row in the report.
+        crate::eval::check_references(
+            std::path::Path::new(&format!("case `{}`", case.name)),
+            &configs,
+            &references,
+        )?;
+        fold(&MeasuredChunk {
+            samples: &samples,
+            global: &global,
+            references: &references,
+            runs: &runs,
+        })?;
+        keep(
+            case,
+            methods,
+            (&samples, &global),
+            &references,
+            &runs,
+            &mut kept,
+            (attribution_step, per_family_cost),
+        );
+        if let Some(w) = raw.as_mut() {
+            write_raw(*w, setup, &samples, &references, &runs)?;
+        }
+        timing.configurations += samples.len();
+        pb.inc(samples.len() as u64);
+    }
     pb.finish_and_clear();
+    let (_, topups) = topups.unwrap_or_default();
     for (j, m) in methods.iter().enumerate() {
         timing.gpu.push((m.label.clone(), gpu_seconds[j], 0.0));
         timing.f64_ports.push((m.label.clone(), f64_seconds[j]));
@@ -476,44 +476,10 @@ pub fn measure_part(
     timing.total_seconds = start.elapsed().as_secs_f64();
     Ok(Part {
         kept,
-        draws,
+        draws: stream.draws,
         topups,
         timing,
     })
-}
-
-/// Draws the natural sample a chunk at a time, then the top-ups its bin counts call for, and
-/// sends each chunk in turn. Returns the draw counts, the top-up reports and the seconds spent
-/// drawing; stops early, without an error, once the receiver is gone.
-#[allow(clippy::type_complexity)]
-fn draw_chunks(
-    case: &Case,
-    tx: &std::sync::mpsc::SyncSender<Vec<Sample>>,
-) -> Result<(Vec<sampler::Draws>, Vec<sampler::TopUp>, f64), String> {
-    let mut seconds = 0.0;
-    let mut stream = sampler::NaturalStream::new(case);
-    loop {
-        let t = Instant::now();
-        let chunk = stream.next_chunk(MEASURE_CHUNK)?;
-        seconds += t.elapsed().as_secs_f64();
-        if chunk.is_empty() {
-            break;
-        }
-        if tx.send(chunk).is_err() {
-            return Ok((stream.draws, Vec::new(), seconds));
-        }
-    }
-    let t = Instant::now();
-    let (extra, reports) = sampler::top_up_counted(case, &stream.counts);
-    seconds += t.elapsed().as_secs_f64();
-    let mut it = extra.into_iter();
-    loop {
-        let chunk: Vec<Sample> = it.by_ref().take(MEASURE_CHUNK).collect();
-        if chunk.is_empty() || tx.send(chunk).is_err() {
-            break;
-        }
-    }
-    Ok((stream.draws, reports, seconds))
 }
 
 /// The searches from the kept starts, the cost pass and the attribution: a measured sweep.

@@ -123,24 +123,23 @@ pub(super) fn throughput(w: &mut String, input: &Summary) {
         - t.search_seconds
         - t.disagree_seconds
         - t.cost_seconds
-        - t.sampling_wait_seconds
+        - t.sampling_seconds
         - t.statistics_seconds)
         .max(0.0);
     let pct = |x: f64| 100.0 * x / t.total_seconds;
     let _ = writeln!(
         w,
         "Harness throughput: {} configurations × {} methods measured in {:.2} s, {:.0} configurations per \
-         second end to end (report writing excluded). Split: waiting for configurations to be drawn {:.2} s ({:.0} %; \
-         drawing took {:.2} s on its own thread, beside the measuring), GPU runs {:.2} s ({:.0} %), CPU evaluator (f64 and f32) {:.2} s ({:.0} %), references {:.2} s ({:.0} %), worst-case search {:.2} s ({:.0} %), \
+         second end to end (report writing excluded). Split: drawing the configurations {:.2} s ({:.0} %, one \
+         thread), GPU runs {:.2} s ({:.0} %), CPU evaluator (f64 and f32) {:.2} s ({:.0} %), references {:.2} s ({:.0} %), worst-case search {:.2} s ({:.0} %), \
          disagreement search {:.2} s ({:.0} %, {} candidates), cost measurement {:.2} s ({:.0} %), folding into the \
          statistics {:.2} s ({:.0} %), set-up and the rest {:.2} s ({:.0} %).\n",
         t.configurations,
         t.gpu.len(),
         t.total_seconds,
         t.configurations as f64 / t.total_seconds,
-        t.sampling_wait_seconds,
-        pct(t.sampling_wait_seconds),
         t.sampling_seconds,
+        pct(t.sampling_seconds),
         gpu,
         pct(gpu),
         ports,
