@@ -190,9 +190,17 @@ pub fn check_references(
     Ok(())
 }
 
-/// The targets whose references apply to a configuration.
-pub fn targets_of(c: &Config) -> BTreeSet<Target> {
+/// The targets whose references apply to a configuration: the line targets, the surfaces it
+/// has, and the summed targets (`line_sum`, `line_isotropic_sum`) when a method evaluated is
+/// judged against one (each costs its parts' integrals again, so only then).
+pub fn targets_of(c: &Config, methods: &[Method]) -> BTreeSet<Target> {
     let mut t = BTreeSet::from([Target::Line, Target::LineUpper, Target::LineIsotropic]);
+    t.extend(
+        methods
+            .iter()
+            .map(Method::target)
+            .filter(|m| matches!(m, Target::LineSum | Target::LineIsotropicSum)),
+    );
     if c.radius.is_some() {
         t.extend([Target::Cylinder, Target::Caps, Target::Tube]);
     }

@@ -223,3 +223,31 @@ fn eval_writes_cylinder_caps_tube_and_rectangle_references() {
         }
     }
 }
+
+/// The summed targets are in eval's output when a method is judged against one, and not
+/// otherwise (each costs its parts' integrals again). `line_sum` is the material's `line`
+/// plus the same segment's `line` under the white Lambertian base, their error estimates
+/// added; `line_isotropic_sum` likewise.
+#[test]
+fn eval_writes_the_summed_references_a_method_needs() {
+    use serde_json::json;
+    let geometry = |material: serde_json::Value| json!({"id": "s", "p1": [-0.4, 0.3, 0.9], "p2": [1.1, -0.2, 0.6], "material": material});
+    let ggx = geometry(json!({"kind": "ggx", "alpha": 0.35, "view": [0.6, 0.0, 0.8]}));
+    let diffuse = geometry(json!({"kind": "diffuse"}));
+    let sum = &run_eval(&[ggx.clone()], "line.mrp_sum,line.mrp_sum~line_sum")[0];
+    let lobe = &run_eval(&[ggx], "line.ltc2017")[0];
+    let base = &run_eval(&[diffuse], "line.ltc2017")[0];
+    assert!(lobe["reference"].get("line_sum").is_none(), "{lobe}");
+    for (summed, part) in [("line_sum", "line"), ("line_isotropic_sum", "line_isotropic")] {
+        let r = |row: &serde_json::Value, key: &str, t: &str| row[key][t].as_f64().unwrap();
+        let expected = r(lobe, "reference", part) + r(base, "reference", part);
+        let got = r(sum, "reference", summed);
+        assert!(
+            (got - expected).abs() <= 1e-12 * expected.abs(),
+            "{summed}: {got} against {expected}"
+        );
+        let err = r(sum, "reference_error", summed);
+        let parts = r(lobe, "reference_error", part) + r(base, "reference_error", part);
+        assert!(err >= 0.999 * parts, "{summed}: error {err} below its parts' {parts}");
+    }
+}

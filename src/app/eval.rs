@@ -72,7 +72,7 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
             let references: Vec<_> = configs
                 .par_iter()
                 .map(|c| {
-                    crate::eval::targets_of(c)
+                    crate::eval::targets_of(c, &methods)
                         .into_iter()
                         .filter_map(|t| crate::reference::reference(c, t).map(|e| (t, e)))
                         .collect::<std::collections::BTreeMap<_, _>>()
