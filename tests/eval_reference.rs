@@ -234,7 +234,7 @@ fn eval_writes_the_summed_references_a_method_needs() {
     let geometry = |material: serde_json::Value| json!({"id": "s", "p1": [-0.4, 0.3, 0.9], "p2": [1.1, -0.2, 0.6], "material": material});
     let ggx = geometry(json!({"kind": "ggx", "alpha": 0.35, "view": [0.6, 0.0, 0.8]}));
     let diffuse = geometry(json!({"kind": "diffuse"}));
-    let sum = &run_eval(&[ggx.clone()], "line.mrp_sum,line.mrp_sum~line_sum")[0];
+    let sum = &run_eval(std::slice::from_ref(&ggx), "line.mrp_sum,line.mrp_sum~line_sum")[0];
     let lobe = &run_eval(&[ggx], "line.ltc2017")[0];
     let base = &run_eval(&[diffuse], "line.ltc2017")[0];
     assert!(lobe["reference"].get("line_sum").is_none(), "{lobe}");
