@@ -4,12 +4,12 @@
 //! 300 random line lights (seed 5, not a report's seed). Needs the anchors for the published
 //! column. Run: `cargo run --release --example objective_pilot`.
 
-use linelight::ltc::fit::{fit_iso_with, Objective};
-use linelight::ltc::ggx::Ggx;
-use linelight::ltc::table;
+use linelight::input::ltc::fit::{fit_iso_with, Objective};
+use linelight::input::ltc::ggx::Ggx;
+use linelight::input::ltc::table;
+use linelight::input::scene::{Config, Material, Roughness};
+use linelight::input::target::Target;
 use linelight::reference::reference;
-use linelight::scene::{Config, Material, Roughness};
-use linelight::target::Target;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 fn main() {

@@ -6,33 +6,16 @@
 // `!(a < b)` is how this crate says "not less, or NaN": the NaN-aware reading is the point.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod analysis;
+// The stages, in the order a command runs them (tests/layering.rs holds them to it):
+// input → kernel → eval (the CPU evaluator) → reference → measure → analyse → report, under
+// the app layer (one module per command). `io` writes every file; `limits` holds the caps.
+pub mod analyse;
 pub mod app;
-pub mod baseline;
-pub mod bench;
-pub mod case;
-/// The case value checks live in `case::values`; this name stays for callers.
-pub use case::values as case_values;
-pub mod chain;
-pub mod claims;
-pub mod cost;
-pub mod diff;
 pub mod eval;
-pub mod gpu;
-pub mod interp;
+pub mod input;
 pub mod io;
 pub mod kernel;
 pub mod limits;
-pub mod ltc;
-pub mod methods;
-pub mod names;
+pub mod measure;
 pub mod reference;
 pub mod report;
-pub mod sampler;
-pub mod scan;
-pub mod scene;
-pub mod search;
-pub mod stats;
-pub mod summary;
-pub mod sweep;
-pub mod target;

@@ -3,9 +3,9 @@
 
 use clap::{Parser, Subcommand};
 use linelight::app::{self, bounded, status_of, GpuOptions, Status};
-use linelight::case::Case;
-use linelight::gpu;
+use linelight::input::case::Case;
 use linelight::limits;
+use linelight::measure::gpu;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -175,7 +175,7 @@ enum Command {
         #[arg(long)]
         aniso: bool,
         /// Entries per axis of the anisotropic table: θ,φ,α_max,ratio.
-        #[arg(long, value_delimiter = ',', default_values_t = linelight::ltc::aniso::SIZE)]
+        #[arg(long, value_delimiter = ',', default_values_t = linelight::input::ltc::aniso::SIZE)]
         aniso_size: Vec<usize>,
     },
     /// The GGX error chain (fit, table, storage, formula, rounding, driver) of a case of ggx
@@ -257,7 +257,7 @@ impl GpuArgs {
     }
 }
 
-fn open_gpu(args: &GpuArgs) -> anyhow::Result<linelight::gpu::Gpu> {
+fn open_gpu(args: &GpuArgs) -> anyhow::Result<linelight::measure::gpu::Gpu> {
     app::open_gpu(args.adapter.as_deref())
 }
 
@@ -360,10 +360,10 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
                     .try_into()
                     .map_err(|v: Vec<usize>| anyhow::anyhow!("--aniso-size takes 4 numbers, got {}", v.len()))?;
                 let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_aniso.csv"));
-                linelight::ltc::aniso::fit_command(&out, size)?;
+                linelight::input::ltc::aniso::fit_command(&out, size)?;
             } else {
                 let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_iso.csv"));
-                linelight::ltc::fit_command(&out, size)?;
+                linelight::input::ltc::fit_command(&out, size)?;
             }
             Ok(Status::Ok)
         }
@@ -371,9 +371,9 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             let case_path = case.display().to_string();
             let case = Case::load(&case)?;
             let device = open_gpu(&gpu)?;
-            let run = linelight::chain::measure(&case, &device, count, gpu.chunk)?;
+            let run = linelight::app::chain::measure(&case, &device, count, gpu.chunk)?;
             let dir = out.unwrap_or_else(|| PathBuf::from("reports").join(&case.name));
-            for path in linelight::chain::write(&dir, &case_path, &case, &run)? {
+            for path in linelight::app::chain::write(&dir, &case_path, &case, &run)? {
                 eprintln!("wrote {}", path.display());
             }
             Ok(Status::Ok)
@@ -387,7 +387,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             output,
             adapter,
         } => {
-            let outcome = linelight::diff::run(&linelight::diff::DiffOptions {
+            let outcome = linelight::app::diff::run(&linelight::app::diff::DiffOptions {
                 case,
                 a,
                 b,

@@ -3,12 +3,12 @@
 
 mod common;
 
-use linelight::gpu::Gpu;
-use linelight::interp::CpuColumns;
+use linelight::eval::interp::CpuColumns;
+use linelight::input::scene::{Config, GpuScene, Material, Rect};
+use linelight::kernel::methods::{resolve, Method};
 use linelight::kernel::{builtin_kernels, KernelFile, PRELUDE_PATH};
 use linelight::kernel::{compose, compose_with, KernelError};
-use linelight::methods::{resolve, Method};
-use linelight::scene::{Config, GpuScene, Material, Rect};
+use linelight::measure::gpu::Gpu;
 use naga::valid::Capabilities;
 
 /// A user composite: `SCALE` times the inner line integral. Its override shares the name
@@ -200,7 +200,7 @@ fn builtin_composites_match_their_ports_on_the_inner_ports() {
     // Composites over `line` methods (those over `line_isotropic` are in tests/engines.rs).
     for k in ks
         .iter()
-        .filter(|k| k.uses_line && k.uses_target == linelight::target::Target::Line)
+        .filter(|k| k.uses_line && k.uses_target == linelight::input::target::Target::Line)
     {
         for inner in ["line.ltc2017", "line.numeric@32"] {
             let m = resolve(&format!("{}[{inner}]", k.id), &ks).unwrap();

@@ -5,11 +5,11 @@
 
 mod common;
 
-use linelight::interp::CpuColumns;
-use linelight::interp::Mode;
+use linelight::eval::interp::CpuColumns;
+use linelight::eval::interp::Mode;
+use linelight::input::scene::{Config, GpuScene, Material, Rect};
+use linelight::kernel::methods::{resolve, Method};
 use linelight::kernel::{builtin_kernels, KernelFile};
-use linelight::methods::{resolve, Method};
-use linelight::scene::{Config, GpuScene, Material, Rect};
 use rand::{Rng, SeedableRng};
 
 const CONVERTED: &[&str] = &[

@@ -5,12 +5,12 @@
 
 mod common;
 
-use linelight::gpu::Gpu;
+use linelight::input::scene::{Config, GpuScene, Material, Rect, Vec3};
+use linelight::input::target::Target;
 use linelight::kernel::builtin_kernels;
-use linelight::methods::resolve;
+use linelight::kernel::methods::resolve;
+use linelight::measure::gpu::Gpu;
 use linelight::reference::reference;
-use linelight::scene::{Config, GpuScene, Material, Rect, Vec3};
-use linelight::target::Target;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;

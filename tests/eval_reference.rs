@@ -183,9 +183,9 @@ fn eval_references_agree_with_an_independent_quadrature() {
 /// errors.
 #[test]
 fn eval_writes_cylinder_caps_tube_and_rectangle_references() {
+    use linelight::input::scene::Config;
+    use linelight::input::target::Target;
     use linelight::reference::reference;
-    use linelight::scene::Config;
-    use linelight::target::Target;
     let cs: Vec<serde_json::Value> = configs().into_iter().filter(|c| c["id"] != "design").collect();
     let with_surfaces: Vec<serde_json::Value> = cs
         .iter()

@@ -1,11 +1,11 @@
 //! The CPU evaluator from outside: a user's kernel gets its f64 column, and the bits lost
 //! per source line (attribution) land where the findings say they do.
 
-use linelight::interp::CpuColumns;
-use linelight::interp::{program, Mode};
-use linelight::methods::{kernel_set, resolve};
-use linelight::scene::{Config, Material};
-use linelight::target::Target;
+use linelight::eval::interp::CpuColumns;
+use linelight::eval::interp::{program, Mode};
+use linelight::input::scene::{Config, Material};
+use linelight::input::target::Target;
+use linelight::kernel::methods::{kernel_set, resolve};
 use rand::{Rng, SeedableRng};
 
 fn config(p1: [f64; 3], p2: [f64; 3], material: Material) -> Config {
@@ -102,7 +102,7 @@ fn a_user_copy_of_a_builtin_gets_f64_agreeing_with_the_reference() {
     assert!(f32s.iter().all(|v| v.is_some_and(|x| x == (x as f32) as f64)));
 }
 
-fn top_line(spec: &str, configs: &[Config]) -> linelight::interp::LineSummary {
+fn top_line(spec: &str, configs: &[Config]) -> linelight::eval::interp::LineSummary {
     let kernels = kernel_set(&[]).unwrap();
     let p = program(&resolve(spec, &kernels).unwrap()).unwrap();
     let refs: Vec<&Config> = configs.iter().collect();

@@ -4,12 +4,12 @@
 
 mod common;
 
-use linelight::interp::CpuColumns;
+use linelight::eval::interp::CpuColumns;
+use linelight::input::scene::{Config, GpuScene, Material, Roughness};
+use linelight::input::target::Target;
 use linelight::kernel::builtin_kernels;
-use linelight::methods::resolve;
+use linelight::kernel::methods::resolve;
 use linelight::reference::reference;
-use linelight::scene::{Config, GpuScene, Material, Roughness};
-use linelight::target::Target;
 
 fn config(view_azimuth: f64, alpha: Roughness, ltc: &str) -> Config {
     let theta = 50f64.to_radians();
@@ -118,7 +118,7 @@ fn gpu_applies_the_magnitude_like_the_cpu_port() {
 
 #[test]
 fn ggx_case_families_are_checked() {
-    use linelight::case::Case;
+    use linelight::input::case::Case;
     let case = |material: &str| {
         Case::parse(
             "t.toml",
@@ -144,7 +144,7 @@ count = 5
     };
     let ok = "kind = \"ggx\"\nalpha = { dist = \"log_uniform\", min = 0.05, max = 1.0 }\nview_angle = { dist = \"uniform\", min = 0.0, max = 80.0 }";
     let c = case(ok).unwrap();
-    let samples = linelight::sampler::sample_case(&c);
+    let samples = linelight::input::sampler::sample_case(&c);
     assert_eq!(samples.len(), 5);
     assert!(samples
         .iter()
@@ -153,7 +153,7 @@ count = 5
         .iter()
         .all(|s| s.axes.view_angle >= 0.0 && s.axes.view_angle <= 80.0));
     let fitted = case(&ok.replace("\"ggx\"", "\"ltc_ggx\"")).unwrap();
-    let s = linelight::sampler::sample_case(&fitted);
+    let s = linelight::input::sampler::sample_case(&fitted);
     assert!(s
         .iter()
         .all(|s| matches!(s.config.material, Material::Ltc { .. }) && s.config.material.is_sparse()));

@@ -5,9 +5,9 @@
 //! uses), with cuts graded geometrically around it. Lines to 1e-8, surfaces (rectangle,
 //! cylinder, caps, tube) to 1e-7, α down to 0.01, isotropic and anisotropic.
 
+use linelight::input::scene::{Config, Material, Rect, Roughness, Vec3};
+use linelight::input::target::Target;
 use linelight::reference::reference;
-use linelight::scene::{Config, Material, Rect, Roughness, Vec3};
-use linelight::target::Target;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;

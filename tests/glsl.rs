@@ -5,10 +5,10 @@
 
 mod common;
 
-use linelight::case::Case;
-use linelight::interp::CpuColumns;
-use linelight::methods::{kernel_set, resolve};
-use linelight::scene::GpuScene;
+use linelight::eval::interp::CpuColumns;
+use linelight::input::case::Case;
+use linelight::input::scene::GpuScene;
+use linelight::kernel::methods::{kernel_set, resolve};
 use std::path::PathBuf;
 
 const GLSL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/kernels/glsl/line_ltc2017.glsl");
@@ -42,7 +42,7 @@ fn glsl_port_agrees_with_the_wgsl_port_on_the_gpu() {
     for m in &mut case.materials {
         m.count = 2000;
     }
-    let configs: Vec<_> = linelight::sampler::sample_case(&case)
+    let configs: Vec<_> = linelight::input::sampler::sample_case(&case)
         .into_iter()
         .map(|s| s.config)
         .collect();
@@ -69,8 +69,8 @@ fn glsl_port_agrees_with_the_wgsl_port_on_the_gpu() {
 
     // The CPU evaluator runs the GLSL kernel's translation like any kernel: f32 and f64.
     let some: Vec<_> = configs.iter().step_by(10).cloned().collect();
-    for mode in [linelight::interp::Mode::F32, linelight::interp::Mode::F64] {
-        let f32_mode = matches!(mode, linelight::interp::Mode::F32);
+    for mode in [linelight::eval::interp::Mode::F32, linelight::eval::interp::Mode::F64] {
+        let f32_mode = matches!(mode, linelight::eval::interp::Mode::F32);
         let cpu = |spec: &str| resolve(spec, &kernels).unwrap().cpu_column(&some, mode).unwrap();
         let (w, g) = (cpu("line.ltc2017"), cpu("line.ltc2017_glsl"));
         let worst = w
@@ -136,7 +136,7 @@ fn glsl_composite_takes_any_line_method() {
     for m in &mut case.materials {
         m.count = 500;
     }
-    let configs: Vec<_> = linelight::sampler::sample_case(&case)
+    let configs: Vec<_> = linelight::input::sampler::sample_case(&case)
         .into_iter()
         .map(|s| s.config)
         .collect();
@@ -162,7 +162,7 @@ fn glsl_composite_takes_any_line_method() {
 
 /// The configurations where the 2017 listing loses most in its Fwt subtraction: nearly
 /// vertical segments close beside the shading point.
-fn steep_configs() -> Vec<linelight::scene::Config> {
+fn steep_configs() -> Vec<linelight::input::scene::Config> {
     let mut case = Case::load(&PathBuf::from(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/cases/line_fwt.toml"
@@ -171,7 +171,7 @@ fn steep_configs() -> Vec<linelight::scene::Config> {
     for m in &mut case.materials {
         m.count = 300;
     }
-    linelight::sampler::sample_case(&case)
+    linelight::input::sampler::sample_case(&case)
         .into_iter()
         .map(|s| s.config)
         .collect()
@@ -184,7 +184,7 @@ fn glsl_attribution_names_the_glsl_files_own_lines() {
     let configs = steep_configs();
     let refs: Vec<_> = configs.iter().collect();
     let lines = |spec: &str| {
-        let p = linelight::interp::program(&resolve(spec, &kernels).unwrap()).unwrap();
+        let p = linelight::eval::interp::program(&resolve(spec, &kernels).unwrap()).unwrap();
         p.attribute(&refs).unwrap().summary()
     };
     let glsl = lines("line.ltc2017_glsl");

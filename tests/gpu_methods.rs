@@ -4,12 +4,12 @@
 
 mod common;
 
-use linelight::gpu::Gpu;
-use linelight::interp::CpuColumns;
+use linelight::eval::interp::CpuColumns;
+use linelight::input::scene::{Config, GpuScene, Material, Rect};
 use linelight::kernel::builtin_kernels;
-use linelight::methods::{resolve, Method};
+use linelight::kernel::methods::{resolve, Method};
+use linelight::measure::gpu::Gpu;
 use linelight::reference::reference;
-use linelight::scene::{Config, GpuScene, Material, Rect};
 
 fn fixed_set() -> Vec<Config> {
     let materials = [
@@ -99,7 +99,7 @@ fn every_builtin_method_runs_and_matches_its_port_and_the_reference() {
             let r = reference(c, m.target()).unwrap();
             let scale = r.value.abs().max(1e-6);
             assert!(v.is_finite(), "{label} on {}: {v}", c.id);
-            // Every built-in, engine formulas included, runs in the CPU evaluator (src/interp).
+            // Every built-in, engine formulas included, runs in the CPU evaluator (src/eval/interp).
             let cpu = m
                 .eval_f32_cpu(c)
                 .map(f64::from)
@@ -150,7 +150,7 @@ fn the_2023_listing_is_wrong_for_full_matrices_and_the_fix_is_not() {
     let fixed = run(gpu, &resolve("line.ltc2023_full", &kernels).unwrap(), &full);
     let mut worst_published = 0.0f64;
     for ((c, &p), &f) in full.iter().zip(&published).zip(&fixed) {
-        let r = reference(c, linelight::target::Target::Line).unwrap().value;
+        let r = reference(c, linelight::input::target::Target::Line).unwrap().value;
         worst_published = worst_published.max((p as f64 - r).abs() / r.abs());
         let promise = promised("line.ltc2023_full").unwrap();
         assert!(

@@ -3,11 +3,11 @@
 //! post-processing of Eq. 16 is checked, and the shader-style look-up is checked to hand
 //! every configuration that the table's symmetries fold onto a node the node's own lobe.
 
-use linelight::ltc::aniso::{self, entry_point, index, lobe, Origin};
-use linelight::ltc::fit::{self, Ltc};
-use linelight::ltc::ggx::Ggx;
-use linelight::ltc::table::Storage;
-use linelight::ltc::{feed, Feed};
+use linelight::input::ltc::aniso::{self, entry_point, index, lobe, Origin};
+use linelight::input::ltc::fit::{self, Ltc};
+use linelight::input::ltc::ggx::Ggx;
+use linelight::input::ltc::table::Storage;
+use linelight::input::ltc::{feed, Feed};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 #[test]
@@ -150,8 +150,8 @@ fn the_feed_rotates_the_look_up_into_the_views_plane_and_f16_rounds_it() {
 
 #[test]
 fn an_ltc_ggx_family_draws_full_matrices_from_the_anisotropic_table() {
-    use linelight::case::Case;
-    use linelight::scene::Material;
+    use linelight::input::case::Case;
+    use linelight::input::scene::Material;
     let case = |material: &str| {
         Case::parse(
             "t.toml",
@@ -180,7 +180,7 @@ count = 6
               view_azimuth = { dist = \"uniform\", min = 0.0, max = 360.0 }\n\
               anisotropy = { dist = \"log_uniform\", min = 0.25, max = 4.0 }";
     let c = case(&format!("{ok}\nltc = \"aniso\"")).unwrap();
-    let samples = linelight::sampler::sample_case(&c);
+    let samples = linelight::input::sampler::sample_case(&c);
     assert_eq!(samples.len(), 6);
     for s in &samples {
         let Material::Ltc { minv } = &s.config.material else {

@@ -2,9 +2,9 @@
 //! their committed chain predecessor (the suite never refits the whole table), and the table
 //! is checked for what `linelight fit` promises (every entry, finite, honest errors).
 
-use linelight::ltc::fit::{fit_iso, Ltc};
-use linelight::ltc::ggx::Ggx;
-use linelight::ltc::table::{self, entry_point, Storage};
+use linelight::input::ltc::fit::{fit_iso, Ltc};
+use linelight::input::ltc::ggx::Ggx;
+use linelight::input::ltc::table::{self, entry_point, Storage};
 
 fn lobe(size: usize, a: usize, t: usize) -> Ggx {
     let (alpha, ct) = entry_point(size, a, t);
@@ -78,13 +78,13 @@ fn the_fit_is_better_than_the_diffuse_start_and_its_error_is_honest() {
     let g = lobe(64, 30, 40);
     let f = fit_iso(&g, None);
     let diffuse = Ltc::new([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
-    let (l3_diffuse, l1_diffuse) = linelight::ltc::fit::errors(&g, &diffuse, f.magnitude, 32);
+    let (l3_diffuse, l1_diffuse) = linelight::input::ltc::fit::errors(&g, &diffuse, f.magnitude, 32);
     assert!(
         f.l3 < 0.1 * l3_diffuse && f.l1 < l1_diffuse,
         "{f:?} vs {l3_diffuse} {l1_diffuse}"
     );
     // The reported L1 error agrees with a finer estimate of the same integral.
-    let ltc = Ltc::new(linelight::ltc::fit::inverse(&f.minv));
-    let (_, fine) = linelight::ltc::fit::errors(&g, &ltc, f.magnitude, 128);
+    let ltc = Ltc::new(linelight::input::ltc::fit::inverse(&f.minv));
+    let (_, fine) = linelight::input::ltc::fit::errors(&g, &ltc, f.magnitude, 128);
     assert!((fine - f.l1).abs() <= 0.1 * fine, "{fine} vs {}", f.l1);
 }

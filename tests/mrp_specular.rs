@@ -6,10 +6,10 @@
 //! the angle condition, the subtended angle by atan2, the GGX D of docs/conventions.md term by term; and the
 //! GPU's f32 values against the same, and the kernels' support (ggx only, no fed magnitude).
 
-use linelight::interp::{CpuColumns, Mode};
+use linelight::eval::interp::{CpuColumns, Mode};
+use linelight::input::scene::{Config, GpuScene, Material, Roughness, Vec3};
 use linelight::kernel::builtin_kernels;
-use linelight::methods::resolve;
-use linelight::scene::{Config, GpuScene, Material, Roughness, Vec3};
+use linelight::kernel::methods::resolve;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;

@@ -3,7 +3,7 @@
 //! panic — within a bounded time, and an error says where. Case counts are kept small so
 //! the suite stays fast; each input is also timed (a parser that hangs fails the test).
 
-use linelight::case::Case;
+use linelight::input::case::Case;
 use linelight::kernel::KernelFile;
 use proptest::prelude::*;
 use std::time::{Duration, Instant};
@@ -124,7 +124,7 @@ proptest! {
             Err(e) => prop_assert!(e.to_string().starts_with("p.toml"), "{e}"),
             // What is accepted samples without a panic (small counts only).
             Ok(case) if case.materials.iter().map(|m| m.count).sum::<usize>() <= 1000 => {
-                let _ = timed(|| linelight::sampler::sample_case_counted(&case));
+                let _ = timed(|| linelight::input::sampler::sample_case_counted(&case));
             }
             Ok(_) => {}
         }
@@ -153,13 +153,13 @@ proptest! {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("in.jsonl");
         std::fs::write(&path, &line).unwrap();
-        match timed(|| linelight::eval::read_configs(&path)) {
+        match timed(|| linelight::measure::eval_rows::read_configs(&path)) {
             Err(e) => prop_assert!(e.to_string().contains("in.jsonl"), "{e}"),
             Ok(configs) => {
                 // Accepted configurations are ones every kernel can be given.
                 for c in configs {
                     prop_assert!(c.validate().is_ok());
-                    let _ = linelight::scene::GpuScene::from(&c);
+                    let _ = linelight::input::scene::GpuScene::from(&c);
                 }
             }
         }
@@ -170,7 +170,7 @@ proptest! {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("in.jsonl");
         std::fs::write(&path, &bytes).unwrap();
-        if let Err(e) = timed(|| linelight::eval::read_configs(&path)) {
+        if let Err(e) = timed(|| linelight::measure::eval_rows::read_configs(&path)) {
             prop_assert!(e.to_string().contains("in.jsonl"), "{e}");
         }
     }

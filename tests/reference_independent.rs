@@ -3,9 +3,9 @@
 //! (l = l0 + d·sinh u for the line; the surfaces in their own area coordinates), with its
 //! own D (Listing 1.10) and its own kink location.
 
+use linelight::input::scene::{Config, Material, Rect, Vec3};
+use linelight::input::target::Target;
 use linelight::reference::reference;
-use linelight::scene::{Config, Material, Rect, Vec3};
-use linelight::target::Target;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;

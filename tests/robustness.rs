@@ -696,9 +696,9 @@ fn committed_cases_pass_the_value_checks_and_sample_within_the_redraw_limit() {
         .unwrap()
         .flatten()
     {
-        let case = linelight::case::Case::load(&e.path()).unwrap_or_else(|e| panic!("{e}"));
+        let case = linelight::input::case::Case::load(&e.path()).unwrap_or_else(|e| panic!("{e}"));
         let (samples, draws) =
-            linelight::sampler::sample_case_counted(&case).unwrap_or_else(|e| panic!("{}: {e}", case.name));
+            linelight::input::sampler::sample_case_counted(&case).unwrap_or_else(|e| panic!("{}: {e}", case.name));
         assert_eq!(samples.len(), case.materials.iter().map(|m| m.count).sum::<usize>());
         for d in draws {
             eprintln!(

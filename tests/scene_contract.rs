@@ -8,11 +8,11 @@
 
 mod common;
 
-use linelight::gpu::Gpu;
-use linelight::interp::{CpuColumns, Mode};
+use linelight::eval::interp::{CpuColumns, Mode};
+use linelight::input::scene::{Config, GpuScene, Material, Rect, Roughness};
+use linelight::kernel::methods::{resolve, Method};
 use linelight::kernel::{builtin_kernels, KernelFile};
-use linelight::methods::{resolve, Method};
-use linelight::scene::{Config, GpuScene, Material, Rect, Roughness};
+use linelight::measure::gpu::Gpu;
 
 const OLD: &str = include_str!("data/old_contract.wgsl");
 const RECORDED: &str = "tests/data/old_contract_values.json";
@@ -171,7 +171,7 @@ fn every_scene_member_reads_back_on_the_gpu_and_in_the_evaluator() {
         let raw = gpu_values(gpu, &m, &cs);
         let cpu = m.cpu_column(&cs, Mode::F32).unwrap();
         for ((c, g), cpu) in cs.iter().zip(raw).zip(cpu) {
-            let input = linelight::scene::SceneInput::new(c);
+            let input = linelight::input::scene::SceneInput::new(c);
             let flat: Vec<f64> = [
                 "p1",
                 "radius",
@@ -198,7 +198,7 @@ fn every_scene_member_reads_back_on_the_gpu_and_in_the_evaluator() {
 #[test]
 fn ggx_scenes_carry_the_view_and_roughness_in_the_kernels_frame() {
     for c in configs() {
-        let s = linelight::scene::SceneInput::new(&c);
+        let s = linelight::input::scene::SceneInput::new(&c);
         let Material::Ggx { alpha, view, .. } = &c.material else {
             assert_eq!(
                 (s.view, s.alpha_x, s.tangent, s.alpha_y),

@@ -4,9 +4,9 @@
 //! engines shade). Prints the table quoted in docs/line_models.md:
 //! `cargo test --release --test tube_models -- --nocapture`.
 
+use linelight::input::scene::{Config, Material};
+use linelight::input::target::Target;
 use linelight::reference::reference;
-use linelight::scene::{Config, Material};
-use linelight::target::Target;
 use std::f64::consts::PI;
 
 /// A segment of length 2 centred at distance 1 from the shading point, its tangent at

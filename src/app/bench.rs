@@ -1,5 +1,5 @@
 //! `linelight bench`: the case sampled (the app layer's `prepare`), then the bench's
-//! measure, analyse and report parts (src/bench.rs).
+//! measure, analyse and report parts (src/measure/bench.rs).
 
 use std::path::PathBuf;
 
@@ -22,7 +22,7 @@ pub struct BenchOptions {
 
 /// `linelight bench`: samples the case's configurations, measures, prints the report to
 /// stdout (progress on stderr) and writes the JSON if asked.
-pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::bench::BenchRun> {
+pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::measure::bench::BenchRun> {
     anyhow::ensure!(options.count > 0, "--count must be at least 1");
     anyhow::ensure!(options.repeats > 0, "--repeats must be at least 1");
     if let Some(json) = &options.json {
@@ -31,9 +31,9 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::bench::BenchRun> {
         inputs.extend(options.kernels.iter().map(|k| ("--kernel", k.as_path())));
         crate::io::check_output("--json", json, &inputs, &[])?;
     }
-    let mut case = crate::case::Case::load(&options.case)?;
+    let mut case = crate::input::case::Case::load(&options.case)?;
     if !options.methods.is_empty() {
-        crate::methods::check_unique(&options.methods, "--methods")?;
+        crate::kernel::methods::check_unique(&options.methods, "--methods")?;
         case.methods = options.methods.clone();
     }
     let materials = case.materials.len();
@@ -42,7 +42,7 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::bench::BenchRun> {
     case.compare
         .retain(|pair| pair.iter().all(|l| case.methods.contains(l)));
     let setup = crate::app::sweep::prepare(case, &options.kernels, Some(options.count.div_ceil(materials)))?;
-    let configs = crate::bench::split_evenly(&setup.samples, materials, options.count);
+    let configs = crate::measure::bench::split_evenly(&setup.samples, materials, options.count);
     for m in &setup.methods {
         let missing = configs.iter().filter(|c| !m.applies(c)).count();
         anyhow::ensure!(
@@ -56,7 +56,7 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::bench::BenchRun> {
         );
     }
 
-    let gpu = crate::gpu::Gpu::new(options.adapter.as_deref())?;
+    let gpu = crate::measure::gpu::Gpu::new(options.adapter.as_deref())?;
     println!("adapter: {}", gpu.adapter);
     let pb = indicatif::ProgressBar::new(0);
     pb.set_style(
@@ -65,7 +65,7 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::bench::BenchRun> {
             .progress_chars("=> "),
     );
     pb.set_message("bench");
-    let costs = crate::bench::bench_methods_with(
+    let costs = crate::measure::bench::bench_methods_with(
         &gpu,
         &setup.methods,
         &configs,
@@ -77,7 +77,7 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::bench::BenchRun> {
         },
     )?;
     pb.finish_and_clear();
-    let bench = crate::bench::BenchRun {
+    let bench = crate::measure::bench::BenchRun {
         adapter: gpu.adapter.to_string(),
         case: setup.case.name.clone(),
         materials,
@@ -86,7 +86,7 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::bench::BenchRun> {
         pairs: setup.case.compare.clone(),
         costs,
     };
-    print!("{}", crate::bench::render(&bench));
+    print!("{}", crate::report::bench::render(&bench));
     if let Some(path) = &options.json {
         let json = serde_json::to_string_pretty(&bench.costs)?;
         crate::io::write_atomic(path, format!("{json}\n").as_bytes())?;

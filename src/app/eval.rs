@@ -26,18 +26,18 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
     let mut inputs = vec![("--input", input.as_path())];
     inputs.extend(kernel_inputs(&gpu.kernels));
     check_output("--output", &output, &inputs, &[])?;
-    let kernels = crate::methods::kernel_set(&gpu.kernels)?;
+    let kernels = crate::kernel::methods::kernel_set(&gpu.kernels)?;
     let specs = if specs.is_empty() {
         kernels.iter().map(|k| k.id.clone()).collect()
     } else {
         specs
     };
-    crate::methods::check_unique(&specs, "--methods")?;
+    crate::kernel::methods::check_unique(&specs, "--methods")?;
     let methods = specs
         .iter()
-        .map(|s| crate::methods::resolve(s, &kernels))
+        .map(|s| crate::kernel::methods::resolve(s, &kernels))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let lines = crate::eval::count_lines(&input)?;
+    let lines = crate::measure::eval_rows::count_lines(&input)?;
     crate::limits::check(
         &format!("eval of {} ({lines} lines)", input.display()),
         // One chunk of configurations, values and rows at a time, plus the ids (checked
@@ -52,7 +52,7 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
     .map_err(anyhow::Error::msg)?;
     // Every line checked before the GPU is touched; then the input is streamed a chunk
     // at a time (GPU, references, rows), in constant memory and input order.
-    crate::eval::for_each_config(&input, eval_chunk(), true, &mut |_| Ok(()))?;
+    crate::measure::eval_rows::for_each_config(&input, eval_chunk(), true, &mut |_| Ok(()))?;
     let device = open_gpu(gpu.adapter.as_deref())?;
     let pipelines = methods
         .iter()
@@ -62,8 +62,8 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
     // The output is staged: a reference that cannot be computed (an error) leaves
     // nothing in place of what was there.
     write_output(&output, &mut |w| {
-        let mut chunk = |configs: Vec<crate::scene::Config>| -> anyhow::Result<()> {
-            let scenes: Vec<_> = configs.iter().map(crate::scene::GpuScene::from).collect();
+        let mut chunk = |configs: Vec<crate::input::scene::Config>| -> anyhow::Result<()> {
+            let scenes: Vec<_> = configs.iter().map(crate::input::scene::GpuScene::from).collect();
             let mut f32s = Vec::new();
             for p in &pipelines {
                 f32s.push(device.run(p, &scenes, gpu.chunk, &mut |_| {})?.values);
@@ -72,23 +72,24 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
             let references: Vec<_> = configs
                 .par_iter()
                 .map(|c| {
-                    crate::eval::targets_of(c, &methods)
+                    crate::measure::eval_rows::targets_of(c, &methods)
                         .into_iter()
                         .filter_map(|t| crate::reference::reference(c, t).map(|e| (t, e)))
                         .collect::<std::collections::BTreeMap<_, _>>()
                 })
                 .collect();
-            crate::eval::check_references(&input, &configs, &references)?;
-            for (block, part) in configs.chunks(crate::eval::ROW_BLOCK).enumerate() {
-                let at = block * crate::eval::ROW_BLOCK..block * crate::eval::ROW_BLOCK + part.len();
+            crate::measure::eval_rows::check_references(&input, &configs, &references)?;
+            for (block, part) in configs.chunks(crate::measure::eval_rows::ROW_BLOCK).enumerate() {
+                let at = block * crate::measure::eval_rows::ROW_BLOCK
+                    ..block * crate::measure::eval_rows::ROW_BLOCK + part.len();
                 let values: Vec<&[f32]> = f32s.iter().map(|v| &v[at.clone()]).collect();
-                let rows = crate::eval::rows(part, &methods, &values, &references[at], attribution)?;
+                let rows = crate::measure::eval_rows::rows(part, &methods, &values, &references[at], attribution)?;
                 w.write_all(&crate::io::to_jsonl(&rows))?;
             }
             written += configs.len();
             Ok(())
         };
-        crate::eval::for_each_config(&input, eval_chunk(), false, &mut chunk)
+        crate::measure::eval_rows::for_each_config(&input, eval_chunk(), false, &mut chunk)
             .map(|_| ())
             .map_err(|e| std::io::Error::other(format!("{e:#}")))
     })?;
@@ -96,12 +97,12 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
     Ok(Status::Ok)
 }
 
-/// Configurations eval holds at a time: `crate::eval::EVAL_CHUNK`, or `LINELIGHT_EVAL_CHUNK` (tests
+/// Configurations eval holds at a time: `crate::measure::eval_rows::EVAL_CHUNK`, or `LINELIGHT_EVAL_CHUNK` (tests
 /// use a small one to cover several chunks with a few lines).
 fn eval_chunk() -> usize {
     std::env::var("LINELIGHT_EVAL_CHUNK")
         .ok()
         .and_then(|v| v.parse().ok())
         .filter(|&n: &usize| n > 0)
-        .unwrap_or(crate::eval::EVAL_CHUNK)
+        .unwrap_or(crate::measure::eval_rows::EVAL_CHUNK)
 }

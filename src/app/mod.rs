@@ -4,7 +4,10 @@
 //! "Exit status"; docs/exit-codes.md).
 
 mod bench;
+pub mod chain;
+pub mod diff;
 pub mod eval;
+pub mod gate;
 mod status;
 pub mod sweep;
 
@@ -12,9 +15,9 @@ pub use bench::{bench, BenchOptions};
 
 pub use status::{status_of, Status};
 
-use crate::gpu::{self, Gpu};
 use crate::io::check_set;
-use crate::methods;
+use crate::kernel::methods;
+use crate::measure::gpu::{self, Gpu};
 use anyhow::Result;
 use std::path::{Path, PathBuf};
 
@@ -98,7 +101,7 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
     } = options;
     let command_line = shell_words::join(std::env::args());
     let count = parse_count(&count)?;
-    let case = crate::case::Case::load(&case)?;
+    let case = crate::input::case::Case::load(&case)?;
     let dir = out.join(format!("{}-scan", case.name));
     check_set(&dir)?;
     let kernels = methods::kernel_set(&gpu.kernels)?;
@@ -108,7 +111,7 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
         let m = methods::resolve(s, &kernels)?;
         if matches!(
             m.target(),
-            crate::target::Target::Line | crate::target::Target::LineUpper
+            crate::input::target::Target::Line | crate::input::target::Target::LineUpper
         ) {
             chosen.push(m);
         } else if !specs.is_empty() && specs.len() == 1 {
@@ -125,7 +128,7 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
     let scannable: Vec<usize> = (0..case.materials.len())
         .filter(|&f| {
             let family = &case.materials[f];
-            let ok = crate::scan::generated_on_device(family.kind);
+            let ok = crate::measure::scan::generated_on_device(family.kind);
             if !ok {
                 eprintln!(
                     "note: family `{}` ({:?}) is not scanned: its M⁻¹ comes from a fitted table",
@@ -154,12 +157,12 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
     let mut finished = 0u64;
     for m in &chosen {
         for &f in &scannable {
-            let size = crate::scan::ScanSize {
+            let size = crate::measure::scan::ScanSize {
                 count: per_family,
                 capture,
                 bound,
             };
-            let r = crate::scan::scan(&device, &case, m, f, size, &mut |done, bad| {
+            let r = crate::measure::scan::scan(&device, &case, m, f, size, &mut |done, bad| {
                 pb.set_position(finished + done);
                 pb.set_message(format!(
                     "{} {}: rate {:.1e}",
@@ -173,8 +176,8 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
         }
     }
     pb.finish_and_clear();
-    let text = crate::scan::report::markdown(&case, &command_line, &device.adapter.to_string(), &results);
-    print!("{}", crate::scan::report::table(&results));
+    let text = crate::report::scan::markdown(&case, &command_line, &device.adapter.to_string(), &results);
+    print!("{}", crate::report::scan::table(&results));
     let rows: Vec<_> = results
         .iter()
         .flat_map(|r| &r.captured)
@@ -222,7 +225,8 @@ pub fn check(kernels: &[PathBuf], emit: bool) -> Result<Status> {
                 // (A composite with the default line method, as it is composed here.)
                 let mut set = vec![k.clone()];
                 set.extend(known.iter().filter(|b| b.id != k.id).cloned());
-                let cpu = match methods::resolve(&k.id, &set).and_then(|m| crate::interp::program(&m).map(|_| ())) {
+                let cpu = match methods::resolve(&k.id, &set).and_then(|m| crate::eval::interp::program(&m).map(|_| ()))
+                {
                     Ok(()) => "CPU evaluator: ok".to_string(),
                     Err(e) => format!("CPU evaluator: no f64/cpu_f32 values: {e:#}"),
                 };

@@ -2,8 +2,8 @@
 //! claim went stale) or the kind of error that stopped it (bad input, a GPU failing at run
 //! time). README "Exit status" and docs/exit-codes.md document the codes.
 
-use crate::gpu::GpuError;
 use crate::kernel::KernelError;
+use crate::measure::gpu::GpuError;
 
 /// How a command ended; [`Status::code`] is its exit code.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

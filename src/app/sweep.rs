@@ -5,13 +5,13 @@
 //! docs/scale.md), which hold both the measure stage's kept state and the statistics.
 
 use super::{kernel_inputs, open_gpu, GpuOptions, Status};
-use crate::analysis::{Accumulators, Chunk, Leak, LeakAccumulator, Verdict};
-use crate::baseline::Observations;
-use crate::case::Case;
-use crate::gpu::Gpu;
+use crate::analyse::analysis::{Accumulators, Chunk, Leak, LeakAccumulator, Verdict};
+use crate::analyse::summary::Summary;
+use crate::app::gate::Observations;
+use crate::input::case::Case;
 use crate::io::{check_output, check_set, stage_output};
-use crate::summary::Summary;
-use crate::sweep::{self, MeasureOptions, Measured, Setup};
+use crate::measure::gpu::Gpu;
+use crate::measure::sweep::{self, MeasureOptions, Measured, Setup};
 use anyhow::Context;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -59,13 +59,13 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
     if count == Some(0) {
         anyhow::bail!("--count must be at least 1");
     }
-    let shard = shard.as_deref().map(crate::sweep::parse_shard).transpose()?;
+    let shard = shard.as_deref().map(crate::measure::sweep::parse_shard).transpose()?;
     if shard.is_some()
         && (raw.is_some() || gate.save_baseline.is_some() || gate.baseline.is_some() || gate.junit.is_some())
     {
         anyhow::bail!("--shard writes a shard state only: --raw and the gate options belong to the unsharded sweep");
     }
-    let loaded = crate::case::Case::load(&case)?;
+    let loaded = crate::input::case::Case::load(&case)?;
     // Every output is checked before any work: the report folder, then --raw.
     let dir = out.join(&loaded.name);
     if shard.is_none() {
@@ -80,14 +80,17 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
     let setup = prepare_with(loaded, &gpu.kernels, count, raw.is_some())?;
     // A claim that names what the case does not have is bad input, found before measuring.
     let labels = setup.methods.iter().map(|m| m.label.clone()).collect();
-    crate::claims::check(&setup.case.claims, crate::claims::dry_facts(&setup.case, labels))
-        .map_err(|e| anyhow::anyhow!("{case_path}: {e}"))?;
+    crate::analyse::claims::check(
+        &setup.case.claims,
+        crate::analyse::claims::dry_facts(&setup.case, labels),
+    )
+    .map_err(|e| anyhow::anyhow!("{case_path}: {e}"))?;
     // A baseline that does not fit this run is bad input, found before measuring.
-    let gate = crate::baseline::GateRun::prepare(
+    let gate = crate::app::gate::GateRun::prepare(
         gate.save_baseline,
         gate.baseline.as_deref(),
         gate.junit,
-        crate::baseline::GateOptions {
+        crate::app::gate::GateOptions {
             noise: gate.noise,
             ops_growth: gate.ops_growth,
             ..Default::default()
@@ -105,7 +108,7 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
         let part = measure_part(
             &setup,
             &device,
-            crate::sweep::MeasureOptions {
+            crate::measure::sweep::MeasureOptions {
                 chunk: gpu.chunk,
                 raw: None,
                 shard: Some(shard),
@@ -133,7 +136,7 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
             measure(
                 &setup,
                 &device,
-                crate::sweep::MeasureOptions {
+                crate::measure::sweep::MeasureOptions {
                     chunk: gpu.chunk,
                     raw: None,
                     shard: None,
@@ -149,7 +152,7 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
                 match measure(
                     &setup,
                     &device,
-                    crate::sweep::MeasureOptions {
+                    crate::measure::sweep::MeasureOptions {
                         chunk: gpu.chunk,
                         raw: Some(w),
                         shard: None,
@@ -188,12 +191,12 @@ pub fn merge(shards: &[PathBuf], out: &Path, gpu: &GpuOptions) -> anyhow::Result
     let started = std::time::Instant::now();
     let command_line = shell_words::join(std::env::args());
     let (case_path, kernels, parts) = read_shards(shards)?;
-    let loaded = crate::case::Case::load(std::path::Path::new(&case_path))?;
+    let loaded = crate::input::case::Case::load(std::path::Path::new(&case_path))?;
     let dir = out.join(&loaded.name);
     check_set(&dir)?;
     let setup = prepare_with(loaded, &kernels, parts[0].count_override, false)?;
     let part = Partial::merge_all(&setup, parts)?;
-    let gate = crate::baseline::GateRun::prepare(None, None, None, Default::default(), &setup)?;
+    let gate = crate::app::gate::GateRun::prepare(None, None, None, Default::default(), &setup)?;
     let device = open_gpu(gpu.adapter.as_deref())?;
     let measured = finish(&setup, &device, part)?;
     report_sweep(
@@ -224,10 +227,10 @@ struct SweepRun<'a> {
 /// exit code.
 fn report_sweep(
     run: SweepRun,
-    setup: &crate::sweep::Setup,
+    setup: &crate::measure::sweep::Setup,
     swept: &Swept,
     staged: Option<crate::io::Staged>,
-    gate: &crate::baseline::GateRun,
+    gate: &crate::app::gate::GateRun,
 ) -> anyhow::Result<Status> {
     let SweepRun {
         case_path,
@@ -239,21 +242,21 @@ fn report_sweep(
     let t = std::time::Instant::now();
     let measured = &swept.measured;
     let analysis = swept.accumulators.finish(&setup.case, &setup.methods);
-    let facts = crate::claims::Facts {
+    let facts = crate::analyse::claims::Facts {
         analysis: Some(analysis.clone()),
         configurations: measured.natural.iter().sum(),
         costs: measured.costs.clone(),
         disagreements: measured.disagreements.clone(),
         found: measured.found.clone(),
-        ..crate::claims::dry_facts(&setup.case, setup.methods.iter().map(|m| m.label.clone()).collect())
+        ..crate::analyse::claims::dry_facts(&setup.case, setup.methods.iter().map(|m| m.label.clone()).collect())
     };
-    let claim_results = crate::claims::evaluate(&setup.case.claims, facts);
-    let stages = crate::summary::Stages {
+    let claim_results = crate::analyse::claims::evaluate(&setup.case.claims, facts);
+    let stages = crate::analyse::summary::Stages {
         analysis_seconds: measured.timing.statistics_seconds + t.elapsed().as_secs_f64(),
         until_report_seconds: started.elapsed().as_secs_f64(),
     };
     let input = Summary::new(
-        crate::summary::RunInfo {
+        crate::analyse::summary::RunInfo {
             case_path,
             command_line,
             stages,
@@ -311,9 +314,9 @@ fn report_sweep(
 /// sample into `Setup::samples` (bench and others that hold every configuration).
 pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> anyhow::Result<Setup> {
     let mut setup = prepare_with(case, user_kernels, count, false)?;
-    let (mut samples, draws) = crate::sampler::sample_case_counted(&setup.case)
+    let (mut samples, draws) = crate::input::sampler::sample_case_counted(&setup.case)
         .map_err(|e| anyhow::anyhow!("case `{}`: {e}", setup.case.name))?;
-    let (extra, topups) = crate::sampler::top_up(&setup.case, &samples);
+    let (extra, topups) = crate::input::sampler::top_up(&setup.case, &samples);
     samples.extend(extra);
     setup.samples = samples;
     setup.draws = draws;
@@ -325,7 +328,7 @@ pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> an
 /// `linelight scan`'s.
 pub const MAX_COUNT: usize = 1_000_000_000_000;
 
-/// [`prepare`] for a streamed sweep ([`crate::sweep::measure_part`] draws the sample chunk by chunk): nothing is
+/// [`prepare`] for a streamed sweep ([`crate::measure::sweep::measure_part`] draws the sample chunk by chunk): nothing is
 /// sampled here, `samples`, `draws` and `topups` stay empty. `raw` tells whether `--raw` rows
 /// are written (counted in the memory estimate of one chunk).
 pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, raw: bool) -> anyhow::Result<Setup> {
@@ -344,16 +347,16 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
             m.count = n;
         }
     }
-    let kernels = crate::methods::kernel_set(user_kernels)?;
+    let kernels = crate::kernel::methods::kernel_set(user_kernels)?;
     let mut methods = Vec::new();
     for spec in &case.methods {
-        methods.push(crate::methods::resolve(spec, &kernels).with_context(|| format!("case `{}`", case.name))?);
+        methods.push(crate::kernel::methods::resolve(spec, &kernels).with_context(|| format!("case `{}`", case.name))?);
     }
     // `--kernel FILE`: the case's methods plus every kernel given (unless the case names it).
     for path in user_kernels {
         let k = crate::kernel::KernelFile::read(path)?;
         if !methods.iter().any(|m| m.id() == k.id) {
-            methods.push(crate::methods::resolve(&k.id, &kernels)?);
+            methods.push(crate::kernel::methods::resolve(&k.id, &kernels)?);
         }
     }
     for [a, b] in &case.compare {
@@ -373,9 +376,9 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
             .saturating_add(bins.saturating_mul(case.min_per_bin as u64))
     });
     let estimate = crate::limits::sweep_estimate(
-        total.min(crate::sweep::MEASURE_CHUNK as u64),
+        total.min(crate::measure::sweep::MEASURE_CHUNK as u64),
         methods.len() as u64,
-        crate::sweep::needed_targets(&methods).len() as u64,
+        crate::measure::sweep::needed_targets(&methods).len() as u64,
         raw,
     );
     crate::limits::check(
@@ -450,7 +453,7 @@ pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions, observe: 
     let shard = options.shard.unwrap_or((0, 1));
     let mut accumulators = Accumulators::new(case, methods);
     let mut leak = LeakAccumulator::new(case.materials.len());
-    let mut observations = observe.then(|| crate::baseline::observations(methods.len(), case.materials.len()));
+    let mut observations = observe.then(|| crate::app::gate::observations(methods.len(), case.materials.len()));
     let mut statistics_seconds = 0.0;
     let mut measured = sweep::measure_part(setup, gpu, options, &mut |c| {
         let t = Instant::now();
@@ -463,7 +466,7 @@ pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions, observe: 
         leak.add(&chunk);
         statistics_seconds += t.elapsed().as_secs_f64();
         if let Some(obs) = &mut observations {
-            crate::baseline::observe_chunk(obs, &chunk);
+            crate::app::gate::observe_chunk(obs, &chunk);
         }
         Ok(())
     })?;

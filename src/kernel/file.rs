@@ -2,7 +2,7 @@
 //! and its WGSL text. Built-in kernels are compiled into the binary; a user's kernel is
 //! read from disk and goes through the same path (kernels/README.md).
 
-use crate::target::Target;
+use crate::input::target::Target;
 use anyhow::Context;
 use std::path::Path;
 use std::sync::Arc;
@@ -94,7 +94,7 @@ pub struct Param {
 impl Param {
     /// `v` as a value of this param, or why not.
     pub fn value(&self, v: &str) -> Result<f64, String> {
-        let shown = crate::names::clip(v);
+        let shown = crate::input::names::clip(v);
         if self.float {
             return v
                 .parse::<f64>()
@@ -249,7 +249,7 @@ impl KernelFile {
                 continue;
             };
             let lineno = i + 1;
-            let raw = &crate::names::clip(raw);
+            let raw = &crate::input::names::clip(raw);
             let Some((key, value)) = rest.split_once(':') else {
                 return Err(err(
                     lineno,
@@ -265,7 +265,7 @@ impl KernelFile {
                 ));
             }
             seen.push((key_name.to_string(), lineno));
-            let value_shown = crate::names::clip(value);
+            let value_shown = crate::input::names::clip(value);
             let value_shown = value_shown.as_str();
             match key_name {
                 "id" => id = Some(value.to_string()),
@@ -315,7 +315,7 @@ impl KernelFile {
                                 format!(
                                     "params must be `NAME=integer ...` (an identifier, then 1 to 4294967295) \
                                      or `NAME=float` (written with a '.' or an exponent), got `{}`",
-                                    crate::names::clip(item)
+                                    crate::input::names::clip(item)
                                 ),
                             )
                         })?);
@@ -351,7 +351,7 @@ impl KernelFile {
                         lineno,
                         format!(
                             "unknown header key `{}` (id, target, source, minv, params, uses, derive, replace)",
-                            crate::names::clip(other)
+                            crate::input::names::clip(other)
                         ),
                     ))
                 }
@@ -367,7 +367,7 @@ impl KernelFile {
                 format!(
                     "id `{}` must be 1–{MAX_ID} letters, digits, '.', '_' or '-' (no '@', ',', brackets or spaces: \
                      they separate parameters and inner methods in a method spec)",
-                    crate::names::clip(&id)
+                    crate::input::names::clip(&id)
                 ),
             ));
         }
@@ -391,7 +391,7 @@ impl KernelFile {
                         line,
                         format!(
                             "unknown base kernel `{}`: a derived kernel's base is a built-in kernel id (linelight methods)",
-                            crate::names::clip(&base_id)
+                            crate::input::names::clip(&base_id)
                         ),
                     )
                 })?;
@@ -454,7 +454,7 @@ fn check_derivation(
         .map(|(n, _)| n)
         .collect();
     for (i, name) in replace.iter().enumerate() {
-        let shown = crate::names::clip(name);
+        let shown = crate::input::names::clip(name);
         if replace[..i].contains(name) {
             return Err(err(replace_line, format!("`{shown}` is named twice in `//! replace:`")));
         }

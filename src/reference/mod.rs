@@ -11,8 +11,8 @@ mod lobe;
 mod quadrature;
 mod surface;
 
-use crate::scene::{dot, Config, Material, Vec3};
-use crate::target::Target;
+use crate::input::scene::{dot, Config, Material, Vec3};
+use crate::input::target::Target;
 use lobe::Lobe;
 use quadrature::Quad;
 

@@ -7,7 +7,7 @@ use super::line::{graded, halves, integrate_chord, split, split_halves, trig_zer
 use super::lobe::Lobe;
 use super::quadrature::{integrate, Quad};
 use super::{estimate, mul, reject, Estimate};
-use crate::scene::{cross, dot, length, sub, Rect, Vec3};
+use crate::input::scene::{cross, dot, length, sub, Rect, Vec3};
 use std::f64::consts::FRAC_PI_2;
 
 /// The inner integrals are 100× tighter so that their noise stays below the outer error.
@@ -273,9 +273,9 @@ pub(crate) fn rectangle(lobe: &Lobe, p1: Vec3, p2: Vec3, rect: &Rect) -> Estimat
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::scene::Material;
     use crate::reference::line::line;
     use crate::reference::testing::*;
-    use crate::scene::Material;
     use std::f64::consts::PI;
 
     fn diffuse() -> Lobe {

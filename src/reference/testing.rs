@@ -1,7 +1,7 @@
 //! Helpers for the unit tests: a brute-force quadrature that shares nothing with the
 //! adaptive one, and random configurations.
 
-use crate::scene::{Mat3, Material, Vec3};
+use crate::input::scene::{Mat3, Material, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -140,7 +140,7 @@ pub fn full_ltc(rng: &mut ChaCha8Rng) -> Material {
 }
 
 pub fn inverse(m: &Mat3) -> Mat3 {
-    let det = crate::scene::det3(m);
+    let det = crate::input::scene::det3(m);
     let c = |i: usize, j: usize| {
         let (r0, r1) = ((i + 1) % 3, (i + 2) % 3);
         let (c0, c1) = ((j + 1) % 3, (j + 2) % 3);
@@ -167,13 +167,13 @@ pub fn segment_through_lobe(
 ) -> (Vec3, Vec3) {
     let m = inverse(&material.minv());
     let pole = mat_vec(&m, [0.0, 0.0, 1.0]);
-    let n = crate::scene::length(pole);
+    let n = crate::input::scene::length(pole);
     let pole = pole.map(|x| x / n);
     let t = loop {
         let r = point(rng, 1.0);
-        let k = crate::scene::dot(r, pole);
+        let k = crate::input::scene::dot(r, pole);
         let t = [0, 1, 2].map(|i| r[i] - k * pole[i]);
-        let l = crate::scene::length(t);
+        let l = crate::input::scene::length(t);
         if l > 0.1 {
             break t.map(|x| x / l);
         }

@@ -1,8 +1,8 @@
 //! "Where the bits go": per method, the kernel source lines whose f32 operations lose the
-//! most bits (local error, src/interp), as a short Markdown table. Kept apart from
+//! most bits (local error, src/eval/interp), as a short Markdown table. Kept apart from
 //! `markdown/`, which only calls [`render`].
 
-use crate::summary::Attribution;
+use crate::analyse::summary::Attribution;
 use std::fmt::Write;
 
 /// Lines shown per method.
@@ -46,7 +46,7 @@ pub fn render(methods: &[Attribution]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::summary::BitsLine;
+    use crate::analyse::summary::BitsLine;
 
     #[test]
     fn a_table_per_method_top_lines_first() {

@@ -17,7 +17,7 @@
 
 use std::fmt::Write;
 
-pub use crate::summary::ChartPoint;
+pub use crate::analyse::summary::ChartPoint;
 
 /// Indices (ascending) of the points on the Pareto front of cost against error (the p99 when
 /// `by_p99`, else the median): those that no other point dominates, i.e. no other point is

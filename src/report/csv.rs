@@ -3,8 +3,8 @@
 //! `zero_reference`/`false_*` the configurations whose reference is 0 (false light).
 //! Written by the `csv` crate, so a name with a comma or a quote stays one field.
 
-use crate::analysis::{Analysis, PairStats};
-use crate::stats::{BinStats, Quantiles};
+use crate::analyse::analysis::{Analysis, PairStats};
+use crate::analyse::stats::{BinStats, Quantiles};
 
 /// Rows of fields → CSV text (RFC 4180 quoting where a field needs it).
 fn table(header: &str, rows: Vec<Vec<String>>) -> String {

@@ -2,7 +2,7 @@
 //! differ, by how much, and whether f64 says it is the formula or the rounding.
 
 use super::sci;
-use crate::analysis::{Analysis, Comparison, MethodStats, PairMaterial};
+use crate::analyse::analysis::{Analysis, Comparison, MethodStats, PairMaterial};
 
 /// Below this, two formulas evaluated in f64 are taken to be the same function.
 const SAME_FUNCTION_F64: f64 = 1e-9;
@@ -63,7 +63,7 @@ pub fn comparison(analysis: &Analysis, c: &Comparison, mat: &PairMaterial) -> St
             .enumerate()
             .filter(|(_, b)| b.stats.count >= MIN_BIN)
             .collect();
-        let p99 = |b: &crate::analysis::PairBin| b.stats.diff_f32.map_or(0.0, |q| q.p99);
+        let p99 = |b: &crate::analyse::analysis::PairBin| b.stats.diff_f32.map_or(0.0, |q| q.p99);
         let (Some(worst), Some(best)) = (
             populated.iter().max_by(|x, y| p99(x.1).total_cmp(&p99(y.1))),
             populated.iter().min_by(|x, y| p99(x.1).total_cmp(&p99(y.1))),

@@ -3,18 +3,20 @@
 //! the previous one, and a report folder only ever holds one run's files.
 
 mod attribution;
+pub mod bench;
 pub mod chart;
 mod csv;
 mod findings;
 mod markdown;
+pub mod scan;
 mod svg;
 
-use crate::summary::Summary;
+use crate::analyse::summary::Summary;
 use std::path::{Path, PathBuf};
 
+pub use crate::analyse::summary::Stages;
+pub use crate::input::names::{chart_file, map_file};
 pub use crate::io::write_atomic;
-pub use crate::names::{chart_file, map_file};
-pub use crate::summary::Stages;
 
 /// Formats a non-negative statistic compactly: `3.1e-07`, `0`, or `—` when absent.
 pub fn sci(x: Option<f64>) -> String {
@@ -27,7 +29,7 @@ pub fn sci(x: Option<f64>) -> String {
 }
 
 /// The report header's line on degenerate draws: how many were redrawn, per family.
-pub fn draws_line(draws: &[crate::sampler::Draws]) -> String {
+pub fn draws_line(draws: &[crate::input::sampler::Draws]) -> String {
     let rejected: usize = draws.iter().map(|d| d.rejected).sum();
     if rejected == 0 {
         return "Degenerate draws: none (no configuration was redrawn).".into();
@@ -60,7 +62,7 @@ pub fn write_reports(dir: &Path, input: &Summary) -> anyhow::Result<Vec<PathBuf>
         "command_line": input.command_line,
         "count_override": input.count_override,
         "statistic": "relative error |value − reference| / |reference|, no floor, over configurations whose reference is not 0; reference-0 configurations in `false_light`; `rel_floored` uses `error_floor`",
-        // Degenerate draws redrawn, per family (bounded: src/sampler.rs).
+        // Degenerate draws redrawn, per family (bounded: src/input/sampler.rs).
         "draws": input.draws,
         "error_floor": input.case.error_floor,
         "topups": input.topups,

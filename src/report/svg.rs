@@ -1,7 +1,7 @@
 //! SVG heat maps of a validity map: one cell per (x, y) bin, coloured by the p99 relative
 //! error in the bands the reports state (≤0.1 %, ≤1 %, ≤5 %, ≤10 %, more), value printed.
 
-use crate::analysis::MapStats;
+use crate::analyse::analysis::MapStats;
 use std::fmt::Write;
 
 /// Upper edges of the colour bands and their colours (colour-blind-safe sequential).
@@ -136,7 +136,11 @@ pub fn heat_map(map: &MapStats, title: &str) -> String {
 /// For each y bin: the largest x edge below which every populated cell, from the first x bin
 /// on, keeps the chosen quantile of its error under `limit` (None: not even the first). Cells without samples are
 /// skipped, not assumed good; NaN/inf in a cell ends the run.
-pub fn valid_up_to(map: &MapStats, limit: f64, quantile: fn(&crate::stats::Quantiles) -> f64) -> Vec<Option<f64>> {
+pub fn valid_up_to(
+    map: &MapStats,
+    limit: f64,
+    quantile: fn(&crate::analyse::stats::Quantiles) -> f64,
+) -> Vec<Option<f64>> {
     map.cells
         .iter()
         .map(|row| {

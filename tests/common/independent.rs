@@ -3,7 +3,7 @@
 //! arithmetic on `[f64; 3]`, Gauss–Legendre nodes by Newton on Pₙ, a basis about a
 //! direction, and the GGX lobe term by term.
 
-use linelight::scene::Vec3;
+use linelight::input::scene::Vec3;
 use std::f64::consts::PI;
 
 pub fn add(a: Vec3, b: Vec3) -> Vec3 {

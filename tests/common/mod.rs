@@ -26,10 +26,11 @@ pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
 }
 
 /// The one GPU (lavapipe by default) of a test binary, opened once with the driver quiet.
-pub fn gpu() -> &'static linelight::gpu::Gpu {
-    static GPU: std::sync::OnceLock<linelight::gpu::Gpu> = std::sync::OnceLock::new();
+pub fn gpu() -> &'static linelight::measure::gpu::Gpu {
+    static GPU: std::sync::OnceLock<linelight::measure::gpu::Gpu> = std::sync::OnceLock::new();
     GPU.get_or_init(|| {
-        linelight::gpu::quiet_driver_environment();
-        linelight::gpu::Gpu::new(None).unwrap_or_else(|e| panic!("lavapipe is installed (scripts/ensure-vulkan): {e}"))
+        linelight::measure::gpu::quiet_driver_environment();
+        linelight::measure::gpu::Gpu::new(None)
+            .unwrap_or_else(|e| panic!("lavapipe is installed (scripts/ensure-vulkan): {e}"))
     })
 }

@@ -3,9 +3,9 @@
 //! light (the method 0 where light arrives) and the light from below the horizon.
 
 use super::{pct, q3, share};
+use crate::analyse::stats::ACCURACY_MARGIN;
+use crate::analyse::summary::Summary;
 use crate::report::sci;
-use crate::stats::ACCURACY_MARGIN;
-use crate::summary::Summary;
 use std::fmt::Write;
 
 /// Per material: every method's error statistics (f32 GPU, CPU f32, f64, bits, floored), then
@@ -29,7 +29,7 @@ pub(super) fn error_tables(w: &mut String, input: &Summary) {
         let _ = writeln!(
             w,
             "| method | n | NaN | inf | median | p90 | p99 | max | abs p99 | abs max | CPU f32 p99 | f64 median | f64 p99 | f64 max | bits med | bits p99 | ≤1e-3 % | ≤1e-2 % | floored p99 (floor {}) | below floor | |",
-            sci(Some(case.floor(a.methods.first().map_or(crate::target::Target::Line, |m| m.target))))
+            sci(Some(case.floor(a.methods.first().map_or(crate::input::target::Target::Line, |m| m.target))))
         );
         let _ = writeln!(
             w,

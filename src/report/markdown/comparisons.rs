@@ -1,8 +1,8 @@
 //! Method against method: the measured differences (findings sentences), the |a − b| tables
 //! per compared pair, and the search for where compared methods disagree most.
 
+use crate::analyse::summary::Summary;
 use crate::report::sci;
-use crate::summary::Summary;
 use std::fmt::Write;
 
 /// One sentence per compared pair and material.

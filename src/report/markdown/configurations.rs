@@ -2,8 +2,8 @@
 //! replay (the worst found by the search, those giving NaN or inf).
 
 use super::share;
+use crate::analyse::summary::Summary;
 use crate::report::sci;
-use crate::summary::Summary;
 use std::fmt::Write;
 
 /// How the sample was drawn: the natural sample, the top-ups of thin bins, the bins still thin.

@@ -1,7 +1,7 @@
 //! What the methods and the run cost: GPU and CPU time per evaluation with op counts, speed
 //! ratios and Pareto fronts, and the wall-clock split of this sweep.
 
-use crate::summary::Summary;
+use crate::analyse::summary::Summary;
 use std::fmt::Write;
 
 /// Cost per evaluation and speed against accuracy (nothing when costs were not measured).
@@ -58,7 +58,7 @@ fn speed_notes(w: &mut String, input: &Summary) {
         let _ = writeln!(
             w,
             "- `{x}` against `{y}`, measured in this run: {}.",
-            crate::claims::speed_sentence(x, y, cx, cy)
+            crate::analyse::claims::speed_sentence(x, y, cx, cy)
         );
     }
     let _ = writeln!(w);

@@ -1,7 +1,7 @@
 //! The validity maps: per map, method and material, the chart and the table of where the
 //! relative error stays under each threshold.
 
-use crate::summary::Summary;
+use crate::analyse::summary::Summary;
 use std::fmt::Write;
 
 /// Every validity map of the case, for the methods it shows.
@@ -30,8 +30,8 @@ pub(super) fn validity_maps(w: &mut String, input: &Summary) {
                     map.y.axis
                 );
                 let _ = writeln!(w, "|---|---:|---|---|---|---|---|");
-                let p99 = |q: &crate::stats::Quantiles| q.p99;
-                let median = |q: &crate::stats::Quantiles| q.median;
+                let p99 = |q: &crate::analyse::stats::Quantiles| q.p99;
+                let median = |q: &crate::analyse::stats::Quantiles| q.median;
                 let limits = [
                     (0.01, p99 as fn(&_) -> f64),
                     (0.05, p99),

@@ -11,8 +11,8 @@ mod maps;
 mod reading;
 mod verdict;
 
-use crate::stats::BinStats;
-use crate::summary::Summary;
+use crate::analyse::stats::BinStats;
+use crate::analyse::summary::Summary;
 use std::fmt::Write;
 
 /// The report, section by section, in reading order.
@@ -49,7 +49,7 @@ pub fn render(input: &Summary) -> String {
 }
 
 /// Median, p90, p99 and max of the quantiles `f` picks from `s`, formatted (`—` when absent).
-fn q3(s: &BinStats, f: impl Fn(&BinStats) -> Option<crate::stats::Quantiles>) -> [String; 4] {
+fn q3(s: &BinStats, f: impl Fn(&BinStats) -> Option<crate::analyse::stats::Quantiles>) -> [String; 4] {
     let q = f(s);
     [
         q.map(|q| q.median),

@@ -1,8 +1,8 @@
 //! "How to read this": the definitions behind every table (relative error, floors, bits,
 //! quantile kinds, references) and each method's source.
 
+use crate::analyse::summary::Summary;
 use crate::report::sci;
-use crate::summary::Summary;
 use std::fmt::Write;
 
 /// The definitions and the methods with their sources.
@@ -47,8 +47,8 @@ pub(super) fn how_to_read(w: &mut String, input: &Summary) {
 
 /// Which kind of quantile the tables show: exact nearest-rank, or read from a sketch (bins
 /// past `stats::EXACT_LIMIT` values), with how many bins are of each kind.
-fn quantile_kinds(a: &crate::analysis::Analysis) -> String {
-    use crate::stats::QuantileKind;
+fn quantile_kinds(a: &crate::analyse::analysis::Analysis) -> String {
+    use crate::analyse::stats::QuantileKind;
     let (mut exact, mut sketch) = (0, 0);
     for ms in &a.methods {
         for mat in &ms.materials {
@@ -66,7 +66,7 @@ fn quantile_kinds(a: &crate::analysis::Analysis) -> String {
          bin shows median, p90 and p99 from a DDSketch of {} % relative accuracy, and its exact maximum \
          (`stats.csv` column `quantiles`, `summary.json` `kind`). In this run: {exact} bins exact, {sketch} \
          sketched (method × material × bin, relative error).",
-        crate::stats::EXACT_LIMIT,
-        100.0 * crate::stats::SKETCH_ALPHA
+        crate::analyse::stats::EXACT_LIMIT,
+        100.0 * crate::analyse::stats::SKETCH_ALPHA
     )
 }

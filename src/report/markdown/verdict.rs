@@ -1,9 +1,9 @@
 //! The report's opening: what was run, the claims that no longer hold, the verdict, the
 //! findings and the at-a-glance table, so a reader has the conclusions before the tables.
 
-use crate::analysis::Verdict;
+use crate::analyse::analysis::Verdict;
+use crate::analyse::summary::Summary;
 use crate::report::sci;
-use crate::summary::Summary;
 use std::fmt::Write;
 
 /// Title, what was run (case, seed, counts, adapter, command line), degenerate draws, and the

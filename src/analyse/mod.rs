@@ -1,0 +1,8 @@
+//! The analyse stage: measured values and references into statistics, comparisons, claims
+//! and the summary a report formats. Pure: no device, no files.
+
+pub mod analysis;
+pub mod bench;
+pub mod claims;
+pub mod stats;
+pub mod summary;

@@ -1,0 +1,143 @@
+//! The evaluator's constants, its libm, its attribution. (Its agreement with the hand
+//! ports it replaced, run just before they were deleted: docs/evaluator-agreement.txt.)
+
+use super::*;
+use crate::input::scene::Material;
+use crate::kernel::methods::{kernel_set, resolve};
+
+fn config(p1: [f64; 3], p2: [f64; 3], material: Material) -> Config {
+    Config {
+        id: String::new(),
+        p1,
+        p2,
+        radius: None,
+        rect: None,
+        material,
+    }
+}
+
+/// Seeded configurations over the materials the ports handle: diffuse, sparse and full
+/// M⁻¹, with a radius and a rectangle (so every target applies).
+fn configs(n: usize) -> Vec<Config> {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+    let mut out = Vec::new();
+    while out.len() < n {
+        let mut p = || {
+            [
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-0.5..2.0),
+            ]
+        };
+        let (p1, p2) = (p(), p());
+        let material = match out.len() % 3 {
+            0 => Material::Diffuse,
+            1 => Material::Ltc {
+                minv: [[0.7, 0.0, 0.15], [0.0, 0.9, 0.0], [-0.25, 0.0, 1.0]],
+            },
+            _ => Material::Ltc {
+                minv: [[0.8, 0.1, 0.2], [-0.05, 0.6, 0.1], [-0.2, 0.15, 1.1]],
+            },
+        };
+        let mut c = config(p1, p2, material);
+        c.radius = Some(0.02);
+        let t = crate::input::scene::sub(p2, p1);
+        let n0 = crate::input::scene::cross(t, [0.0, 0.0, 1.0]);
+        let len = crate::input::scene::length(n0);
+        if len > 1e-3 {
+            c.rect = Some(crate::input::scene::Rect {
+                normal: [n0[0] / len, n0[1] / len, n0[2] / len],
+                width: 0.03,
+            });
+        }
+        if c.rect.is_some() && c.validate().is_ok() {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// The 2023 listing's `INV_PI = 0.3183098861` is 2.6e-10 off 1/π: the f64 evaluation
+/// must show it (its constant read from the written digits, not through f32).
+#[test]
+#[allow(clippy::approx_constant)] // the listing's own digits are the point
+fn f64_keeps_written_digits() {
+    let mut kernels = kernel_set(&[]).unwrap();
+    let base = kernels.iter().find(|k| k.id == "line.ltc2023").unwrap().clone();
+    let text = base
+        .text
+        .replace("//! id: line.ltc2023\n", "//! id: line.ltc2023_exact_pi\n")
+        .replace("const INV_PI: f32 = 0.3183098861;", "const INV_PI: f32 = 1.0 / PI;");
+    assert_ne!(text, base.text);
+    kernels.push(crate::kernel::KernelFile::parse("exact_pi.wgsl", &text).unwrap());
+    let listing = program(&resolve("line.ltc2023", &kernels).unwrap()).unwrap();
+    let exact = program(&resolve("line.ltc2023_exact_pi", &kernels).unwrap()).unwrap();
+    let cs = configs(30);
+    let refs: Vec<&Config> = cs.iter().collect();
+    let (a, b) = (
+        listing.eval(&refs, Mode::F64).unwrap(),
+        exact.eval(&refs, Mode::F64).unwrap(),
+    );
+    let expected = 0.3183098861 * std::f64::consts::PI;
+    let mut seen = 0;
+    for (x, y) in a.iter().zip(&b) {
+        if *y != 0.0 {
+            seen += 1;
+            assert!((x / y - expected).abs() < 1e-14, "{x} / {y} = {}", x / y);
+        }
+    }
+    assert!(seen > 10);
+    assert!(
+        (1.0 - expected).abs() > 2.5e-10,
+        "the offset itself: {:e}",
+        1.0 - expected
+    );
+    // In f32 the two constants are the same number.
+    let (a, b) = (
+        listing.eval(&refs, Mode::F32).unwrap(),
+        exact.eval(&refs, Mode::F32).unwrap(),
+    );
+    assert_eq!(a, b);
+}
+
+/// The `libm` crate's f32 transcendentals against its f64 ones (exact to far below an
+/// f32 ulp), in f32 ulps at the result, over the ranges the kernels use. Printed, and
+/// bounded (musl documents < 1 ulp for these; atan2f measures up to 2).
+#[test]
+fn libm_f32_accuracy() {
+    fn ulps(got: f32, want: f64) -> f64 {
+        let w = (want as f32).abs().max(f32::MIN_POSITIVE);
+        let ulp = f64::from(f32::from_bits(w.to_bits() + 1) - w);
+        (got as f64 - want).abs() / ulp
+    }
+    type F = (&'static str, fn(f32) -> f32, fn(f64) -> f64, f32, f32);
+    let funcs: [F; 8] = [
+        ("acosf", libm::acosf, libm::acos, -1.0, 1.0),
+        ("asinf", libm::asinf, libm::asin, -1.0, 1.0),
+        ("atanf", libm::atanf, libm::atan, -100.0, 100.0),
+        ("sinf", libm::sinf, libm::sin, -7.0, 7.0),
+        ("cosf", libm::cosf, libm::cos, -7.0, 7.0),
+        ("tanf", libm::tanf, libm::tan, -1.5, 1.5),
+        ("expf", libm::expf, libm::exp, -20.0, 20.0),
+        ("logf", libm::logf, libm::log, 1e-6, 1e6),
+    ];
+    let n = 200_000;
+    for (name, f32f, f64f, lo, hi) in funcs {
+        let worst = (0..=n)
+            .map(|i| lo + (hi - lo) * (i as f32 / n as f32))
+            .map(|x| ulps(f32f(x), f64f(x as f64)))
+            .fold(0.0, f64::max);
+        eprintln!("libm {name}: max error {worst:.3} ulp over [{lo}, {hi}], {n} points");
+        assert!(worst < 1.0, "{name}: {worst} ulp");
+    }
+    let mut worst = 0.0f64;
+    for i in 0..=n {
+        let y = -3.0 + 6.0 * (i as f32 / n as f32);
+        for x in [-2.0f32, -0.3, 0.01, 1.0, 5.0] {
+            worst = worst.max(ulps(libm::atan2f(y, x), libm::atan2(y as f64, x as f64)));
+        }
+    }
+    eprintln!("libm atan2f: max error {worst:.3} ulp");
+    assert!(worst < 2.5, "atan2f: {worst} ulp");
+}

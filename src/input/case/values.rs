@@ -1,0 +1,319 @@
+//! Checks of a case file's values, beyond their types: every error names the file, the
+//! key and the value (issue 8). Kept apart from the parser (`case.rs`) so the rules live in
+//! one place: names that become file names, distributions that can only make valid
+//! configurations, positive floors and tolerances, duplicate methods, search sizes.
+
+use crate::input::case::{Case, Dist, Geometry, MaterialFamily};
+pub use crate::input::names::clip;
+use crate::input::names::{chart_file, map_file};
+use std::collections::BTreeMap;
+
+/// A case name becomes a folder under `--out`: letters, digits, `.`, `_`, `-`, starting
+/// with a letter or digit, at most this long.
+pub const MAX_NAME: usize = 100;
+
+/// The `[search]` candidates one step may hold (restarts × population), a bound on its memory.
+pub const MAX_SEARCH_BATCH: usize = 1 << 20;
+
+fn shown(d: &Dist) -> String {
+    match *d {
+        Dist::Fixed { value } => format!("fixed {value}"),
+        Dist::Uniform { min, max } => format!("uniform [{min}, {max}]"),
+        Dist::LogUniform { min, max } => format!("log_uniform [{min}, {max}]"),
+        Dist::SignedLogUniform { min, max } => format!("signed_log_uniform ±[{min}, {max}]"),
+    }
+}
+
+/// The smallest and largest value a distribution can draw (signed: of either sign).
+fn range(d: &Dist) -> (f64, f64) {
+    match *d {
+        Dist::Fixed { value } => (value, value),
+        Dist::Uniform { min, max } | Dist::LogUniform { min, max } => (min, max),
+        Dist::SignedLogUniform { max, .. } => (-max, max),
+    }
+}
+
+fn valid_name(name: &str) -> bool {
+    let mut chars = name.chars();
+    chars.next().is_some_and(|c| c.is_ascii_alphanumeric())
+        && chars.all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-'))
+        && name.len() <= MAX_NAME
+}
+
+/// Every check below; `Err` is the message without the file name (the caller adds it).
+pub fn check(case: &Case) -> Result<(), String> {
+    if !valid_name(&case.name) {
+        return Err(format!(
+            "`name` = \"{}\": a case name becomes the report folder's name, so it must be 1–{MAX_NAME} \
+             letters, digits, '.', '_' or '-', starting with a letter or digit",
+            clip(&case.name)
+        ));
+    }
+    let mut seen = BTreeMap::new();
+    for (i, m) in case.methods.iter().enumerate() {
+        if let Some(j) = seen.insert(m.as_str(), i) {
+            return Err(format!(
+                "`methods`: \"{}\" is listed twice (entries {} and {})",
+                clip(m),
+                j + 1,
+                i + 1
+            ));
+        }
+    }
+    if let Some(g) = &case.geometry {
+        geometry(g, "geometry")?;
+    }
+    let mut names = BTreeMap::new();
+    let mut charts = BTreeMap::new();
+    for (i, m) in case.materials.iter().enumerate() {
+        if m.name.is_empty() {
+            return Err(format!("`materials[{i}].name` = \"\": a material needs a name"));
+        }
+        if let Some(j) = names.insert(m.name.as_str(), i) {
+            return Err(format!(
+                "`materials[{i}].name` = \"{}\": material names must be unique (also materials[{j}])",
+                clip(&m.name)
+            ));
+        }
+        if let Some(other) = charts.insert(chart_file(&m.name), &m.name) {
+            return Err(format!(
+                "`materials[{i}].name` = \"{}\" and \"{}\" map to the same chart file `{}`: rename one",
+                clip(&m.name),
+                clip(other),
+                chart_file(&m.name)
+            ));
+        }
+        material(m, i)?;
+    }
+    let mut maps = BTreeMap::new();
+    for (k, map) in case.maps.iter().enumerate() {
+        for label in case.methods.iter().filter(|l| map.shows(l)) {
+            for mat in &case.materials {
+                let file = map_file(label, &mat.name, &map.x.axis, &map.y.axis);
+                let key = (label.clone(), mat.name.clone(), k);
+                if let Some((l, n, _)) = maps.insert(file.clone(), key) {
+                    if l != *label || n != mat.name {
+                        return Err(format!(
+                            "`maps[{k}]`: `{}` on \"{}\" and `{}` on \"{}\" map to the same file `{file}`: \
+                             rename a method or material",
+                            clip(label),
+                            clip(&mat.name),
+                            clip(&l),
+                            clip(&n)
+                        ));
+                    }
+                    return Err(format!(
+                        "`maps[{k}]`: the map {} × {} appears twice",
+                        map.x.axis, map.y.axis
+                    ));
+                }
+            }
+        }
+    }
+    for b in case.bins.iter().chain(case.maps.iter().flat_map(|m| [&m.x, &m.y])) {
+        if let Some(e) = b.edges.iter().find(|e| !e.is_finite()) {
+            return Err(format!("`bins` `{}`: edge {e} is not finite", b.axis));
+        }
+    }
+    for (target, &floor) in &case.error_floor {
+        if !(floor > 0.0 && floor.is_finite()) {
+            return Err(format!(
+                "`error_floor.{target}` = {floor}: the floor of a relative error's denominator must be a \
+                 finite number > 0"
+            ));
+        }
+    }
+    for (method, t) in &case.tolerances {
+        for (key, v) in [("median", t.median), ("p99", t.p99), ("max", t.max)] {
+            if let Some(v) = v.filter(|v| !(*v >= 0.0 && v.is_finite())) {
+                return Err(format!(
+                    "`tolerances.\"{}\".{key}` = {v}: a tolerance must be a finite number >= 0",
+                    clip(method)
+                ));
+            }
+        }
+    }
+    for (i, [a, b]) in case.compare.iter().enumerate() {
+        if a == b {
+            return Err(format!(
+                "`compare[{i}]` = [\"{}\", \"{}\"]: a method compared with itself",
+                clip(a),
+                clip(b)
+            ));
+        }
+    }
+    if let Some(s) = &case.search {
+        if s.restarts == 0 || s.population == 0 {
+            return Err(format!(
+                "`search.restarts` = {}, `search.population` = {}: both must be at least 1",
+                s.restarts, s.population
+            ));
+        }
+        let batch = s.restarts.checked_mul(s.population).filter(|&b| b <= MAX_SEARCH_BATCH);
+        if batch.is_none() {
+            return Err(format!(
+                "`search.restarts` × `search.population` = {} × {}: more than {MAX_SEARCH_BATCH} candidates per step",
+                s.restarts, s.population
+            ));
+        }
+        if s.steps > MAX_STEPS {
+            return Err(format!("`search.steps` = {}: at most {MAX_STEPS}", s.steps));
+        }
+    }
+    if let Some(s) = &case.disagreements {
+        if s.restarts == 0 || s.population == 0 {
+            return Err(format!(
+                "`disagreements.restarts` = {}, `disagreements.population` = {}: both must be at least 1",
+                s.restarts, s.population
+            ));
+        }
+        if s.restarts
+            .checked_mul(s.population)
+            .is_none_or(|b| b > MAX_SEARCH_BATCH)
+        {
+            return Err(format!(
+                "`disagreements.restarts` × `disagreements.population` = {} × {}: more than {MAX_SEARCH_BATCH} \
+                 candidates per step",
+                s.restarts, s.population
+            ));
+        }
+        if s.steps > MAX_STEPS {
+            return Err(format!("`disagreements.steps` = {}: at most {MAX_STEPS}", s.steps));
+        }
+        if !(s.epsilon > 0.0 && s.epsilon.is_finite()) {
+            return Err(format!(
+                "`disagreements.epsilon` = {}: the smallest error a ratio divides by must be a finite number > 0",
+                s.epsilon
+            ));
+        }
+    }
+    if case.topup_draws > MAX_TOPUP_DRAWS {
+        return Err(format!(
+            "`topup_draws` = {}: at most {MAX_TOPUP_DRAWS} (top-up draws per family, as a multiple of its count)",
+            case.topup_draws
+        ));
+    }
+    Ok(())
+}
+
+/// Refinement steps a search may take.
+pub const MAX_STEPS: usize = 10_000;
+
+/// The top-up budget's largest multiple of a family's count.
+pub const MAX_TOPUP_DRAWS: usize = 1000;
+
+/// A parameter that only makes sense when positive (a length, a roughness).
+fn positive(key: &str, d: &Dist) -> Result<(), String> {
+    let (lo, _) = range(d);
+    if matches!(d, Dist::SignedLogUniform { .. }) || !(lo > 0.0) {
+        return Err(format!(
+            "`{key}` = {}: must draw only values > 0, so it cannot make degenerate configurations",
+            shown(d)
+        ));
+    }
+    Ok(())
+}
+
+fn geometry(g: &Geometry, at: &str) -> Result<(), String> {
+    positive(&format!("{at}.distance"), &g.distance)?;
+    positive(&format!("{at}.length"), &g.length)?;
+    if let Some(r) = &g.radius {
+        positive(&format!("{at}.radius"), r)?;
+        let (_, hi) = range(r);
+        if !(hi < 1.0) {
+            return Err(format!(
+                "`{at}.radius` = {}: the radius is in units of the line's distance d, and a radius >= 1 puts \
+                 the shading point inside the tube (draws would be redrawn, changing the distribution)",
+                shown(r)
+            ));
+        }
+    }
+    if let Some(w) = &g.rect_width {
+        positive(&format!("{at}.rect_width"), w)?;
+    }
+    Ok(())
+}
+
+fn material(m: &MaterialFamily, i: usize) -> Result<(), String> {
+    let at = format!("materials[{i}]");
+    if let Some(g) = &m.geometry {
+        geometry(g, &format!("{at}.geometry"))?;
+    }
+    for (key, d) in [("alpha", &m.alpha), ("aspect", &m.aspect)] {
+        if let Some(d) = d {
+            positive(&format!("{at}.{key}"), d)?;
+        }
+    }
+    if let Some(p) = &m.peak {
+        let (lo, hi) = range(p);
+        if !(lo > -90.0 && hi < 90.0) {
+            return Err(format!(
+                "`{at}.peak` = {}: the lobe's peak must stay within (-90, 90) degrees of the normal",
+                shown(p)
+            ));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BASE: &str = r#"
+name = "t"
+title = "t"
+seed = 1
+methods = ["line.ltc2023", "line.ltc2017"]
+[geometry]
+elevation = { dist = "uniform", min = 0.0, max = 90.0 }
+tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
+length = { dist = "log_uniform", min = 0.1, max = 10.0 }
+center = { dist = "fixed", value = 0.0 }
+[[materials]]
+name = "diffuse"
+kind = "diffuse"
+count = 10
+"#;
+
+    fn err(text: &str) -> String {
+        Case::parse("c.toml", text).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn each_error_names_file_key_and_value() {
+        assert!(Case::parse("c.toml", BASE).is_ok());
+        let e = err(&BASE.replace("name = \"t\"", "name = \"../../x\""));
+        assert!(e.starts_with("c.toml:") && e.contains("`name` = \"../../x\""), "{e}");
+        let e = err(&BASE.replace("seed = 1", "seed = 1\nerror_floor = { line = 0.0 }"));
+        assert!(e.contains("`error_floor.line` = 0"), "{e}");
+        let e = err(&BASE.replace("seed = 1", "seed = 1\nerror_floor = { line = -1.0 }"));
+        assert!(e.contains("`error_floor.line` = -1"), "{e}");
+        let e = err(&BASE.replace("seed = 1", "seed = 1\nerror_floor = { line = nan }"));
+        assert!(e.contains("`error_floor.line` = NaN"), "{e}");
+        let e = err(&BASE.replace("\"line.ltc2017\"]", "\"line.ltc2023\"]"));
+        assert!(e.contains("`methods`: \"line.ltc2023\" is listed twice"), "{e}");
+        let e = err(&BASE.replace(
+            "min = 0.1, max = 10.0",
+            "min = 0.1, max = 10.0 }\nradius = { dist = \"uniform\", min = 0.5, max = 1.5",
+        ));
+        assert!(e.contains("`geometry.radius` = uniform [0.5, 1.5]"), "{e}");
+        let e = err(&BASE.replace(
+            "center = { dist = \"fixed\", value = 0.0 }",
+            "center = { dist = \"fixed\", value = 0.0 }\ndistance = { dist = \"fixed\", value = -1.0 }",
+        ));
+        assert!(e.contains("`geometry.distance` = fixed -1"), "{e}");
+        let two = format!("{BASE}[[materials]]\nname = \"diffuse\"\nkind = \"diffuse\"\ncount = 1\n");
+        let e = err(&two);
+        assert!(
+            e.contains("`materials[1].name` = \"diffuse\": material names must be unique"),
+            "{e}"
+        );
+        let near = format!("{BASE}[[materials]]\nname = \"diff use\"\nkind = \"diffuse\"\ncount = 1\n[[materials]]\nname = \"diff,use\"\nkind = \"diffuse\"\ncount = 1\n");
+        assert!(err(&near).contains("same chart file"), "{}", err(&near));
+        let e = err(&format!("{BASE}[tolerances.\"line.ltc2023\"]\np99 = -0.1\n"));
+        assert!(e.contains("`tolerances.\"line.ltc2023\".p99` = -0.1"), "{e}");
+        let e = err(&format!("{BASE}[search]\nmethods = [\"line.ltc2023\"]\nrestarts = 0\n"));
+        assert!(e.contains("`search.restarts` = 0"), "{e}");
+    }
+}

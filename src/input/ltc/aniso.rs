@@ -1,0 +1,581 @@
+//! The anisotropic GGX LTC table of seed 004 (Kt, Heitz, Dupuy, Narayanan, "Bringing
+//! Linearly Transformed Cosines to Anisotropic GGX"), written here from its description, at a
+//! resolution this shared 2-core machine can fit: `data/ltc_ggx_aniso.csv`, written by
+//! `linelight fit --aniso`, format in docs/ggx.md.
+//!
+//! What follows the seed:
+//! - the 4D parameterisation (Sec. 6.1): view angle θ, view azimuth φ against the roughness
+//!   axes reduced to [0, π/2] by the GGX lobe's axial symmetries (Eq. 13), the largest
+//!   roughness α_max and the ratio r = α_min/α_max (Eq. 15, the roughness symmetry of Eq. 14),
+//!   each on a uniform grid;
+//! - the full matrix M (not M⁻¹) stored, divided by the length of its third column, and
+//!   interpolated (Sec. 7), then inverted as a shader would (f32);
+//! - alignment against the non-uniqueness of LTCs (Sec. 5.2, Eq. 12): M·R_z(γ) with the γ that
+//!   minimises the mean squared distance between cosine samples and their transforms, by a
+//!   linear search (refined by golden section). The seed also searches the two single-axis
+//!   flips; they reverse M's orientation (det < 0), which a polygon integrator sees as a
+//!   reversed winding, so only rotations are searched here;
+//! - the post-processing of Sec. 6.2 (Eq. 16): entries that the lobe's symmetries make zero
+//!   are set to zero at φ = 0, φ = π/2 and θ = 0, and at θ = 0 every φ holds the same entry;
+//! - the magnitude and the Schlick term as two extra channels (Sec. 9, "Fresnel").
+//!
+//! What does not: the seed fits each entry with a sliced-Wasserstein loss, 10 000 SGD steps in
+//! PyTorch (two hours on a GPU). Here each entry is the exact per-configuration fit of
+//! `fit::fit_general` (our L1 objective, Nelder–Mead from three starts with restarts), so a
+//! table node holds exactly what the `fit` feed gives there, before alignment. The isotropic
+//! slice r = 1 is fitted at φ = 0 only and turned: M(φ) = R_z(φ)·M(0)·R_z(−φ) (the lobe turns
+//! with the view; alignment commutes with that conjugation).
+
+use super::fit::{self, Ltc, M3};
+use super::ggx::Ggx;
+use super::table::Storage;
+use anyhow::Context;
+use std::f64::consts::FRAC_PI_2;
+
+/// The table's axes: θ ∈ [0, THETA_MAX], φ ∈ [0, π/2], α_max ∈ [ALPHA_MIN, 1], r ∈ [RATIO_MIN, 1].
+pub const THETA_MAX: f64 = 1.57;
+pub const ALPHA_MIN: f64 = 0.02;
+pub const RATIO_MIN: f64 = 0.25;
+/// The committed resolution (θ, φ, α_max, r).
+pub const SIZE: [usize; 4] = [8, 5, 5, 4];
+
+/// Cosine samples per axis of the alignment's objective (Eq. 12).
+const ALIGN_GRID: usize = 16;
+
+/// Where an entry came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Origin {
+    /// Fitted (fit::fit_general), aligned, post-processed.
+    Fit,
+    /// θ = 0: the entry of φ = 0 (the lobe does not depend on φ there).
+    Theta0,
+    /// r = 1: the entry of φ = 0 turned about z by φ.
+    IsoRotation,
+}
+
+impl Origin {
+    fn name(self) -> &'static str {
+        match self {
+            Origin::Fit => "fit",
+            Origin::Theta0 => "theta0",
+            Origin::IsoRotation => "iso_rotation",
+        }
+    }
+    fn parse(s: &str) -> Option<Origin> {
+        [Origin::Fit, Origin::Theta0, Origin::IsoRotation]
+            .into_iter()
+            .find(|o| o.name() == s)
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Entry {
+    /// M in the roughness frame (row-major), aligned, third column of unit length.
+    pub m: M3,
+    pub magnitude: f64,
+    pub fresnel: f64,
+    /// Relative L1 lobe error of the stored M (after alignment and post-processing) and its L3.
+    pub l1: f64,
+    pub l3: f64,
+    pub origin: Origin,
+}
+
+#[derive(Clone, Debug)]
+pub struct AnisoTable {
+    pub size: [usize; 4],
+    /// Entry (iθ, iφ, iα, ir) at `index`.
+    pub entries: Vec<Entry>,
+}
+
+fn axis_value(i: usize, n: usize, lo: f64, hi: f64) -> f64 {
+    if n == 1 {
+        return hi;
+    }
+    lo + (hi - lo) * i as f64 / (n - 1) as f64
+}
+
+/// (θ, φ, α_max, r) of entry (iθ, iφ, iα, ir).
+pub fn entry_point(size: [usize; 4], i: [usize; 4]) -> [f64; 4] {
+    [
+        axis_value(i[0], size[0], 0.0, THETA_MAX),
+        axis_value(i[1], size[1], 0.0, FRAC_PI_2),
+        axis_value(i[2], size[2], ALPHA_MIN, 1.0),
+        axis_value(i[3], size[3], RATIO_MIN, 1.0),
+    ]
+}
+
+pub fn index(size: [usize; 4], i: [usize; 4]) -> usize {
+    ((i[0] * size[1] + i[1]) * size[2] + i[2]) * size[3] + i[3]
+}
+
+/// The GGX lobe of a table point: αx = α_max, αy = r·α_max, view at (θ, φ).
+pub fn lobe(p: [f64; 4]) -> Ggx {
+    let [theta, phi, a, r] = p;
+    let (st, ct) = theta.sin_cos();
+    let (sp, cp) = phi.sin_cos();
+    Ggx {
+        ax: a,
+        ay: a * r,
+        view: [st * cp, st * sp, ct],
+    }
+}
+
+fn rot_z(g: f64) -> M3 {
+    let (s, c) = g.sin_cos();
+    [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+}
+
+/// Eq. 12: the mean squared distance between cosine samples ω_o and normalize(M ω_o).
+fn alignment_cost(m: &M3) -> f64 {
+    let n = ALIGN_GRID;
+    let mut sum = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let (u1, u2) = ((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
+            let r = u1.sqrt();
+            let (s, c) = (std::f64::consts::TAU * u2).sin_cos();
+            let wo = [r * c, r * s, (1.0 - u1).sqrt()];
+            let w = fit::mat_vec(m, wo);
+            let l = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+            sum += (0..3).map(|k| (wo[k] - w[k] / l).powi(2)).sum::<f64>();
+        }
+    }
+    sum / (n * n) as f64
+}
+
+/// M·R_z(γ) for the γ that minimises Eq. 12: a linear search over 720 angles, then golden
+/// section around the best.
+pub fn align(m: &M3) -> M3 {
+    let cost = |g: f64| alignment_cost(&fit::mat_mul(m, &rot_z(g)));
+    let steps = 720;
+    let h = std::f64::consts::TAU / steps as f64;
+    let best = (0..steps)
+        .map(|k| k as f64 * h)
+        .min_by(|a, b| cost(*a).total_cmp(&cost(*b)))
+        .unwrap_or(0.0);
+    let (mut lo, mut hi) = (best - h, best + h);
+    for _ in 0..50 {
+        let (a, b) = (lo + (hi - lo) * 0.381_966, lo + (hi - lo) * 0.618_034);
+        if cost(a) < cost(b) {
+            hi = b;
+        } else {
+            lo = a;
+        }
+    }
+    let g = 0.5 * (lo + hi);
+    let g = if cost(g) <= cost(best) { g } else { best };
+    fit::mat_mul(m, &rot_z(g))
+}
+
+/// Sec. 7: M divided by the length of its third column.
+fn unit_third_column(m: &M3) -> M3 {
+    let l = (m[0][2].powi(2) + m[1][2].powi(2) + m[2][2].powi(2)).sqrt();
+    m.map(|r| r.map(|x| x / l))
+}
+
+/// Eq. 16: the entries the lobe's symmetries make zero. φ = 0 (view in the xz-plane): the
+/// lobe is symmetric under y → −y; φ = π/2: under x → −x; θ = 0: under both.
+fn symmetrize(m: &mut M3, i: [usize; 4], size: [usize; 4]) {
+    let sym_y = i[1] == 0 || i[0] == 0;
+    let sym_x = i[1] == size[1] - 1 || i[0] == 0;
+    if sym_y {
+        m[0][1] = 0.0;
+        m[1][0] = 0.0;
+        m[1][2] = 0.0;
+        m[2][1] = 0.0;
+    }
+    if sym_x {
+        m[0][1] = 0.0;
+        m[1][0] = 0.0;
+        m[0][2] = 0.0;
+        m[2][0] = 0.0;
+    }
+}
+
+fn finish(g: &Ggx, m: M3, magnitude: f64, fresnel: f64, origin: Origin) -> Entry {
+    let (l3, l1) = fit::errors(g, &Ltc::new(m), magnitude, fit::OBJECTIVE_GRID);
+    Entry {
+        m,
+        magnitude,
+        fresnel,
+        l1,
+        l3,
+        origin,
+    }
+}
+
+/// Fits entry `i` of a table of `size` (an `Origin::Fit` entry): the exact fit, aligned,
+/// post-processed, third column of unit length, with its errors.
+pub fn fit_entry(size: [usize; 4], i: [usize; 4]) -> Entry {
+    let g = lobe(entry_point(size, i));
+    let f = fit::fit_general(&g);
+    let mut m = unit_third_column(&align(&fit::inverse(&f.minv)));
+    symmetrize(&mut m, i, size);
+    let m = unit_third_column(&m);
+    finish(&g, m, f.magnitude, f.fresnel, Origin::Fit)
+}
+
+/// Which entries are fitted; the others are copies (θ = 0) or turned copies (r = 1).
+fn origin_of(size: [usize; 4], i: [usize; 4]) -> Origin {
+    if i[1] == 0 {
+        Origin::Fit
+    } else if i[0] == 0 {
+        Origin::Theta0
+    } else if i[3] == size[3] - 1 {
+        Origin::IsoRotation
+    } else {
+        Origin::Fit
+    }
+}
+
+fn all_indices(size: [usize; 4]) -> Vec<[usize; 4]> {
+    let mut v = Vec::new();
+    for a in 0..size[0] {
+        for b in 0..size[1] {
+            for c in 0..size[2] {
+                for d in 0..size[3] {
+                    v.push([a, b, c, d]);
+                }
+            }
+        }
+    }
+    v
+}
+
+/// How many entries of a table of `size` are fitted (the rest are copies).
+pub fn fitted_count(size: [usize; 4]) -> usize {
+    all_indices(size)
+        .into_iter()
+        .filter(|&i| origin_of(size, i) == Origin::Fit)
+        .count()
+}
+
+/// Fits the whole table: the fitted entries in parallel (each is independent, so the table
+/// does not depend on the thread count or order), then the copies.
+pub fn fit_table(size: [usize; 4], progress: &(dyn Fn() + Sync)) -> AnisoTable {
+    use rayon::prelude::*;
+    let indices = all_indices(size);
+    let fitted: Vec<Option<Entry>> = indices
+        .par_iter()
+        .map(|&i| {
+            (origin_of(size, i) == Origin::Fit).then(|| {
+                let e = fit_entry(size, i);
+                progress();
+                e
+            })
+        })
+        .collect();
+    let entries = indices
+        .iter()
+        .zip(&fitted)
+        .map(|(&i, e)| match e {
+            Some(e) => e.clone(),
+            None => {
+                let base = fitted[index(size, [i[0], 0, i[2], i[3]])]
+                    .as_ref()
+                    .expect("φ = 0 is fitted");
+                let g = lobe(entry_point(size, i));
+                match origin_of(size, i) {
+                    Origin::Theta0 => finish(&g, base.m, base.magnitude, base.fresnel, Origin::Theta0),
+                    _ => {
+                        let phi = entry_point(size, i)[1];
+                        let m = fit::mat_mul(&fit::mat_mul(&rot_z(phi), &base.m), &rot_z(-phi));
+                        let mut m = unit_third_column(&m);
+                        symmetrize(&mut m, i, size);
+                        finish(&g, m, base.magnitude, base.fresnel, Origin::IsoRotation)
+                    }
+                }
+            }
+        })
+        .collect();
+    AnisoTable { size, entries }
+}
+
+const COLUMNS: &str = "i_theta,i_phi,i_alpha,i_ratio,theta,phi,alpha_max,ratio,m00,m01,m02,m10,m11,m12,m20,m21,m22,magnitude,fresnel,fit_l1,fit_l3,origin";
+
+fn round(x: f64, storage: Storage) -> f32 {
+    match storage {
+        Storage::F32 => x as f32,
+        Storage::F16 => half::f16::from_f64(x).to_f32(),
+    }
+}
+
+/// The reflection Q (orthogonal, fixing z) that takes a configuration to the table's domain,
+/// and the reduced (α_max, r, θ, φ) there: lobe(ω) = lobe_reduced(Q ω) (Eqs. 13 and 14).
+fn reduce(alpha: [f64; 2], view: [f64; 3]) -> (M3, [f32; 4]) {
+    let mut q: M3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let (mut vx, mut vy) = (view[0], view[1]);
+    if vy < 0.0 {
+        vy = -vy;
+        q[1][1] = -1.0;
+    }
+    if vx < 0.0 {
+        vx = -vx;
+        q[0][0] = -1.0;
+    }
+    let (mut ax, mut ay) = (alpha[0], alpha[1]);
+    if ay > ax {
+        (ax, ay) = (ay, ax);
+        (vx, vy) = (vy, vx);
+        q = [q[1], q[0], q[2]];
+    }
+    // The shader's coordinates, in f32.
+    let (vx, vy, vz) = (vx as f32, vy as f32, view[2] as f32);
+    let theta = vz.clamp(-1.0, 1.0).acos();
+    let phi = vy.atan2(vx);
+    (q, [theta, phi, ax as f32, (ay / ax) as f32])
+}
+
+fn transpose(m: &M3) -> M3 {
+    std::array::from_fn(|i| std::array::from_fn(|j| m[j][i]))
+}
+
+/// f32 inverse (adjugate / determinant), as a shader computes it.
+fn inverse_f32(m: &[[f32; 3]; 3]) -> [[f32; 3]; 3] {
+    let c = |a: usize, b: usize, c: usize, d: usize| m[a][b] * m[c][d] - m[a][d] * m[c][b];
+    let adj = [
+        [c(1, 1, 2, 2), -c(0, 1, 2, 2), c(0, 1, 1, 2)],
+        [-c(1, 0, 2, 2), c(0, 0, 2, 2), -c(0, 0, 1, 2)],
+        [c(1, 0, 2, 1), -c(0, 0, 2, 1), c(0, 0, 1, 1)],
+    ];
+    let det = m[0][0] * adj[0][0] + m[0][1] * adj[1][0] + m[0][2] * adj[2][0];
+    adj.map(|r| r.map(|x| x / det))
+}
+
+impl AnisoTable {
+    fn texel(&self, i: [usize; 4], storage: Storage) -> [f32; 11] {
+        let e = &self.entries[index(self.size, i)];
+        let mut t = [0.0f32; 11];
+        for r in 0..3 {
+            for c in 0..3 {
+                t[3 * r + c] = round(e.m[r][c], storage);
+            }
+        }
+        t[9] = round(e.magnitude, storage);
+        t[10] = round(e.fresnel, storage);
+        t
+    }
+
+    /// A shader's look-up for roughness (αx, αy) and a unit view (vz > 0), both in the
+    /// roughness frame: the reduction to the table's domain, a quadrilinear look-up of M,
+    /// magnitude and Fresnel term with f32 weights (clamped to the table's edges; trilinear
+    /// 3D-texture filtering plus one lerp), M inverted in f32 and mapped back by Q. Returns
+    /// M⁻¹ in the roughness frame (ω_o = M⁻¹ω), the magnitude and the Fresnel term.
+    pub fn sample(&self, alpha: [f64; 2], view: [f64; 3], storage: Storage) -> (M3, f64, f64) {
+        let (q, coords) = reduce(alpha, view);
+        let range = [
+            (0.0f32, THETA_MAX as f32),
+            (0.0, FRAC_PI_2 as f32),
+            (ALPHA_MIN as f32, 1.0),
+            (RATIO_MIN as f32, 1.0),
+        ];
+        let mut lo = [0usize; 4];
+        let mut frac = [0.0f32; 4];
+        for k in 0..4 {
+            let n = self.size[k];
+            if n == 1 {
+                continue;
+            }
+            let (a, b) = range[k];
+            let pos = ((coords[k] - a) / (b - a) * (n - 1) as f32).clamp(0.0, (n - 1) as f32);
+            let i = (pos.floor() as usize).min(n - 2);
+            lo[k] = i;
+            frac[k] = pos - i as f32;
+        }
+        let mut acc = [0.0f32; 11];
+        // The 16 corners, weights as products of f32 lerp factors.
+        for corner in 0..16usize {
+            let mut idx = lo;
+            let mut w = 1.0f32;
+            for k in 0..4 {
+                let up = corner >> k & 1 == 1;
+                if self.size[k] > 1 && up {
+                    idx[k] += 1;
+                }
+                w *= if self.size[k] == 1 {
+                    if up {
+                        0.0
+                    } else {
+                        1.0
+                    }
+                } else if up {
+                    frac[k]
+                } else {
+                    1.0 - frac[k]
+                };
+            }
+            if w == 0.0 {
+                continue;
+            }
+            let t = self.texel(idx, storage);
+            for (a, v) in acc.iter_mut().zip(t) {
+                *a += w * v;
+            }
+        }
+        let m = [
+            [acc[0], acc[1], acc[2]],
+            [acc[3], acc[4], acc[5]],
+            [acc[6], acc[7], acc[8]],
+        ];
+        let minv_red = inverse_f32(&m).map(|r| r.map(f64::from));
+        // M⁻¹ = Qᵀ M_red⁻¹ Q (Q is a signed permutation: exact).
+        let minv = fit::mat_mul(&fit::mat_mul(&transpose(&q), &minv_red), &q);
+        (minv, f64::from(acc[9]), f64::from(acc[10]))
+    }
+
+    /// The CSV text (inverse of `parse`).
+    pub fn to_csv(&self, header: &str) -> String {
+        let mut s = String::new();
+        for line in header.lines() {
+            s.push_str(&format!("# {line}\n"));
+        }
+        s.push_str(COLUMNS);
+        s.push('\n');
+        for i in all_indices(self.size) {
+            let e = &self.entries[index(self.size, i)];
+            let p = entry_point(self.size, i);
+            let mut line = format!("{},{},{},{}", i[0], i[1], i[2], i[3]);
+            for v in p
+                .iter()
+                .chain(e.m.iter().flatten())
+                .chain(&[e.magnitude, e.fresnel, e.l1, e.l3])
+            {
+                line.push_str(&format!(",{v:e}"));
+            }
+            s.push_str(&format!("{line},{}\n", e.origin.name()));
+        }
+        s
+    }
+
+    pub fn parse(text: &str, source: &str) -> Result<AnisoTable, String> {
+        let mut rows = Vec::new();
+        for (n, line) in text.lines().enumerate() {
+            let line = line.trim();
+            if line.is_empty() || line.starts_with('#') || line.starts_with("i_theta,") {
+                continue;
+            }
+            let f: Vec<&str> = line.split(',').collect();
+            if f.len() != 22 {
+                return Err(format!("{source}:{}: {} fields, expected 22", n + 1, f.len()));
+            }
+            let num = |k: usize| {
+                f[k].parse::<f64>()
+                    .map_err(|e| format!("{source}:{}: field {} `{}`: {e}", n + 1, k + 1, f[k]))
+            };
+            let idx = |k: usize| {
+                f[k].parse::<usize>()
+                    .map_err(|e| format!("{source}:{}: field {} `{}`: {e}", n + 1, k + 1, f[k]))
+            };
+            let i = [idx(0)?, idx(1)?, idx(2)?, idx(3)?];
+            let v: Vec<f64> = (8..21).map(num).collect::<Result<_, _>>()?;
+            let origin =
+                Origin::parse(f[21]).ok_or_else(|| format!("{source}:{}: unknown origin `{}`", n + 1, f[21]))?;
+            rows.push((
+                i,
+                Entry {
+                    m: [[v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]]],
+                    magnitude: v[9],
+                    fresnel: v[10],
+                    l1: v[11],
+                    l3: v[12],
+                    origin,
+                },
+            ));
+        }
+        let mut size = [0usize; 4];
+        for (i, _) in &rows {
+            for k in 0..4 {
+                size[k] = size[k].max(i[k] + 1);
+            }
+        }
+        if rows.len() != size.iter().product::<usize>() || rows.is_empty() {
+            return Err(format!("{source}: {} entries, not a full {size:?} table", rows.len()));
+        }
+        let mut entries: Vec<Option<Entry>> = vec![None; rows.len()];
+        for (i, e) in rows {
+            entries[index(size, i)] = Some(e);
+        }
+        let entries = entries
+            .into_iter()
+            .collect::<Option<Vec<_>>>()
+            .ok_or_else(|| format!("{source}: an entry appears twice"))?;
+        Ok(AnisoTable { size, entries })
+    }
+}
+
+/// Our committed anisotropic table, compiled in.
+pub fn ours() -> &'static AnisoTable {
+    static T: std::sync::OnceLock<AnisoTable> = std::sync::OnceLock::new();
+    T.get_or_init(|| {
+        AnisoTable::parse(
+            include_str!("../../../data/ltc_ggx_aniso.csv"),
+            "data/ltc_ggx_aniso.csv",
+        )
+        .expect("the committed table parses (tests check it)")
+    })
+}
+
+/// `linelight fit --aniso`: fits the anisotropic table and writes it (CSV) with a run
+/// record beside it (`<out>.run.json`).
+pub fn fit_command(out: &std::path::Path, size: [usize; 4]) -> anyhow::Result<()> {
+    use indicatif::{ProgressBar, ProgressStyle};
+    if size.iter().any(|&n| n < 2) {
+        anyhow::bail!("--aniso-size: every axis needs at least 2 entries, got {size:?}");
+    }
+    let threads = rayon::current_num_threads();
+    let fitted = fitted_count(size);
+    eprintln!(
+        "fitting a {}×{}×{}×{} anisotropic GGX LTC table (θ × φ × α_max × r; {fitted} fits, the rest by symmetry) on {threads} thread(s)",
+        size[0], size[1], size[2], size[3]
+    );
+    let pb = ProgressBar::new(fitted as u64);
+    pb.set_style(
+        ProgressStyle::with_template("{msg:>12} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    pb.set_message("fit");
+    let start = std::time::Instant::now();
+    let table = fit_table(size, &|| pb.inc(1));
+    pb.finish_and_clear();
+    let seconds = start.elapsed().as_secs_f64();
+    let header = format!(
+        "Anisotropic GGX LTC table (seed 004) fitted by `linelight fit --aniso` (src/ltc/aniso.rs); format: docs/ggx.md.\n\
+         {}×{}×{}×{} entries (i_theta, i_phi, i_alpha, i_ratio), uniform: θ ∈ [0, {THETA_MAX}], φ ∈ [0, π/2] (view azimuth against the roughness axes),\n\
+         alpha_max ∈ [{ALPHA_MIN}, 1] (αx = alpha_max, αy = ratio·alpha_max), ratio ∈ [{RATIO_MIN}, 1].\n\
+         m* = M (row-major, roughness frame, ω = M ω_o / |M ω_o|), aligned (Eq. 12), third column of unit length; magnitude = ∫D; fresnel = ∫D(1−v·h)⁵;\n\
+         fit_l1 = ∫|mag·D_ltc − D|/∫D and fit_l3 = ∫|mag·D_ltc − D|³ of the stored M; origin: fit, theta0 (copy of φ = 0), iso_rotation (φ = 0 turned by φ).",
+        size[0], size[1], size[2], size[3]
+    );
+    let csv = table.to_csv(&header);
+    let tmp = out.with_extension("csv.tmp");
+    std::fs::write(&tmp, &csv).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, out).with_context(|| format!("cannot write {}", out.display()))?;
+    let l1: Vec<f64> = table.entries.iter().map(|e| e.l1).collect();
+    let worst = l1.iter().copied().fold(0.0, f64::max);
+    let mut sorted = l1.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    let record = serde_json::json!({
+        "table": out.display().to_string(),
+        "size": size,
+        "fitted": fitted,
+        "threads": threads,
+        "seconds": seconds,
+        "objective": format!("{:?}", fit::OBJECTIVE),
+        "objective_grid": fit::OBJECTIVE_GRID,
+        "moment_grid": fit::MOMENT_GRID,
+        "fit_l1_max": worst,
+        "fit_l1_median": median,
+    });
+    let run = out.with_extension("run.json");
+    std::fs::write(&run, serde_json::to_string_pretty(&record)? + "\n")
+        .with_context(|| format!("cannot write {}", run.display()))?;
+    eprintln!(
+        "wrote {} and {}: {} entries ({fitted} fitted) in {seconds:.1} s on {threads} thread(s); relative L1 fit error median {median:.3e}, largest {worst:.3e}",
+        out.display(),
+        run.display(),
+        table.entries.len()
+    );
+    Ok(())
+}

@@ -1,0 +1,10 @@
+//! The input stage: what a run is asked to do and over what. Case files and their checks, the
+//! seeded sampler, the scene (configurations and the GPU's Scene struct), the target
+//! integrals, the LTC tables, and the names that messages and report files use.
+
+pub mod case;
+pub mod ltc;
+pub mod names;
+pub mod sampler;
+pub mod scene;
+pub mod target;

@@ -1,0 +1,776 @@
+//! Seeded sampler: case-file distributions → configurations, with the dimensionless
+//! parameters each one was drawn from (the bin axes).
+//!
+//! Same seed, same configurations on every machine: ChaCha8 streams (one per material,
+//! so adding a material changes no other), floats drawn from raw integers, and the
+//! transcendental functions from `libm` (pure Rust) rather than the platform's libm.
+
+use crate::input::case::{Case, Dist, MaterialFamily, MaterialKind};
+use crate::input::scene::{cross, dot, length, sub, Config, Mat3, Material, Rect, Roughness, Vec3};
+use rand::{RngCore, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// The parameters a configuration was drawn from, and ones derived from it, by axis name.
+///
+/// The line axes say which term of Eq. 1.20 dominates and where each antiderivative cancels:
+/// how far along the line the near and far ends reach (in units of the distance d of the
+/// line), the angle the segment subtends, the height of the closest point of the line and the
+/// tilt of the segment. The `_o` axes are the same in the configuration transformed by M⁻¹,
+/// the diffuse configuration the LTC formulas actually integrate (equal to the plain ones for
+/// the diffuse material).
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+pub struct Axes {
+    pub length: f64,
+    pub center: f64,
+    pub elevation: f64,
+    pub tilt: f64,
+    /// Lobe roughness; NaN for the diffuse material (such configurations fall in no alpha bin).
+    pub alpha: f64,
+    /// |l|/d of the end nearer the closest point of the line (0 when the segment spans it).
+    pub reach_near: f64,
+    /// |l|/d of the farther end.
+    pub reach_far: f64,
+    /// Angle between p1 and p2 seen from the shading point (radians).
+    pub subtended: f64,
+    /// Height of the closest point of the line over d: ω_po.z, in [−1, 1].
+    pub height: f64,
+    pub reach_near_o: f64,
+    /// `reach_far` in the transformed configuration (also named `reach_o`).
+    pub reach_o: f64,
+    pub subtended_o: f64,
+    pub height_o: f64,
+    pub tilt_o: f64,
+    pub radius: f64,
+    /// 1 when an end cap (disk of radius R at an end point, normal along the segment) straddles
+    /// the horizon or the LTC lobe's support plane (M⁻¹ row 3 · ω = 0), 0 when neither does;
+    /// NaN without a radius. A point-light cap is all or nothing exactly there.
+    pub cap_straddle: f64,
+    pub width: f64,
+    /// Angle (degrees) of the rectangle's normal from facing the shading point: 90 is edge-on.
+    pub rect_angle: f64,
+    /// `ggx`: the view's angle from the normal (degrees) and αy/αx; NaN otherwise.
+    pub view_angle: f64,
+    pub anisotropy: f64,
+}
+
+impl Axes {
+    pub fn get(&self, axis: &str) -> f64 {
+        match axis {
+            "length" => self.length,
+            "center" => self.center,
+            "elevation" => self.elevation,
+            "tilt" => self.tilt,
+            "alpha" => self.alpha,
+            "reach_near" => self.reach_near,
+            "reach_far" => self.reach_far,
+            "subtended" => self.subtended,
+            "height" => self.height,
+            "reach_near_o" => self.reach_near_o,
+            "reach_o" | "reach_far_o" => self.reach_o,
+            "subtended_o" => self.subtended_o,
+            "height_o" => self.height_o,
+            "tilt_o" => self.tilt_o,
+            "radius" => self.radius,
+            "cap_straddle" => self.cap_straddle,
+            "width" => self.width,
+            "rect_angle" => self.rect_angle,
+            "view_angle" => self.view_angle,
+            "anisotropy" => self.anisotropy,
+            _ => f64::NAN,
+        }
+    }
+
+    /// The axes the region of a configuration is stated on (disagreements, claims).
+    pub const REGION: [&'static str; 10] = [
+        "reach_near_o",
+        "reach_o",
+        "subtended_o",
+        "height_o",
+        "tilt_o",
+        "reach_near",
+        "reach_far",
+        "subtended",
+        "height",
+        "tilt",
+    ];
+}
+
+/// The line axes of a segment: (reach of the near end, reach of the far end, subtended angle,
+/// height of the closest point, tilt), lengths in units of the line's distance.
+pub fn line_axes(p1: Vec3, p2: Vec3) -> (f64, f64, f64, f64, f64) {
+    let t = normalize(sub(p2, p1));
+    let (l1, l2) = (dot(p1, t), dot(p2, t));
+    let foot = sub(p1, scale(t, l1));
+    let d = length(foot);
+    let near = if l1 * l2 <= 0.0 {
+        0.0
+    } else {
+        l1.abs().min(l2.abs()) / d
+    };
+    let far = l1.abs().max(l2.abs()) / d;
+    let subtended = libm::atan2(length(cross(p1, p2)), dot(p1, p2));
+    (near, far, subtended, foot[2] / d, t[2].abs())
+}
+
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Sample {
+    pub config: Config,
+    /// Index into the case's materials (families).
+    pub material: usize,
+    pub axes: Axes,
+    /// The uniforms it was drawn from (`sample_from_units` maps them back).
+    pub units: Vec<f64>,
+    /// Empty for the case's natural sample. A top-up configuration (see [`top_up`]) lists the
+    /// bins (axis index into `case.bins`, bin index) it was drawn for: it is counted in those
+    /// bins only, never in a whole-material statistic.
+    pub strata: Vec<(usize, usize)>,
+}
+
+impl Sample {
+    pub fn natural(&self) -> bool {
+        self.strata.is_empty()
+    }
+}
+
+/// A source of uniform numbers in [0, 1): the seeded stream when sampling, a stored vector
+/// when replaying or searching. A configuration is a pure function of its uniforms.
+trait Uniforms {
+    fn unit(&mut self) -> f64;
+}
+
+struct Stream(ChaCha8Rng);
+
+impl Uniforms for Stream {
+    /// From 53 random bits: identical on every platform.
+    fn unit(&mut self) -> f64 {
+        (self.0.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+}
+
+/// Replays stored uniforms, counting how many were taken.
+struct Replay<'a> {
+    units: &'a [f64],
+    taken: usize,
+}
+
+impl Uniforms for Replay<'_> {
+    fn unit(&mut self) -> f64 {
+        let u = self.units.get(self.taken).copied().unwrap_or(0.5);
+        self.taken += 1;
+        u
+    }
+}
+
+/// Records the uniforms another source hands out.
+struct Recorder<'a> {
+    inner: &'a mut dyn Uniforms,
+    units: Vec<f64>,
+}
+
+impl Uniforms for Recorder<'_> {
+    fn unit(&mut self) -> f64 {
+        let u = self.inner.unit();
+        self.units.push(u);
+        u
+    }
+}
+
+fn draw(source: &mut dyn Uniforms, d: &Dist) -> f64 {
+    let u = source.unit();
+    match *d {
+        Dist::Fixed { value } => value,
+        Dist::Uniform { min, max } => min + (max - min) * u,
+        Dist::LogUniform { min, max } => log_uniform(min, max, u),
+        Dist::SignedLogUniform { min, max } => {
+            // The sign from the lower or upper half, the magnitude from the rest: one draw.
+            let (sign, v) = if u < 0.5 { (-1.0, 2.0 * u) } else { (1.0, 2.0 * u - 1.0) };
+            sign * log_uniform(min, max, v)
+        }
+    }
+}
+
+/// Absent parameters draw nothing, so adding one to a case changes no other's stream.
+fn draw_opt(source: &mut dyn Uniforms, d: &Option<Dist>, default: f64) -> f64 {
+    d.as_ref().map_or(default, |d| draw(source, d))
+}
+
+/// How one family's draws went: every degenerate draw is redrawn, counted here, and shown
+/// in the report (`summary.json` `draws`, one line in the report header).
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+pub struct Draws {
+    pub family: String,
+    /// Draws made, accepted and rejected.
+    pub drawn: usize,
+    pub rejected: usize,
+    /// Why draws were rejected: the reason and how often.
+    pub reasons: std::collections::BTreeMap<String, usize>,
+}
+
+impl Draws {
+    pub fn rate(&self) -> f64 {
+        if self.drawn == 0 {
+            0.0
+        } else {
+            self.rejected as f64 / self.drawn as f64
+        }
+    }
+}
+
+/// Redraws allowed per family: 1 % of its count (and a few for tiny counts). Beyond that the
+/// redraws would change the distribution the case asks for, so the case is refused.
+pub fn redraw_limit(count: usize) -> usize {
+    count / 100 + 10
+}
+
+/// The case parameters that make a configuration degenerate in a given way (for messages).
+pub fn parameters_behind(d: &crate::input::scene::Degenerate) -> &'static str {
+    use crate::input::scene::Degenerate as D;
+    match d {
+        D::NotFinite | D::NotRepresentable(_) | D::SingularMinv(_) => {
+            "distance, length, center or the lobe's alpha, aspect, peak, shear"
+        }
+        D::ZeroLength => "length (or endpoint_height)",
+        D::PointOnLight(_) => "distance, length, center or endpoint_height",
+        D::InsideTube { .. } | D::BadRadius(_) => "radius",
+        D::BadWidth(_) | D::PointOnRectangle => "rect_width or rect_angle",
+        D::BadRectNormal { .. } => "rect_angle",
+    }
+}
+
+/// A rejection's reason without its numbers, so that equal reasons are counted together.
+pub fn reason_of(d: &crate::input::scene::Degenerate) -> &'static str {
+    use crate::input::scene::Degenerate as D;
+    match d {
+        D::NotFinite => "a coordinate not finite",
+        D::NotRepresentable(_) => "not representable in f32",
+        D::ZeroLength => "zero length",
+        D::PointOnLight(_) => "shading point on the light",
+        D::InsideTube { .. } => "shading point inside the tube",
+        D::BadRadius(_) => "radius not > 0",
+        D::BadWidth(_) => "width not > 0",
+        D::BadRectNormal { .. } => "rect normal not perpendicular",
+        D::PointOnRectangle => "shading point on the rectangle",
+        D::SingularMinv(_) => "M⁻¹ singular",
+    }
+}
+
+/// All configurations of a case, family after family, in a fixed order.
+pub fn sample_case(case: &Case) -> Vec<Sample> {
+    sample_case_counted(case).unwrap_or_else(|e| panic!("{e}")).0
+}
+
+/// All configurations of a case with each family's draw counts. Degenerate draws are
+/// redrawn at most [`redraw_limit`] times per family; past that the case is refused with a
+/// message naming the family, the reason and the parameters behind it.
+pub fn sample_case_counted(case: &Case) -> Result<(Vec<Sample>, Vec<Draws>), String> {
+    let mut stream = NaturalStream::new(case);
+    let mut out = Vec::new();
+    loop {
+        let chunk = stream.next_chunk(usize::MAX)?;
+        if chunk.is_empty() {
+            break;
+        }
+        out.extend(chunk);
+    }
+    Ok((out, stream.draws))
+}
+
+/// What topping up needs to know of one family's natural sample: its bin counts per axis and
+/// whether the family has values on the axis at all.
+#[derive(Clone, Debug, Default)]
+pub struct FamilyCounts {
+    pub members: usize,
+    /// Uniforms per configuration (from the first member).
+    pub dims: usize,
+    pub bins: Vec<Vec<usize>>,
+    pub finite: Vec<bool>,
+}
+
+impl FamilyCounts {
+    fn new(case: &Case) -> FamilyCounts {
+        FamilyCounts {
+            members: 0,
+            dims: 0,
+            bins: case.bins.iter().map(|b| vec![0; b.edges.len() - 1]).collect(),
+            finite: vec![false; case.bins.len()],
+        }
+    }
+
+    fn count(&mut self, case: &Case, s: &Sample) {
+        if self.members == 0 {
+            self.dims = s.units.len();
+        }
+        self.members += 1;
+        for (a, b) in case.bins.iter().enumerate() {
+            let v = s.axes.get(&b.axis);
+            self.finite[a] |= v.is_finite();
+            if let Some(k) = b.index(v) {
+                self.bins[a][k] += 1;
+            }
+        }
+    }
+}
+
+/// The case's natural sample, drawn a chunk at a time in the same order as
+/// [`sample_case_counted`] (family after family, one seeded stream each), so a sweep never
+/// holds all of it. Keeps each family's draw counts and bin counts (for [`top_up_counted`]).
+pub struct NaturalStream<'a> {
+    case: &'a Case,
+    family: usize,
+    n: usize,
+    source: Option<Stream>,
+    pub draws: Vec<Draws>,
+    pub counts: Vec<FamilyCounts>,
+}
+
+impl<'a> NaturalStream<'a> {
+    pub fn new(case: &'a Case) -> NaturalStream<'a> {
+        NaturalStream {
+            case,
+            family: 0,
+            n: 0,
+            source: None,
+            draws: Vec::new(),
+            counts: case.materials.iter().map(|_| FamilyCounts::new(case)).collect(),
+        }
+    }
+
+    /// The next at most `max` configurations; empty once every family is drawn.
+    pub fn next_chunk(&mut self, max: usize) -> Result<Vec<Sample>, String> {
+        let case = self.case;
+        let mut out = Vec::new();
+        while out.len() < max && self.family < case.materials.len() {
+            let index = self.family;
+            let family = &case.materials[index];
+            if self.source.is_none() {
+                // One stream per family: the seed mixed with the family's index.
+                let stream = case.seed ^ (index as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+                self.source = Some(Stream(ChaCha8Rng::seed_from_u64(stream)));
+                self.draws.push(Draws {
+                    family: family.name.clone(),
+                    ..Draws::default()
+                });
+            }
+            if self.n >= family.count {
+                self.family += 1;
+                self.n = 0;
+                self.source = None;
+                continue;
+            }
+            let source = self.source.as_mut().expect("set above");
+            let draws = self.draws.last_mut().expect("pushed with the source");
+            let mut recorder = Recorder {
+                inner: source,
+                units: Vec::new(),
+            };
+            let s = sample_one(&mut recorder, case, index, format!("{}-{}", family.name, self.n));
+            let units = recorder.units;
+            draws.drawn += 1;
+            match s.config.validate() {
+                Ok(()) => {
+                    let s = Sample { units, ..s };
+                    self.counts[index].count(case, &s);
+                    out.push(s);
+                    self.n += 1;
+                }
+                Err(d) => {
+                    draws.rejected += 1;
+                    *draws.reasons.entry(reason_of(&d).to_string()).or_default() += 1;
+                    if draws.rejected > redraw_limit(family.count) {
+                        return Err(format!(
+                            "materials `{}`: {} of {} draws were degenerate (more than the {} redraws \
+                             allowed for count {}, which would change the distribution), e.g. {d}; \
+                             check {}",
+                            family.name,
+                            draws.rejected,
+                            draws.drawn,
+                            redraw_limit(family.count),
+                            family.count,
+                            parameters_behind(&d)
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// What topping up did for one family: how many draws it made, how many it kept, and the
+/// bins still below the target when the budget ran out.
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+pub struct TopUp {
+    pub family: String,
+    pub draws: usize,
+    pub kept: usize,
+    /// (axis, lo, hi, configurations reached) of each bin left below `min_per_bin`.
+    pub thin: Vec<(String, f64, f64, usize)>,
+}
+
+/// Tops up every bin of every axis that the natural sample leaves below `case.min_per_bin`.
+///
+/// The extra configurations are drawn from the case's own distributions (a separate seeded
+/// stream per family) and kept for the bins they fall in that still need them: rejection
+/// sampling, so within a bin they follow the natural distribution conditioned on the bin and
+/// no weights are needed. They are counted only in the bins they were kept for (`strata`),
+/// never in a whole-material statistic. Draws are bounded: `topup_draws` × the family's count.
+pub fn top_up(case: &Case, natural: &[Sample]) -> (Vec<Sample>, Vec<TopUp>) {
+    let mut counts: Vec<FamilyCounts> = case.materials.iter().map(|_| FamilyCounts::new(case)).collect();
+    for s in natural {
+        counts[s.material].count(case, s);
+    }
+    top_up_counted(case, &counts)
+}
+
+/// [`top_up`] from the natural sample's counts alone (a streamed sweep keeps no sample).
+pub fn top_up_counted(case: &Case, counts: &[FamilyCounts]) -> (Vec<Sample>, Vec<TopUp>) {
+    use rayon::prelude::*;
+    let mut out = Vec::new();
+    let mut reports = Vec::new();
+    for (index, family) in case.materials.iter().enumerate() {
+        let c = &counts[index];
+        if c.members == 0 {
+            continue;
+        }
+        let mut need: Vec<Vec<usize>> = case
+            .bins
+            .iter()
+            .enumerate()
+            .map(|(a, _)| {
+                // An axis this family has no values on (alpha for diffuse) is not topped up.
+                if !c.finite[a] {
+                    return vec![0; c.bins[a].len()];
+                }
+                c.bins[a].iter().map(|&n| case.min_per_bin.saturating_sub(n)).collect()
+            })
+            .collect();
+        let mut report = TopUp {
+            family: family.name.clone(),
+            ..TopUp::default()
+        };
+        let budget = family.count.saturating_mul(case.topup_draws);
+        let dims = c.dims;
+        let stream = case.seed ^ (index as u64 + 1).wrapping_mul(0xD1B5_4A32_D192_ED03) ^ 0x7070_7570;
+        let mut source = Stream(ChaCha8Rng::seed_from_u64(stream));
+        const BATCH: usize = 16384;
+        while report.draws < budget && need.iter().flatten().any(|&n| n > 0) {
+            let batch = BATCH.min(budget - report.draws);
+            let units: Vec<Vec<f64>> = (0..batch).map(|_| (0..dims).map(|_| source.unit()).collect()).collect();
+            let drawn: Vec<Option<Sample>> = units
+                .par_iter()
+                .map(|u| sample_from_units(case, index, u, String::new()))
+                .collect();
+            report.draws += batch;
+            for s in drawn.into_iter().flatten() {
+                let strata: Vec<(usize, usize)> = case
+                    .bins
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(a, b)| {
+                        let k = b.index(s.axes.get(&b.axis))?;
+                        (need[a][k] > 0).then_some((a, k))
+                    })
+                    .collect();
+                if strata.is_empty() {
+                    continue;
+                }
+                for &(a, k) in &strata {
+                    need[a][k] -= 1;
+                }
+                let mut s = Sample { strata, ..s };
+                s.config.id = format!("{}-topup-{}", family.name, report.kept);
+                report.kept += 1;
+                out.push(s);
+            }
+        }
+        for (a, b) in case.bins.iter().enumerate() {
+            for (k, &n) in need[a].iter().enumerate() {
+                if n > 0 {
+                    let reached = case.min_per_bin - n;
+                    report.thin.push((b.axis.clone(), b.edges[k], b.edges[k + 1], reached));
+                }
+            }
+        }
+        reports.push(report);
+    }
+    (out, reports)
+}
+
+/// The configuration a vector of uniforms stands for in a family (the search moves in these);
+/// None when it is degenerate.
+pub fn sample_from_units(case: &Case, family: usize, units: &[f64], id: String) -> Option<Sample> {
+    let mut replay = Replay { units, taken: 0 };
+    let s = sample_one(&mut replay, case, family, id);
+    s.config.validate().ok()?;
+    Some(Sample {
+        units: units[..replay.taken.min(units.len())].to_vec(),
+        ..s
+    })
+}
+
+fn log_uniform(min: f64, max: f64, u: f64) -> f64 {
+    libm::exp(libm::log(min) + (libm::log(max) - libm::log(min)) * u)
+}
+
+fn deg(x: f64) -> f64 {
+    x * std::f64::consts::PI / 180.0
+}
+
+fn scale(v: Vec3, s: f64) -> Vec3 {
+    [v[0] * s, v[1] * s, v[2] * s]
+}
+
+fn add(a: Vec3, b: Vec3) -> Vec3 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+fn normalize(v: Vec3) -> Vec3 {
+    scale(v, 1.0 / length(v))
+}
+
+fn mat_vec(m: &Mat3, v: Vec3) -> Vec3 {
+    [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
+}
+
+fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: String) -> Sample {
+    let family = &case.materials[material];
+    let g = case.geometry_of(family);
+    let d = draw(source, &g.distance);
+    let elevation = draw(source, &g.elevation);
+    let azimuth = deg(draw(source, &g.azimuth));
+    let tilt_angle = deg(draw(source, &g.tilt_angle));
+    let length_over_d = draw(source, &g.length);
+    let center = draw(source, &g.center);
+    let radius = g.radius.as_ref().map(|r| draw(source, r) * d);
+    let rect_width = g.rect_width.as_ref().map(|w| draw(source, w) * d);
+    let rect_angle_deg = draw_opt(source, &g.rect_angle, 0.0);
+    let rect_angle = deg(rect_angle_deg);
+    let endpoint_height = g.endpoint_height.as_ref().map(|h| draw(source, h) * d);
+
+    // Foot point p_o, horizontal direction h ⟂ p_o and v = ω_po × h complete the frame.
+    let (ce, se) = (libm::cos(deg(elevation)), libm::sin(deg(elevation)));
+    let (ca, sa) = (libm::cos(azimuth), libm::sin(azimuth));
+    let w_po = [ce * ca, ce * sa, se];
+    let h = [-sa, ca, 0.0];
+    let v = cross(w_po, h);
+    let w_t = add(scale(h, libm::cos(tilt_angle)), scale(v, libm::sin(tilt_angle)));
+    let p_o = scale(w_po, d);
+    let half = 0.5 * length_over_d * d;
+    let p1 = add(p_o, scale(w_t, center * d - half));
+    let mut p2 = add(p_o, scale(w_t, center * d + half));
+    if let Some(z) = endpoint_height {
+        p2[2] = z;
+    }
+    // What was drawn, as the final segment has it (the end point may have moved).
+    let w_t = normalize(sub(p2, p1));
+    let length_over_d = length(sub(p2, p1)) / d;
+
+    let rect = rect_width.map(|width| {
+        // The normal turns about the tangent: 0° faces the shading point, 90° is edge-on.
+        let u = w_po;
+        let b = cross(w_t, u);
+        Rect {
+            normal: add(scale(u, libm::cos(rect_angle)), scale(b, libm::sin(rect_angle))),
+            width,
+        }
+    });
+
+    let (material_value, alpha, view_angle, anisotropy) = sample_material(source, family);
+    let minv = material_value.minv();
+    let (p1o, p2o) = (mat_vec(&minv, p1), mat_vec(&minv, p2));
+    let (reach_near, reach_far, subtended, height, _) = line_axes(p1, p2);
+    let (reach_near_o, reach_o, subtended_o, height_o, tilt_o) = line_axes(p1o, p2o);
+
+    Sample {
+        config: Config {
+            id,
+            p1,
+            p2,
+            radius,
+            rect,
+            material: material_value,
+        },
+        material,
+        units: Vec::new(),
+        strata: Vec::new(),
+        axes: Axes {
+            length: length_over_d,
+            center,
+            elevation,
+            tilt: w_t[2].abs(),
+            alpha,
+            reach_near,
+            reach_far,
+            subtended,
+            height,
+            reach_near_o,
+            reach_o,
+            subtended_o,
+            height_o,
+            tilt_o,
+            radius: radius.map_or(f64::NAN, |r| r / d),
+            cap_straddle: radius.map_or(f64::NAN, |r| {
+                let w_t = normalize(sub(p2, p1));
+                let crosses = |m: Vec3, p: Vec3| {
+                    let m = normalize(m);
+                    let c = dot(m, w_t);
+                    dot(m, p).abs() < r * (1.0 - c * c).max(0.0).sqrt()
+                };
+                let any = [[0.0, 0.0, 1.0], minv[2]]
+                    .into_iter()
+                    .any(|m| crosses(m, p1) || crosses(m, p2));
+                if any {
+                    1.0
+                } else {
+                    0.0
+                }
+            }),
+            width: rect_width.map_or(f64::NAN, |w| w / d),
+            rect_angle: if rect_width.is_some() { rect_angle_deg } else { f64::NAN },
+            view_angle,
+            anisotropy,
+        },
+    }
+}
+
+/// The material, its α, and for `ggx` its view angle (degrees) and anisotropy (else NaN).
+fn sample_material(source: &mut dyn Uniforms, family: &MaterialFamily) -> (Material, f64, f64, f64) {
+    match family.kind {
+        MaterialKind::Diffuse => (Material::Diffuse, f64::NAN, f64::NAN, f64::NAN),
+        MaterialKind::Ggx | MaterialKind::LtcGgx => {
+            let alpha = draw_opt(source, &family.alpha, 1.0);
+            let theta = draw_opt(source, &family.view_angle, 45.0);
+            let phi = deg(draw_opt(source, &family.view_azimuth, 0.0));
+            let k = draw_opt(source, &family.anisotropy, 1.0);
+            let roughness = if k == 1.0 {
+                Roughness::Iso(alpha)
+            } else {
+                // αx·αy = α², αy/αx = k, each kept in (0, 1].
+                let s = libm::sqrt(k);
+                Roughness::Aniso([(alpha / s).min(1.0), (alpha * s).min(1.0)])
+            };
+            let (st, ct) = (libm::sin(deg(theta)), libm::cos(deg(theta)));
+            let view = [st * libm::cos(phi), st * libm::sin(phi), ct];
+            let material = Material::ggx(roughness, view, family.ltc.as_deref()).unwrap_or_else(|e| {
+                panic!(
+                    "materials `{}`: {e} (the case check admits only valid ones)",
+                    family.name
+                )
+            });
+            let material = match (&family.kind, material.fed()) {
+                (MaterialKind::LtcGgx, Some(fed)) => Material::Ltc { minv: fed.minv },
+                _ => material,
+            };
+            (material, alpha, theta, k)
+        }
+        MaterialKind::LtcSparse | MaterialKind::LtcFull => {
+            let alpha = draw_opt(source, &family.alpha, 1.0);
+            let aspect = draw_opt(source, &family.aspect, 1.0);
+            let peak = deg(draw_opt(source, &family.peak, 0.0));
+            let shear = draw_opt(source, &family.shear, 0.0);
+            let a = aspect / alpha;
+            let sparse = [
+                [a, 0.0, -a * libm::tan(peak)],
+                [0.0, 1.0 / alpha, 0.0],
+                [shear, 0.0, 1.0],
+            ];
+            let minv = if family.kind == MaterialKind::LtcFull {
+                let r = deg(draw_opt(source, &family.rotation, 0.0));
+                let (c, s) = (libm::cos(r), libm::sin(r));
+                // M⁻¹·R_z(r): the lobe turned by r about the normal.
+                let rz = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]];
+                let mut m = [[0.0; 3]; 3];
+                for (i, row) in m.iter_mut().enumerate() {
+                    for (j, e) in row.iter_mut().enumerate() {
+                        *e = (0..3).map(|k| sparse[i][k] * rz[k][j]).sum();
+                    }
+                }
+                m
+            } else {
+                sparse
+            };
+            (Material::Ltc { minv }, alpha, f64::NAN, f64::NAN)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::case::Case;
+
+    fn case() -> Case {
+        Case::parse(
+            "t.toml",
+            r#"
+name = "t"
+title = "t"
+seed = 42
+methods = ["line.ltc2023"]
+[geometry]
+elevation = { dist = "uniform", min = -20.0, max = 90.0 }
+tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
+length = { dist = "log_uniform", min = 0.1, max = 10.0 }
+center = { dist = "uniform", min = -2.0, max = 2.0 }
+radius = { dist = "log_uniform", min = 0.001, max = 0.5 }
+[[materials]]
+name = "diffuse"
+kind = "diffuse"
+count = 50
+[[materials]]
+name = "aniso"
+kind = "ltc_full"
+count = 50
+alpha = { dist = "log_uniform", min = 0.05, max = 1.0 }
+peak = { dist = "uniform", min = -40.0, max = 40.0 }
+shear = { dist = "uniform", min = -0.3, max = 0.3 }
+rotation = { dist = "uniform", min = 0.0, max = 180.0 }
+"#,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn same_seed_same_configurations() {
+        let a = sample_case(&case());
+        let b = sample_case(&case());
+        assert_eq!(a.len(), 100);
+        assert!(a.iter().zip(&b).all(|(x, y)| x.config == y.config));
+        // Golden values: fixed by the seed on every machine (ChaCha8 and pure-Rust libm);
+        // a change here changes every committed report's configurations.
+        let p1 = a[0].config.p1;
+        assert_eq!(p1, [1.5402878366057386, -0.7489370433478755, 0.9296016515383044]);
+        assert_eq!(
+            a[60].config.material.minv()[2],
+            [-0.0037598621927134785, 0.2615787414715161, 1.0]
+        );
+        let mut other = case();
+        other.seed = 43;
+        assert_ne!(sample_case(&other)[0].config.p1, p1);
+    }
+
+    #[test]
+    fn a_configuration_is_a_function_of_its_uniforms() {
+        let case = case();
+        for s in sample_case(&case).iter().step_by(7) {
+            let again = sample_from_units(&case, s.material, &s.units, s.config.id.clone()).unwrap();
+            assert_eq!(again.config, s.config);
+        }
+    }
+
+    #[test]
+    fn drawn_parameters_are_what_the_geometry_says() {
+        for s in sample_case(&case()) {
+            let c = &s.config;
+            // Distance to the line is the fixed d = 1, length and tilt as drawn.
+            assert!((c.distance_to_line() - 1.0).abs() < 1e-12);
+            assert!((length(sub(c.p2, c.p1)) - s.axes.length).abs() < 1e-12 * s.axes.length.max(1.0));
+            let w_t = normalize(sub(c.p2, c.p1));
+            assert!((w_t[2].abs() - s.axes.tilt).abs() < 1e-12);
+            assert!(c.radius.unwrap() < 1.0);
+            if matches!(c.material, Material::Ltc { .. }) {
+                assert!(!c.material.is_sparse());
+            }
+        }
+    }
+}

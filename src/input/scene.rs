@@ -1,0 +1,664 @@
+//! One configuration: a shading point at the origin (normal +z), a light segment and a
+//! material. This is what `eval` reads, what the sampler makes and what every method and
+//! reference is evaluated on (docs/conventions.md, docs/eval-format.md).
+
+use serde::{Deserialize, Serialize};
+
+pub type Vec3 = [f64; 3];
+pub use crate::input::ltc::Mat3;
+
+/// The spherical distribution D (the cosine-weighted BRDF).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase", try_from = "RawMaterial")]
+pub enum Material {
+    /// `D(ω) = max(0, ω.z)/π`.
+    Diffuse,
+    /// Linearly transformed cosine; `minv` is M⁻¹, row-major, `ω_o = M⁻¹·ω`.
+    Ltc { minv: Mat3 },
+    /// The GGX lobe of docs/conventions.md (height-correlated Smith, F = 1). References integrate it;
+    /// LTC methods are given `fed`: the LTC of `ltc` (a table look-up or an exact fit) in the
+    /// frame rotated about z so that the view lies in the xz-plane, and its magnitude.
+    Ggx {
+        alpha: Roughness,
+        view: Vec3,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        ltc: Option<String>,
+        #[serde(skip)]
+        fed: Fed,
+    },
+}
+
+/// GGX roughness: one α, or (αx, αy) along the frame axes.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Roughness {
+    Iso(f64),
+    Aniso([f64; 2]),
+}
+
+impl Roughness {
+    pub fn xy(self) -> [f64; 2] {
+        match self {
+            Roughness::Iso(a) => [a, a],
+            Roughness::Aniso(a) => a,
+        }
+    }
+}
+
+/// The LTC an LTC method is fed for a `ggx` material (see `crate::input::ltc`).
+pub type Fed = crate::input::ltc::Fed;
+
+impl Material {
+    /// A `ggx` material with its LTC fed from `ltc` (None: our table for isotropic
+    /// roughness, an exact fit for anisotropic). Checks α and the view (docs/conventions.md).
+    pub fn ggx(alpha: Roughness, view: Vec3, ltc: Option<&str>) -> Result<Material, String> {
+        let a = alpha.xy();
+        if !a.iter().all(|x| x.is_finite() && *x > 0.0 && *x <= 1.0) {
+            return Err(format!("ggx alpha must be in (0, 1], got {a:?}"));
+        }
+        if !view.iter().all(|x| x.is_finite()) {
+            return Err(format!("ggx view is not finite: {view:?}"));
+        }
+        let len = length(view);
+        if (len - 1.0).abs() > 1e-6 {
+            return Err(format!("ggx view must be a unit vector (|view| = {len:.9})"));
+        }
+        if !(view[2] > 0.0) {
+            return Err(format!(
+                "ggx view must be above the surface (view.z = {} <= 0)",
+                view[2]
+            ));
+        }
+        let feed = match ltc {
+            Some(name) => crate::input::ltc::Feed::parse(name)?,
+            None if a[0] == a[1] => crate::input::ltc::Feed::Table,
+            None => crate::input::ltc::Feed::Fit,
+        };
+        let fed = crate::input::ltc::feed(a, view, feed)?;
+        Ok(Material::Ggx {
+            alpha,
+            view,
+            ltc: ltc.map(str::to_string),
+            fed,
+        })
+    }
+}
+
+/// The JSON form, read strictly: serde's internally tagged enums let unknown fields
+/// through on unit variants, so the material is read flat and checked here.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMaterial {
+    kind: String,
+    #[serde(default, deserialize_with = "mat3_opt")]
+    minv: Option<Mat3>,
+    #[serde(default)]
+    alpha: Option<Roughness>,
+    #[serde(default)]
+    view: Option<Vec3>,
+    #[serde(default)]
+    ltc: Option<String>,
+}
+
+/// Reads `[x, y, z]` with a message that says how many numbers came (serde's own says
+/// "trailing characters" for a fourth).
+fn vec3<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
+    let v = Vec::<f64>::deserialize(d)?;
+    <[f64; 3]>::try_from(v.as_slice())
+        .map_err(|_| serde::de::Error::custom(format!("expected 3 numbers [x, y, z], got {}", v.len())))
+}
+
+fn mat3_opt<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Mat3>, D::Error> {
+    let rows = Vec::<Vec<f64>>::deserialize(d)?;
+    let bad = || {
+        serde::de::Error::custom(format!(
+            "minv must be 3 rows of 3 numbers, got {} row(s) of {:?} numbers",
+            rows.len(),
+            rows.iter().map(Vec::len).collect::<Vec<_>>()
+        ))
+    };
+    if rows.len() != 3 {
+        return Err(bad());
+    }
+    let mut m = [[0.0; 3]; 3];
+    for (row, r) in m.iter_mut().zip(&rows) {
+        *row = <[f64; 3]>::try_from(r.as_slice()).map_err(|_| bad())?;
+    }
+    Ok(Some(m))
+}
+
+impl TryFrom<RawMaterial> for Material {
+    type Error = String;
+    fn try_from(raw: RawMaterial) -> Result<Material, String> {
+        let ggx_fields = raw.alpha.is_some() || raw.view.is_some() || raw.ltc.is_some();
+        match (raw.kind.as_str(), raw.minv) {
+            ("diffuse" | "ltc", _) if ggx_fields => Err(format!(
+                "a {} material takes no `alpha`, `view` or `ltc` (those are ggx fields)",
+                raw.kind
+            )),
+            ("diffuse", None) => Ok(Material::Diffuse),
+            ("diffuse", Some(_)) => Err("a diffuse material takes no `minv`".into()),
+            ("ltc", Some(minv)) => Ok(Material::Ltc { minv }),
+            ("ltc", None) => Err("an ltc material needs `minv` (3×3, row-major)".into()),
+            ("ggx", Some(_)) => Err("a ggx material takes no `minv` (its LTC is fitted: see `ltc`)".into()),
+            ("ggx", None) => match (raw.alpha, raw.view) {
+                (Some(alpha), Some(view)) => Material::ggx(alpha, view, raw.ltc.as_deref()),
+                _ => Err("a ggx material needs `alpha` (a or [ax, ay]) and `view` ([vx, vy, vz])".into()),
+            },
+            (other, _) => Err(format!("unknown material kind `{other}` (diffuse, ltc, ggx)")),
+        }
+    }
+}
+
+impl Material {
+    /// M⁻¹ as the LTC methods use it: the identity for the diffuse material.
+    pub fn minv(&self) -> Mat3 {
+        match self {
+            Material::Diffuse => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            Material::Ltc { minv } => *minv,
+            Material::Ggx { fed, .. } => fed.minv_unrotated(),
+        }
+    }
+
+    /// The LTC fed to the methods for a `ggx` material.
+    pub fn fed(&self) -> Option<&Fed> {
+        match self {
+            Material::Ggx { fed, .. } => Some(fed),
+            _ => None,
+        }
+    }
+
+    /// True when M⁻¹ has the isotropic-GGX sparsity `[[a,0,b],[0,c,0],[d,0,1]]`
+    /// that the 2023 listing assumes.
+    /// For `ggx`, of the M⁻¹ the methods are fed (in the rotated frame).
+    pub fn is_sparse(&self) -> bool {
+        let m = match self {
+            Material::Ggx { fed, .. } => fed.minv,
+            _ => self.minv(),
+        };
+        m[0][1] == 0.0 && m[1][0] == 0.0 && m[1][2] == 0.0 && m[2][1] == 0.0 && m[2][2] == 1.0
+    }
+}
+
+/// A thin two-sided rectangle centred on the segment (target `rectangle`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rect {
+    #[serde(deserialize_with = "vec3")]
+    pub normal: Vec3,
+    pub width: f64,
+}
+
+/// One explicit configuration, as in docs/eval-format.md.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    pub id: String,
+    #[serde(deserialize_with = "vec3")]
+    pub p1: Vec3,
+    #[serde(deserialize_with = "vec3")]
+    pub p2: Vec3,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rect: Option<Rect>,
+    pub material: Material,
+}
+
+/// Why a configuration cannot be evaluated.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Degenerate {
+    #[error("a coordinate is not finite")]
+    NotFinite,
+    #[error("{0}")]
+    NotRepresentable(String),
+    #[error("p1 and p2 coincide: the segment has no length")]
+    ZeroLength,
+    #[error(
+        "the shading point lies on the light segment (distance {0:.3e} from the line, relative to the segment's size)"
+    )]
+    PointOnLight(f64),
+    #[error("the shading point lies inside the tube (distance to the axis {dist:.6e} <= radius {radius:.6e})")]
+    InsideTube { dist: f64, radius: f64 },
+    #[error("radius must be > 0, got {0}")]
+    BadRadius(f64),
+    #[error("rect.width must be > 0, got {0}")]
+    BadWidth(f64),
+    #[error("rect.normal must be a unit vector perpendicular to p2 - p1 (|n| = {len:.6}, n·ω_t = {dot:.2e})")]
+    BadRectNormal { len: f64, dot: f64 },
+    #[error("the shading point lies on the rectangle")]
+    PointOnRectangle,
+    #[error("minv is singular or not finite (det = {0:.3e})")]
+    SingularMinv(f64),
+}
+
+/// 2^60: lengths up to this (and down to its inverse) square without overflow or
+/// underflow in f32 (f32 spans 2^±126 for normal numbers).
+pub const F32_SCALE: f64 = 1_152_921_504_606_846_976.0;
+
+pub fn sub(a: Vec3, b: Vec3) -> Vec3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+pub fn dot(a: Vec3, b: Vec3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+pub fn cross(a: Vec3, b: Vec3) -> Vec3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn scale_v(a: Vec3, s: f64) -> Vec3 {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+pub fn length(a: Vec3) -> f64 {
+    dot(a, a).sqrt()
+}
+pub fn det3(m: &Mat3) -> f64 {
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+}
+
+impl Config {
+    /// What an LTC method evaluates: for a `ggx` material, the configuration rotated about
+    /// z into the frame of its fed M⁻¹, as an `ltc` material, and the magnitude the result
+    /// is multiplied by; otherwise the configuration itself and 1.
+    pub fn fed(&self) -> (std::borrow::Cow<'_, Config>, f64) {
+        let Some(fed) = self.material.fed() else {
+            return (std::borrow::Cow::Borrowed(self), 1.0);
+        };
+        let rect = self.rect.as_ref().map(|r| Rect {
+            normal: fed.rotate(r.normal),
+            width: r.width,
+        });
+        let c = Config {
+            id: self.id.clone(),
+            p1: fed.rotate(self.p1),
+            p2: fed.rotate(self.p2),
+            radius: self.radius,
+            rect,
+            material: Material::Ltc { minv: fed.minv },
+        };
+        (std::borrow::Cow::Owned(c), fed.magnitude)
+    }
+
+    /// Distance from the shading point (origin) to the closest point of the segment.
+    pub fn distance_to_segment(&self) -> f64 {
+        let e = sub(self.p2, self.p1);
+        let t = (-dot(self.p1, e) / dot(e, e)).clamp(0.0, 1.0);
+        length([self.p1[0] + t * e[0], self.p1[1] + t * e[1], self.p1[2] + t * e[2]])
+    }
+
+    /// Distance from the shading point to the infinite line through the segment (`d` of Eq. 1.15).
+    pub fn distance_to_line(&self) -> f64 {
+        let e = sub(self.p2, self.p1);
+        length(cross(self.p1, e)) / length(e)
+    }
+
+    /// Makes `rect.normal` the unit vector perpendicular to the segment that docs/conventions.md
+    /// asks for, by removing its component along ω_t (the example in docs/eval-format.md has one). Returns
+    /// how far the normal moved, or None when there is no rectangle or the normal is (nearly)
+    /// parallel to the segment, which `validate` then rejects.
+    pub fn orthonormalize_rect(&mut self) -> Option<f64> {
+        let e = sub(self.p2, self.p1);
+        let rect = self.rect.as_mut()?;
+        let t = scale_v(e, 1.0 / length(e));
+        let n = rect.normal;
+        let perp = sub(n, scale_v(t, dot(n, t)));
+        let len = length(perp);
+        if !(len > 1e-6 * length(n)) {
+            return None;
+        }
+        rect.normal = scale_v(perp, 1.0 / len);
+        Some(length(sub(rect.normal, n)))
+    }
+
+    /// Checks that the kernels can evaluate the configuration in f32: they square lengths,
+    /// so the segment's scale max(|p1|, |p2|) must lie within [`F32_SCALE`]^±1, and M⁻¹'s
+    /// entries, the radius and the width below it. (Every target is scale-free, so a
+    /// configuration outside can be scaled by the user; it is refused, not silently NaN.)
+    fn representable(&self) -> Result<(), Degenerate> {
+        let scale = length(self.p1).max(length(self.p2));
+        if !(1.0 / F32_SCALE..=F32_SCALE).contains(&scale) {
+            return Err(Degenerate::NotRepresentable(format!(
+                "the segment's size max(|p1|, |p2|) = {scale:e} is outside [{:e}, {F32_SCALE:e}], \
+                 where its squares fit in f32: scale the configuration",
+                1.0 / F32_SCALE
+            )));
+        }
+        let big = |what: &str, v: f64| {
+            (v.abs() > F32_SCALE).then(|| {
+                Degenerate::NotRepresentable(format!(
+                    "{what} = {v:e} exceeds {F32_SCALE:e}, where its square fits in f32"
+                ))
+            })
+        };
+        for row in self.material.minv() {
+            for v in row {
+                if let Some(e) = big("an entry of minv", v) {
+                    return Err(e);
+                }
+            }
+        }
+        // A radius or width that f32 cannot tell from 0 beside the segment's size.
+        let small = |what: &str, v: f64| {
+            (v > 0.0 && v < scale / F32_SCALE).then(|| {
+                Degenerate::NotRepresentable(format!(
+                    "{what} = {v:e} is below the segment's size {scale:e} / {F32_SCALE:e}, which f32 cannot \
+                     resolve"
+                ))
+            })
+        };
+        if let Some(e) = self
+            .radius
+            .and_then(|r| big("radius", r).or_else(|| small("radius", r)))
+        {
+            return Err(e);
+        }
+        if let Some(e) = self
+            .rect
+            .as_ref()
+            .and_then(|r| big("rect.width", r.width).or_else(|| small("rect.width", r.width)))
+        {
+            return Err(e);
+        }
+        Ok(())
+    }
+
+    /// Checks the configuration is one the targets are defined on (docs/conventions.md):
+    /// degenerate ones are reported, never silently evaluated.
+    pub fn validate(&self) -> Result<(), Degenerate> {
+        let mut all = [self.p1, self.p2].concat();
+        all.extend(self.material.minv().concat());
+        if let Some(r) = self.radius {
+            all.push(r);
+        }
+        if let Some(rect) = &self.rect {
+            all.extend(rect.normal);
+            all.push(rect.width);
+        }
+        if all.iter().any(|v| !v.is_finite()) {
+            return Err(Degenerate::NotFinite);
+        }
+        self.representable()?;
+        let e = sub(self.p2, self.p1);
+        let len = length(e);
+        if len == 0.0 {
+            return Err(Degenerate::ZeroLength);
+        }
+        // The line may pass through the origin outside the segment; only the segment matters
+        // for the integrals, but d = 0 makes every line formula 0/0, so the reported size is
+        // relative to the segment's own scale.
+        let scale = length(self.p1).max(length(self.p2));
+        let seg = self.distance_to_segment();
+        if seg <= 1e-12 * scale {
+            return Err(Degenerate::PointOnLight(seg / scale));
+        }
+        let det = det3(&self.material.minv());
+        if det == 0.0 || !det.is_finite() {
+            return Err(Degenerate::SingularMinv(det));
+        }
+        if let Some(r) = self.radius {
+            if r <= 0.0 {
+                return Err(Degenerate::BadRadius(r));
+            }
+            // The tube (without caps) contains the origin when the origin is within R of
+            // the axis and its projection falls inside the segment; the caps are disks of
+            // radius R at the ends, covered by the same test on the segment distance.
+            if seg <= r {
+                return Err(Degenerate::InsideTube { dist: seg, radius: r });
+            }
+        }
+        if let Some(rect) = &self.rect {
+            if rect.width <= 0.0 {
+                return Err(Degenerate::BadWidth(rect.width));
+            }
+            let n_len = length(rect.normal);
+            let n_dot = dot(rect.normal, e) / len;
+            if (n_len - 1.0).abs() > 1e-6 || n_dot.abs() > 1e-6 {
+                return Err(Degenerate::BadRectNormal { len: n_len, dot: n_dot });
+            }
+            // On the rectangle: in its plane, within its extent.
+            let t = dot(self.p1, e) / (len * len);
+            let b = cross(rect.normal, e);
+            let s = dot(self.p1, b) / length(b);
+            if dot(self.p1, rect.normal).abs() <= 1e-12 * scale
+                && (-1.0..=0.0).contains(&t)
+                && s.abs() <= rect.width / 2.0
+            {
+                return Err(Degenerate::PointOnRectangle);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What a kernel reads for one configuration, in f64: the members of the WGSL `Scene` in
+/// `kernels/prelude.wgsl`, in its order. The GPU scene ([`GpuScene`]) is this rounded to f32;
+/// the CPU evaluator (src/eval/interp) reads it as it is (f64) or rounded (f32), so both paths see
+/// one definition. For a `ggx` configuration it is the fed one (`Config::fed`: rotated about
+/// z so the view lies in the xz-plane, M⁻¹ the fed LTC) with the view and roughness in that
+/// frame; `magnitude` is what an LTC method's result is multiplied by (1 otherwise).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneInput {
+    pub p1: Vec3,
+    pub radius: f64,
+    pub p2: Vec3,
+    pub rect_width: f64,
+    pub rect_normal: Vec3,
+    pub flags: u32,
+    /// Row-major, `ω_o = minv·ω`.
+    pub minv: Mat3,
+    /// `ggx`: the unit view direction v in the scene's frame; 0 otherwise.
+    pub view: Vec3,
+    /// `ggx`: the roughness along `tangent`; 0 otherwise.
+    pub alpha_x: f64,
+    /// `ggx`: the unit surface direction (⟂ +z) along which the roughness is `alpha_x`; it is
+    /// `alpha_y` along `cross(+z, tangent)`. The material's x axis, rotated with the scene.
+    pub tangent: Vec3,
+    pub alpha_y: f64,
+    /// Host-side only, not a `Scene` member.
+    pub magnitude: f64,
+}
+
+impl SceneInput {
+    pub fn new(config: &Config) -> SceneInput {
+        let (fed, magnitude) = config.fed();
+        let c = fed.as_ref();
+        let mut flags = 0;
+        if matches!(c.material, Material::Ltc { .. }) {
+            flags |= FLAG_LTC;
+        }
+        if c.radius.is_some() {
+            flags |= FLAG_RADIUS;
+        }
+        if c.rect.is_some() {
+            flags |= FLAG_RECT;
+        }
+        let (rect_normal, rect_width) = c.rect.as_ref().map(|r| (r.normal, r.width)).unwrap_or(([0.0; 3], 0.0));
+        let (mut view, mut tangent, mut alpha) = ([0.0; 3], [0.0; 3], [0.0; 2]);
+        if let (Material::Ggx { alpha: a, view: v, .. }, Some(f)) = (&config.material, config.material.fed()) {
+            flags |= FLAG_GGX;
+            view = f.rotate(*v);
+            tangent = f.rotate([1.0, 0.0, 0.0]);
+            alpha = a.xy();
+        }
+        SceneInput {
+            p1: c.p1,
+            radius: c.radius.unwrap_or(0.0),
+            p2: c.p2,
+            rect_width,
+            rect_normal,
+            flags,
+            minv: c.material.minv(),
+            view,
+            alpha_x: alpha[0],
+            tangent,
+            alpha_y: alpha[1],
+            magnitude,
+        }
+    }
+
+    /// A `Scene` member by its WGSL name, flattened as the evaluator lays values out
+    /// (matrices column by column); None for a name the contract does not have.
+    pub fn member(&self, name: &str) -> Option<Vec<f64>> {
+        Some(match name {
+            "p1" => self.p1.to_vec(),
+            "radius" => vec![self.radius],
+            "p2" => self.p2.to_vec(),
+            "rect_width" => vec![self.rect_width],
+            "rect_normal" => self.rect_normal.to_vec(),
+            "flags" => vec![f64::from(self.flags)],
+            "minv" => (0..3).flat_map(|j| (0..3).map(move |i| self.minv[i][j])).collect(),
+            "view" => self.view.to_vec(),
+            "alpha_x" => vec![self.alpha_x],
+            "tangent" => self.tangent.to_vec(),
+            "alpha_y" => vec![self.alpha_y],
+            _ => return None,
+        })
+    }
+}
+
+/// The configuration as a compute kernel reads it: std430 layout of the WGSL `Scene`
+/// in `kernels/prelude.wgsl` (128 bytes). `minv` is stored column-major as WGSL's
+/// `mat3x3<f32>` is, each column padded to 16 bytes. Members are only ever added at the
+/// end (the first 96 bytes are the contract before the ggx members), so a kernel written
+/// to an older contract reads what it always read (tests/scene_contract.rs).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuScene {
+    pub p1: [f32; 3],
+    pub radius: f32,
+    pub p2: [f32; 3],
+    pub rect_width: f32,
+    pub rect_normal: [f32; 3],
+    pub flags: u32,
+    pub minv_cols: [[f32; 4]; 3],
+    pub view: [f32; 3],
+    pub alpha_x: f32,
+    pub tangent: [f32; 3],
+    pub alpha_y: f32,
+}
+
+pub const FLAG_LTC: u32 = 1;
+pub const FLAG_RADIUS: u32 = 2;
+pub const FLAG_RECT: u32 = 4;
+/// A `ggx` configuration: `view`, `alpha_x`, `tangent` and `alpha_y` are set, and M⁻¹ is the
+/// fed LTC. Host-side, `minv_cols[0][3]` (padding the kernel never reads) holds the magnitude
+/// the runner multiplies an LTC method's result by in f32, which is what a shader's
+/// `method(scene) * magnitude` computes.
+pub const FLAG_GGX: u32 = 8;
+
+impl GpuScene {
+    /// The factor an LTC method's result is multiplied by (the fed magnitude; 1 for other
+    /// materials). A `minv: ggx` kernel evaluates the GGX lobe itself and is not scaled.
+    pub fn magnitude(&self) -> f32 {
+        if self.flags & FLAG_GGX != 0 {
+            self.minv_cols[0][3]
+        } else {
+            1.0
+        }
+    }
+}
+
+impl From<&SceneInput> for GpuScene {
+    fn from(s: &SceneInput) -> Self {
+        let f = |v: Vec3| [v[0] as f32, v[1] as f32, v[2] as f32];
+        let m = s.minv;
+        let mut scene = GpuScene {
+            p1: f(s.p1),
+            radius: s.radius as f32,
+            p2: f(s.p2),
+            rect_width: s.rect_width as f32,
+            rect_normal: f(s.rect_normal),
+            flags: s.flags,
+            minv_cols: [0, 1, 2].map(|j| [m[0][j] as f32, m[1][j] as f32, m[2][j] as f32, 0.0]),
+            view: f(s.view),
+            alpha_x: s.alpha_x as f32,
+            tangent: f(s.tangent),
+            alpha_y: s.alpha_y as f32,
+        };
+        if s.flags & FLAG_GGX != 0 {
+            scene.minv_cols[0][3] = s.magnitude as f32;
+        }
+        scene
+    }
+}
+
+impl From<&Config> for GpuScene {
+    fn from(c: &Config) -> Self {
+        GpuScene::from(&SceneInput::new(c))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn base() -> Config {
+        Config {
+            id: "c".into(),
+            p1: [0.3, -0.2, 1.0],
+            p2: [0.9, 0.4, 1.6],
+            radius: None,
+            rect: None,
+            material: Material::Diffuse,
+        }
+    }
+
+    #[test]
+    fn parses_design_example_and_rejects_unknown_fields() {
+        let s = r#"{"id": "c1", "p1": [0.3, -0.2, 1.0], "p2": [0.9, 0.4, 1.6], "radius": 0.01,
+            "rect": {"normal": [0.0, 0.0, -1.0], "width": 0.02},
+            "material": {"kind": "ltc", "minv": [[0.5, 0, 0.1], [0, 0.6, 0], [-0.2, 0, 1]]}}"#;
+        let c: Config = serde_json::from_str(s).unwrap();
+        assert_eq!(c.radius, Some(0.01));
+        assert!(c.material.is_sparse());
+        let bad = s.replace("\"radius\"", "\"radios\"");
+        let err = serde_json::from_str::<Config>(&bad).unwrap_err().to_string();
+        assert!(err.contains("radios"), "{err}");
+        let bad_mat = r#"{"id":"c","p1":[0,0,1],"p2":[1,0,1],"material":{"kind":"diffuse","roughness":1}}"#;
+        assert!(serde_json::from_str::<Config>(bad_mat).is_err());
+    }
+
+    #[test]
+    fn degenerate_configurations_are_named() {
+        let mut c = base();
+        assert_eq!(c.validate(), Ok(()));
+        c.p2 = c.p1;
+        assert_eq!(c.validate(), Err(Degenerate::ZeroLength));
+        let mut c = base();
+        c.p1 = [-1.0, 0.0, 0.0];
+        c.p2 = [1.0, 0.0, 0.0];
+        assert!(matches!(c.validate(), Err(Degenerate::PointOnLight(_))));
+        // The line passes through the origin, but not the segment: allowed.
+        c.p1 = [1.0, 0.0, 0.0];
+        c.p2 = [2.0, 0.0, 0.0];
+        assert_eq!(c.validate(), Ok(()));
+        let mut c = base();
+        c.radius = Some(2.0);
+        assert!(matches!(c.validate(), Err(Degenerate::InsideTube { .. })));
+        let mut c = base();
+        c.material = Material::Ltc {
+            minv: [[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+        };
+        assert!(matches!(c.validate(), Err(Degenerate::SingularMinv(_))));
+    }
+
+    #[test]
+    fn gpu_layout_is_128_bytes_column_major() {
+        assert_eq!(std::mem::size_of::<GpuScene>(), 128);
+        // The contract's first 96 bytes are where they were before the ggx members.
+        assert_eq!(std::mem::offset_of!(GpuScene, minv_cols), 48);
+        assert_eq!(std::mem::offset_of!(GpuScene, view), 96);
+        assert_eq!(std::mem::offset_of!(GpuScene, tangent), 112);
+        let mut c = base();
+        c.material = Material::Ltc {
+            minv: [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.0]],
+        };
+        let g = GpuScene::from(&c);
+        assert_eq!(g.minv_cols[0][..3], [1.0, 4.0, 7.0]);
+        assert_eq!(g.flags, FLAG_LTC);
+    }
+}

@@ -1,0 +1,337 @@
+//! Cost per method (`linelight bench`): what one evaluation costs, measured on the adapter
+//! in use, beside a deterministic operation count from the kernel's naga IR.
+//!
+//! Measuring, analysing and reporting are separate, as criterion.rs and hyperfine do it:
+//!
+//! - **Measuring** (this file, [`bench_methods`]): the configurations are uploaded once
+//!   ([`crate::measure::gpu::DispatchTimer`]); every method is compiled before anything is timed.
+//!   Then `warmup` untimed rounds and `repeats` timed rounds. One round runs every method
+//!   once on the GPU (one dispatch over all configurations, its own submission, waited on,
+//!   timed by GPU timestamps at the beginning and end of the compute pass, or by the wall
+//!   clock on an adapter without them) and then every method's CPU f32 port once over the
+//!   same configurations on all cores (rayon). The order of the methods rotates from round
+//!   to round, so drift and machine noise spread evenly over the methods, and the ratios
+//!   between methods, and between GPU and CPU, are taken within one run.
+//! - **Analysing** (`analyse.rs`: [`Cost`] spreads, [`Ratio`]): per method, the median ns per evaluation over
+//!   the repeats with its min and max (every repeat's value is kept); ratios are medians
+//!   of the per-round ratios, with their min and max.
+//! - **Reporting** (`report.rs`, [`render`]): a table and a ratio line per compared pair. The command
+//!   itself (sampling the case, then these three) is `app::bench`.
+//!
+//! Speed is measured, never asserted: no test checks a duration beyond its being a
+//! positive number.
+//!
+//! On lavapipe the "GPU" is the CPU: llvmpipe's threads run the dispatch on the same cores
+//! the CPU port uses, so the GPU/CPU ratio there compares lavapipe's compiled SIMD kernel
+//! with the Rust port, not two pieces of hardware.
+
+use crate::analyse::bench::{Ratio, Spread};
+use crate::eval::cost::OpCount;
+use crate::eval::interp::CpuColumns;
+use crate::input::scene::{Config, GpuScene};
+use crate::kernel::methods::Method;
+use crate::measure::gpu::Gpu;
+
+use std::hint::black_box;
+use std::time::Instant;
+
+/// What one method costs, measured in one run.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Cost {
+    /// The method label (`Method.label`).
+    pub label: String,
+    /// `"gpu-timestamp"` or `"wall"` (submit + wait, when the adapter has no timestamps).
+    pub clock: String,
+    /// Configurations per dispatch (and per CPU run).
+    pub configurations: usize,
+    /// Timed repeats (warm-up runs not counted).
+    pub repeats: usize,
+    pub ns_per_eval_median: f64,
+    pub ns_per_eval_min: f64,
+    pub ns_per_eval_max: f64,
+    /// Configurations per second, from the median.
+    pub configs_per_second: f64,
+    /// The CPU f32 port on all cores (rayon): median of the same number of repeats; None
+    /// for a method without a port.
+    pub cpu_f32_ns_per_eval: Option<f64>,
+    /// How many times faster the GPU dispatch is than the CPU f32 port: the median of the
+    /// per-round ratios CPU ns / GPU ns. None without a port.
+    pub gpu_cpu_speed_ratio: Option<f64>,
+    /// The operation count of one invocation (`crate::eval::cost`); None if it failed.
+    pub ops: Option<OpCount>,
+    /// Why `ops` is None.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ops_error: Option<String>,
+    /// GPU ns per evaluation of each timed repeat, in the order run (round r is index r).
+    pub gpu_ns_per_eval: Vec<f64>,
+    /// CPU f32 port ns per evaluation of each timed repeat (empty without a port).
+    pub cpu_f32_ns_per_eval_runs: Vec<f64>,
+}
+
+/// Whether the CPU evaluator runs `method` (every kernel it can compose and evaluate:
+/// built-in or user's).
+pub fn has_cpu_port(method: &Method) -> bool {
+    crate::eval::interp::program(method).is_ok()
+}
+
+/// Measures every method on `configs`: `warmup` untimed rounds, then `repeats` timed
+/// rounds (see the module doc). One [`Cost`] per method, in input order.
+pub fn bench_methods(
+    gpu: &Gpu,
+    methods: &[Method],
+    configs: &[Config],
+    warmup: usize,
+    repeats: usize,
+) -> anyhow::Result<Vec<Cost>> {
+    bench_methods_with(gpu, methods, configs, warmup, repeats, &mut |_, _| {})
+}
+
+/// [`bench_methods`], calling `progress(done, total)` after every timed or warm-up step
+/// (one method on the GPU, or its CPU port).
+pub fn bench_methods_with(
+    gpu: &Gpu,
+    methods: &[Method],
+    configs: &[Config],
+    warmup: usize,
+    repeats: usize,
+    progress: &mut dyn FnMut(usize, usize),
+) -> anyhow::Result<Vec<Cost>> {
+    anyhow::ensure!(repeats > 0, "bench: at least one timed repeat is needed");
+    anyhow::ensure!(!configs.is_empty(), "bench: no configurations to time");
+    let n = configs.len();
+    let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
+    let timer = gpu.dispatch_timer(&scenes)?;
+    // Everything that can fail on bad input fails before anything is timed.
+    let pipelines = methods
+        .iter()
+        .map(|m| timer.pipeline(m))
+        .collect::<Result<Vec<_>, _>>()?;
+    let ported: Vec<bool> = methods.iter().map(has_cpu_port).collect();
+
+    let steps_per_round = methods.len() + ported.iter().filter(|&&p| p).count();
+    let total = (warmup + repeats) * steps_per_round;
+    let mut done = 0;
+    let mut gpu_ns = vec![Vec::with_capacity(repeats); methods.len()];
+    let mut cpu_ns = vec![Vec::with_capacity(repeats); methods.len()];
+    for round in 0..warmup + repeats {
+        let timed = round >= warmup;
+        // Rotate the order: every method is first, second, … equally often.
+        let order: Vec<usize> = (0..methods.len()).map(|k| (k + round) % methods.len()).collect();
+        for &i in &order {
+            let ns = timer.time(&pipelines[i])?;
+            if timed {
+                gpu_ns[i].push(ns / n as f64);
+            }
+            done += 1;
+            progress(done, total);
+        }
+        for &i in order.iter().filter(|&&i| ported[i]) {
+            let ns = time_cpu_port(&methods[i], configs);
+            if timed {
+                cpu_ns[i].push(ns / n as f64);
+            }
+            done += 1;
+            progress(done, total);
+        }
+    }
+
+    let clock = timer.clock().name().to_string();
+    let costs = methods
+        .iter()
+        .zip(gpu_ns.into_iter().zip(cpu_ns))
+        .map(|(m, (gpu_runs, cpu_runs))| {
+            let g = Spread::of(&gpu_runs);
+            let cpu = (!cpu_runs.is_empty()).then(|| Spread::of(&cpu_runs).median);
+            let speed = Ratio::per_round(&cpu_runs, &gpu_runs).map(|r| r.median);
+            let (ops, ops_error) = match crate::eval::cost::method_cost_of(m) {
+                Ok(ops) => (Some(ops), None),
+                Err(e) => (None, Some(format!("{e:#}"))),
+            };
+            Cost {
+                label: m.label.clone(),
+                clock: clock.clone(),
+                configurations: n,
+                repeats,
+                ns_per_eval_median: g.median,
+                ns_per_eval_min: g.min,
+                ns_per_eval_max: g.max,
+                configs_per_second: 1e9 / g.median,
+                cpu_f32_ns_per_eval: cpu,
+                gpu_cpu_speed_ratio: speed,
+                ops,
+                ops_error,
+                gpu_ns_per_eval: gpu_runs,
+                cpu_f32_ns_per_eval_runs: cpu_runs,
+            }
+        })
+        .collect();
+    Ok(costs)
+}
+
+/// Wall-clock ns of the method's kernel in f32 on the CPU evaluator over every
+/// configuration, on all cores.
+fn time_cpu_port(method: &Method, configs: &[Config]) -> f64 {
+    let start = Instant::now();
+    black_box(
+        method
+            .cpu_column(black_box(configs), crate::eval::interp::Mode::F32)
+            .ok(),
+    );
+    start.elapsed().as_nanos() as f64
+}
+
+/// What a bench measured, ready to report.
+pub struct BenchRun {
+    pub adapter: String,
+    pub case: String,
+    pub materials: usize,
+    pub warmup: usize,
+    /// Threads of the CPU ports (rayon's pool).
+    pub cpu_threads: usize,
+    pub costs: Vec<Cost>,
+    /// The case's compared pairs whose two methods were both measured.
+    pub pairs: Vec<[String; 2]>,
+}
+
+/// `count` of the samples, split as evenly as possible over the `materials` (the first
+/// of each material's, in sampling order); the samples hold at least ⌈count/materials⌉
+/// of each.
+pub fn split_evenly(samples: &[crate::input::sampler::Sample], materials: usize, count: usize) -> Vec<Config> {
+    let share = |i: usize| count * (i + 1) / materials - count * i / materials;
+    let mut taken = vec![0; materials];
+    samples
+        .iter()
+        .filter(|s| {
+            let keep = taken[s.material] < share(s.material);
+            taken[s.material] += usize::from(keep);
+            keep
+        })
+        .map(|s| s.config.clone())
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::case::Case;
+
+    fn gpu() -> &'static Gpu {
+        crate::measure::gpu::test_gpu()
+    }
+
+    fn configs(n: usize) -> Vec<Config> {
+        let case = Case::load(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/cases/line_fwt.toml"
+        )))
+        .expect("the line_fwt case loads");
+        let materials = case.materials.len();
+        let setup = crate::app::sweep::prepare(case, &[], Some(n.div_ceil(materials))).unwrap();
+        split_evenly(&setup.samples, materials, n)
+    }
+
+    #[test]
+    fn one_cost_per_method_in_input_order() {
+        let kernels = crate::kernel::methods::kernel_set(&[]).unwrap();
+        let specs = ["line.numeric@8", "line.ltc2023", "line.ltc2017"];
+        let methods: Vec<Method> = specs
+            .iter()
+            .map(|s| crate::kernel::methods::resolve(s, &kernels).unwrap())
+            .collect();
+        let configs = configs(500);
+        assert_eq!(configs.len(), 500);
+        let costs = bench_methods(gpu(), &methods, &configs, 1, 3).unwrap();
+        let labels: Vec<&str> = costs.iter().map(|c| c.label.as_str()).collect();
+        assert_eq!(labels, specs);
+        for c in &costs {
+            assert_eq!(c.configurations, 500);
+            assert_eq!(c.repeats, 3);
+            assert_eq!(c.clock, "gpu-timestamp");
+            assert_eq!(c.gpu_ns_per_eval.len(), 3);
+            assert_eq!(c.cpu_f32_ns_per_eval_runs.len(), 3, "{} has a CPU port", c.label);
+            assert!(c.ns_per_eval_min <= c.ns_per_eval_median && c.ns_per_eval_median <= c.ns_per_eval_max);
+            assert!(c.ns_per_eval_min > 0.0 && c.ns_per_eval_max.is_finite(), "{c:?}");
+            assert!(c.cpu_f32_ns_per_eval.is_some_and(|x| x > 0.0), "{c:?}");
+            assert!(c.gpu_cpu_speed_ratio.is_some_and(|x| x > 0.0 && x.is_finite()), "{c:?}");
+            let ops = c
+                .ops
+                .as_ref()
+                .unwrap_or_else(|| panic!("{}: {:?}", c.label, c.ops_error));
+            assert!(ops.total > 0);
+        }
+        // The deterministic count beside the measurement is the method's own.
+        for (c, m) in costs.iter().zip(&methods) {
+            assert_eq!(
+                c.ops,
+                Some(crate::eval::cost::method_cost_of(m).unwrap()),
+                "{}",
+                c.label
+            );
+        }
+        let json = serde_json::to_value(&costs).unwrap();
+        assert_eq!(json[1]["label"], "line.ltc2023");
+        assert_eq!(json[1]["clock"], "gpu-timestamp");
+    }
+
+    #[test]
+    fn a_user_kernel_is_timed_on_the_cpu_too() {
+        let text = "//! id: user.half\n//! target: line\nfn method(scene: Scene) -> f32 { return 0.5 * scene.p1.z; }\n";
+        let m = Method {
+            label: "user.half".to_string(),
+            kernel: crate::kernel::KernelFile::parse("half.wgsl", text).unwrap(),
+            params: Vec::new(),
+            inner: None,
+            judged: None,
+        };
+        assert!(has_cpu_port(&m));
+        let costs = bench_methods(gpu(), &[m], &configs(64), 0, 2).unwrap();
+        assert!(costs[0].cpu_f32_ns_per_eval.is_some());
+        assert_eq!(costs[0].cpu_f32_ns_per_eval_runs.len(), 2);
+        assert_eq!(costs[0].gpu_ns_per_eval.len(), 2);
+        assert!(bench_methods(gpu(), &[], &configs(64), 0, 0).is_err(), "zero repeats");
+    }
+    #[test]
+    fn statistics_and_ratios() {
+        assert_eq!(
+            Spread::of(&[3.0, 1.0, 2.0]),
+            Spread {
+                median: 2.0,
+                min: 1.0,
+                max: 3.0
+            }
+        );
+        assert_eq!(Spread::of(&[4.0, 1.0, 2.0, 10.0]).median, 3.0);
+        let r = Ratio::per_round(&[2.0, 6.0, 3.0], &[1.0, 2.0, 3.0]).unwrap();
+        assert_eq!((r.median, r.min, r.max, r.rounds), (2.0, 1.0, 3.0, 3));
+        assert_eq!(Ratio::per_round(&[], &[]), None);
+        assert_eq!(Ratio::per_round(&[1.0], &[1.0, 2.0]), None);
+    }
+
+    #[test]
+    fn split_evenly_takes_count_over_the_materials() {
+        let case = Case::load(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/cases/line_fwt.toml"
+        )))
+        .unwrap();
+        let materials = case.materials.len();
+        let setup = crate::app::sweep::prepare(case, &[], Some(4)).unwrap();
+        let picked = split_evenly(&setup.samples, materials, 10);
+        assert_eq!(picked.len(), 10);
+        // 3 + 3 + 4 over three families, 2 + 3 + 2 + 3 over four: the first of each
+        // material's samples.
+        let shares: &[usize] = match materials {
+            3 => &[3, 3, 4],
+            4 => &[2, 3, 2, 3],
+            n => panic!("line_fwt has {n} families: add their shares here"),
+        };
+        let by_material = |i: usize| setup.samples.iter().filter(move |s| s.material == i);
+        let expected: Vec<&Config> = shares
+            .iter()
+            .enumerate()
+            .flat_map(|(i, &n)| by_material(i).take(n))
+            .map(|s| &s.config)
+            .collect();
+        assert_eq!(picked.iter().collect::<Vec<_>>(), expected);
+    }
+}

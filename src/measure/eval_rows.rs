@@ -1,0 +1,320 @@
+//! `linelight eval`: explicit configurations in (JSONL), references and method values
+//! out (JSONL, docs/eval-format.md). Input is checked whole before the GPU is touched, then streamed in
+//! chunks ([`EVAL_CHUNK`]), output in input order. The `f64`
+//! and `cpu_f32` values and the attribution come from the CPU evaluator (src/eval/interp).
+
+use crate::eval::interp::CpuColumns;
+use crate::input::scene::Config;
+use crate::input::target::Target;
+use crate::kernel::methods::Method;
+use crate::reference::Estimate;
+use anyhow::Context;
+use serde_json::{json, Map, Value};
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+/// A number as docs/eval-format.md writes it: NaN and infinities as strings, never dropped.
+pub fn number(x: f64) -> Value {
+    if x.is_nan() {
+        json!("NaN")
+    } else if x == f64::INFINITY {
+        json!("inf")
+    } else if x == f64::NEG_INFINITY {
+        json!("-inf")
+    } else {
+        json!(x)
+    }
+}
+
+/// Output rows made and written at a time (eval, sweep --raw): memory stays bounded.
+pub const ROW_BLOCK: usize = 4096;
+
+/// Lines in a file, counted without holding it (for the memory estimate).
+pub fn count_lines(path: &Path) -> anyhow::Result<u64> {
+    use std::io::BufRead;
+    let f = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut r = std::io::BufReader::new(f);
+    let mut buf = Vec::new();
+    let mut n = 0u64;
+    loop {
+        buf.clear();
+        let got = r
+            .read_until(b'\n', &mut buf)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        if got == 0 {
+            return Ok(n);
+        }
+        n += 1;
+    }
+}
+
+/// Reads a JSONL file of configurations, a line at a time; every bad line is reported with
+/// its number (at most [`MAX_ERRORS`] of them, then a count).
+pub fn read_configs(path: &Path) -> anyhow::Result<Vec<Config>> {
+    let mut configs = Vec::new();
+    for_each_config(path, usize::MAX, true, &mut |c| {
+        configs.extend(c);
+        Ok(())
+    })?;
+    Ok(configs)
+}
+
+/// Configurations `eval` holds at a time: it streams its input in chunks of this many.
+pub const EVAL_CHUNK: usize = 1 << 16;
+
+/// Reads a JSONL file of configurations in chunks of at most `chunk`, handing each to `f` in
+/// order. Every line is checked first: with a bad line (at most [`MAX_ERRORS`] listed, then a
+/// count) nothing is handed on, so a caller that wants the whole input checked before any
+/// work calls it once with a no-op `f` (only the ids are held, to find repeated ones).
+/// `notes`: print the notes on corrected lines (once per input, not once per pass).
+pub fn for_each_config(
+    path: &Path,
+    chunk: usize,
+    notes: bool,
+    f: &mut dyn FnMut(Vec<Config>) -> anyhow::Result<()>,
+) -> anyhow::Result<usize> {
+    use std::io::BufRead;
+    let file = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut configs = Vec::new();
+    let mut errors = Vec::new();
+    let mut bad = 0usize;
+    let mut total = 0usize;
+    let mut ids = BTreeSet::new();
+    for (i, line) in std::io::BufReader::new(file).split(b'\n').enumerate() {
+        let line = line.with_context(|| format!("cannot read {}", path.display()))?;
+        let at = format!("{}:{}", path.display(), i + 1);
+        let line = match std::str::from_utf8(&line) {
+            Ok(l) => l.strip_prefix('\u{feff}').filter(|_| i == 0).unwrap_or(l),
+            Err(e) => {
+                bad += 1;
+                if errors.len() < MAX_ERRORS {
+                    errors.push(format!("{at}: not UTF-8 text ({e})"));
+                }
+                continue;
+            }
+        };
+        if line.trim().is_empty() {
+            continue;
+        }
+        let result = match serde_json::from_str::<Config>(line) {
+            Err(e) => Err(format!("{at}: {e}")),
+            Ok(c) => check_config(c, &at, &mut ids, notes),
+        };
+        match result {
+            Ok(c) => {
+                total += 1;
+                if bad == 0 {
+                    configs.push(c);
+                    if configs.len() >= chunk {
+                        f(std::mem::take(&mut configs))?;
+                    }
+                }
+            }
+            Err(e) => {
+                bad += 1;
+                configs.clear();
+                if errors.len() < MAX_ERRORS {
+                    errors.push(e);
+                }
+            }
+        }
+    }
+    if bad > 0 {
+        let more = if bad > errors.len() {
+            format!("\n… and {} more", bad - errors.len())
+        } else {
+            String::new()
+        };
+        anyhow::bail!("{bad} bad line(s) in {}:\n{}{more}", path.display(), errors.join("\n"));
+    }
+    if total == 0 {
+        anyhow::bail!("{}: no configurations", path.display());
+    }
+    if !configs.is_empty() {
+        f(configs)?;
+    }
+    Ok(total)
+}
+
+/// Bad lines listed in one message.
+pub const MAX_ERRORS: usize = 20;
+
+/// One parsed line: the rect normal made perpendicular (recorded in the output, see
+/// [`result_row`]), degenerate configurations and repeated ids refused.
+fn check_config(mut c: Config, at: &str, ids: &mut BTreeSet<String>, notes: bool) -> Result<Config, String> {
+    let id = crate::input::names::clip(&c.id);
+    if c.orthonormalize_rect().is_some_and(|moved| moved > 1e-9) && notes {
+        eprintln!("note: {at}: `{id}`: rect.normal made perpendicular to the segment (docs/conventions.md); the output's `rect` records the normal used");
+    }
+    if let Err(d) = c.validate() {
+        Err(format!("{at}: configuration `{id}` is degenerate: {d}"))
+    } else if !ids.insert(c.id.clone()) {
+        Err(format!("{at}: id `{id}` appears twice"))
+    } else {
+        Ok(c)
+    }
+}
+
+/// Every reference must be a number with a finite error estimate: one that cannot be
+/// computed is an error naming the configuration, never a NaN in the output.
+pub fn check_references(
+    path: &Path,
+    configs: &[Config],
+    references: &[BTreeMap<Target, Estimate>],
+) -> anyhow::Result<()> {
+    let bad: Vec<String> = configs
+        .iter()
+        .zip(references)
+        .flat_map(|(c, r)| {
+            r.iter()
+                .filter(|(_, e)| !(e.value.is_finite() && e.error.is_finite()))
+                .map(move |(t, e)| {
+                    format!(
+                        "configuration `{}`: the {} reference cannot be computed (value {}, error {})",
+                        crate::input::names::clip(&c.id),
+                        t.name(),
+                        e.value,
+                        e.error
+                    )
+                })
+        })
+        .collect();
+    if !bad.is_empty() {
+        anyhow::bail!(
+            "{}: {} reference(s) not finite:\n{}",
+            path.display(),
+            bad.len(),
+            bad.join("\n")
+        );
+    }
+    Ok(())
+}
+
+/// The targets whose references apply to a configuration: the line targets, the surfaces it
+/// has, and the summed targets (`line_sum`, `line_isotropic_sum`) when a method evaluated is
+/// judged against one (each costs its parts' integrals again, so only then).
+pub fn targets_of(c: &Config, methods: &[Method]) -> BTreeSet<Target> {
+    let mut t = BTreeSet::from([Target::Line, Target::LineUpper, Target::LineIsotropic]);
+    t.extend(
+        methods
+            .iter()
+            .map(Method::target)
+            .filter(|m| matches!(m, Target::LineSum | Target::LineIsotropicSum)),
+    );
+    if c.radius.is_some() {
+        t.extend([Target::Cylinder, Target::Caps, Target::Tube]);
+    }
+    if c.rect.is_some() {
+        t.insert(Target::Rectangle);
+    }
+    t
+}
+
+/// One output line: references with their error estimates and every applicable method.
+pub fn result_row(
+    c: &Config,
+    references: &BTreeMap<Target, Estimate>,
+    methods: &[Method],
+    f32_values: &[f32],
+    f64_values: &[Option<f64>],
+    cpu_f32_values: &[Option<f64>],
+) -> Value {
+    let mut reference = Map::new();
+    let mut reference_error = Map::new();
+    for (t, e) in references {
+        reference.insert(t.name().into(), number(e.value));
+        reference_error.insert(t.name().into(), number(e.error));
+    }
+    let mut values = Map::new();
+    for (((m, &v32), &v64), &c32) in methods.iter().zip(f32_values).zip(f64_values).zip(cpu_f32_values) {
+        if !m.applies(c) {
+            continue;
+        }
+        let mut entry = Map::new();
+        entry.insert("f32".into(), number(v32 as f64));
+        entry.insert("f64".into(), v64.map_or(Value::Null, number));
+        entry.insert("cpu_f32".into(), c32.map_or(Value::Null, number));
+        if !m.supports(c) {
+            // Outside the matrices the method claims to handle: shown, flagged.
+            entry.insert("supported".into(), json!(false));
+        }
+        values.insert(m.label.clone(), Value::Object(entry));
+    }
+    let mut row = json!({"id": c.id, "reference": reference, "reference_error": reference_error, "methods": values});
+    if let Some(rect) = &c.rect {
+        // The rectangle as evaluated: its normal made perpendicular to the segment.
+        row["rect"] = json!({"normal": rect.normal, "width": rect.width});
+    }
+    row
+}
+
+/// Every output line of `linelight eval`: `f32s[m][i]` is method m's GPU value on
+/// configuration i; the `f64` and `cpu_f32` columns come from the CPU evaluator, and with
+/// `attribution` each line gets its methods' source lines by bits lost (docs/eval-format.md).
+pub fn rows(
+    configs: &[Config],
+    methods: &[Method],
+    f32s: &[&[f32]],
+    references: &[BTreeMap<Target, Estimate>],
+    attribution: bool,
+) -> anyhow::Result<Vec<Value>> {
+    use rayon::prelude::*;
+    let mut f64s = Vec::new();
+    let mut cpu32s = Vec::new();
+    let mut attributions = Vec::new();
+    for m in methods {
+        f64s.push(m.cpu_column_or_none(configs, crate::eval::interp::Mode::F64));
+        cpu32s.push(m.cpu_column_or_none(configs, crate::eval::interp::Mode::F32));
+        if attribution {
+            attributions.push(attribution_column(m, configs)?);
+        }
+    }
+    Ok(configs
+        .par_iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let v32: Vec<f32> = f32s.iter().map(|v| v[i]).collect();
+            let v64: Vec<Option<f64>> = f64s.iter().map(|v| v[i]).collect();
+            let c32: Vec<Option<f64>> = cpu32s.iter().map(|v| v[i]).collect();
+            let mut row = result_row(c, &references[i], methods, &v32, &v64, &c32);
+            if attribution {
+                let mut per = Map::new();
+                for (m, a) in methods.iter().zip(&attributions) {
+                    if let Some(lines) = &a[i] {
+                        per.insert(m.label.clone(), lines.clone());
+                    }
+                }
+                row["attribution"] = Value::Object(per);
+            }
+            row
+        })
+        .collect())
+}
+
+/// Per configuration (None where the method does not apply): the kernel's source lines
+/// with the local error of their f32 operations, most bits first (src/eval/interp).
+fn attribution_column(m: &Method, configs: &[Config]) -> anyhow::Result<Vec<Option<Value>>> {
+    let program = crate::eval::interp::program(m)?;
+    let applies: Vec<&Config> = configs.iter().filter(|c| m.applies(c)).collect();
+    let a = program.attribute(&applies)?;
+    let mut per = a.per_config.into_iter();
+    Ok(configs
+        .iter()
+        .map(|c| {
+            if !m.applies(c) {
+                return None;
+            }
+            let lines = per.next().unwrap_or_default();
+            Some(Value::Array(
+                lines
+                    .iter()
+                    .map(|b| {
+                        let l = &a.lines[b.line];
+                        json!({"file": l.path, "line": l.line, "source": l.text.trim(),
+                               "bits_mean": number(b.mean), "bits_max": number(b.max)})
+                    })
+                    .collect(),
+            ))
+        })
+        .collect())
+}

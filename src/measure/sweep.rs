@@ -1,0 +1,720 @@
+//! A sweep, measured: case → configurations → GPU results, CPU evaluator columns (f64,
+//! cpu_f32), references.
+//! Everything that can fail on bad input (case file, kernels, adapter) fails before any
+//! measuring starts and before any report is written.
+
+use crate::eval::interp::CpuColumns;
+use crate::input::case::Case;
+use crate::input::sampler::{self, Sample};
+use crate::input::scene::GpuScene;
+use crate::input::target::Target;
+use crate::kernel::methods::Method;
+use crate::measure::gpu::Gpu;
+use crate::reference::{self, Estimate};
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use std::collections::{BTreeMap, BTreeSet};
+use std::time::Instant;
+
+/// What was measured for one method over a chunk of configurations.
+pub struct MethodRun {
+    pub method: Method,
+    /// GPU results, one per configuration (NaN where the method does not apply).
+    pub f32: Vec<f32>,
+    /// The CPU evaluator in f32 and f64, where the method applies.
+    pub f32_cpu: Vec<Option<f32>>,
+    pub f64: Vec<Option<f64>>,
+    pub gpu_seconds: f64,
+    pub f64_seconds: f64,
+}
+
+/// References per configuration, by target.
+pub type References = Vec<BTreeMap<Target, Estimate>>;
+
+/// One chunk of measured configurations, handed to the caller of [`measure_part`] (the app
+/// layer folds it into the statistics and the gate's observations), then dropped.
+pub struct MeasuredChunk<'a> {
+    pub samples: &'a [Sample],
+    /// Each configuration's global index (natural sample first, then top-ups).
+    pub global: &'a [usize],
+    pub references: &'a References,
+    /// One per method, in the setup's order; this chunk's values only.
+    pub runs: &'a [MethodRun],
+}
+
+pub struct Setup {
+    pub case: Case,
+    pub methods: Vec<Method>,
+    /// The natural sample first, then the top-ups (`Sample::strata`).
+    pub samples: Vec<Sample>,
+    /// What topping up thin bins did, per family.
+    pub topups: Vec<sampler::TopUp>,
+    /// `--count`, when it overrode the case's counts (such a run is not the gate).
+    pub count_override: Option<usize>,
+    /// Each family's draws, rejected ones included (shown in the report).
+    pub draws: Vec<sampler::Draws>,
+}
+
+/// Wall-clock time of each stage, measured in this run.
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+pub struct Timing {
+    pub configurations: usize,
+    pub adapter: String,
+    /// (method label, GPU seconds incl. upload and readback, configurations per second).
+    pub gpu: Vec<(String, f64, f64)>,
+    /// (method label, seconds of the CPU evaluator's f64 column on all cores).
+    pub f64_ports: Vec<(String, f64)>,
+    /// (method label, seconds of the CPU evaluator's f32 column on all cores): beside the
+    /// GPU seconds, the same kernel on the CPU, measured in the same run.
+    pub f32_ports: Vec<(String, f64)>,
+    /// Seconds of the "where the bits go" attribution (a subset, `ATTRIBUTION_CONFIGURATIONS`).
+    pub attribution_seconds: f64,
+    pub references_seconds: f64,
+    pub references_evaluated: usize,
+    pub search_seconds: f64,
+    /// The disagreement search between compared pairs, and the candidates it evaluated.
+    pub disagree_seconds: f64,
+    pub disagree_evaluations: usize,
+    pub cost_seconds: f64,
+    /// Folding each chunk into the statistics (`analysis::Accumulators::add`, by the app layer).
+    pub statistics_seconds: f64,
+    /// Drawing the configurations (natural sample and top-ups). A shard draws them all (the
+    /// top-ups need the whole natural sample's bin counts) and measures its own: this is what
+    /// that costs each shard.
+    #[serde(default)]
+    pub sampling_seconds: f64,
+    /// Measuring chunks evaluated (of [`MEASURE_CHUNK`] configurations).
+    pub chunks: usize,
+    pub total_seconds: f64,
+}
+
+pub struct Measured {
+    pub timing: Timing,
+    /// The worst-case search's findings (cases with a `[search]`).
+    pub found: Vec<crate::measure::search::Found>,
+    /// Per compared pair, both ways: where one method is least accurate relative to the other.
+    pub disagreements: Vec<crate::measure::search::Disagreement>,
+    /// Each method's cost: GPU timestamps, CPU f32 port, naga op count (src/measure/bench.rs).
+    pub costs: Vec<crate::measure::bench::Cost>,
+    /// Where each method's f32 rounding loses bits, on a subset (src/eval/interp attribution).
+    pub attribution: Vec<MethodAttribution>,
+    /// Configurations measured (natural and top-ups), and natural ones per family.
+    pub configurations: usize,
+    pub natural: Vec<usize>,
+    /// Each family's draws, rejected ones included (shown in the report).
+    pub draws: Vec<sampler::Draws>,
+    /// What topping up thin bins did, per family.
+    pub topups: Vec<sampler::TopUp>,
+    /// The first [`NONFINITE_KEPT`] configurations on which some method returned NaN or ±inf,
+    /// with those methods, and how many there were in all.
+    pub nonfinite: Vec<(crate::input::scene::Config, Vec<String>)>,
+    pub nonfinite_total: usize,
+}
+
+/// Configurations measured at a time: their GPU results, CPU columns and references are in
+/// memory together, then folded into the statistics and dropped.
+pub const MEASURE_CHUNK: usize = 1 << 16;
+
+/// Configurations per block of the shard partition: shard i of n evaluates the blocks
+/// k ≡ i (mod n) of the global order (natural sample family by family, then top-ups).
+pub const SHARD_BLOCK: usize = 1024;
+
+/// Non-finite configurations kept for `nonfinite.jsonl` (the count is always complete).
+pub const NONFINITE_KEPT: usize = 1000;
+
+/// How a sweep measures: the GPU dispatch size, where `--raw` rows go, and which shard of the
+/// configurations to evaluate.
+pub struct MeasureOptions<'a> {
+    /// Configurations per GPU dispatch (0: the runner's default).
+    pub chunk: usize,
+    /// `--raw`: every configuration's row (eval output format), written chunk by chunk.
+    pub raw: Option<&'a mut dyn std::io::Write>,
+    /// `--shard i/n`: evaluate only the configurations of global index g with
+    /// ⌊g / SHARD_BLOCK⌋ mod n = i.
+    pub shard: Option<(usize, usize)>,
+}
+
+/// One method's local f32 rounding error per kernel source line.
+#[derive(Clone, Debug)]
+pub struct MethodAttribution {
+    pub label: String,
+    /// Configurations the attribution ran on (every k-th of those the method applies to).
+    pub configurations: usize,
+    /// Most bits first.
+    pub lines: Vec<crate::eval::interp::LineSummary>,
+}
+
+impl Timing {
+    /// Adds another shard's measuring times (searches and cost are measured once, at merge).
+    pub fn add(&mut self, o: &Timing) {
+        self.configurations += o.configurations;
+        for (a, b) in [(&mut self.gpu, &o.gpu)] {
+            for (x, y) in a.iter_mut().zip(b) {
+                x.1 += y.1;
+            }
+        }
+        for (a, b) in [(&mut self.f64_ports, &o.f64_ports), (&mut self.f32_ports, &o.f32_ports)] {
+            for (x, y) in a.iter_mut().zip(b) {
+                x.1 += y.1;
+            }
+        }
+        self.references_seconds += o.references_seconds;
+        self.references_evaluated += o.references_evaluated;
+        self.statistics_seconds += o.statistics_seconds;
+        self.sampling_seconds += o.sampling_seconds;
+        self.chunks += o.chunks;
+        self.total_seconds += o.total_seconds;
+    }
+}
+
+/// Configurations per method for the attribution (a shadow f64 evaluation beside the f32
+/// one costs about three plain evaluations; a spread subset keeps it to a fraction of a
+/// second per method).
+pub const ATTRIBUTION_CONFIGURATIONS: usize = 2048;
+
+/// Attribution of every method on its spread subset of the configurations.
+fn attribute(
+    methods: &[Method],
+    subsets: &[Vec<crate::input::scene::Config>],
+) -> anyhow::Result<Vec<MethodAttribution>> {
+    methods
+        .iter()
+        .zip(subsets)
+        .map(|(m, configs)| {
+            let subset: Vec<&crate::input::scene::Config> = configs.iter().collect();
+            let a = crate::eval::interp::program(m)?.attribute(&subset)?;
+            Ok(MethodAttribution {
+                label: m.label.clone(),
+                configurations: subset.len(),
+                lines: a.summary(),
+            })
+        })
+        .collect()
+}
+
+/// Configurations per method for the cost measurement: enough to fill the device, few
+/// enough to keep a sweep's timing pass to seconds.
+const COST_CONFIGURATIONS: usize = 16384;
+const COST_WARMUP: usize = 2;
+const COST_REPEATS: usize = 7;
+
+fn bar(len: usize, what: &str) -> ProgressBar {
+    let pb = ProgressBar::new(len as u64);
+    pb.set_style(
+        ProgressStyle::with_template("{msg:>28} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    pb.set_message(what.to_string());
+    pb
+}
+
+/// The targets whose references a sweep needs: every method's, plus `line_upper`
+/// beside `line` (the leak below the horizon is reported from their difference).
+pub fn needed_targets(methods: &[Method]) -> BTreeSet<Target> {
+    let mut t: BTreeSet<Target> = methods.iter().map(Method::target).collect();
+    if t.contains(&Target::Line) {
+        t.insert(Target::LineUpper);
+    }
+    t
+}
+
+/// References for every configuration and target that applies to it, in parallel.
+pub fn references(samples: &[crate::input::scene::Config], targets: &BTreeSet<Target>, pb: &ProgressBar) -> References {
+    samples
+        .par_iter()
+        .map(|c| {
+            let r: BTreeMap<Target, Estimate> = targets
+                .iter()
+                .filter_map(|&t| reference::reference(c, t).map(|e| (t, e)))
+                .collect();
+            pb.inc(1);
+            r
+        })
+        .collect()
+}
+
+/// What the measure stage keeps of a streamed sweep's configurations while they pass: bounded
+/// state only (best starts, first non-finite ones, subsets; the gate's observations are the
+/// app layer's).
+/// Configurations are named by their global index (natural sample first, then top-ups), so
+/// shards' states merge into what one run keeps.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Kept {
+    /// Per `[search]` method (index into the methods) and family: the highest-error starts.
+    search: Vec<(usize, usize, crate::measure::search::TopK)>,
+    /// Per ordered compared pair (a, b) and family: the highest-ratio starts.
+    disagree: Vec<(usize, usize, usize, crate::measure::search::TopK)>,
+    nonfinite: Vec<(usize, crate::input::scene::Config, Vec<String>)>,
+    nonfinite_total: usize,
+    /// Per family: the first natural configurations (the cost measurement's).
+    cost: Vec<Vec<(usize, crate::input::scene::Config)>>,
+    /// Per method: its spread subset for the attribution.
+    attribution: Vec<Vec<(usize, crate::input::scene::Config)>>,
+    natural: Vec<usize>,
+    /// Configurations measured (this part's).
+    seen: usize,
+}
+
+impl Kept {
+    /// Adds another part's state (other configurations of the same sweep).
+    fn merge(&mut self, o: Kept, per_family_cost: usize) {
+        for (a, b) in self.search.iter_mut().zip(o.search) {
+            a.2.merge(b.2);
+        }
+        for (a, b) in self.disagree.iter_mut().zip(o.disagree) {
+            a.3.merge(b.3);
+        }
+        self.nonfinite.extend(o.nonfinite);
+        self.nonfinite.sort_by_key(|x| x.0);
+        self.nonfinite.truncate(NONFINITE_KEPT);
+        self.nonfinite_total += o.nonfinite_total;
+        let first = |a: &mut Vec<(usize, crate::input::scene::Config)>,
+                     b: Vec<(usize, crate::input::scene::Config)>,
+                     n: usize| {
+            a.extend(b);
+            a.sort_by_key(|x| x.0);
+            a.truncate(n);
+        };
+        for (a, b) in self.cost.iter_mut().zip(o.cost) {
+            first(a, b, per_family_cost);
+        }
+        for (a, b) in self.attribution.iter_mut().zip(o.attribution) {
+            first(a, b, ATTRIBUTION_CONFIGURATIONS);
+        }
+        for (a, b) in self.natural.iter_mut().zip(&o.natural) {
+            *a += b;
+        }
+        self.seen += o.seen;
+    }
+}
+
+/// What measuring a sweep's configurations, or one shard's, leaves before the searches and
+/// the cost pass: the bounded kept state, the draws and the times; mergeable across shards.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Part {
+    pub kept: Kept,
+    pub draws: Vec<sampler::Draws>,
+    pub topups: Vec<sampler::TopUp>,
+    pub timing: Timing,
+}
+
+impl Part {
+    /// Adds another part (other configurations of the same sweep).
+    pub fn merge(&mut self, o: Part, case: &Case) {
+        self.kept
+            .merge(o.kept, COST_CONFIGURATIONS.div_ceil(case.materials.len().max(1)));
+        self.timing.add(&o.timing);
+    }
+
+    /// Configurations measured.
+    pub fn configurations(&self) -> usize {
+        self.timing.configurations
+    }
+}
+
+/// Measures the configurations (all, or one shard's) chunk by chunk into a [`Part`], handing
+/// each measured chunk to `fold` before it is dropped.
+pub fn measure_part(
+    setup: &Setup,
+    gpu: &Gpu,
+    options: MeasureOptions,
+    fold: &mut dyn FnMut(&MeasuredChunk) -> anyhow::Result<()>,
+) -> anyhow::Result<Part> {
+    let MeasureOptions { chunk, mut raw, shard } = options;
+    let start = Instant::now();
+    let case = &setup.case;
+    let methods = &setup.methods;
+    // Compile every pipeline first: a kernel error stops the sweep before any work.
+    let mut pipelines = Vec::new();
+    for m in methods {
+        pipelines.push(gpu.pipeline(m)?);
+    }
+    let targets = needed_targets(methods);
+    let families = case.materials.len();
+    let mut timing = Timing {
+        adapter: gpu.adapter.to_string(),
+        ..Timing::default()
+    };
+    let index = |l: &String| methods.iter().position(|m| &m.label == l).expect("case checked labels");
+    let restarts = case.search.as_ref().map_or(0, |s| s.restarts);
+    let disagree_spec = case.disagreements.clone().unwrap_or_default();
+    let expected: usize = case.materials.iter().map(|m| m.count).sum();
+    let attribution_step = expected.div_ceil(ATTRIBUTION_CONFIGURATIONS).max(1);
+    let per_family_cost = COST_CONFIGURATIONS.div_ceil(families.max(1));
+    let mut kept = Kept {
+        search: case
+            .search
+            .iter()
+            .flat_map(|s| s.methods.iter().map(&index))
+            .flat_map(|m| (0..families).map(move |f| (m, f, crate::measure::search::TopK::new(restarts))))
+            .collect(),
+        disagree: case
+            .compare
+            .iter()
+            .flat_map(|[a, b]| [(index(a), index(b)), (index(b), index(a))])
+            .flat_map(|(a, b)| {
+                (0..families).map(move |f| (a, b, f, crate::measure::search::TopK::new(disagree_spec.restarts)))
+            })
+            .collect(),
+        nonfinite: Vec::new(),
+        nonfinite_total: 0,
+        cost: vec![Vec::new(); families],
+        attribution: vec![Vec::new(); methods.len()],
+        natural: vec![0; families],
+        seen: 0,
+    };
+    let mut stream = sampler::NaturalStream::new(case);
+    let mut topups: Option<(std::vec::IntoIter<Sample>, Vec<sampler::TopUp>)> = None;
+    // Configurations drawn before the current chunk (every chunk, this shard's or not).
+    let mut offset = 0;
+    let pb = bar(expected, "measuring (GPU, CPU, references)");
+    let (mut gpu_seconds, mut f64_seconds, mut f32_seconds) = (
+        vec![0.0; methods.len()],
+        vec![0.0; methods.len()],
+        vec![0.0; methods.len()],
+    );
+    loop {
+        // The natural sample a chunk at a time, then the top-ups its counts call for.
+        let t = Instant::now();
+        let samples: Vec<Sample> = match &mut topups {
+            None => {
+                let c = stream
+                    .next_chunk(MEASURE_CHUNK)
+                    .map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?;
+                if c.is_empty() {
+                    let (extra, reports) = sampler::top_up_counted(case, &stream.counts);
+                    let mut it = extra.into_iter();
+                    let c: Vec<Sample> = it.by_ref().take(MEASURE_CHUNK).collect();
+                    topups = Some((it, reports));
+                    c
+                } else {
+                    c
+                }
+            }
+            Some((it, _)) => it.by_ref().take(MEASURE_CHUNK).collect(),
+        };
+        timing.sampling_seconds += t.elapsed().as_secs_f64();
+        if samples.is_empty() {
+            break;
+        }
+        // Every configuration's global index; a shard keeps the blocks of SHARD_BLOCK that are its.
+        let first = offset;
+        offset += samples.len();
+        let (samples, global): (Vec<Sample>, Vec<usize>) = samples
+            .into_iter()
+            .zip(first..)
+            .filter(|&(_, g)| shard.is_none_or(|(i, n)| (g / SHARD_BLOCK) % n == i))
+            .unzip();
+        if samples.is_empty() {
+            continue;
+        }
+        timing.chunks += 1;
+        let configs: Vec<_> = samples.iter().map(|s| s.config.clone()).collect();
+        let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
+        let mut runs = Vec::new();
+        for (j, (m, pipeline)) in methods.iter().zip(&pipelines).enumerate() {
+            let out = gpu.run(pipeline, &scenes, chunk, &mut |_| {})?;
+            gpu_seconds[j] += out.wall.as_secs_f64();
+            // The kernel's f64 and cpu_f32 columns, from the CPU evaluator.
+            let t = Instant::now();
+            let f64 = m.cpu_column_or_none(&configs, crate::eval::interp::Mode::F64);
+            f64_seconds[j] += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let f32_cpu: Vec<Option<f32>> = m
+                .cpu_column_or_none(&configs, crate::eval::interp::Mode::F32)
+                .into_iter()
+                .map(|v| v.map(|x| x as f32))
+                .collect();
+            f32_seconds[j] += t.elapsed().as_secs_f64();
+            let f32 = out
+                .values
+                .iter()
+                .zip(&configs)
+                .map(|(&v, c)| if m.applies(c) { v } else { f32::NAN })
+                .collect();
+            runs.push(MethodRun {
+                method: m.clone(),
+                f32,
+                f32_cpu,
+                f64,
+                gpu_seconds: 0.0,
+                f64_seconds: 0.0,
+            });
+        }
+        let t = Instant::now();
+        let references = references(&configs, &targets, &ProgressBar::hidden());
+        timing.references_seconds += t.elapsed().as_secs_f64();
+        timing.references_evaluated += references.iter().map(BTreeMap::len).sum::<usize>();
+        // A reference that cannot be computed is an error, never a NaN row in the report.
+        crate::measure::eval_rows::check_references(
+            std::path::Path::new(&format!("case `{}`", case.name)),
+            &configs,
+            &references,
+        )?;
+        fold(&MeasuredChunk {
+            samples: &samples,
+            global: &global,
+            references: &references,
+            runs: &runs,
+        })?;
+        keep(
+            case,
+            methods,
+            (&samples, &global),
+            &references,
+            &runs,
+            &mut kept,
+            (attribution_step, per_family_cost),
+        );
+        if let Some(w) = raw.as_mut() {
+            write_raw(*w, setup, &samples, &references, &runs)?;
+        }
+        timing.configurations += samples.len();
+        pb.inc(samples.len() as u64);
+    }
+    pb.finish_and_clear();
+    let (_, topups) = topups.unwrap_or_default();
+    for (j, m) in methods.iter().enumerate() {
+        timing.gpu.push((m.label.clone(), gpu_seconds[j], 0.0));
+        timing.f64_ports.push((m.label.clone(), f64_seconds[j]));
+        timing.f32_ports.push((m.label.clone(), f32_seconds[j]));
+    }
+    timing.total_seconds = start.elapsed().as_secs_f64();
+    Ok(Part {
+        kept,
+        draws: stream.draws,
+        topups,
+        timing,
+    })
+}
+
+/// The searches from the kept starts, the cost pass and the attribution: a measured sweep.
+pub fn finish(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<Measured> {
+    let start = Instant::now();
+    let case = &setup.case;
+    let methods = &setup.methods;
+    let mut pipelines = Vec::new();
+    for m in methods {
+        pipelines.push(gpu.pipeline(m)?);
+    }
+    let disagree_spec = case.disagreements.clone().unwrap_or_default();
+    let Part {
+        mut kept,
+        draws,
+        topups: topup_reports,
+        mut timing,
+    } = part;
+    for g in &mut timing.gpu {
+        g.2 = timing.configurations as f64 / g.1;
+    }
+    let mut found = Vec::new();
+    if let Some(spec) = &case.search {
+        let t = Instant::now();
+        let pb = bar(kept.search.len(), "worst-case search");
+        for (m, family, starts) in std::mem::take(&mut kept.search) {
+            let f = crate::measure::search::search(
+                case,
+                spec,
+                starts.into_sorted(),
+                &methods[m],
+                (gpu, &pipelines[m]),
+                family,
+            )?;
+            found.extend(f);
+            pb.inc(1);
+        }
+        pb.finish_and_clear();
+        timing.search_seconds = t.elapsed().as_secs_f64();
+    }
+    // Disagreements: every compared pair, both ways, in every family.
+    let mut disagreements = Vec::new();
+    if !case.compare.is_empty() {
+        let t = Instant::now();
+        let pb = bar(kept.disagree.len(), "disagreement search");
+        for (a, b, family, starts) in std::mem::take(&mut kept.disagree) {
+            let (found, evaluations) = crate::measure::search::disagreements(
+                case,
+                &disagree_spec,
+                starts.into_sorted(),
+                gpu,
+                (&methods[a], &pipelines[a]),
+                (&methods[b], &pipelines[b]),
+                family,
+            )?;
+            disagreements.extend(found);
+            timing.disagree_evaluations += evaluations;
+            pb.inc(1);
+        }
+        pb.finish_and_clear();
+        timing.disagree_seconds = t.elapsed().as_secs_f64();
+    }
+    // Cost: the first configurations of every family, each method timed in interleaved rounds.
+    let t = Instant::now();
+    let cost_configs: Vec<_> = kept.cost.iter().flatten().map(|(_, c)| c.clone()).collect();
+    let pb = bar(methods.len() * (COST_WARMUP + COST_REPEATS), "cost (GPU timestamps)");
+    let costs = crate::measure::bench::bench_methods_with(
+        gpu,
+        methods,
+        &cost_configs,
+        COST_WARMUP,
+        COST_REPEATS,
+        &mut |done, _| pb.set_position(done as u64),
+    )?;
+    pb.finish_and_clear();
+    timing.cost_seconds = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let subsets: Vec<Vec<crate::input::scene::Config>> = kept
+        .attribution
+        .iter()
+        .map(|s| s.iter().map(|(_, c)| c.clone()).collect())
+        .collect();
+    let attribution = attribute(methods, &subsets)?;
+    timing.attribution_seconds = t.elapsed().as_secs_f64();
+    timing.total_seconds += start.elapsed().as_secs_f64();
+    Ok(Measured {
+        timing,
+        found,
+        disagreements,
+        costs,
+        attribution,
+        configurations: kept.seen,
+        natural: kept.natural,
+        draws,
+        topups: topup_reports,
+        nonfinite: kept.nonfinite.into_iter().map(|(_, c, m)| (c, m)).collect(),
+        nonfinite_total: kept.nonfinite_total,
+    })
+}
+
+/// Folds one chunk into the bounded per-configuration state.
+fn keep(
+    case: &Case,
+    methods: &[Method],
+    (samples, global): (&[Sample], &[usize]),
+    references: &References,
+    runs: &[MethodRun],
+    kept: &mut Kept,
+    (attribution_step, per_family_cost): (usize, usize),
+) {
+    use crate::measure::search::{disagreement_ratio, rel_error, Start};
+    let eps = case.disagreements.clone().unwrap_or_default().epsilon;
+    for (i, s) in samples.iter().enumerate() {
+        let c = &s.config;
+        let f = s.material;
+        let global = global[i];
+        kept.seen += 1;
+        for (m, family, top) in &mut kept.search {
+            let method = &methods[*m];
+            if *family != f || !(method.applies(c) && method.supports(c)) {
+                continue;
+            }
+            let Some(r) = references[i].get(&method.target()) else {
+                continue;
+            };
+            if let Some(score) = rel_error(runs[*m].f32[i], r).filter(|&x| top.wants(x)) {
+                top.push(
+                    global,
+                    Start {
+                        sample: s.clone(),
+                        values: vec![runs[*m].f32[i]],
+                        reference: *r,
+                        score,
+                    },
+                );
+            }
+        }
+        for (a, b, family, top) in &mut kept.disagree {
+            let (ma, mb) = (&methods[*a], &methods[*b]);
+            if *family != f || !(ma.applies(c) && mb.applies(c) && ma.supports(c) && mb.supports(c)) {
+                continue;
+            }
+            let Some(r) = references[i].get(&ma.target()) else {
+                continue;
+            };
+            let (va, vb) = (runs[*a].f32[i], runs[*b].f32[i]);
+            let score = rel_error(va, r)
+                .zip(rel_error(vb, r))
+                .map(|(x, y)| disagreement_ratio(x, y, eps));
+            if let Some(score) = score.filter(|&x| top.wants(x)) {
+                top.push(
+                    global,
+                    Start {
+                        sample: s.clone(),
+                        values: vec![va, vb],
+                        reference: *r,
+                        score,
+                    },
+                );
+            }
+        }
+        let bad: Vec<String> = runs
+            .iter()
+            .filter(|r| r.method.applies(c) && !r.f32[i].is_finite())
+            .map(|r| r.method.label.clone())
+            .collect();
+        if !bad.is_empty() {
+            kept.nonfinite_total += 1;
+            if kept.nonfinite.len() < NONFINITE_KEPT {
+                kept.nonfinite.push((global, c.clone(), bad));
+            }
+        }
+        if global.is_multiple_of(attribution_step) {
+            for (subset, m) in kept.attribution.iter_mut().zip(methods) {
+                if m.applies(c) && subset.len() < ATTRIBUTION_CONFIGURATIONS {
+                    subset.push((global, c.clone()));
+                }
+            }
+        }
+        if !s.natural() {
+            continue;
+        }
+        kept.natural[f] += 1;
+        if kept.cost[f].len() < per_family_cost {
+            kept.cost[f].push((global, c.clone()));
+        }
+    }
+}
+
+/// `--raw` rows of one chunk (the eval output format plus material, axes, strata, config).
+fn write_raw(
+    w: &mut dyn std::io::Write,
+    setup: &Setup,
+    samples: &[Sample],
+    references: &References,
+    runs: &[MethodRun],
+) -> anyhow::Result<()> {
+    let rows: Vec<_> = samples
+        .par_iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let f32s: Vec<f32> = runs.iter().map(|r| r.f32[i]).collect();
+            let f64s: Vec<Option<f64>> = runs.iter().map(|r| r.f64[i]).collect();
+            let c32s: Vec<Option<f64>> = runs.iter().map(|r| r.f32_cpu[i].map(f64::from)).collect();
+            let mut row =
+                crate::measure::eval_rows::result_row(&s.config, &references[i], &setup.methods, &f32s, &f64s, &c32s);
+            row["material"] = setup.case.materials[s.material].name.clone().into();
+            row["axes"] = serde_json::to_value(&s.axes).expect("axes serialise");
+            // Empty for the natural sample; a top-up lists the (axis, bin) it fills.
+            row["strata"] = serde_json::to_value(&s.strata).expect("strata serialise");
+            row["config"] = serde_json::to_value(&s.config).expect("config serialises");
+            row
+        })
+        .collect();
+    w.write_all(&crate::io::to_jsonl(&rows))?;
+    Ok(())
+}
+
+/// `--shard I/N`: shard I (from 0) of N.
+pub fn parse_shard(text: &str) -> anyhow::Result<(usize, usize)> {
+    let bad = || anyhow::anyhow!("--shard `{text}`: write I/N with 0 ≤ I < N, e.g. 0/4");
+    let (i, n) = text.split_once('/').ok_or_else(bad)?;
+    let (i, n): (usize, usize) = (
+        i.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if n == 0 || i >= n {
+        return Err(bad());
+    }
+    Ok((i, n))
+}
