@@ -48,7 +48,7 @@ fn committed_table_is_complete_aligned_and_symmetric() {
                     let i = [a, b, c, d];
                     let e = &t.entries[index(t.size, i)];
                     let ok = e.m.iter().flatten().all(|x| x.is_finite())
-                        && fit::det(&e.m) > 0.0
+                        && linelight::input::geometry::det(&e.m) > 0.0
                         && e.magnitude > 0.0
                         && e.magnitude <= 1.0 + 1e-9
                         && e.l1.is_finite()
@@ -83,7 +83,12 @@ fn lookup_error(alpha: [f64; 2], view: [f64; 3]) -> (f64, f64) {
         ay: alpha[1],
         view,
     };
-    let (_, l1) = fit::errors(&g, &Ltc::new(fit::inverse(&minv)), mag, fit::OBJECTIVE_GRID);
+    let (_, l1) = fit::errors(
+        &g,
+        &Ltc::new(linelight::input::geometry::inverse(&minv)),
+        mag,
+        fit::OBJECTIVE_GRID,
+    );
     (l1, mag)
 }
 

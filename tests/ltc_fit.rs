@@ -84,7 +84,7 @@ fn the_fit_is_better_than_the_diffuse_start_and_its_error_is_honest() {
         "{f:?} vs {l3_diffuse} {l1_diffuse}"
     );
     // The reported L1 error agrees with a finer estimate of the same integral.
-    let ltc = Ltc::new(linelight::input::ltc::fit::inverse(&f.minv));
+    let ltc = Ltc::new(linelight::input::geometry::inverse(&f.minv));
     let (_, fine) = linelight::input::ltc::fit::errors(&g, &ltc, f.magnitude, 128);
     assert!((fine - f.l1).abs() <= 0.1 * fine, "{fine} vs {}", f.l1);
 }

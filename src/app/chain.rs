@@ -21,6 +21,7 @@
 use crate::analyse::stats::{bin_index, Quantiles};
 use crate::eval::interp::CpuColumns;
 use crate::input::case::Case;
+use crate::input::geometry::{v3, DVec3};
 use crate::input::ltc::Feed;
 use crate::input::sampler::{self, Sample};
 use crate::input::scene::{Config, GpuScene, Material};
@@ -71,10 +72,11 @@ fn miss_angle(c: &Config) -> f64 {
     let Material::Ggx { view, .. } = &c.material else {
         return f64::NAN;
     };
-    let r = [-view[0], -view[1], view[2]];
+    let r = DVec3::new(-view[0], -view[1], view[2]);
+    let (p1, p2) = (v3(c.p1), v3(c.p2));
     let cos_at = |t: f64| {
-        let p: [f64; 3] = std::array::from_fn(|k| c.p1[k] + t * (c.p2[k] - c.p1[k]));
-        crate::input::scene::dot(p, r) / crate::input::scene::length(p)
+        let p = p1 + t * (p2 - p1);
+        p.dot(r) / p.length()
     };
     // A dense look, then golden-section refinement around the best sample.
     let n = 256;

@@ -3,6 +3,7 @@
 //! integrals, the LTC tables, and the names that messages and report files use.
 
 pub mod case;
+pub mod geometry;
 pub mod ltc;
 pub mod names;
 pub mod sampler;

@@ -6,7 +6,8 @@
 //! transcendental functions from `libm` (pure Rust) rather than the platform's libm.
 
 use crate::input::case::{Case, Dist, MaterialFamily, MaterialKind};
-use crate::input::scene::{cross, dot, length, sub, Config, Mat3, Material, Rect, Roughness, Vec3};
+use crate::input::geometry::{mat, rows, v3, DMat3, DVec3};
+use crate::input::scene::{Config, Material, Rect, Roughness, Vec3};
 use rand::{RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -98,18 +99,19 @@ impl Axes {
 /// The line axes of a segment: (reach of the near end, reach of the far end, subtended angle,
 /// height of the closest point, tilt), lengths in units of the line's distance.
 pub fn line_axes(p1: Vec3, p2: Vec3) -> (f64, f64, f64, f64, f64) {
-    let t = normalize(sub(p2, p1));
-    let (l1, l2) = (dot(p1, t), dot(p2, t));
-    let foot = sub(p1, scale(t, l1));
-    let d = length(foot);
+    let (p1, p2) = (v3(p1), v3(p2));
+    let t = (p2 - p1).normalize();
+    let (l1, l2) = (p1.dot(t), p2.dot(t));
+    let foot = p1 - t * l1;
+    let d = foot.length();
     let near = if l1 * l2 <= 0.0 {
         0.0
     } else {
         l1.abs().min(l2.abs()) / d
     };
     let far = l1.abs().max(l2.abs()) / d;
-    let subtended = libm::atan2(length(cross(p1, p2)), dot(p1, p2));
-    (near, far, subtended, foot[2] / d, t[2].abs())
+    let subtended = libm::atan2(p1.cross(p2).length(), p1.dot(p2));
+    (near, far, subtended, foot.z / d, t.z.abs())
 }
 
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
@@ -516,22 +518,6 @@ fn deg(x: f64) -> f64 {
     x * std::f64::consts::PI / 180.0
 }
 
-fn scale(v: Vec3, s: f64) -> Vec3 {
-    [v[0] * s, v[1] * s, v[2] * s]
-}
-
-fn add(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-
-fn normalize(v: Vec3) -> Vec3 {
-    scale(v, 1.0 / length(v))
-}
-
-fn mat_vec(m: &Mat3, v: Vec3) -> Vec3 {
-    [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
-}
-
 fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: String) -> Sample {
     let family = &case.materials[material];
     let g = case.geometry_of(family);
@@ -550,36 +536,37 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
     // Foot point p_o, horizontal direction h ⟂ p_o and v = ω_po × h complete the frame.
     let (ce, se) = (libm::cos(deg(elevation)), libm::sin(deg(elevation)));
     let (ca, sa) = (libm::cos(azimuth), libm::sin(azimuth));
-    let w_po = [ce * ca, ce * sa, se];
-    let h = [-sa, ca, 0.0];
-    let v = cross(w_po, h);
-    let w_t = add(scale(h, libm::cos(tilt_angle)), scale(v, libm::sin(tilt_angle)));
-    let p_o = scale(w_po, d);
+    let w_po = DVec3::new(ce * ca, ce * sa, se);
+    let h = DVec3::new(-sa, ca, 0.0);
+    let v = w_po.cross(h);
+    let w_t = h * libm::cos(tilt_angle) + v * libm::sin(tilt_angle);
+    let p_o = w_po * d;
     let half = 0.5 * length_over_d * d;
-    let p1 = add(p_o, scale(w_t, center * d - half));
-    let mut p2 = add(p_o, scale(w_t, center * d + half));
+    let p1 = p_o + w_t * (center * d - half);
+    let mut p2 = p_o + w_t * (center * d + half);
     if let Some(z) = endpoint_height {
-        p2[2] = z;
+        p2.z = z;
     }
     // What was drawn, as the final segment has it (the end point may have moved).
-    let w_t = normalize(sub(p2, p1));
-    let length_over_d = length(sub(p2, p1)) / d;
+    let w_t = (p2 - p1).normalize();
+    let length_over_d = (p2 - p1).length() / d;
 
     let rect = rect_width.map(|width| {
         // The normal turns about the tangent: 0° faces the shading point, 90° is edge-on.
         let u = w_po;
-        let b = cross(w_t, u);
+        let b = w_t.cross(u);
         Rect {
-            normal: add(scale(u, libm::cos(rect_angle)), scale(b, libm::sin(rect_angle))),
+            normal: (u * libm::cos(rect_angle) + b * libm::sin(rect_angle)).to_array(),
             width,
         }
     });
 
     let (material_value, alpha, view_angle, anisotropy) = sample_material(source, family);
     let minv = material_value.minv();
-    let (p1o, p2o) = (mat_vec(&minv, p1), mat_vec(&minv, p2));
+    let (p1o, p2o) = (mat(&minv) * p1, mat(&minv) * p2);
+    let (p1, p2) = (p1.to_array(), p2.to_array());
     let (reach_near, reach_far, subtended, height, _) = line_axes(p1, p2);
-    let (reach_near_o, reach_o, subtended_o, height_o, tilt_o) = line_axes(p1o, p2o);
+    let (reach_near_o, reach_o, subtended_o, height_o, tilt_o) = line_axes(p1o.to_array(), p2o.to_array());
 
     Sample {
         config: Config {
@@ -597,7 +584,7 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
             length: length_over_d,
             center,
             elevation,
-            tilt: w_t[2].abs(),
+            tilt: w_t.z.abs(),
             alpha,
             reach_near,
             reach_far,
@@ -610,11 +597,10 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
             tilt_o,
             radius: radius.map_or(f64::NAN, |r| r / d),
             cap_straddle: radius.map_or(f64::NAN, |r| {
-                let w_t = normalize(sub(p2, p1));
                 let crosses = |m: Vec3, p: Vec3| {
-                    let m = normalize(m);
-                    let c = dot(m, w_t);
-                    dot(m, p).abs() < r * (1.0 - c * c).max(0.0).sqrt()
+                    let m = v3(m).normalize();
+                    let c = m.dot(w_t);
+                    m.dot(v3(p)).abs() < r * (1.0 - c * c).max(0.0).sqrt()
                 };
                 let any = [[0.0, 0.0, 1.0], minv[2]]
                     .into_iter()
@@ -678,14 +664,10 @@ fn sample_material(source: &mut dyn Uniforms, family: &MaterialFamily) -> (Mater
                 let r = deg(draw_opt(source, &family.rotation, 0.0));
                 let (c, s) = (libm::cos(r), libm::sin(r));
                 // M⁻¹·R_z(r): the lobe turned by r about the normal.
-                let rz = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]];
-                let mut m = [[0.0; 3]; 3];
-                for (i, row) in m.iter_mut().enumerate() {
-                    for (j, e) in row.iter_mut().enumerate() {
-                        *e = (0..3).map(|k| sparse[i][k] * rz[k][j]).sum();
-                    }
-                }
-                m
+                // From libm's sine and cosine, not glam's rotation (std's), so the same seed
+                // gives the same matrix on every machine.
+                let rz = DMat3::from_cols(DVec3::new(c, s, 0.0), DVec3::new(-s, c, 0.0), DVec3::Z);
+                rows(mat(&sparse) * rz)
             } else {
                 sparse
             };
@@ -764,9 +746,9 @@ rotation = { dist = "uniform", min = 0.0, max = 180.0 }
             let c = &s.config;
             // Distance to the line is the fixed d = 1, length and tilt as drawn.
             assert!((c.distance_to_line() - 1.0).abs() < 1e-12);
-            assert!((length(sub(c.p2, c.p1)) - s.axes.length).abs() < 1e-12 * s.axes.length.max(1.0));
-            let w_t = normalize(sub(c.p2, c.p1));
-            assert!((w_t[2].abs() - s.axes.tilt).abs() < 1e-12);
+            let e = v3(c.p2) - v3(c.p1);
+            assert!((e.length() - s.axes.length).abs() < 1e-12 * s.axes.length.max(1.0));
+            assert!((e.normalize().z.abs() - s.axes.tilt).abs() < 1e-12);
             assert!(c.radius.unwrap() < 1.0);
             if matches!(c.material, Material::Ltc { .. }) {
                 assert!(!c.material.is_sparse());

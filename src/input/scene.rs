@@ -2,6 +2,7 @@
 //! material. This is what `eval` reads, what the sampler makes and what every method and
 //! reference is evaluated on (docs/conventions.md, docs/eval-format.md).
 
+use crate::input::geometry::{mat, v3};
 use serde::{Deserialize, Serialize};
 
 pub type Vec3 = [f64; 3];
@@ -59,7 +60,7 @@ impl Material {
         if !view.iter().all(|x| x.is_finite()) {
             return Err(format!("ggx view is not finite: {view:?}"));
         }
-        let len = length(view);
+        let len = v3(view).length();
         if (len - 1.0).abs() > 1e-6 {
             return Err(format!("ggx view must be a unit vector (|view| = {len:.9})"));
         }
@@ -236,30 +237,6 @@ pub enum Degenerate {
 /// underflow in f32 (f32 spans 2^±126 for normal numbers).
 pub const F32_SCALE: f64 = 1_152_921_504_606_846_976.0;
 
-pub fn sub(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-pub fn dot(a: Vec3, b: Vec3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-pub fn cross(a: Vec3, b: Vec3) -> Vec3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn scale_v(a: Vec3, s: f64) -> Vec3 {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-pub fn length(a: Vec3) -> f64 {
-    dot(a, a).sqrt()
-}
-pub fn det3(m: &Mat3) -> f64 {
-    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-}
-
 impl Config {
     /// What an LTC method evaluates: for a `ggx` material, the configuration rotated about
     /// z into the frame of its fed M⁻¹, as an `ltc` material, and the magnitude the result
@@ -285,15 +262,15 @@ impl Config {
 
     /// Distance from the shading point (origin) to the closest point of the segment.
     pub fn distance_to_segment(&self) -> f64 {
-        let e = sub(self.p2, self.p1);
-        let t = (-dot(self.p1, e) / dot(e, e)).clamp(0.0, 1.0);
-        length([self.p1[0] + t * e[0], self.p1[1] + t * e[1], self.p1[2] + t * e[2]])
+        let (p1, e) = (v3(self.p1), v3(self.p2) - v3(self.p1));
+        let t = (-p1.dot(e) / e.dot(e)).clamp(0.0, 1.0);
+        (p1 + t * e).length()
     }
 
     /// Distance from the shading point to the infinite line through the segment (`d` of Eq. 1.15).
     pub fn distance_to_line(&self) -> f64 {
-        let e = sub(self.p2, self.p1);
-        length(cross(self.p1, e)) / length(e)
+        let e = v3(self.p2) - v3(self.p1);
+        v3(self.p1).cross(e).length() / e.length()
     }
 
     /// Makes `rect.normal` the unit vector perpendicular to the segment that docs/conventions.md
@@ -301,17 +278,18 @@ impl Config {
     /// how far the normal moved, or None when there is no rectangle or the normal is (nearly)
     /// parallel to the segment, which `validate` then rejects.
     pub fn orthonormalize_rect(&mut self) -> Option<f64> {
-        let e = sub(self.p2, self.p1);
+        let e = v3(self.p2) - v3(self.p1);
         let rect = self.rect.as_mut()?;
-        let t = scale_v(e, 1.0 / length(e));
-        let n = rect.normal;
-        let perp = sub(n, scale_v(t, dot(n, t)));
-        let len = length(perp);
-        if !(len > 1e-6 * length(n)) {
+        let t = e.normalize();
+        let n = v3(rect.normal);
+        let perp = n - t * n.dot(t);
+        let len = perp.length();
+        if !(len > 1e-6 * n.length()) {
             return None;
         }
-        rect.normal = scale_v(perp, 1.0 / len);
-        Some(length(sub(rect.normal, n)))
+        let unit = perp * (1.0 / len);
+        rect.normal = unit.to_array();
+        Some((unit - n).length())
     }
 
     /// Checks that the kernels can evaluate the configuration in f32: they square lengths,
@@ -319,7 +297,7 @@ impl Config {
     /// entries, the radius and the width below it. (Every target is scale-free, so a
     /// configuration outside can be scaled by the user; it is refused, not silently NaN.)
     fn representable(&self) -> Result<(), Degenerate> {
-        let scale = length(self.p1).max(length(self.p2));
+        let scale = v3(self.p1).length().max(v3(self.p2).length());
         if !(1.0 / F32_SCALE..=F32_SCALE).contains(&scale) {
             return Err(Degenerate::NotRepresentable(format!(
                 "the segment's size max(|p1|, |p2|) = {scale:e} is outside [{:e}, {F32_SCALE:e}], \
@@ -382,20 +360,20 @@ impl Config {
             return Err(Degenerate::NotFinite);
         }
         self.representable()?;
-        let e = sub(self.p2, self.p1);
-        let len = length(e);
+        let (p1, e) = (v3(self.p1), v3(self.p2) - v3(self.p1));
+        let len = e.length();
         if len == 0.0 {
             return Err(Degenerate::ZeroLength);
         }
         // The line may pass through the origin outside the segment; only the segment matters
         // for the integrals, but d = 0 makes every line formula 0/0, so the reported size is
         // relative to the segment's own scale.
-        let scale = length(self.p1).max(length(self.p2));
+        let scale = v3(self.p1).length().max(v3(self.p2).length());
         let seg = self.distance_to_segment();
         if seg <= 1e-12 * scale {
             return Err(Degenerate::PointOnLight(seg / scale));
         }
-        let det = det3(&self.material.minv());
+        let det = mat(&self.material.minv()).determinant();
         if det == 0.0 || !det.is_finite() {
             return Err(Degenerate::SingularMinv(det));
         }
@@ -414,19 +392,16 @@ impl Config {
             if rect.width <= 0.0 {
                 return Err(Degenerate::BadWidth(rect.width));
             }
-            let n_len = length(rect.normal);
-            let n_dot = dot(rect.normal, e) / len;
+            let n = v3(rect.normal);
+            let (n_len, n_dot) = (n.length(), n.dot(e) / len);
             if (n_len - 1.0).abs() > 1e-6 || n_dot.abs() > 1e-6 {
                 return Err(Degenerate::BadRectNormal { len: n_len, dot: n_dot });
             }
             // On the rectangle: in its plane, within its extent.
-            let t = dot(self.p1, e) / (len * len);
-            let b = cross(rect.normal, e);
-            let s = dot(self.p1, b) / length(b);
-            if dot(self.p1, rect.normal).abs() <= 1e-12 * scale
-                && (-1.0..=0.0).contains(&t)
-                && s.abs() <= rect.width / 2.0
-            {
+            let t = p1.dot(e) / (len * len);
+            let b = n.cross(e);
+            let s = p1.dot(b) / b.length();
+            if p1.dot(n).abs() <= 1e-12 * scale && (-1.0..=0.0).contains(&t) && s.abs() <= rect.width / 2.0 {
                 return Err(Degenerate::PointOnRectangle);
             }
         }

@@ -15,8 +15,9 @@
 
 use super::lobe::Lobe;
 use super::quadrature::{integrate, Quad};
+use super::vec::{dot, length, sub};
 use super::{estimate, mul, reject, Estimate};
-use crate::input::scene::{dot, length, sub, Vec3};
+use crate::input::scene::Vec3;
 use std::f64::consts::PI;
 
 /// `foot + s·dir`, `s ∈ [s0, s0 + len]`, with `foot ⟂ dir` and `dir` unit.
@@ -268,9 +269,10 @@ pub(crate) fn line_isotropic(lobe: &Lobe, p1: Vec3, p2: Vec3) -> Estimate {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::input::scene::{cross, Material};
+    use crate::input::scene::Material;
     use crate::reference::distribution;
     use crate::reference::testing::*;
+    use crate::reference::vec::cross;
     use rand::Rng;
 
     fn diffuse() -> Lobe {

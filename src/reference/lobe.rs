@@ -5,7 +5,8 @@
 //! `support` (the half-space D lives in), `mirror` (the direction a sharp lobe peaks at) and
 //! `condition`.
 
-use crate::input::scene::{cross, det3, dot, Mat3, Material, Vec3};
+use super::vec::{cross, det3, dot};
+use crate::input::scene::{Mat3, Material, Vec3};
 use std::f64::consts::PI;
 
 #[derive(Clone, Copy, Debug)]

@@ -10,11 +10,13 @@ mod line;
 mod lobe;
 mod quadrature;
 mod surface;
+mod vec;
 
-use crate::input::scene::{dot, Config, Material, Vec3};
+use crate::input::scene::{Config, Material, Vec3};
 use crate::input::target::Target;
 use lobe::Lobe;
 use quadrature::Quad;
+use vec::dot;
 
 /// A reference value with its absolute error estimate (`error >= 0`).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]

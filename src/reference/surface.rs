@@ -6,8 +6,9 @@
 use super::line::{graded, halves, integrate_chord, split, split_halves, trig_zeros, Chord};
 use super::lobe::Lobe;
 use super::quadrature::{integrate, Quad};
+use super::vec::{cross, dot, length, sub};
 use super::{estimate, mul, reject, Estimate};
-use crate::input::scene::{cross, dot, length, sub, Rect, Vec3};
+use crate::input::scene::{Rect, Vec3};
 use std::f64::consts::FRAC_PI_2;
 
 /// The inner integrals are 100× tighter so that their noise stays below the outer error.

@@ -1,6 +1,7 @@
 //! Helpers for the unit tests: a brute-force quadrature that shares nothing with the
 //! adaptive one, and random configurations.
 
+use crate::input::geometry::{self, v3};
 use crate::input::scene::{Mat3, Material, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -111,9 +112,7 @@ pub fn rotation(rng: &mut ChaCha8Rng) -> Mat3 {
     ]
 }
 
-pub fn mat_vec(m: &Mat3, v: Vec3) -> Vec3 {
-    m.map(|row| row[0] * v[0] + row[1] * v[1] + row[2] * v[2])
-}
+pub use crate::input::geometry::{inverse, mat_vec};
 
 /// A sparse isotropic-GGX-like LTC `[[a,0,b],[0,c,0],[d,0,1]]`, lobe widths down to ~1/20.
 pub fn sparse_ltc(rng: &mut ChaCha8Rng) -> Material {
@@ -129,31 +128,11 @@ pub fn full_ltc(rng: &mut ChaCha8Rng) -> Material {
     let Material::Ltc { minv } = sparse_ltc(rng) else {
         unreachable!()
     };
-    let r = rotation(rng);
-    let mut m = [[0.0; 3]; 3];
-    for (i, row) in m.iter_mut().enumerate() {
-        for (j, x) in row.iter_mut().enumerate() {
-            *x = (0..3).map(|k| minv[i][k] * r[k][j]).sum::<f64>() + rng.random_range(-0.3..0.3);
-        }
+    let mut m = geometry::mat_mul(&minv, &rotation(rng));
+    for x in m.iter_mut().flatten() {
+        *x += rng.random_range(-0.3..0.3);
     }
     Material::Ltc { minv: m }
-}
-
-pub fn inverse(m: &Mat3) -> Mat3 {
-    let det = crate::input::scene::det3(m);
-    let c = |i: usize, j: usize| {
-        let (r0, r1) = ((i + 1) % 3, (i + 2) % 3);
-        let (c0, c1) = ((j + 1) % 3, (j + 2) % 3);
-        m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0]
-    };
-    // inverse[j][i] = cofactor(i, j)/det (the cyclic minors carry their signs).
-    let mut inv = [[0.0; 3]; 3];
-    for (j, row) in inv.iter_mut().enumerate() {
-        for (i, x) in row.iter_mut().enumerate() {
-            *x = c(i, j) / det;
-        }
-    }
-    inv
 }
 
 /// A segment of length `len` across the direction the LTC `material` maps to its pole (the
@@ -167,17 +146,15 @@ pub fn segment_through_lobe(
 ) -> (Vec3, Vec3) {
     let m = inverse(&material.minv());
     let pole = mat_vec(&m, [0.0, 0.0, 1.0]);
-    let n = crate::input::scene::length(pole);
-    let pole = pole.map(|x| x / n);
+    let pole = v3(pole).normalize();
     let t = loop {
-        let r = point(rng, 1.0);
-        let k = crate::input::scene::dot(r, pole);
-        let t = [0, 1, 2].map(|i| r[i] - k * pole[i]);
-        let l = crate::input::scene::length(t);
+        let r = v3(point(rng, 1.0));
+        let t = r - r.dot(pole) * pole;
+        let l = t.length();
         if l > 0.1 {
-            break t.map(|x| x / l);
+            break t / l;
         }
     };
-    let at = |s: f64| [0, 1, 2].map(|i| dist * pole[i] + (s + shift) * t[i]);
+    let at = |s: f64| (dist * pole + (s + shift) * t).to_array();
     (at(-0.5 * len), at(0.5 * len))
 }

@@ -2,6 +2,7 @@
 //! ports it replaced, run just before they were deleted: docs/evaluator-agreement.txt.)
 
 use super::*;
+use crate::input::geometry::{v3, DVec3};
 use crate::input::scene::Material;
 use crate::kernel::methods::{kernel_set, resolve};
 
@@ -42,12 +43,11 @@ fn configs(n: usize) -> Vec<Config> {
         };
         let mut c = config(p1, p2, material);
         c.radius = Some(0.02);
-        let t = crate::input::scene::sub(p2, p1);
-        let n0 = crate::input::scene::cross(t, [0.0, 0.0, 1.0]);
-        let len = crate::input::scene::length(n0);
+        let n0 = (v3(p2) - v3(p1)).cross(DVec3::Z);
+        let len = n0.length();
         if len > 1e-3 {
             c.rect = Some(crate::input::scene::Rect {
-                normal: [n0[0] / len, n0[1] / len, n0[2] / len],
+                normal: (n0 / len).to_array(),
                 width: 0.03,
             });
         }

@@ -29,6 +29,7 @@
 use super::fit::{self, Ltc, M3};
 use super::ggx::Ggx;
 use super::table::Storage;
+use crate::input::geometry::{self, transpose};
 use anyhow::Context;
 use std::f64::consts::FRAC_PI_2;
 
@@ -135,7 +136,7 @@ fn alignment_cost(m: &M3) -> f64 {
             let r = u1.sqrt();
             let (s, c) = (std::f64::consts::TAU * u2).sin_cos();
             let wo = [r * c, r * s, (1.0 - u1).sqrt()];
-            let w = fit::mat_vec(m, wo);
+            let w = geometry::mat_vec(m, wo);
             let l = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
             sum += (0..3).map(|k| (wo[k] - w[k] / l).powi(2)).sum::<f64>();
         }
@@ -146,7 +147,7 @@ fn alignment_cost(m: &M3) -> f64 {
 /// M·R_z(γ) for the γ that minimises Eq. 12: a linear search over 720 angles, then golden
 /// section around the best.
 pub fn align(m: &M3) -> M3 {
-    let cost = |g: f64| alignment_cost(&fit::mat_mul(m, &rot_z(g)));
+    let cost = |g: f64| alignment_cost(&geometry::mat_mul(m, &rot_z(g)));
     let steps = 720;
     let h = std::f64::consts::TAU / steps as f64;
     let best = (0..steps)
@@ -164,7 +165,7 @@ pub fn align(m: &M3) -> M3 {
     }
     let g = 0.5 * (lo + hi);
     let g = if cost(g) <= cost(best) { g } else { best };
-    fit::mat_mul(m, &rot_z(g))
+    geometry::mat_mul(m, &rot_z(g))
 }
 
 /// Sec. 7: M divided by the length of its third column.
@@ -209,7 +210,7 @@ fn finish(g: &Ggx, m: M3, magnitude: f64, fresnel: f64, origin: Origin) -> Entry
 pub fn fit_entry(size: [usize; 4], i: [usize; 4]) -> Entry {
     let g = lobe(entry_point(size, i));
     let f = fit::fit_general(&g);
-    let mut m = unit_third_column(&align(&fit::inverse(&f.minv)));
+    let mut m = unit_third_column(&align(&geometry::inverse(&f.minv)));
     symmetrize(&mut m, i, size);
     let m = unit_third_column(&m);
     finish(&g, m, f.magnitude, f.fresnel, Origin::Fit)
@@ -279,7 +280,7 @@ pub fn fit_table(size: [usize; 4], progress: &(dyn Fn() + Sync)) -> AnisoTable {
                     Origin::Theta0 => finish(&g, base.m, base.magnitude, base.fresnel, Origin::Theta0),
                     _ => {
                         let phi = entry_point(size, i)[1];
-                        let m = fit::mat_mul(&fit::mat_mul(&rot_z(phi), &base.m), &rot_z(-phi));
+                        let m = geometry::mat_mul(&geometry::mat_mul(&rot_z(phi), &base.m), &rot_z(-phi));
                         let mut m = unit_third_column(&m);
                         symmetrize(&mut m, i, size);
                         finish(&g, m, base.magnitude, base.fresnel, Origin::IsoRotation)
@@ -326,11 +327,9 @@ fn reduce(alpha: [f64; 2], view: [f64; 3]) -> (M3, [f32; 4]) {
     (q, [theta, phi, ax as f32, (ay / ax) as f32])
 }
 
-fn transpose(m: &M3) -> M3 {
-    std::array::from_fn(|i| std::array::from_fn(|j| m[j][i]))
-}
-
-/// f32 inverse (adjugate / determinant), as a shader computes it.
+/// f32 inverse (adjugate / determinant, each entry divided), as a shader computes it: an
+/// emulation of the shader's arithmetic like the CPU evaluator's builtins, not host
+/// geometry, so it stays written out (glam's inverse multiplies by 1/det, other bits).
 fn inverse_f32(m: &[[f32; 3]; 3]) -> [[f32; 3]; 3] {
     let c = |a: usize, b: usize, c: usize, d: usize| m[a][b] * m[c][d] - m[a][d] * m[c][b];
     let adj = [
@@ -419,7 +418,7 @@ impl AnisoTable {
         ];
         let minv_red = inverse_f32(&m).map(|r| r.map(f64::from));
         // M⁻¹ = Qᵀ M_red⁻¹ Q (Q is a signed permutation: exact).
-        let minv = fit::mat_mul(&fit::mat_mul(&transpose(&q), &minv_red), &q);
+        let minv = geometry::mat_mul(&geometry::mat_mul(&transpose(&q), &minv_red), &q);
         (minv, f64::from(acc[9]), f64::from(acc[10]))
     }
 

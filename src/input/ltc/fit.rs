@@ -12,51 +12,10 @@
 //! from several guesses, keeping the best (seed 004, Sec. 4, explains why a single start fails).
 
 use super::ggx::{Ggx, V3};
+use crate::input::geometry::{cross, det, dot, inverse, mat_mul, mat_vec, normalize};
 use std::f64::consts::PI;
 
 pub type M3 = [[f64; 3]; 3];
-
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn normalize(a: V3) -> V3 {
-    let n = dot(a, a).sqrt();
-    a.map(|x| x / n)
-}
-pub fn mat_vec(m: &M3, v: V3) -> V3 {
-    m.map(|r| dot(r, v))
-}
-pub fn mat_mul(a: &M3, b: &M3) -> M3 {
-    let mut m = [[0.0; 3]; 3];
-    for (i, row) in m.iter_mut().enumerate() {
-        for (j, e) in row.iter_mut().enumerate() {
-            *e = (0..3).map(|k| a[i][k] * b[k][j]).sum();
-        }
-    }
-    m
-}
-pub fn det(m: &M3) -> f64 {
-    dot(m[0], cross(m[1], m[2]))
-}
-pub fn inverse(m: &M3) -> M3 {
-    let c = [cross(m[1], m[2]), cross(m[2], m[0]), cross(m[0], m[1])];
-    let d = dot(m[0], c[0]);
-    // inverse = adjugate/det, adjugate = cofactorsᵀ: column j of the inverse is c[j]/d.
-    let mut inv = [[0.0; 3]; 3];
-    for (i, row) in inv.iter_mut().enumerate() {
-        for (j, e) in row.iter_mut().enumerate() {
-            *e = c[j][i] / d;
-        }
-    }
-    inv
-}
 
 /// The normalised LTC of matrix M (ω = M ω_o/‖M ω_o‖, ω_o cosine-distributed).
 #[derive(Clone, Copy, Debug)]

@@ -2,13 +2,10 @@
 //! the fit's objective uses. Written here for the fitter; the references have their own
 //! copy (`reference::lobe`), so a reference never shares code with what it judges.
 
+use crate::input::geometry::dot;
 use std::f64::consts::PI;
 
 pub type V3 = [f64; 3];
-
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
 
 /// A GGX lobe: roughness per frame axis and a unit view direction with v.z > 0.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -10,6 +10,7 @@ pub mod table;
 
 /// A 3×3 matrix (`scene::Mat3` is this type: the scene builds on this module, not the reverse).
 pub type Mat3 = [[f64; 3]; 3];
+use crate::input::geometry;
 use anyhow::Context;
 use std::collections::HashMap;
 use std::sync::Mutex;
@@ -92,7 +93,7 @@ impl Fed {
     pub fn minv_unrotated(&self) -> Mat3 {
         let [c, s] = self.rotation;
         let r = [[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]];
-        fit::mat_mul(&self.minv, &r)
+        geometry::mat_mul(&self.minv, &r)
     }
 }
 
@@ -147,7 +148,7 @@ pub fn feed(alpha: [f64; 2], view: [f64; 3], feed: Feed) -> Result<Fed, String> 
             // turned by R_z(−φ), so M⁻¹·R_z(φ).
             let r_inv = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]];
             Fed {
-                minv: fit::mat_mul(&minv, &r_inv),
+                minv: geometry::mat_mul(&minv, &r_inv),
                 magnitude,
                 fresnel,
                 rotation,
@@ -200,7 +201,7 @@ pub fn feed(alpha: [f64; 2], view: [f64; 3], feed: Feed) -> Result<Fed, String> 
                 };
                 let mut f = fit::fit_general(&g);
                 let r_inv = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]];
-                f.minv = fit::mat_mul(&f.minv, &r_inv);
+                f.minv = geometry::mat_mul(&f.minv, &r_inv);
                 f
             };
             Fed {
