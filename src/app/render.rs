@@ -184,7 +184,10 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
         "total_s": secs(total),
         "adapter": device.adapter.to_string(),
     });
-    let stale = outcome.claims.iter().any(|c| c["holds"] == json!(false));
+    let stale = outcome
+        .claims
+        .iter()
+        .any(|c| c["is_claim"] == json!(true) && c["holds"] == json!(false));
     let summary = json!({
         "scene": scene.name,
         "scene_file": at,
@@ -320,6 +323,7 @@ fn images_and_stats(
     }
     let mut per_method = serde_json::Map::new();
     let mut means = BTreeMap::new();
+    let mut method_images = BTreeMap::new();
     for (k, m) in methods.iter().enumerate() {
         let t = received(m.target());
         let samples: Vec<Sample> = pixels
@@ -342,6 +346,7 @@ fn images_and_stats(
             format!("{stem}.flip.png"),
         ];
         images.push((names[0].clone(), img.png()));
+        method_images.insert(m.label.clone(), img.clone());
         images.push((names[1].clone(), image::relative_error_image(w, h, &samples).png()));
         images.push((names[2].clone(), image::flip_image(w, h, &flip, &samples).png()));
         image_names.push((m.label.clone(), names.clone()));
@@ -433,10 +438,24 @@ fn images_and_stats(
         for bad in &f.methods {
             for good in &f.fixed {
                 let (b, g) = (means[bad], means[good]);
+                // What a viewer sees of the failure alone: FLIP of the failing method's image
+                // against the fixed one's (the error both share, e.g. the LTC fit's, cancels).
+                let pair = image::flip(&method_images[good], &method_images[bad]);
+                let mut floor: Vec<f64> = pixels
+                    .iter()
+                    .map(|p| f64::from(pair[(p.y * w + p.x) as usize]))
+                    .collect();
+                let stats = flip_stats(&mut floor);
+                let k = stats["above"][format!("{VISIBLE_FLIP}")]["pixels"]
+                    .as_u64()
+                    .unwrap_or(0);
                 claims.push(json!({
                     "claim": format!("mean FLIP over the floor: {bad} > {good}"),
                     "values": [b, g],
                     "holds": b > g,
+                    "is_claim": f.claim,
+                    "flip_against_fixed": stats,
+                    "visible_against_fixed": k > 0 && k as f64 >= VISIBLE_SHARE * pixels.len() as f64,
                 }));
             }
         }
@@ -489,15 +508,24 @@ fn verdict_lines(s: &Value) -> Vec<String> {
     }
     for c in s["claims"].as_array().into_iter().flatten() {
         out.push(format!(
-            "- claim: {} ({} against {}): {}",
+            "- {} ({} against {}): {}",
             c["claim"].as_str().unwrap_or(""),
             fmt(&c["values"][0]),
             fmt(&c["values"][1]),
-            if c["holds"] == json!(true) {
-                "holds"
-            } else {
-                "STALE: does not hold"
+            match (c["is_claim"] == json!(true), c["holds"] == json!(true)) {
+                (true, true) => "claim holds",
+                (true, false) => "STALE: the claim does not hold",
+                (false, true) => "holds (reported, not a claim)",
+                (false, false) => "does not hold (reported, not a claim)",
             }
+        ));
+        let a = &c["flip_against_fixed"];
+        out.push(format!(
+            "  - against the fixed method's image (the error they share cancels): {} — FLIP > {VISIBLE_FLIP} on {} of {n} floor pixels, mean FLIP {}, max {}",
+            if c["visible_against_fixed"] == json!(true) { "VISIBLE" } else { "not visible" },
+            a["above"][format!("{VISIBLE_FLIP}")]["pixels"],
+            fmt(&a["mean"]),
+            fmt(&a["max"]),
         ));
     }
     out

@@ -79,6 +79,10 @@ pub struct Failure {
     pub methods: Vec<String>,
     #[serde(default)]
     pub fixed: Vec<String>,
+    /// Whether "mean FLIP of each failing method > each fixed one's" is a claim: a run where
+    /// it does not hold exits 3, as a stale sweep claim does. Otherwise it is only reported.
+    #[serde(default)]
+    pub claim: bool,
 }
 
 /// The floor's material: fixed, or a GGX roughness ramp across the image.
