@@ -471,7 +471,7 @@ fn images_and_stats(
 
 fn fmt(v: &Value) -> String {
     match v.as_f64() {
-        Some(x) if x == 0.0 => "0".into(),
+        Some(0.0) => "0".into(),
         Some(x) if x.abs() >= 0.01 => format!("{x:.3}"),
         Some(x) => format!("{x:.1e}"),
         None => "—".into(),
