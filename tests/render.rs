@@ -318,3 +318,15 @@ fn listing_1_11_shows_more_flip_than_its_fix_on_a_thin_strip() {
         "mean FLIP: rectangle.line {published} against rectangle.line_fixed {fixed}"
     );
 }
+
+#[test]
+fn shipped_scenes_load() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/cases/render");
+    let mut n = 0;
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let s = linelight::input::render_scene::RenderScene::load(&e.path()).unwrap_or_else(|e| panic!("{e:#}"));
+        assert!(s.floor_pixels().is_ok_and(|p| !p.is_empty()), "{}", s.name);
+        n += 1;
+    }
+    assert_eq!(n, 4);
+}
