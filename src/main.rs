@@ -93,6 +93,17 @@ enum Command {
         #[command(flatten)]
         gpu: GpuArgs,
     },
+    /// Render a floor under the light, one configuration per floor pixel, per method, with
+    /// relative-error and FLIP images against the reference (docs/render.md).
+    Render {
+        /// Scene file (TOML with a [render] table), e.g. cases/render/floor_tube.toml.
+        scene: PathBuf,
+        /// The render goes to OUT/<scene name>/.
+        #[arg(long, default_value = "reports/render")]
+        out: PathBuf,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
     /// Evaluate explicit configurations (JSONL in, JSONL out; docs/eval-format.md).
     Eval {
         #[arg(long)]
@@ -292,6 +303,9 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             &gpu.options(),
         ),
         Command::Merge { shards, out, gpu } => app::sweep::merge(&shards, &out, &gpu.options()),
+        Command::Render { scene, out, gpu } => {
+            app::render::render(app::render::RenderOptions { scene, out }, &gpu.options())
+        }
         Command::Eval {
             input,
             output,

@@ -6,6 +6,7 @@ pub mod case;
 pub mod geometry;
 pub mod ltc;
 pub mod names;
+pub mod render_scene;
 pub mod sampler;
 pub mod scene;
 pub mod target;

@@ -7,6 +7,7 @@ pub mod bench;
 pub mod chart;
 mod csv;
 mod findings;
+pub mod image;
 mod markdown;
 pub mod scan;
 mod svg;
