@@ -2,7 +2,8 @@
 //! instead of distributions. The camera and pixel geometry are the contract of issue 19 and
 //! DESIGN §6; every floor pixel becomes one configuration in the world's axes.
 
-use crate::input::scene::{cross, length, sub, Config, Material, Rect, Roughness, Vec3};
+use crate::input::geometry::{v3, DVec3};
+use crate::input::scene::{Config, Material, Rect, Roughness, Vec3};
 use anyhow::Context;
 use serde::Deserialize;
 use std::path::Path;
@@ -130,9 +131,9 @@ pub const MAX_PIXELS: u64 = 4096 * 4096;
 /// The view's elevation below which a floor pixel is in the grazing band (reported apart).
 pub const GRAZING_DEG: f64 = 5.0;
 
-fn normalize(v: Vec3) -> Vec3 {
-    let l = length(v);
-    [v[0] / l, v[1] / l, v[2] / l]
+/// `b − a`, normalised (as an array: configurations keep arrays).
+fn unit_from(a: Vec3, b: Vec3) -> Vec3 {
+    (v3(b) - v3(a)).normalize().to_array()
 }
 
 impl RenderScene {
@@ -196,18 +197,18 @@ impl RenderScene {
                 c.position, c.position[2]
             ));
         }
-        let f = sub(c.look_at, c.position);
-        if length(f) == 0.0 {
+        let f = v3(c.look_at) - v3(c.position);
+        if f.length() == 0.0 {
             return Err("render.camera: look_at equals position (no view direction)".into());
         }
-        let f = normalize(f);
+        let f = f.normalize();
         // f × z vanishes when f ∥ z: r is undefined.
-        if length(cross(f, [0.0, 0.0, 1.0])) < 1e-9 {
+        if f.cross(DVec3::Z).length() < 1e-9 {
             return Err(format!(
                 "render.camera looks straight {} (look_at − position = {:?} is parallel to z): \
                  the camera's right vector f × z is undefined",
-                if f[2] < 0.0 { "down" } else { "up" },
-                sub(c.look_at, c.position)
+                if f.z < 0.0 { "down" } else { "up" },
+                (v3(c.look_at) - v3(c.position)).to_array()
             ));
         }
         let l = &r.light;
@@ -326,10 +327,10 @@ impl RenderScene {
 
     /// The camera basis (f, r, u) of the contract.
     pub fn basis(&self) -> [Vec3; 3] {
-        let f = normalize(sub(self.camera.look_at, self.camera.position));
-        let r = normalize(cross(f, [0.0, 0.0, 1.0]));
-        let u = cross(r, f);
-        [f, r, u]
+        let f = (v3(self.camera.look_at) - v3(self.camera.position)).normalize();
+        let r = f.cross(DVec3::Z).normalize();
+        let u = r.cross(f);
+        [f.to_array(), r.to_array(), u.to_array()]
     }
 
     /// The unit ray of pixel (x, y), y = 0 the top row.
@@ -339,16 +340,12 @@ impl RenderScene {
         let t = (self.camera.fov_deg.to_radians() / 2.0).tan();
         let a = (2.0 * (f64::from(x) + 0.5) / w - 1.0) * t * w / h;
         let b = (1.0 - 2.0 * (f64::from(y) + 0.5) / h) * t;
-        normalize([
-            f[0] + a * r[0] + b * u[0],
-            f[1] + a * r[1] + b * u[1],
-            f[2] + a * r[2] + b * u[2],
-        ])
+        (v3(f) + a * v3(r) + b * v3(u)).normalize().to_array()
     }
 
     /// The material of the configuration at floor point `s`, pixel column `x`.
     fn material_at(&self, x: u32, s: Vec3) -> Result<Material, String> {
-        let view = normalize(sub(self.camera.position, s));
+        let view = unit_from(s, self.camera.position);
         match &self.material {
             FloorMaterial::Diffuse => Ok(Material::Diffuse),
             FloorMaterial::Ltc { minv } => Ok(Material::Ltc { minv: *minv }),
@@ -378,11 +375,11 @@ impl RenderScene {
                 }
                 // Exactly on the floor: z is 0 by definition, not by rounding.
                 let s = [pos[0] + t * d[0], pos[1] + t * d[1], 0.0];
-                let view = normalize(sub(pos, s));
+                let view = unit_from(s, pos);
                 let mut config = Config {
                     id: format!("{x}_{y}"),
-                    p1: sub(self.p1, s),
-                    p2: sub(self.p2, s),
+                    p1: (v3(self.p1) - v3(s)).to_array(),
+                    p2: (v3(self.p2) - v3(s)).to_array(),
                     radius: self.radius,
                     rect: self.rect.clone(),
                     material: self
