@@ -37,14 +37,9 @@ const KNOWN: &[(&str, &str, &str)] = &[
         "the in-flight invocation estimate reads kernel::WORKGROUP_SIZE",
     ),
     (
-        "measure",
-        "analyse",
-        "the bench's measuring summarises its repeats with analyse::bench::Spread",
-    ),
-    (
         "report",
         "measure",
-        "the bench and scan tables format the measured runs (BenchRun, ScanResult) directly",
+        "the scan's table formats the measured ScanResult directly",
     ),
 ];
 

@@ -11,7 +11,7 @@ use crate::analyse::analysis::{Analysis, BinStatsRef, MaterialStats, MethodStats
 use crate::analyse::bench::{cpu_time_ratio, gpu_time_ratio};
 use crate::analyse::stats::{BinStats, Quantiles};
 use crate::input::case::{Case, ClaimSpec};
-use crate::measure::bench::Cost;
+use crate::analyse::bench::Cost;
 use crate::measure::search::Disagreement;
 use rhai::{Dynamic, Engine, EvalAltResult, ImmutableString};
 use serde::Serialize;

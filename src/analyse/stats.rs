@@ -108,6 +108,21 @@ pub struct Quantiles {
     pub kind: QuantileKind,
 }
 
+/// The nearest-rank `p`-quantile of `sorted` (ascending, not empty): the value at rank
+/// ⌈p·n⌉ (at least 1). No interpolation, so every number reported is one observed. The one
+/// quantile of the crate: bins, the gate, the bench, the chain and the fits all use it.
+pub fn nearest_rank(sorted: &[f64], p: f64) -> f64 {
+    let n = sorted.len();
+    sorted[((p * n as f64).ceil() as usize).clamp(1, n) - 1]
+}
+
+/// The nearest-rank median of `values` (any order; NaN sorts last), None when empty.
+pub fn median(values: &[f64]) -> Option<f64> {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    (!v.is_empty()).then(|| nearest_rank(&v, 0.5))
+}
+
 impl Quantiles {
     /// Nearest-rank quantiles (no interpolation: every number reported is one observed).
     pub fn of(values: &mut [f64]) -> Option<Quantiles> {
@@ -115,7 +130,7 @@ impl Quantiles {
             return None;
         }
         values.sort_by(f64::total_cmp);
-        let q = |p: f64| values[((p * values.len() as f64).ceil() as usize).clamp(1, values.len()) - 1];
+        let q = |p: f64| nearest_rank(values, p);
         Some(Quantiles {
             median: q(0.5),
             p90: q(0.9),

@@ -96,7 +96,7 @@ pub struct Summary {
     pub leak: Vec<Leak>,
     pub found: Vec<crate::measure::search::Found>,
     pub disagreements: Vec<crate::measure::search::Disagreement>,
-    pub costs: Vec<crate::measure::bench::Cost>,
+    pub costs: Vec<crate::analyse::bench::Cost>,
     pub attribution: Vec<Attribution>,
     /// The first kept configurations on which some method returned NaN or ±inf, with those
     /// methods; `nonfinite_total` counts all.
@@ -134,8 +134,9 @@ impl Summary {
             disagreements: rows(&mut measured.disagreements.iter().map(|d| &d.config))?,
             nonfinite: rows(&mut measured.nonfinite.iter().map(|(c, _)| c))?,
         };
+        let costs = crate::analyse::bench::costs(&measured.costs);
         let charts = (0..case.materials.len())
-            .map(|k| chart_points(&analysis, &measured.costs, k))
+            .map(|k| chart_points(&analysis, &costs, k))
             .collect();
         let mut heat_maps = Vec::new();
         for (map, spec) in case.maps.iter().enumerate() {
@@ -185,7 +186,7 @@ impl Summary {
             leak,
             found: measured.found.clone(),
             disagreements: measured.disagreements.clone(),
-            costs: measured.costs.clone(),
+            costs,
             attribution,
             nonfinite: measured.nonfinite.clone(),
             nonfinite_total: measured.nonfinite_total,
@@ -197,7 +198,7 @@ impl Summary {
 }
 
 /// The chart's points for one material: every supported method with a measured cost.
-fn chart_points(analysis: &Analysis, costs: &[crate::measure::bench::Cost], material: usize) -> Vec<ChartPoint> {
+fn chart_points(analysis: &Analysis, costs: &[crate::analyse::bench::Cost], material: usize) -> Vec<ChartPoint> {
     analysis
         .methods
         .iter()

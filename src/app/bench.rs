@@ -22,7 +22,7 @@ pub struct BenchOptions {
 
 /// `linelight bench`: samples the case's configurations, measures, prints the report to
 /// stdout (progress on stderr) and writes the JSON if asked.
-pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::measure::bench::BenchRun> {
+pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::analyse::bench::BenchRun> {
     anyhow::ensure!(options.count > 0, "--count must be at least 1");
     anyhow::ensure!(options.repeats > 0, "--repeats must be at least 1");
     if let Some(json) = &options.json {
@@ -65,7 +65,7 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::measure::bench::Be
             .progress_chars("=> "),
     );
     pb.set_message("bench");
-    let costs = crate::measure::bench::bench_methods_with(
+    let times = crate::measure::bench::bench_methods_with(
         &gpu,
         &setup.methods,
         &configs,
@@ -77,14 +77,14 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::measure::bench::Be
         },
     )?;
     pb.finish_and_clear();
-    let bench = crate::measure::bench::BenchRun {
+    let bench = crate::analyse::bench::BenchRun {
         adapter: gpu.adapter.to_string(),
         case: setup.case.name.clone(),
         materials,
         warmup: options.warmup,
         cpu_threads: rayon::current_num_threads(),
         pairs: setup.case.compare.clone(),
-        costs,
+        costs: crate::analyse::bench::costs(&times),
     };
     print!("{}", crate::report::bench::render(&bench));
     if let Some(path) = &options.json {

@@ -43,12 +43,9 @@ fn secs(t: Instant) -> f64 {
 }
 
 /// Nearest-rank quantile of sorted values.
+/// The nearest-rank quantile (analyse::stats), None when empty.
 fn quantile(sorted: &[f64], q: f64) -> Option<f64> {
-    if sorted.is_empty() {
-        return None;
-    }
-    let i = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len()) - 1;
-    Some(sorted[i])
+    (!sorted.is_empty()).then(|| crate::analyse::stats::nearest_rank(sorted, q))
 }
 
 /// Mean, percentiles and shares above the thresholds of a set of FLIP values.
@@ -374,6 +371,20 @@ fn images_and_stats(
             .filter(|s| s.reference == 0.0 && s.value != 0.0 && s.value.is_finite())
             .count();
         let negative = samples.iter().filter(|s| s.value < 0.0).count();
+        // Missed light: the reference is lit and the method returns exactly 0 (for an LTC,
+        // the lobe's tail beyond its transformed horizon). Its pixels' FLIP apart from the
+        // other lit pixels', so a report can say which of the two is what a viewer sees.
+        let missed = |s: &Sample| s.reference > 0.0 && s.value == 0.0;
+        let missed_light = samples.iter().filter(|s| missed(s)).count();
+        let lit_split = |want: bool| -> Vec<f64> {
+            pixel_flip
+                .iter()
+                .zip(&samples)
+                .filter(|(_, s)| s.reference > 0.0 && missed(s) == want)
+                .map(|(f, _)| *f)
+                .collect()
+        };
+        let (mut flip_missed, mut flip_other_lit) = (lit_split(true), lit_split(false));
         let mut rel: Vec<f64> = samples
             .iter()
             .filter(|s| s.reference != 0.0 && s.value.is_finite())
@@ -423,6 +434,9 @@ fn images_and_stats(
                 "inf": inf,
                 "negative": negative,
                 "false_light": false_light,
+                "missed_light": missed_light,
+                "flip_missed_light": flip_stats(&mut flip_missed),
+                "flip_lit_not_missed": flip_stats(&mut flip_other_lit),
                 "relative_error_lit": {
                     "pixels": rel.len(),
                     "p50": quantile(&rel, 0.5),
@@ -488,16 +502,29 @@ fn verdict_lines(s: &Value) -> Vec<String> {
             "Failure this scene is built to show: {}",
             f["what"].as_str().unwrap_or("")
         ));
-        for (role, key) in [("shows it", "methods"), ("should not", "fixed")] {
+        out.push(
+            "Against the reference: all of each method's error, including what the failing and the \
+             fixed methods share (an LTC's fit and its missed light, say):"
+                .to_string(),
+        );
+        let mut shared_visible = false;
+        for (role, key) in [("failing", "methods"), ("fixed", "fixed")] {
             for m in f[key].as_array().into_iter().flatten() {
                 let m = m.as_str().unwrap_or("");
                 let r = &methods[m];
                 let k = r["flip_floor"]["above"][format!("{VISIBLE_FLIP}")]["pixels"]
                     .as_u64()
                     .unwrap_or(0);
+                let visible = r["visible"] == json!(true);
+                shared_visible |= visible && key == "fixed";
+                let missed = r["missed_light"].as_u64().unwrap_or(0);
+                let k_missed = r["flip_missed_light"]["above"][format!("{VISIBLE_FLIP}")]["pixels"]
+                    .as_u64()
+                    .unwrap_or(0);
                 out.push(format!(
-                    "- `{m}` ({role}): {} — FLIP > {VISIBLE_FLIP} on {k} of {n} floor pixels ({:.2} %; visible means ≥ {} %), mean FLIP {}, NaN/inf {}",
-                    if r["visible"] == json!(true) { "VISIBLE" } else { "not visible" },
+                    "- `{m}` ({role}): {} — FLIP > {VISIBLE_FLIP} on {k} of {n} floor pixels ({:.2} %; visible means ≥ {} %), mean FLIP {}, NaN/inf {}; \
+                     missed light (reference lit, value exactly 0) on {missed} pixels, {k_missed} of the {k} above {VISIBLE_FLIP}",
+                    if visible { "VISIBLE" } else { "not visible" },
                     100.0 * k as f64 / n.max(1) as f64,
                     100.0 * VISIBLE_SHARE,
                     fmt(&r["flip_floor"]["mean"]),
@@ -505,6 +532,15 @@ fn verdict_lines(s: &Value) -> Vec<String> {
                 ));
             }
         }
+        if shared_visible {
+            out.push(
+                "- The fixed method is visibly off the reference too: that error is shared, not the failure \
+                 this scene is built to show. Whether the failure itself shows is the comparison with the \
+                 fixed method's image below."
+                    .to_string(),
+            );
+        }
+        out.push("\nThe failure alone: each failing method's image against the fixed method's:".to_string());
     }
     for c in s["claims"].as_array().into_iter().flatten() {
         out.push(format!(

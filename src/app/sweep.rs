@@ -245,7 +245,7 @@ fn report_sweep(
     let facts = crate::analyse::claims::Facts {
         analysis: Some(analysis.clone()),
         configurations: measured.natural.iter().sum(),
-        costs: measured.costs.clone(),
+        costs: crate::analyse::bench::costs(&measured.costs),
         disagreements: measured.disagreements.clone(),
         found: measured.found.clone(),
         ..crate::analyse::claims::dry_facts(&setup.case, setup.methods.iter().map(|m| m.label.clone()).collect())

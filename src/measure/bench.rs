@@ -25,7 +25,6 @@
 //! the CPU port uses, so the GPU/CPU ratio there compares lavapipe's compiled SIMD kernel
 //! with the Rust port, not two pieces of hardware.
 
-use crate::analyse::bench::{Ratio, Spread};
 use crate::eval::cost::OpCount;
 use crate::eval::interp::CpuColumns;
 use crate::input::scene::{Config, GpuScene};
@@ -35,9 +34,10 @@ use crate::measure::gpu::Gpu;
 use std::hint::black_box;
 use std::time::Instant;
 
-/// What one method costs, measured in one run.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct Cost {
+/// What timing one method measured, raw: one value per timed round. Its statistics (medians,
+/// spreads, ratios) are the analyse stage's (`analyse::bench::Cost`).
+#[derive(Clone, Debug)]
+pub struct Times {
     /// The method label (`Method.label`).
     pub label: String,
     /// `"gpu-timestamp"` or `"wall"` (submit + wait, when the adapter has no timestamps).
@@ -46,25 +46,13 @@ pub struct Cost {
     pub configurations: usize,
     /// Timed repeats (warm-up runs not counted).
     pub repeats: usize,
-    pub ns_per_eval_median: f64,
-    pub ns_per_eval_min: f64,
-    pub ns_per_eval_max: f64,
-    /// Configurations per second, from the median.
-    pub configs_per_second: f64,
-    /// The CPU f32 port on all cores (rayon): median of the same number of repeats; None
-    /// for a method without a port.
-    pub cpu_f32_ns_per_eval: Option<f64>,
-    /// How many times faster the GPU dispatch is than the CPU f32 port: the median of the
-    /// per-round ratios CPU ns / GPU ns. None without a port.
-    pub gpu_cpu_speed_ratio: Option<f64>,
     /// The operation count of one invocation (`crate::eval::cost`); None if it failed.
     pub ops: Option<OpCount>,
     /// Why `ops` is None.
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub ops_error: Option<String>,
     /// GPU ns per evaluation of each timed repeat, in the order run (round r is index r).
     pub gpu_ns_per_eval: Vec<f64>,
-    /// CPU f32 port ns per evaluation of each timed repeat (empty without a port).
+    /// CPU f32 ns per evaluation of each timed repeat (empty without a CPU column).
     pub cpu_f32_ns_per_eval_runs: Vec<f64>,
 }
 
@@ -75,14 +63,14 @@ pub fn has_cpu_port(method: &Method) -> bool {
 }
 
 /// Measures every method on `configs`: `warmup` untimed rounds, then `repeats` timed
-/// rounds (see the module doc). One [`Cost`] per method, in input order.
+/// rounds (see the module doc). One [`Times`] per method, in input order.
 pub fn bench_methods(
     gpu: &Gpu,
     methods: &[Method],
     configs: &[Config],
     warmup: usize,
     repeats: usize,
-) -> anyhow::Result<Vec<Cost>> {
+) -> anyhow::Result<Vec<Times>> {
     bench_methods_with(gpu, methods, configs, warmup, repeats, &mut |_, _| {})
 }
 
@@ -95,7 +83,7 @@ pub fn bench_methods_with(
     warmup: usize,
     repeats: usize,
     progress: &mut dyn FnMut(usize, usize),
-) -> anyhow::Result<Vec<Cost>> {
+) -> anyhow::Result<Vec<Times>> {
     anyhow::ensure!(repeats > 0, "bench: at least one timed repeat is needed");
     anyhow::ensure!(!configs.is_empty(), "bench: no configurations to time");
     let n = configs.len();
@@ -136,28 +124,19 @@ pub fn bench_methods_with(
     }
 
     let clock = timer.clock().name().to_string();
-    let costs = methods
+    let times = methods
         .iter()
         .zip(gpu_ns.into_iter().zip(cpu_ns))
         .map(|(m, (gpu_runs, cpu_runs))| {
-            let g = Spread::of(&gpu_runs);
-            let cpu = (!cpu_runs.is_empty()).then(|| Spread::of(&cpu_runs).median);
-            let speed = Ratio::per_round(&cpu_runs, &gpu_runs).map(|r| r.median);
             let (ops, ops_error) = match crate::eval::cost::method_cost_of(m) {
                 Ok(ops) => (Some(ops), None),
                 Err(e) => (None, Some(format!("{e:#}"))),
             };
-            Cost {
+            Times {
                 label: m.label.clone(),
                 clock: clock.clone(),
                 configurations: n,
                 repeats,
-                ns_per_eval_median: g.median,
-                ns_per_eval_min: g.min,
-                ns_per_eval_max: g.max,
-                configs_per_second: 1e9 / g.median,
-                cpu_f32_ns_per_eval: cpu,
-                gpu_cpu_speed_ratio: speed,
                 ops,
                 ops_error,
                 gpu_ns_per_eval: gpu_runs,
@@ -165,7 +144,7 @@ pub fn bench_methods_with(
             }
         })
         .collect();
-    Ok(costs)
+    Ok(times)
 }
 
 /// Wall-clock ns of the method's kernel in f32 on the CPU evaluator over every
@@ -178,19 +157,6 @@ fn time_cpu_port(method: &Method, configs: &[Config]) -> f64 {
             .ok(),
     );
     start.elapsed().as_nanos() as f64
-}
-
-/// What a bench measured, ready to report.
-pub struct BenchRun {
-    pub adapter: String,
-    pub case: String,
-    pub materials: usize,
-    pub warmup: usize,
-    /// Threads of the CPU ports (rayon's pool).
-    pub cpu_threads: usize,
-    pub costs: Vec<Cost>,
-    /// The case's compared pairs whose two methods were both measured.
-    pub pairs: Vec<[String; 2]>,
 }
 
 /// `count` of the samples, split as evenly as possible over the `materials` (the first
@@ -240,7 +206,7 @@ mod tests {
             .collect();
         let configs = configs(500);
         assert_eq!(configs.len(), 500);
-        let costs = bench_methods(gpu(), &methods, &configs, 1, 3).unwrap();
+        let costs = crate::analyse::bench::costs(&bench_methods(gpu(), &methods, &configs, 1, 3).unwrap());
         let labels: Vec<&str> = costs.iter().map(|c| c.label.as_str()).collect();
         assert_eq!(labels, specs);
         for c in &costs {
@@ -284,29 +250,12 @@ mod tests {
             judged: None,
         };
         assert!(has_cpu_port(&m));
-        let costs = bench_methods(gpu(), &[m], &configs(64), 0, 2).unwrap();
+        let costs = crate::analyse::bench::costs(&bench_methods(gpu(), &[m], &configs(64), 0, 2).unwrap());
         assert!(costs[0].cpu_f32_ns_per_eval.is_some());
         assert_eq!(costs[0].cpu_f32_ns_per_eval_runs.len(), 2);
         assert_eq!(costs[0].gpu_ns_per_eval.len(), 2);
         assert!(bench_methods(gpu(), &[], &configs(64), 0, 0).is_err(), "zero repeats");
     }
-    #[test]
-    fn statistics_and_ratios() {
-        assert_eq!(
-            Spread::of(&[3.0, 1.0, 2.0]),
-            Spread {
-                median: 2.0,
-                min: 1.0,
-                max: 3.0
-            }
-        );
-        assert_eq!(Spread::of(&[4.0, 1.0, 2.0, 10.0]).median, 3.0);
-        let r = Ratio::per_round(&[2.0, 6.0, 3.0], &[1.0, 2.0, 3.0]).unwrap();
-        assert_eq!((r.median, r.min, r.max, r.rounds), (2.0, 1.0, 3.0, 3));
-        assert_eq!(Ratio::per_round(&[], &[]), None);
-        assert_eq!(Ratio::per_round(&[1.0], &[1.0, 2.0]), None);
-    }
-
     #[test]
     fn split_evenly_takes_count_over_the_materials() {
         let case = Case::load(std::path::Path::new(concat!(

@@ -94,8 +94,9 @@ pub struct Measured {
     pub found: Vec<crate::measure::search::Found>,
     /// Per compared pair, both ways: where one method is least accurate relative to the other.
     pub disagreements: Vec<crate::measure::search::Disagreement>,
-    /// Each method's cost: GPU timestamps, CPU f32 port, naga op count (src/measure/bench.rs).
-    pub costs: Vec<crate::measure::bench::Cost>,
+    /// Each method's timing, raw: GPU timestamps, CPU f32 column, naga op count
+    /// (src/measure/bench.rs); the analyse stage makes them costs.
+    pub costs: Vec<crate::measure::bench::Times>,
     /// Where each method's f32 rounding loses bits, on a subset (src/eval/interp attribution).
     pub attribution: Vec<MethodAttribution>,
     /// Configurations measured (natural and top-ups), and natural ones per family.

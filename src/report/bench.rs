@@ -1,8 +1,7 @@
 //! The bench's report: the table of costs and a ratio line per compared pair.
 
 use crate::analyse::bench::{cpu_time_ratio, gpu_time_ratio, Spread};
-use crate::measure::bench::{BenchRun, Cost};
-use crate::measure::gpu::Clock;
+use crate::analyse::bench::{BenchRun, Cost};
 use std::fmt::Write as _;
 
 /// The report: a header, one row per method, a note on the op counts, and a ratio line
@@ -18,7 +17,7 @@ pub fn render(bench: &BenchRun) -> String {
          methods interleaved in rotated order",
         bench.case, first.configurations, bench.materials, bench.warmup, first.repeats
     );
-    let clock = if first.clock == Clock::Wall.name() {
+    let clock = if first.wall_clock() {
         "wall clock of submit + wait (this adapter has no timestamp queries)"
     } else {
         "GPU timestamps at the beginning and end of the compute pass"

@@ -191,7 +191,7 @@ pub fn observed(setup: &Setup, measured: &Measured, observations: &Observations)
                 label: method.label.clone(),
                 kernel: method.kernel.path.clone(),
                 ops_total: cost.and_then(|c| c.ops.as_ref()).map(|o| o.total),
-                ns_per_eval: cost.map_or(f64::NAN, |c| c.ns_per_eval_median),
+                ns_per_eval: cost.map_or(f64::NAN, |t| crate::analyse::bench::Cost::of(t).ns_per_eval_median),
                 materials: materials.clone(),
             }
         })
