@@ -213,3 +213,79 @@ fn modules_keep_to_their_stages_and_form_no_circle() {
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
+
+/// The module path of a file: src/a/b.rs and src/a/b/mod.rs are `a::b`.
+fn module_of(rel: &Path) -> String {
+    let mut parts: Vec<String> = rel.iter().map(|c| c.to_string_lossy().into_owned()).collect();
+    let last = parts.pop().unwrap();
+    if last != "mod.rs" {
+        parts.push(last.trim_end_matches(".rs").to_string());
+    }
+    parts.join("::")
+}
+
+/// The longest known module that `path` (`a::b::c::Item`) names.
+fn resolve(path: &[&str], known: &BTreeSet<String>) -> Option<String> {
+    (1..=path.len())
+        .rev()
+        .map(|n| path[..n].join("::"))
+        .find(|m| known.contains(m))
+}
+
+/// File-level modules → the modules they import (`crate::` and `super::` paths), for every
+/// file of src/ but main.rs, lib.rs and test files.
+fn file_graph() -> BTreeMap<String, BTreeSet<String>> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    walk(&src, &mut files);
+    let mut texts = Vec::new();
+    for f in files {
+        let rel = f.strip_prefix(&src).unwrap().to_path_buf();
+        let name = rel.file_name().unwrap().to_string_lossy().into_owned();
+        if rel == Path::new("main.rs") || rel == Path::new("lib.rs") || name == "tests.rs" || name == "testing.rs" {
+            continue;
+        }
+        texts.push((module_of(&rel), code(&std::fs::read_to_string(&f).unwrap())));
+    }
+    let known: BTreeSet<String> = texts.iter().map(|(m, _)| m.clone()).collect();
+    let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for (module, text) in &texts {
+        let entry = g.entry(module.clone()).or_default();
+        let parent: Vec<&str> = module.split("::").collect();
+        let parent = &parent[..parent.len() - 1];
+        for (prefix, base) in [("crate::", Vec::new()), ("super::", parent.to_vec())] {
+            let mut rest = text.as_str();
+            while let Some(i) = rest.find(prefix) {
+                // `super::super::` and `self::` are not used in this crate's imports.
+                let before = &rest[..i];
+                rest = &rest[i + prefix.len()..];
+                if prefix == "super::" && before.ends_with("::") {
+                    continue;
+                }
+                let end = rest
+                    .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == ':'))
+                    .unwrap_or(rest.len());
+                let mut path: Vec<&str> = base.clone();
+                path.extend(rest[..end].split("::").filter(|p| !p.is_empty()));
+                if let Some(m) = resolve(&path, &known) {
+                    if &m != module && !module.starts_with(&format!("{m}::")) {
+                        entry.insert(m);
+                    }
+                }
+            }
+        }
+    }
+    g
+}
+
+#[test]
+fn no_circle_between_files_either() {
+    let g = file_graph();
+    assert!(g.contains_key("input::ltc::fit"), "src/ read: {:?}", g.keys());
+    let circles: Vec<String> = g
+        .keys()
+        .filter_map(|m| circle(&g, m))
+        .map(|path| path.join(" → "))
+        .collect();
+    assert!(circles.is_empty(), "import circles between files:\n{}", circles.join("\n"));
+}

@@ -9,7 +9,7 @@
 //! in the sparse form of docs/conventions.md [[a,0,b],[0,c,0],[d,0,1]] (the form the 2023 listing builds),
 //! as (a, b, c, d) in one RGBA texture, and (magnitude, Fresnel) in a second.
 
-use super::fit::M3;
+use crate::input::geometry::Rows as M3;
 use std::path::{Path, PathBuf};
 
 /// The α of the roughness-0 column (the published table uses 1e-5).
