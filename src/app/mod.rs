@@ -8,6 +8,7 @@ pub mod chain;
 pub mod diff;
 pub mod eval;
 pub mod gate;
+pub mod options;
 mod status;
 pub mod sweep;
 
