@@ -149,17 +149,13 @@ impl Gpu {
             let trips = self.run(counter, scenes, chunk, &mut |_| {})?.values;
             let cut: Vec<usize> = (0..trips.len()).filter(|&i| trips[i] >= *limit as f32).collect();
             if let Some(&first) = cut.first() {
-                return Err(GpuError::LoopLimit {
-                    method: pipeline.id.clone(),
-                    message: format!(
-                    "on {} of {} configurations (the first is number {}) its loops ran {limit} or more iterations, \
-                     half this device's loop limit, near which the driver silently stops loops: those results \
-                     may be truncated and are not reported; lower the method's parameters",
-                    cut.len(),
-                    trips.len(),
-                        first + 1
-                    ),
-                });
+                return Err(super::loops::truncated(
+                    &pipeline.id,
+                    cut.len() as u64,
+                    trips.len() as u64,
+                    Some(first as u64 + 1),
+                    *limit,
+                ));
             }
         }
         Ok(RunOutput { values, wall })

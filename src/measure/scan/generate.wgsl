@@ -19,7 +19,7 @@ struct LlScanParams {
     capture: u32,    // capture slots
     bound: f32,      // values above it count (when has_bound)
     has_bound: u32,
-    pad0: u32,
+    trip_limit: u32, // loop trips that count as cut short by the driver (0: not counted)
     pad1: u32,
     // (kind, a, b, default): kind 0 fixed a, 1 uniform [a, b], 2 log-uniform, 3 signed
     // log-uniform, 4 absent (the default). Slots: see LL_* below.
@@ -39,9 +39,11 @@ struct LlCaptured {
 }
 
 @group(0) @binding(3) var<uniform> ll_scan: LlScanParams;
-// nan, inf, negative, above, captured
+// nan, inf, negative, above, captured, cut short by the driver's loop limit
 @group(0) @binding(4) var<storage, read_write> ll_counts: array<atomic<u32>, 8>;
 @group(0) @binding(5) var<storage, read_write> ll_captured: array<LlCaptured>;
+// Loop-body executions of this invocation, when the method's loops are counted (gpu/loops.rs).
+var<private> ll_trips: u32;
 
 const LL_DISTANCE: u32 = 0u;
 const LL_ELEVATION: u32 = 1u;
@@ -170,6 +172,10 @@ fn ll_scan_main(@builtin(global_invocation_id) ll_id: vec3<u32>) {
     {scene} = ll_generate(lo, hi);
     Minv = ll_scene.minv;
     let value = method(ll_scene);
+    if (ll_scan.trip_limit != 0u && ll_trips >= ll_scan.trip_limit) {
+        atomicAdd(&ll_counts[5], 1u);
+        return;
+    }
     // NaN and inf from the bits: a compiler may assume comparisons see no NaN.
     let bits = bitcast<u32>(value);
     let special = (bits & 0x7f800000u) == 0x7f800000u;
