@@ -149,12 +149,14 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
             let mut measured = None;
             let mut failed = None;
             let staged = stage_output(raw, &mut |w| {
+                // A failed write of a row (a full disk) names the file.
+                let mut named = Named { path: raw, inner: w };
                 match measure(
                     &setup,
                     &device,
                     crate::measure::sweep::MeasureOptions {
                         chunk: gpu.chunk,
-                        raw: Some(w),
+                        raw: Some(&mut named),
                         shard: None,
                     },
                     observe,
@@ -183,6 +185,28 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
         staged,
         &gate,
     )
+}
+
+/// A writer whose errors name the file it writes.
+struct Named<'a> {
+    path: &'a Path,
+    inner: &'a mut dyn std::io::Write,
+}
+
+impl std::io::Write for Named<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.inner.write(buf).map_err(|e| self.named(e))
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush().map_err(|e| self.named(e))
+    }
+}
+
+impl Named<'_> {
+    fn named(&self, e: std::io::Error) -> std::io::Error {
+        std::io::Error::new(e.kind(), format!("cannot write {}: {e}", self.path.display()))
+    }
 }
 
 /// `linelight merge`: the shard states of a sharded sweep merged into the report the unsharded
