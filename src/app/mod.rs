@@ -9,6 +9,7 @@ pub mod diff;
 pub mod eval;
 pub mod gate;
 pub mod options;
+pub mod shard;
 mod status;
 pub mod sweep;
 
