@@ -115,7 +115,8 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
     let dir = out.join(format!("{}-scan", case.name));
     check_set(&dir)?;
     let kernels = methods::kernel_set(&gpu.kernels)?;
-    let specs: Vec<String> = if specs.is_empty() { case.methods.clone() } else { specs };
+    let given = !specs.is_empty();
+    let specs: Vec<String> = if given { specs } else { case.methods.clone() };
     let mut chosen = Vec::new();
     for s in &specs {
         let m = methods::resolve(s, &kernels)?;
@@ -124,9 +125,15 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
             crate::input::target::Target::Line | crate::input::target::Target::LineUpper
         ) {
             chosen.push(m);
-        } else if !specs.is_empty() && specs.len() == 1 {
+        } else if given {
+            // Asked for by name: never dropped in silence.
             anyhow::bail!(
                 "scan generates line configurations only: `{s}` approximates `{}`",
+                m.target()
+            );
+        } else {
+            eprintln!(
+                "note: `{s}` is not scanned: it approximates `{}`, and scan generates line configurations",
                 m.target()
             );
         }

@@ -583,13 +583,35 @@ impl Partial {
                 crate::input::names::clip(&labels.join(", "))
             );
             anyhow::ensure!(
-                p.shard == (k, n),
-                "merge: expected shards 0..{n} of {n} once each, found {}/{} in place {k}",
+                p.shard.0 < p.shard.1,
+                "merge: a record claims to be shard {}/{}, which no sweep writes",
                 p.shard.0,
                 p.shard.1
             );
+            // Sorted by index: place k holds shard k of n, when each is given once.
+            anyhow::ensure!(
+                p.shard.1 == n,
+                "merge: shard {}/{} is of a sweep in {} shards, shard {}/{n} of one in {n}",
+                p.shard.0,
+                p.shard.1,
+                p.shard.1,
+                parts[0].shard.0
+            );
+            if p.shard.0 != k {
+                let given = if p.shard.0 < k { "given twice" } else { "missing" };
+                let which = if p.shard.0 < k { p.shard.0 } else { k };
+                anyhow::bail!(
+                    "merge: shard {which}/{n} is {given}: every shard 0/{n} … {}/{n} once",
+                    n - 1
+                );
+            }
         }
-        anyhow::ensure!(parts.len() == n, "merge: {} of {n} shards given", parts.len());
+        anyhow::ensure!(
+            parts.len() == n,
+            "merge: shard {}/{n} is missing: every shard 0/{n} … {}/{n} once",
+            parts.len(),
+            n - 1
+        );
         let mut it = parts.into_iter();
         let mut all = it.next().expect("not empty");
         for p in it {
