@@ -601,14 +601,14 @@ impl Partial {
                 let given = if p.shard.0 < k { "given twice" } else { "missing" };
                 let which = if p.shard.0 < k { p.shard.0 } else { k };
                 anyhow::bail!(
-                    "merge: shard {which}/{n} is {given}: every shard 0/{n} … {}/{n} once",
+                    "merge: shard {which}/{n} is {given}: give each of {n} shards once (0/{n} … {}/{n})",
                     n - 1
                 );
             }
         }
         anyhow::ensure!(
             parts.len() == n,
-            "merge: shard {}/{n} is missing: every shard 0/{n} … {}/{n} once",
+            "merge: shard {}/{n} is missing: give each of {n} shards once (0/{n} … {}/{n})",
             parts.len(),
             n - 1
         );
