@@ -149,6 +149,41 @@ fn class2_scan_applies_the_driver_loop_limit() {
 }
 
 #[test]
+fn class2_bench_times_no_loop_the_driver_cut_short() {
+    let t = tempfile::tempdir().unwrap();
+    let d = t.path();
+    let case = write(d, "case.toml", CASE);
+    let reaching = write(
+        d,
+        "reaching.wgsl",
+        &counting_kernel("line.reaching", "40000u + u32(scene.p1.z * 0.0)"),
+    );
+    let json = d.join("bench.json");
+    let before = snapshot(d);
+    let o = linelight(&[
+        "bench",
+        s(&case),
+        "--kernel",
+        s(&reaching),
+        "--methods",
+        "line.reaching",
+        "--count",
+        "64",
+        "--repeats",
+        "1",
+        "--warmup",
+        "0",
+        "--json",
+        s(&json),
+    ]);
+    refused(
+        &o,
+        &["line.reaching is refused: on 64 of 64 configurations", "loop limit"],
+    );
+    only_changed(&before, &snapshot(d), &[]);
+}
+
+#[test]
 fn class2_float_options_must_be_finite_and_in_range() {
     let t = tempfile::tempdir().unwrap();
     let d = t.path();
