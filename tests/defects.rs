@@ -149,6 +149,43 @@ fn class2_scan_applies_the_driver_loop_limit() {
 }
 
 #[test]
+fn class2_scan_evaluates_only_configurations_the_sweep_would() {
+    let t = tempfile::tempdir().unwrap();
+    let d = t.path();
+    // Distances to 1e30: a third of the generated segments do not fit f32. The sweep refuses
+    // the case (too many redraws); the scan counted their NaN and inf as the method's.
+    let far = CASE.replace(
+        "center = ",
+        "distance = { dist = \"log_uniform\", min = 1e-30, max = 1e30 }\ncenter = ",
+    );
+    let case = write(d, "case.toml", &far);
+    let out = d.join("reports");
+    let before = snapshot(d);
+    let o = linelight(&["sweep", s(&case), "--out", s(&out)]);
+    refused(&o, &["materials `diffuse`", "draws were degenerate"]);
+    let o = linelight(&[
+        "scan",
+        s(&case),
+        "--count",
+        "100000",
+        "--methods",
+        "line.ltc2023",
+        "--out",
+        s(&out),
+    ]);
+    refused(
+        &o,
+        &[
+            "family `diffuse`",
+            "generated configurations were degenerate",
+            "not representable in f32",
+        ],
+    );
+    only_changed(&before, &snapshot(d), &[]);
+    assert!(!out.exists());
+}
+
+#[test]
 fn class2_bench_times_no_loop_the_driver_cut_short() {
     let t = tempfile::tempdir().unwrap();
     let d = t.path();

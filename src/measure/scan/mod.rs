@@ -63,7 +63,11 @@ struct Captured {
 pub struct ScanResult {
     pub method: String,
     pub family: String,
+    /// Configurations evaluated: those generated, less the degenerate ones.
     pub configurations: u64,
+    /// Generated configurations the sweep's sampler would redraw (not representable in f32,
+    /// the shading point on the segment, a singular M⁻¹): skipped, never evaluated.
+    pub degenerate: u64,
     pub nan: u64,
     pub inf: u64,
     pub negative: u64,
@@ -287,7 +291,19 @@ pub fn scan(
     let per_dispatch = PER_DISPATCH.min(u64::from(device.limits().max_compute_workgroups_per_dimension) * WORKGROUP);
     let start = std::time::Instant::now();
     let (mut totals, mut captured) = ([0u64; 4], Vec::<Captured>::new());
-    let mut done = 0u64;
+    let (mut done, mut degenerate) = (0u64, 0u64);
+    // As the sweep's sampler: past 1 % (+10) the skipped ones would change the distribution.
+    let allowed = crate::input::sampler::redraw_limit(usize::try_from(count).unwrap_or(usize::MAX)) as u64;
+    let too_many = |degenerate: u64| {
+        anyhow::anyhow!(
+            "case `{}`: family `{}`: {degenerate} of {count} generated configurations were degenerate (more than \
+             the {allowed} the sweep would redraw, which would change the distribution): not representable in \
+             f32 (size outside 2^±60, an M⁻¹ entry above 2^60), the shading point on the segment or a singular \
+             M⁻¹; check distance, length, center or the lobe's alpha, aspect, peak, shear",
+            case.name,
+            fam.name
+        )
+    };
     while done < count {
         let mut encoder = device.create_command_encoder(&Default::default());
         encoder.clear_buffer(&counts, 0, None);
@@ -350,6 +366,10 @@ pub fn scan(
             for (t, &n) in totals.iter_mut().zip(c) {
                 *t += u64::from(n);
             }
+            degenerate += u64::from(c[6]);
+            if degenerate > allowed {
+                return Err(too_many(degenerate));
+            }
             if c[5] > 0 {
                 // Earlier submits had none: these are of the first done + in_submit.
                 return Err(truncated(
@@ -372,8 +392,9 @@ pub fn scan(
         progress(done, totals.iter().sum());
     }
     let seconds = start.elapsed().as_secs_f64();
+    let evaluated = count - degenerate;
     let offending: u64 = totals.iter().sum();
-    let (rate_low, rate_high) = clopper_pearson(offending, count);
+    let (rate_low, rate_high) = clopper_pearson(offending, evaluated);
     let captured = captured
         .iter()
         .map(|c| {
@@ -397,12 +418,13 @@ pub fn scan(
     Ok(ScanResult {
         method: method.label.clone(),
         family: fam.name.clone(),
-        configurations: count,
+        configurations: evaluated,
+        degenerate,
         nan: totals[0],
         inf: totals[1],
         negative: totals[2],
         above_bound: bound.map(|_| totals[3]),
-        rate: offending as f64 / count as f64,
+        rate: offending as f64 / evaluated.max(1) as f64,
         rate_low,
         rate_high,
         seconds,
