@@ -387,9 +387,11 @@ pub fn write_set(dir: &Path, files: &[(String, Vec<u8>)]) -> Result<Vec<PathBuf>
             if let Some(p) = path.parent() {
                 fs::create_dir_all(p)?;
             }
-            let mut f = fs::File::create(&path)?;
-            f.write_all(bytes)?;
-            f.sync_all()?;
+            // A full disk names the file it stopped at.
+            let named = |e: std::io::Error| std::io::Error::new(e.kind(), format!("{file}: {e}"));
+            let mut f = fs::File::create(&path).map_err(named)?;
+            f.write_all(bytes).map_err(named)?;
+            f.sync_all().map_err(named)?;
         }
         if fs::symlink_metadata(&dir).is_ok() {
             if exchange(&tmp, &dir).is_err() {

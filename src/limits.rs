@@ -11,6 +11,10 @@ pub struct Bytes(pub u64);
 
 impl fmt::Display for Bytes {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        // Whole bytes as they are: "1 B", not "1.0 B".
+        if self.0 < 1024 {
+            return write!(f, "{} B", self.0);
+        }
         let b = self.0 as f64;
         let (v, unit) = if b >= (1u64 << 30) as f64 {
             (b / (1u64 << 30) as f64, "GiB")
@@ -70,9 +74,14 @@ pub fn default_max_memory() -> Bytes {
 
 static MAX_MEMORY: std::sync::OnceLock<Bytes> = std::sync::OnceLock::new();
 
+/// Whether `--max-memory` set the limit (messages then name it, not the default).
+static GIVEN: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 /// Sets the limit for this process (`--max-memory`); the first call wins.
 pub fn set_max_memory(limit: Bytes) {
-    let _ = MAX_MEMORY.set(limit);
+    if MAX_MEMORY.set(limit).is_ok() {
+        GIVEN.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
 }
 
 /// The limit in force: `--max-memory`, or [`default_max_memory`].
@@ -131,9 +140,14 @@ pub fn invocations_in_flight() -> u64 {
 /// Refuses an estimate above the limit, with both numbers and what to change.
 pub fn check(what: &str, estimate: Bytes, limit: Bytes) -> Result<(), String> {
     if estimate > limit {
+        let limit = if GIVEN.load(std::sync::atomic::Ordering::Relaxed) {
+            format!("--max-memory {limit}")
+        } else {
+            format!("the default limit {limit} (half of this machine's memory)")
+        };
         return Err(format!(
-            "{what} needs an estimated {estimate} of memory, more than --max-memory {limit} \
-             (default: half of this machine's memory): use fewer configurations or raise --max-memory"
+            "{what} needs an estimated {estimate} of memory, more than {limit}: use fewer configurations or \
+             raise --max-memory"
         ));
     }
     Ok(())
@@ -151,6 +165,9 @@ mod tests {
         assert!(parse_memory("-1G").is_err() && parse_memory("3Q").is_err() && parse_memory("").is_err());
         let e = check("sweep", Bytes(10 << 30), Bytes(1 << 30)).unwrap_err();
         assert!(e.contains("10.0 GiB") && e.contains("1.0 GiB"), "{e}");
+        assert_eq!(Bytes(1).to_string(), "1 B");
+        assert_eq!(Bytes(1023).to_string(), "1023 B");
+        assert_eq!(Bytes(1024).to_string(), "1.0 KiB");
         assert!(default_max_memory().0 > 0);
     }
 }

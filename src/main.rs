@@ -49,11 +49,11 @@ struct GateArgs {
     /// Write JUnit XML: one testcase per method × material × rule.
     #[arg(long, value_name = "FILE")]
     junit: Option<PathBuf>,
-    /// Error ratios within ±NOISE (at the 95 % bootstrap bounds) are unchanged.
-    #[arg(long, default_value_t = 0.05)]
+    /// Error ratios within ±NOISE (at the 95 % bootstrap bounds) are unchanged (0 to 1).
+    #[arg(long, default_value_t = 0.05, value_parser = app::options::fraction)]
     noise: f64,
-    /// Op-count growth beyond this fraction is a regression.
-    #[arg(long, default_value_t = 0.10)]
+    /// Op-count growth beyond this fraction is a regression (0 to 1).
+    #[arg(long, default_value_t = 0.10, value_parser = app::options::fraction)]
     ops_growth: f64,
 }
 
@@ -163,8 +163,8 @@ enum Command {
         /// Offending configurations to capture per method and family.
         #[arg(long, default_value_t = 64)]
         capture: usize,
-        /// Also count values above this bound (units where d = 1).
-        #[arg(long)]
+        /// Also count values above this bound (units where d = 1; above 0, at most f32's largest).
+        #[arg(long, value_parser = app::options::bound)]
         bound: Option<f64>,
         /// The scan's report goes to OUT/<case name>-scan/.
         #[arg(long, default_value = "reports")]
@@ -217,8 +217,8 @@ enum Command {
         /// Override every material's count.
         #[arg(long)]
         count: Option<usize>,
-        /// Error ratios within ±NOISE (at the 95 % bootstrap bounds) are no difference.
-        #[arg(long, default_value_t = 0.05)]
+        /// Error ratios within ±NOISE (at the 95 % bootstrap bounds) are no difference (0 to 1).
+        #[arg(long, default_value_t = 0.05, value_parser = app::options::fraction)]
         noise: f64,
         /// Write the disagreement configurations here (eval input format, replayable).
         #[arg(long)]

@@ -287,5 +287,9 @@ fn no_circle_between_files_either() {
         .filter_map(|m| circle(&g, m))
         .map(|path| path.join(" → "))
         .collect();
-    assert!(circles.is_empty(), "import circles between files:\n{}", circles.join("\n"));
+    assert!(
+        circles.is_empty(),
+        "import circles between files:\n{}",
+        circles.join("\n")
+    );
 }

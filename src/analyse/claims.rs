@@ -8,10 +8,10 @@
 //! the functions registered here; `docs/claims.md` lists them. Pure: no I/O, no measuring.
 
 use crate::analyse::analysis::{Analysis, BinStatsRef, MaterialStats, MethodStats, PairMaterial};
+use crate::analyse::bench::Cost;
 use crate::analyse::bench::{cpu_time_ratio, gpu_time_ratio};
 use crate::analyse::stats::{BinStats, Quantiles};
 use crate::input::case::{Case, ClaimSpec};
-use crate::analyse::bench::Cost;
 use crate::measure::search::Disagreement;
 use rhai::{Dynamic, Engine, EvalAltResult, ImmutableString};
 use serde::Serialize;

@@ -155,6 +155,8 @@ pub struct ChainRun {
 
 /// Measures the chain for every configuration of the case and every method in it.
 pub fn measure(case: &Case, gpu: &Gpu, count: Option<usize>, chunk: usize) -> anyhow::Result<ChainRun> {
+    // A chain of no configuration would be a report of nothing.
+    anyhow::ensure!(count != Some(0), "--count must be at least 1");
     let start = Instant::now();
     let mut case = case.clone();
     if let Some(n) = count {

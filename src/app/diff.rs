@@ -56,6 +56,8 @@ impl Outcome {
 
 /// Runs the diff and prints it, ending with the verdict line.
 pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
+    crate::app::options::check_float("--noise", options.noise, crate::app::options::FRACTION)
+        .map_err(anyhow::Error::msg)?;
     let a = method_of(&options.a)?;
     let b = method_of(&options.b)?;
     if a.label == b.label {

@@ -3,6 +3,7 @@
 
 use super::{kernel_inputs, open_gpu, GpuOptions, Status};
 use crate::io::{check_output, write_output};
+use anyhow::Context;
 use rayon::prelude::*;
 use std::path::PathBuf;
 
@@ -59,9 +60,12 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
         .map(|m| device.pipeline(m))
         .collect::<Result<Vec<_>, _>>()?;
     let mut written = 0;
+    // An error of the run itself (a GPU failure, the loop limit, a reference): kept whole, so
+    // its message and exit code are its own, not a failed write's.
+    let mut failed: Option<anyhow::Error> = None;
     // The output is staged: a reference that cannot be computed (an error) leaves
     // nothing in place of what was there.
-    write_output(&output, &mut |w| {
+    let result = write_output(&output, &mut |w| {
         let mut chunk = |configs: Vec<crate::input::scene::Config>| -> anyhow::Result<()> {
             let scenes: Vec<_> = configs.iter().map(crate::input::scene::GpuScene::from).collect();
             let mut f32s = Vec::new();
@@ -84,15 +88,24 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
                     ..block * crate::measure::eval_rows::ROW_BLOCK + part.len();
                 let values: Vec<&[f32]> = f32s.iter().map(|v| &v[at.clone()]).collect();
                 let rows = crate::measure::eval_rows::rows(part, &methods, &values, &references[at], attribution)?;
-                w.write_all(&crate::io::to_jsonl(&rows))?;
+                w.write_all(&crate::io::to_jsonl(&rows))
+                    .with_context(|| format!("cannot write {}", output.display()))?;
             }
             written += configs.len();
             Ok(())
         };
-        crate::measure::eval_rows::for_each_config(&input, eval_chunk(), false, &mut chunk)
-            .map(|_| ())
-            .map_err(|e| std::io::Error::other(format!("{e:#}")))
-    })?;
+        match crate::measure::eval_rows::for_each_config(&input, eval_chunk(), false, &mut chunk) {
+            Ok(_) => Ok(()),
+            Err(e) => {
+                failed = Some(e);
+                Err(std::io::Error::other("eval stopped"))
+            }
+        }
+    });
+    if let Some(e) = failed {
+        return Err(e);
+    }
+    result?;
     eprintln!("wrote {written} results to {}", output.display());
     Ok(Status::Ok)
 }

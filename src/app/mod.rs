@@ -8,7 +8,9 @@ pub mod chain;
 pub mod diff;
 pub mod eval;
 pub mod gate;
+pub mod options;
 pub mod render;
+pub mod shard;
 mod status;
 pub mod sweep;
 
@@ -102,11 +104,20 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
     } = options;
     let command_line = shell_words::join(std::env::args());
     let count = parse_count(&count)?;
+    if let Some(b) = bound {
+        options::check_float("--bound", b, options::BOUND).map_err(anyhow::Error::msg)?;
+    }
+    let max = crate::measure::scan::MAX_CAPTURE;
+    anyhow::ensure!(
+        capture <= max,
+        "--capture {capture}: at most {max} offending configurations are kept per method and family"
+    );
     let case = crate::input::case::Case::load(&case)?;
     let dir = out.join(format!("{}-scan", case.name));
     check_set(&dir)?;
     let kernels = methods::kernel_set(&gpu.kernels)?;
-    let specs: Vec<String> = if specs.is_empty() { case.methods.clone() } else { specs };
+    let given = !specs.is_empty();
+    let specs: Vec<String> = if given { specs } else { case.methods.clone() };
     let mut chosen = Vec::new();
     for s in &specs {
         let m = methods::resolve(s, &kernels)?;
@@ -115,9 +126,15 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
             crate::input::target::Target::Line | crate::input::target::Target::LineUpper
         ) {
             chosen.push(m);
-        } else if !specs.is_empty() && specs.len() == 1 {
+        } else if given {
+            // Asked for by name: never dropped in silence.
             anyhow::bail!(
                 "scan generates line configurations only: `{s}` approximates `{}`",
+                m.target()
+            );
+        } else {
+            eprintln!(
+                "note: `{s}` is not scanned: it approximates `{}`, and scan generates line configurations",
                 m.target()
             );
         }
@@ -145,7 +162,26 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
             case.name
         );
     }
+    // The captured offenders are held until the report is written: about 400 bytes each
+    // with their JSON line.
+    let captured = (capture as u64)
+        .saturating_mul(chosen.len() as u64)
+        .saturating_mul(scannable.len() as u64);
+    crate::limits::check(
+        &format!(
+            "scan of case `{}` capturing up to {captured} offending configurations",
+            case.name
+        ),
+        crate::limits::Bytes(captured.saturating_mul(400)),
+        crate::limits::max_memory(),
+    )
+    .map_err(anyhow::Error::msg)?;
     let device = open_gpu(gpu.adapter.as_deref())?;
+    // Every method against the driver's loop limit before any is scanned (as sweep, eval and
+    // diff do): a static trip count past it is refused now, not after the methods before it.
+    for m in &chosen {
+        device.check_loops(m)?;
+    }
     let families = scannable.len() as u64;
     let per_family = count.div_ceil(families);
     let pb = indicatif::ProgressBar::new(per_family * families * chosen.len() as u64);
@@ -214,10 +250,13 @@ pub fn adapters() -> Result<Status> {
 }
 
 /// `linelight check`: each kernel file validated as every command validates a `--kernel`
-/// file; `emit` prints the composed modules. Bad input (2) when one does not validate.
+/// file, and its loops held against the driver's loop limit as eval holds them; `emit` prints
+/// the composed modules. Bad input (2) when one does not validate or loops past the limit.
 pub fn check(kernels: &[PathBuf], emit: bool) -> Result<Status> {
     let mut bad = 0;
     let mut known = crate::kernel::builtin_kernels();
+    // Opened for the first kernel with loops: the limit is the device's (gpu/loops.rs).
+    let mut device: Option<std::result::Result<Gpu, String>> = None;
     for path in kernels {
         // The same validation eval, sweep and bench give a --kernel file.
         match methods::validate_kernel(path, &known) {
@@ -226,12 +265,28 @@ pub fn check(kernels: &[PathBuf], emit: bool) -> Result<Status> {
                 // (A composite with the default line method, as it is composed here.)
                 let mut set = vec![k.clone()];
                 set.extend(known.iter().filter(|b| b.id != k.id).cloned());
-                let cpu = match methods::resolve(&k.id, &set).and_then(|m| crate::eval::interp::program(&m).map(|_| ()))
+                let method = methods::resolve(&k.id, &set);
+                let cpu = match method
+                    .as_ref()
+                    .map_err(|e| anyhow::anyhow!("{e:#}"))
+                    .and_then(|m| crate::eval::interp::program(m).map(|_| ()))
                 {
                     Ok(()) => "CPU evaluator: ok".to_string(),
                     Err(e) => format!("CPU evaluator: no f64/cpu_f32 values: {e:#}"),
                 };
-                let line = format!("{}: ok ({} → {}); {cpu}", path.display(), k.id, k.target);
+                let loops = match &method {
+                    Ok(m) => check_loops(m, &mut device),
+                    Err(_) => Ok(String::new()),
+                };
+                let loops = match loops {
+                    Ok(note) => note,
+                    Err(e) => {
+                        eprintln!("{}", bounded(&format!("{e:#}")));
+                        bad += 1;
+                        continue;
+                    }
+                };
+                let line = format!("{}: ok ({} → {}); {cpu}{loops}", path.display(), k.id, k.target);
                 if emit {
                     eprintln!("{line}");
                     let composed = crate::kernel::compose_with(&k, None, crate::kernel::kernel_capabilities())?;
@@ -248,4 +303,28 @@ pub fn check(kernels: &[PathBuf], emit: bool) -> Result<Status> {
         }
     }
     Ok(if bad == 0 { Status::Ok } else { Status::BadInput })
+}
+
+/// `check`'s loop-limit check of a method with its default parameters: the one every GPU
+/// command applies (`Gpu::check_loops`), on the default adapter. `Ok` carries a note for the
+/// kernel's line; with no adapter the limit cannot be known, which the note says.
+fn check_loops(
+    method: &crate::kernel::methods::Method,
+    device: &mut Option<std::result::Result<Gpu, String>>,
+) -> Result<String> {
+    let loops = crate::eval::cost::method_cost_of(method).map_or(1, |c| c.loops);
+    if loops == 0 {
+        return Ok(String::new());
+    }
+    let gpu = device.get_or_insert_with(|| Gpu::new(None).map_err(|e| format!("{e:#}")));
+    match gpu {
+        Ok(gpu) => Ok(match gpu.check_loops(method)? {
+            Some(_) => "; loops: no static trip count, counted on every run".to_string(),
+            None => "; loops: within the device's limit".to_string(),
+        }),
+        Err(e) => Ok(format!(
+            "; loops: not checked against a driver's loop limit (no device: {})",
+            crate::input::names::clip(e.lines().next().unwrap_or(""))
+        )),
+    }
 }

@@ -4,6 +4,7 @@
 //! before it is dropped. Also the shard state files (`--shard`, `linelight merge`,
 //! docs/scale.md), which hold both the measure stage's kept state and the statistics.
 
+use super::shard::{read_shards, write_shard, Recorded};
 use super::{kernel_inputs, open_gpu, GpuOptions, Status};
 use crate::analyse::analysis::{Accumulators, Chunk, Leak, LeakAccumulator, Verdict};
 use crate::analyse::summary::Summary;
@@ -65,7 +66,20 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
     {
         anyhow::bail!("--shard writes a shard state only: --raw and the gate options belong to the unsharded sweep");
     }
-    let loaded = crate::input::case::Case::load(&case)?;
+    // Read once: a shard records the contents it ran (app::shard).
+    let case_text =
+        std::fs::read_to_string(&case).with_context(|| format!("cannot read case file {}", case.display()))?;
+    let loaded = Case::parse(&case_path, &case_text)?;
+    let recorded = match shard {
+        Some(_) => Some((
+            Recorded::new(&case, case_text.as_bytes(), &out),
+            gpu.kernels
+                .iter()
+                .map(|k| Recorded::read(k, &out))
+                .collect::<anyhow::Result<Vec<_>>>()?,
+        )),
+        None => None,
+    };
     // Every output is checked before any work: the report folder, then --raw.
     let dir = out.join(&loaded.name);
     if shard.is_none() {
@@ -115,7 +129,8 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
             },
             false,
         )?;
-        let path = write_shard(&out, &case, &gpu.kernels, &part)?;
+        let (case_record, kernel_records) = recorded.expect("recorded for a shard");
+        let path = write_shard(&out, case_record, kernel_records, &setup.methods, &part)?;
         println!(
             "shard {}/{}: {} configurations in {:.1} s (drawing all of the sweep's: {:.1} s); state: {}",
             shard.0,
@@ -149,12 +164,14 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
             let mut measured = None;
             let mut failed = None;
             let staged = stage_output(raw, &mut |w| {
+                // A failed write of a row (a full disk) names the file.
+                let mut named = Named { path: raw, inner: w };
                 match measure(
                     &setup,
                     &device,
                     crate::measure::sweep::MeasureOptions {
                         chunk: gpu.chunk,
-                        raw: Some(w),
+                        raw: Some(&mut named),
                         shard: None,
                     },
                     observe,
@@ -185,17 +202,42 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
     )
 }
 
+/// A writer whose errors name the file it writes.
+struct Named<'a> {
+    path: &'a Path,
+    inner: &'a mut dyn std::io::Write,
+}
+
+impl std::io::Write for Named<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.inner.write(buf).map_err(|e| self.named(e))
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush().map_err(|e| self.named(e))
+    }
+}
+
+impl Named<'_> {
+    fn named(&self, e: std::io::Error) -> std::io::Error {
+        std::io::Error::new(e.kind(), format!("cannot write {}: {e}", self.path.display()))
+    }
+}
+
 /// `linelight merge`: the shard states of a sharded sweep merged into the report the unsharded
 /// sweep writes.
 pub fn merge(shards: &[PathBuf], out: &Path, gpu: &GpuOptions) -> anyhow::Result<Status> {
     let started = std::time::Instant::now();
     let command_line = shell_words::join(std::env::args());
-    let (case_path, kernels, parts) = read_shards(shards)?;
-    let loaded = crate::input::case::Case::load(std::path::Path::new(&case_path))?;
+    // The case and kernels are found beside the records and must be what the shards ran.
+    let shards = read_shards(shards)?;
+    let loaded = Case::parse(&shards.case_path.display().to_string(), &shards.case_text)?;
+    let case_path = shards.case_shown.clone();
     let dir = out.join(&loaded.name);
     check_set(&dir)?;
-    let setup = prepare_with(loaded, &kernels, parts[0].count_override, false)?;
-    let part = Partial::merge_all(&setup, parts)?;
+    let setup = prepare_with(loaded, &shards.kernels, shards.parts[0].count_override, false)?;
+    shards.check_sources(&setup.methods)?;
+    let part = Partial::merge_all(&setup, shards.parts)?;
     let gate = crate::app::gate::GateRun::prepare(None, None, None, Default::default(), &setup)?;
     let device = open_gpu(gpu.adapter.as_deref())?;
     let measured = finish(&setup, &device, part)?;
@@ -410,8 +452,9 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
     })
 }
 
-/// The version of the shard state file (`--shard`, docs/scale.md).
-pub const SHARD_FORMAT: u32 = 3;
+/// The version of the shard record (`--shard`, docs/scale.md; 4 records the contents of the
+/// case and kernels, `app::shard`).
+pub const SHARD_FORMAT: u32 = 4;
 
 /// What measuring a sweep's configurations, or one shard's, leaves before the searches and
 /// the cost pass: mergeable (`linelight merge`). Written by `sweep --shard i/n`.
@@ -512,37 +555,63 @@ impl Partial {
         for (k, p) in parts.iter().enumerate() {
             anyhow::ensure!(
                 p.format == SHARD_FORMAT,
-                "merge: shard state format {} (this linelight reads {SHARD_FORMAT})",
-                p.format
-            );
-            anyhow::ensure!(
-                p.case == setup.case.name && p.seed == setup.case.seed && p.count_override == setup.count_override,
-                "merge: shard {}/{} is of case `{}` seed {} --count {:?}, not `{}` seed {} --count {:?}",
+                "merge: shard {}/{} is a record of format {}; this linelight reads format {SHARD_FORMAT}: re-run the shards",
                 p.shard.0,
                 p.shard.1,
-                p.case,
+                p.format
+            );
+            // `--count 50`, or the case's own counts.
+            let count = |c: Option<usize>| c.map_or("the case's counts".to_string(), |n| format!("--count {n}"));
+            anyhow::ensure!(
+                p.case == setup.case.name && p.seed == setup.case.seed && p.count_override == setup.count_override,
+                "merge: shard {}/{} is of case `{}`, seed {}, {}; not of case `{}`, seed {}, {}",
+                p.shard.0,
+                p.shard.1,
+                crate::input::names::clip(&p.case),
                 p.seed,
-                p.count_override,
+                count(p.count_override),
                 setup.case.name,
                 setup.case.seed,
-                setup.count_override
+                count(setup.count_override)
             );
             anyhow::ensure!(
                 p.methods == labels,
-                "merge: shard {}/{} measured methods {:?}, the case has {:?}",
+                "merge: shard {}/{} measured the methods {}; the case has {}",
                 p.shard.0,
                 p.shard.1,
-                p.methods,
-                labels
+                crate::input::names::clip(&p.methods.join(", ")),
+                crate::input::names::clip(&labels.join(", "))
             );
             anyhow::ensure!(
-                p.shard == (k, n),
-                "merge: expected shards 0..{n} of {n} once each, found {}/{} in place {k}",
+                p.shard.0 < p.shard.1,
+                "merge: a record claims to be shard {}/{}, which no sweep writes",
                 p.shard.0,
                 p.shard.1
             );
+            // Sorted by index: place k holds shard k of n, when each is given once.
+            anyhow::ensure!(
+                p.shard.1 == n,
+                "merge: shard {}/{} is of a sweep in {} shards, shard {}/{n} of one in {n}",
+                p.shard.0,
+                p.shard.1,
+                p.shard.1,
+                parts[0].shard.0
+            );
+            if p.shard.0 != k {
+                let given = if p.shard.0 < k { "given twice" } else { "missing" };
+                let which = if p.shard.0 < k { p.shard.0 } else { k };
+                anyhow::bail!(
+                    "merge: shard {which}/{n} is {given}: give each of {n} shards once (0/{n} … {}/{n})",
+                    n - 1
+                );
+            }
         }
-        anyhow::ensure!(parts.len() == n, "merge: {} of {n} shards given", parts.len());
+        anyhow::ensure!(
+            parts.len() == n,
+            "merge: shard {}/{n} is missing: give each of {n} shards once (0/{n} … {}/{n})",
+            parts.len(),
+            n - 1
+        );
         let mut it = parts.into_iter();
         let mut all = it.next().expect("not empty");
         for p in it {
@@ -553,68 +622,4 @@ impl Partial {
         all.shard = (0, 1);
         Ok(all)
     }
-}
-
-/// A shard state file: the case file and kernels the shard ran (merge reads them again, so
-/// every shard and the merge run from the same checkout) and its [`Partial`].
-#[derive(serde::Serialize, serde::Deserialize)]
-struct ShardFile {
-    case_file: String,
-    kernels: Vec<PathBuf>,
-    state: Partial,
-}
-
-/// Writes `OUT/shard-I-of-N.cbor` (atomically); returns its path.
-pub fn write_shard(out: &Path, case_file: &Path, kernels: &[PathBuf], part: &Partial) -> anyhow::Result<PathBuf> {
-    let (i, n) = part.shard;
-    let path = out.join(format!("shard-{i}-of-{n}.cbor"));
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let file = ShardFile {
-        case_file: case_file.display().to_string(),
-        kernels: kernels.to_vec(),
-        state: part.clone(),
-    };
-    let mut bytes = Vec::new();
-    ciborium::into_writer(&file, &mut bytes).context("cannot encode the shard state")?;
-    crate::io::write_bytes(&path, &bytes)?;
-    Ok(path)
-}
-
-/// Every `shard-*-of-*.cbor` in the given directories: the case file, the kernels, the states.
-pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<(String, Vec<PathBuf>, Vec<Partial>)> {
-    let mut files = Vec::new();
-    for d in dirs {
-        let entries = std::fs::read_dir(d).with_context(|| format!("merge: cannot read {}", d.display()))?;
-        for e in entries {
-            let p = e?.path();
-            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
-            if name.starts_with("shard-") && name.ends_with(".cbor") {
-                files.push(p);
-            }
-        }
-    }
-    files.sort();
-    anyhow::ensure!(!files.is_empty(), "merge: no shard-I-of-N.cbor in {:?}", dirs);
-    let mut first: Option<(String, Vec<PathBuf>)> = None;
-    let mut parts = Vec::new();
-    for p in files {
-        let text = std::fs::read(&p).with_context(|| format!("merge: cannot read {}", p.display()))?;
-        let f: ShardFile = ciborium::from_reader(text.as_slice())
-            .with_context(|| format!("merge: {}: not a shard state", p.display()))?;
-        match &first {
-            None => first = Some((f.case_file.clone(), f.kernels.clone())),
-            Some((c, k)) => anyhow::ensure!(
-                c == &f.case_file && k == &f.kernels,
-                "merge: {} ran case file {} with kernels {:?}; the first shard {} with {:?}",
-                p.display(),
-                f.case_file,
-                f.kernels,
-                c,
-                k
-            ),
-        }
-        parts.push(f.state);
-    }
-    let (case_file, kernels) = first.expect("at least one file");
-    Ok((case_file, kernels, parts))
 }

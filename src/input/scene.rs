@@ -297,10 +297,17 @@ impl Config {
     /// entries, the radius and the width below it. (Every target is scale-free, so a
     /// configuration outside can be scaled by the user; it is refused, not silently NaN.)
     fn representable(&self) -> Result<(), Degenerate> {
-        let scale = v3(self.p1).length().max(v3(self.p2).length());
+        // hypot: |p| of coordinates near 1e308 is a number, not the overflow of their squares.
+        let norm = |p: [f64; 3]| p[0].hypot(p[1]).hypot(p[2]);
+        let scale = norm(self.p1).max(norm(self.p2));
         if !(1.0 / F32_SCALE..=F32_SCALE).contains(&scale) {
+            let shown = if scale.is_finite() || scale.is_nan() {
+                format!("{scale:e}")
+            } else {
+                format!("more than {:e}", f64::MAX)
+            };
             return Err(Degenerate::NotRepresentable(format!(
-                "the segment's size max(|p1|, |p2|) = {scale:e} is outside [{:e}, {F32_SCALE:e}], \
+                "the segment's size max(|p1|, |p2|) = {shown} is outside [{:e}, {F32_SCALE:e}], \
                  where its squares fit in f32: scale the configuration",
                 1.0 / F32_SCALE
             )));

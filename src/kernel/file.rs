@@ -191,6 +191,11 @@ fn derive_of(text: &str) -> Option<&str> {
 impl KernelFile {
     pub fn read(path: &Path) -> anyhow::Result<KernelFile> {
         let text = std::fs::read_to_string(path).with_context(|| format!("cannot read kernel {}", path.display()))?;
+        // A byte-order mark (some editors write one) is not part of the source, in either language.
+        let text = match text.strip_prefix('\u{feff}') {
+            Some(rest) => rest.to_string(),
+            None => text,
+        };
         let shown = path.display().to_string();
         if path.extension().is_some_and(|e| e == "glsl") {
             // The header is checked on the GLSL file (its lines), then the translation is the text.

@@ -57,13 +57,21 @@ pub fn translate(path: &str, text: &str) -> Result<(String, Vec<u32>), HeaderErr
         .parse(&options, &source)
         .map_err(|errors| {
             let first = errors.errors.first();
-            let (line, col) = first
-                .map(|e| {
-                    let loc = e.meta.location(&source);
-                    (loc.line_number as usize, loc.line_position)
-                })
-                .unwrap_or((1, 1));
             let message = first.map_or("GLSL parse error".to_string(), |e| e.kind.to_string());
+            // An error without a position (the front end's lexer gives none for a character
+            // it does not know) is the kernel's: the prelude is known to parse.
+            let Some((line, col)) = first.filter(|e| e.meta.is_defined()).map(|e| {
+                let loc = e.meta.location(&source);
+                (loc.line_number as usize, loc.line_position)
+            }) else {
+                return match unknown_character(text) {
+                    Some((line, col, c)) => err(
+                        line,
+                        format!("{col}: {message}: {c:?} is not a GLSL character (naga GLSL front end)"),
+                    ),
+                    None => err(1, format!("{message} (naga GLSL front end, at no position it names)")),
+                };
+            };
             if line > prelude_lines {
                 err(line - prelude_lines, format!("{col}: {message} (naga GLSL front end)"))
             } else {
@@ -108,6 +116,37 @@ pub fn translate(path: &str, text: &str) -> Result<(String, Vec<u32>), HeaderErr
     out.push_str(&prelude_names(&items));
     lines.extend(item_lines);
     Ok((out, lines))
+}
+
+/// The first character outside GLSL's character set that is not in a comment: its 1-based
+/// line and column, and the character.
+fn unknown_character(text: &str) -> Option<(usize, usize, char)> {
+    let glsl =
+        |c: char| c.is_ascii_alphanumeric() || c.is_ascii_whitespace() || "_.+-/*%<>[](){}^|&~=!:;,?#\\".contains(c);
+    let mut block = false;
+    for (i, line) in text.lines().enumerate() {
+        let mut chars = line.char_indices().peekable();
+        while let Some((at, c)) = chars.next() {
+            let next = chars.peek().map(|&(_, n)| n);
+            if block {
+                if c == '*' && next == Some('/') {
+                    block = false;
+                    chars.next();
+                }
+                continue;
+            }
+            match (c, next) {
+                ('/', Some('/')) => break,
+                ('/', Some('*')) => {
+                    block = true;
+                    chars.next();
+                }
+                _ if !glsl(c) => return Some((i + 1, line[..at].chars().count() + 1, c)),
+                _ => {}
+            }
+        }
+    }
+    None
 }
 
 /// The 1-based line of `text` that declares `name` (its first non-comment mention

@@ -56,6 +56,18 @@ pub fn markdown(case: &Case, command_line: &str, adapter: &str, results: &[ScanR
             .max()
             .map_or("—".into(), |n| format!("{:.1e} for n = {n}", clopper_pearson(0, n).1))
     );
+    let skipped: Vec<String> = results
+        .iter()
+        .filter(|r| r.degenerate > 0)
+        .map(|r| format!("`{}` on `{}` {}", r.method, r.family, r.degenerate))
+        .collect();
+    if !skipped.is_empty() {
+        let _ = writeln!(
+            o,
+            "Degenerate generated configurations, skipped (the sweep redraws them; not in the counts): {}.\n",
+            skipped.join(", ")
+        );
+    }
     let _ = writeln!(
         o,
         "| method | family | configurations | NaN | inf | negative | above bound | offending rate [95 %] | s |"

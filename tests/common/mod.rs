@@ -1,6 +1,7 @@
 //! What the tests share: running the binary, its stderr, writing an input file, the GPU.
 #![allow(dead_code)] // each test binary uses its own share of these
 
+pub mod hostile;
 pub mod independent;
 
 use std::path::{Path, PathBuf};

@@ -428,9 +428,9 @@ impl GateRun {
         options: GateOptions,
         setup: &Setup,
     ) -> anyhow::Result<GateRun> {
-        if !(options.noise >= 0.0 && options.ops_growth >= 0.0) {
-            anyhow::bail!("--noise and --ops-growth must be fractions ≥ 0");
-        }
+        use crate::app::options::{check_float, FRACTION};
+        check_float("--noise", options.noise, FRACTION).map_err(anyhow::Error::msg)?;
+        check_float("--ops-growth", options.ops_growth, FRACTION).map_err(anyhow::Error::msg)?;
         let baseline = baseline.map(|dir| load(dir, setup)).transpose()?;
         Ok(GateRun {
             save,

@@ -115,6 +115,7 @@ pub fn check(case: &Case) -> Result<(), String> {
             return Err(format!("`bins` `{}`: edge {e} is not finite", b.axis));
         }
     }
+    drawn_axes(case)?;
     for (target, &floor) in &case.error_floor {
         if !(floor > 0.0 && floor.is_finite()) {
             return Err(format!(
@@ -198,6 +199,77 @@ pub fn check(case: &Case) -> Result<(), String> {
 
 /// Refinement steps a search may take.
 pub const MAX_STEPS: usize = 10_000;
+
+/// The values a family's configurations take on a bin axis (`sampler::Axes`): None when
+/// the family never draws it (its value is NaN there), the drawn distribution's range for an
+/// axis that is a drawn parameter itself, and all numbers for a derived one.
+pub fn axis_range(case: &Case, family: &MaterialFamily, axis: &str) -> Option<(f64, f64)> {
+    use crate::input::case::MaterialKind::{Diffuse, Ggx, LtcGgx};
+    let g = case.geometry_of(family);
+    let all = (f64::NEG_INFINITY, f64::INFINITY);
+    let or = |d: Option<&Dist>, default: f64| d.map_or((default, default), range);
+    let ggx = matches!(family.kind, Ggx | LtcGgx);
+    match axis {
+        "alpha" => (family.kind != Diffuse).then(|| or(family.alpha.as_ref(), 1.0)),
+        "view_angle" => ggx.then(|| or(family.view_angle.as_ref(), 45.0)),
+        "anisotropy" => ggx.then(|| or(family.anisotropy.as_ref(), 1.0)),
+        "radius" => g.radius.as_ref().map(range),
+        "cap_straddle" => g.radius.as_ref().map(|_| (0.0, 1.0)),
+        "width" => g.rect_width.as_ref().map(range),
+        "rect_angle" => g.rect_width.as_ref().map(|_| or(g.rect_angle.as_ref(), 0.0)),
+        "elevation" => Some(range(&g.elevation)),
+        "center" => Some(range(&g.center)),
+        // A moved end point changes the length.
+        "length" => Some(if g.endpoint_height.is_some() {
+            all
+        } else {
+            range(&g.length)
+        }),
+        _ => Some(all),
+    }
+}
+
+/// Refuses a bin or map axis on which no configuration of the case can fall: one no family
+/// draws, or whose edges miss every value drawn. Its bins or map would be empty, with exit 0.
+fn drawn_axes(case: &Case) -> Result<(), String> {
+    let keys = case.bins.iter().enumerate().map(|(i, b)| (format!("bins[{i}]"), b));
+    let maps = case.maps.iter().enumerate().flat_map(|(i, m)| {
+        let map = format!("maps[{i}]` ({} × {})", m.x.axis, m.y.axis);
+        [(format!("{map}: `x"), &m.x), (format!("{map}: `y"), &m.y)]
+    });
+    for (key, b) in keys.chain(maps) {
+        let (lo, hi) = (b.edges[0], b.edges[b.edges.len() - 1]);
+        let ranges: Vec<(f64, f64)> = case
+            .materials
+            .iter()
+            .filter_map(|f| axis_range(case, f, &b.axis))
+            .collect();
+        if ranges.is_empty() {
+            let needs = match b.axis.as_str() {
+                "alpha" => "an LTC or ggx material",
+                "view_angle" | "anisotropy" => "a ggx or ltc_ggx material",
+                "radius" | "cap_straddle" => "a geometry with a `radius`",
+                "width" | "rect_angle" => "a geometry with a `rect_width`",
+                _ => "another case",
+            };
+            return Err(format!(
+                "`{key}.axis` = \"{}\": no family of the case draws it (it needs {needs}), so every one of its \
+                 cells would be empty",
+                b.axis
+            ));
+        }
+        if !ranges.iter().any(|&(a, z)| a <= hi && z >= lo) {
+            let drawn: Vec<String> = ranges.iter().map(|(a, z)| format!("[{a}, {z}]")).collect();
+            return Err(format!(
+                "`{key}.edges` = [{lo} … {hi}]: axis `{}` is drawn only in {}, so every one of its cells would be \
+                 empty",
+                b.axis,
+                drawn.join(", ")
+            ));
+        }
+    }
+    Ok(())
+}
 
 /// The top-up budget's largest multiple of a family's count.
 pub const MAX_TOPUP_DRAWS: usize = 1000;

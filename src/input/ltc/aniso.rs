@@ -521,6 +521,7 @@ pub fn fit_command(out: &std::path::Path, size: [usize; 4]) -> anyhow::Result<()
     if size.iter().any(|&n| n < 2) {
         anyhow::bail!("--aniso-size: every axis needs at least 2 entries, got {size:?}");
     }
+    fit::check_table_size("--aniso-size", &size)?;
     let threads = rayon::current_num_threads();
     let fitted = fitted_count(size);
     eprintln!(

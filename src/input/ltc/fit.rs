@@ -54,6 +54,28 @@ pub const OBJECTIVE_GRID: usize = 32;
 /// Samples per axis for the magnitude, Fresnel term and mean direction.
 pub const MOMENT_GRID: usize = 512;
 
+/// The most entries `linelight fit` makes a table of (256 × 256, or 16⁴ anisotropic): a fit
+/// takes about a quarter of a second per core, so this is already hours, and larger sizes
+/// would overflow the table's size or memory. The published tables are 64 × 64.
+pub const MAX_TABLE_ENTRIES: usize = 1 << 16;
+
+/// Refuses a table size (entries per axis, given as `flag`) of more than [`MAX_TABLE_ENTRIES`].
+pub fn check_table_size(flag: &str, sizes: &[usize]) -> anyhow::Result<()> {
+    let entries = sizes
+        .iter()
+        .try_fold(1usize, |n, &s| n.checked_mul(s))
+        .filter(|&n| n <= MAX_TABLE_ENTRIES);
+    if entries.is_none() {
+        let shown: Vec<String> = sizes.iter().map(usize::to_string).collect();
+        anyhow::bail!(
+            "{flag} {}: more than the {MAX_TABLE_ENTRIES} entries a fitted table may have (256 × 256; a fit \
+             takes about 0.25 s per core)",
+            shown.join(" × ")
+        );
+    }
+    Ok(())
+}
+
 /// `(L3 error, relative L1 error)` of `mag·ltc` against the lobe, both by MIS over n×n grids.
 pub fn errors(ggx: &Ggx, ltc: &Ltc, mag: f64, n: usize) -> (f64, f64) {
     let e = all_errors(ggx, ltc, mag, n);

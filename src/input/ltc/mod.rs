@@ -237,6 +237,7 @@ pub fn fit_command(out: &std::path::Path, size: usize) -> anyhow::Result<()> {
     if size < 2 {
         anyhow::bail!("--size must be at least 2, got {size}");
     }
+    fit::check_table_size("--size", &[size, size])?;
     let threads = rayon::current_num_threads();
     eprintln!("fitting a {size}×{size} isotropic GGX LTC table on {threads} thread(s)");
     let pb = ProgressBar::new((size * size) as u64);

@@ -56,7 +56,7 @@ pub enum GpuError {
     Run { method: String, message: String },
     /// The run is refused: the method's loops reached the driver's loop limit, so its
     /// results may be cut short (exit 2, the method's parameters are to blame).
-    #[error("GPU run of {method} failed: {message}")]
+    #[error("{method} is refused: {message}")]
     LoopLimit { method: String, message: String },
 }
 

@@ -11,7 +11,7 @@
 //! configuration reached half the limit (conservative: how the driver counts nested loops
 //! is not the plain total) is an error, never a result.
 
-use super::device::Gpu;
+use super::device::{Gpu, GpuError};
 use crate::input::scene::{Config, GpuScene, Material};
 use crate::kernel::methods::Method;
 use crate::kernel::{KernelError, KernelFile};
@@ -101,14 +101,33 @@ impl Gpu {
 /// starts by adding one to a private counter, and the entry point stores the counter
 /// instead of the method's value (which it still computes: the loops depend on it).
 pub(crate) fn counting_source(source: &str) -> String {
-    let counted = crate::kernel::rename::instrument_loops(source, " ll_trips += 1u; ");
     format!(
         "{}\nvar<private> ll_trips: u32;\n",
-        counted.replace(
+        count_trips(source).replace(
             "ll_results[ll_i] = method(ll_scene);",
             "_ = method(ll_scene);\n    ll_results[ll_i] = f32(ll_trips);"
         )
     )
+}
+
+/// `source` with every loop body adding one to `ll_trips` (a `var<private> u32` the caller
+/// declares): the scan counts trips in the same dispatch as the values.
+pub(crate) fn count_trips(source: &str) -> String {
+    crate::kernel::rename::instrument_loops(source, " ll_trips += 1u; ")
+}
+
+/// The refusal of a run in which `cut` of `of` configurations reached `limit` loop trips
+/// (half the device's limit): their values may have been cut short by the driver.
+pub(crate) fn truncated(method: &str, cut: u64, of: u64, first: Option<u64>, limit: u64) -> GpuError {
+    let first = first.map_or(String::new(), |f| format!(" (the first is number {f})"));
+    GpuError::LoopLimit {
+        method: method.to_string(),
+        message: format!(
+            "on {cut} of {of} configurations{first} its loops ran {limit} or more iterations, half this \
+             device's loop limit, near which the driver silently stops loops: those results may be \
+             truncated and are not reported; lower the method's parameters"
+        ),
+    }
 }
 
 #[cfg(test)]

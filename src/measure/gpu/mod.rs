@@ -31,6 +31,7 @@ pub(crate) use device::scoped;
 pub use device::{list_adapters, AdapterSummary, Gpu, GpuError};
 pub use driver_env::quiet_driver_environment;
 pub use loops::PROBE_TRIPS;
+pub(crate) use loops::{count_trips, truncated};
 pub(crate) use runner::override_constants;
 pub use runner::{MethodPipeline, RunOutput, DEFAULT_CHUNK};
 pub use timing::{Clock, DispatchTimer, DispatchTiming, TimedPipeline};

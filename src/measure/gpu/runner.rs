@@ -144,25 +144,34 @@ impl Gpu {
         }
         // The method's own time: the trip count below is a check, not part of its cost.
         let wall = start.elapsed();
-        if let Some((counter, limit)) = &pipeline.counter {
-            // A value whose loops reached the driver's limit was cut short: never a result.
-            let trips = self.run(counter, scenes, chunk, &mut |_| {})?.values;
-            let cut: Vec<usize> = (0..trips.len()).filter(|&i| trips[i] >= *limit as f32).collect();
-            if let Some(&first) = cut.first() {
-                return Err(GpuError::LoopLimit {
-                    method: pipeline.id.clone(),
-                    message: format!(
-                    "on {} of {} configurations (the first is number {}) its loops ran {limit} or more iterations, \
-                     half this device's loop limit, near which the driver silently stops loops: those results \
-                     may be truncated and are not reported; lower the method's parameters",
-                    cut.len(),
-                    trips.len(),
-                        first + 1
-                    ),
-                });
-            }
-        }
+        self.check_trips(pipeline, scenes, chunk)?;
         Ok(RunOutput { values, wall })
+    }
+
+    /// For a method with loops of no static trip count: runs its counting variant on `scenes`
+    /// and refuses the run when any configuration's loops reached the limit (its value was
+    /// cut short by the driver: never a result). Nothing to do for other methods.
+    pub(crate) fn check_trips(
+        &self,
+        pipeline: &MethodPipeline,
+        scenes: &[GpuScene],
+        chunk: usize,
+    ) -> Result<(), GpuError> {
+        let Some((counter, limit)) = &pipeline.counter else {
+            return Ok(());
+        };
+        let trips = self.run(counter, scenes, chunk, &mut |_| {})?.values;
+        let cut: Vec<usize> = (0..trips.len()).filter(|&i| trips[i] >= *limit as f32).collect();
+        match cut.first() {
+            Some(&first) => Err(super::loops::truncated(
+                &pipeline.id,
+                cut.len() as u64,
+                trips.len() as u64,
+                Some(first as u64 + 1),
+                *limit,
+            )),
+            None => Ok(()),
+        }
     }
 
     fn run_chunk(

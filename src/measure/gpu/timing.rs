@@ -16,7 +16,7 @@
 use super::device::{scoped, Gpu, GpuError};
 use crate::input::scene::GpuScene;
 use crate::kernel::methods::Method;
-use crate::kernel::{KernelError, WORKGROUP_SIZE};
+use crate::kernel::WORKGROUP_SIZE;
 use std::fmt;
 use std::time::Instant;
 
@@ -80,6 +80,8 @@ struct Timestamps {
 pub struct DispatchTimer<'g> {
     gpu: &'g Gpu,
     chunks: Vec<Chunk>,
+    /// The scenes, for the loop-trip check of a method with loops of no static trip count.
+    scenes: Vec<GpuScene>,
     configurations: usize,
     timestamps: Option<Timestamps>,
 }
@@ -135,6 +137,7 @@ impl Gpu {
             DispatchTimer {
                 gpu: self,
                 chunks,
+                scenes: scenes.to_vec(),
                 configurations: scenes.len(),
                 timestamps,
             }
@@ -270,9 +273,12 @@ impl DispatchTimer<'_> {
     }
 
     /// Compiles `method` exactly as [`Gpu::pipeline`] does for a run (the same composition,
-    /// override names and values), so what is timed is what is measured.
-    pub fn pipeline(&self, method: &Method) -> Result<TimedPipeline, KernelError> {
+    /// override names and values), so what is timed is what is measured; and, as a run does,
+    /// refuses a method whose loops reach the driver's limit on these scenes (a time of loops
+    /// the driver cut short is not the method's).
+    pub fn pipeline(&self, method: &Method) -> anyhow::Result<TimedPipeline> {
         let compiled = self.gpu.pipeline(method)?;
+        self.gpu.check_trips(&compiled, &self.scenes, 0)?;
         Ok(TimedPipeline {
             id: compiled.id,
             pipeline: compiled.pipeline,

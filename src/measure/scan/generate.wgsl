@@ -19,7 +19,7 @@ struct LlScanParams {
     capture: u32,    // capture slots
     bound: f32,      // values above it count (when has_bound)
     has_bound: u32,
-    pad0: u32,
+    trip_limit: u32, // loop trips that count as cut short by the driver (0: not counted)
     pad1: u32,
     // (kind, a, b, default): kind 0 fixed a, 1 uniform [a, b], 2 log-uniform, 3 signed
     // log-uniform, 4 absent (the default). Slots: see LL_* below.
@@ -39,9 +39,11 @@ struct LlCaptured {
 }
 
 @group(0) @binding(3) var<uniform> ll_scan: LlScanParams;
-// nan, inf, negative, above, captured
+// nan, inf, negative, above, captured, cut short by the driver's loop limit, degenerate (skipped)
 @group(0) @binding(4) var<storage, read_write> ll_counts: array<atomic<u32>, 8>;
 @group(0) @binding(5) var<storage, read_write> ll_captured: array<LlCaptured>;
+// Loop-body executions of this invocation, when the method's loops are counted (gpu/loops.rs).
+var<private> ll_trips: u32;
 
 const LL_DISTANCE: u32 = 0u;
 const LL_ELEVATION: u32 = 1u;
@@ -159,6 +161,46 @@ fn ll_generate(lo: u32, hi: u32) -> Scene {
     return s;
 }
 
+// f32 bits of 2^60 and 2^-60: the sizes the sweep's configurations must lie within
+// (src/input/scene.rs, F32_SCALE). Compared as bits: NaN and inf fail, whatever a compiler
+// assumes of comparisons with NaN.
+const LL_BIG: u32 = 0x5D800000u;
+const LL_SMALL: u32 = 0x21800000u;
+
+fn ll_within(x: f32, lo: u32, hi: u32) -> bool {
+    let b = bitcast<u32>(abs(x));
+    return b >= lo && b <= hi;
+}
+
+fn ll_entries(v: vec3<f32>) -> bool {
+    return ll_within(v.x, 0u, LL_BIG) && ll_within(v.y, 0u, LL_BIG) && ll_within(v.z, 0u, LL_BIG);
+}
+
+// A configuration the sweep's sampler would redraw (src/input/scene.rs, `validate`): not
+// representable in f32 (size outside 2^±60, an M⁻¹ entry above 2^60), the shading point on the
+// segment, or a singular M⁻¹. Its value would be the generator's failure, not the method's.
+fn ll_degenerate(s: Scene) -> bool {
+    let size = max(length(s.p1), length(s.p2));
+    if (!ll_within(size, LL_SMALL, LL_BIG)) {
+        return true;
+    }
+    let m = s.minv;
+    if (!(ll_entries(m[0]) && ll_entries(m[1]) && ll_entries(m[2]))) {
+        return true;
+    }
+    let e = s.p2 - s.p1;
+    let ee = dot(e, e);
+    if (!(ee > 0.0)) {
+        return true;
+    }
+    let t = clamp(-dot(s.p1, e) / ee, 0.0, 1.0);
+    if (!(length(s.p1 + t * e) > 1e-12 * size)) {
+        return true;
+    }
+    let det = determinant(s.minv);
+    return !ll_within(det, 1u, 0x7F7FFFFFu);
+}
+
 @compute @workgroup_size(64)
 fn ll_scan_main(@builtin(global_invocation_id) ll_id: vec3<u32>) {
     let ll_i = ll_id.x;
@@ -168,8 +210,16 @@ fn ll_scan_main(@builtin(global_invocation_id) ll_id: vec3<u32>) {
     let lo = ll_scan.base_lo + ll_i;
     let hi = ll_scan.base_hi + select(0u, 1u, lo < ll_scan.base_lo);
     {scene} = ll_generate(lo, hi);
+    if (ll_degenerate(ll_scene)) {
+        atomicAdd(&ll_counts[6], 1u);
+        return;
+    }
     Minv = ll_scene.minv;
     let value = method(ll_scene);
+    if (ll_scan.trip_limit != 0u && ll_trips >= ll_scan.trip_limit) {
+        atomicAdd(&ll_counts[5], 1u);
+        return;
+    }
     // NaN and inf from the bits: a compiler may assume comparisons see no NaN.
     let bits = bitcast<u32>(value);
     let special = (bits & 0x7f800000u) == 0x7f800000u;

@@ -11,7 +11,7 @@ use crate::input::scene::{Config, Material};
 use crate::input::target::Target;
 use crate::kernel::compose_with;
 use crate::kernel::methods::Method;
-use crate::measure::gpu::{override_constants, scoped, Gpu};
+use crate::measure::gpu::{count_trips, override_constants, scoped, truncated, Gpu};
 use anyhow::Context;
 use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
@@ -23,6 +23,9 @@ const WORKGROUP: u64 = 64;
 const PER_DISPATCH: u64 = 1 << 22;
 /// Dispatches per submit (one readback of the counts each).
 const PER_SUBMIT: u64 = 8;
+/// The most offending configurations `--capture` keeps per method and family: a buffer of
+/// 5 MiB on the device, well inside every device's storage binding.
+pub const MAX_CAPTURE: usize = 1 << 16;
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -37,7 +40,9 @@ struct Params {
     capture: u32,
     bound: f32,
     has_bound: u32,
-    pad: [u32; 2],
+    /// Loop trips at which a configuration counts as cut short by the driver (0: not counted).
+    trip_limit: u32,
+    pad: u32,
     dists: [[f32; 4]; 16],
 }
 
@@ -58,7 +63,11 @@ struct Captured {
 pub struct ScanResult {
     pub method: String,
     pub family: String,
+    /// Configurations evaluated: those generated, less the degenerate ones.
     pub configurations: u64,
+    /// Generated configurations the sweep's sampler would redraw (not representable in f32,
+    /// the shading point on the segment, a singular M⁻¹): skipped, never evaluated.
+    pub degenerate: u64,
     pub nan: u64,
     pub inf: u64,
     pub negative: u64,
@@ -169,6 +178,10 @@ pub fn scan(
     progress: &mut dyn FnMut(u64, u64),
 ) -> anyhow::Result<ScanResult> {
     let ScanSize { count, capture, bound } = size;
+    anyhow::ensure!(
+        capture <= MAX_CAPTURE,
+        "--capture {capture}: at most {MAX_CAPTURE} offending configurations are kept per method and family"
+    );
     if !matches!(method.target(), Target::Line | Target::LineUpper) {
         anyhow::bail!(
             "scan generates line configurations only: `{}` approximates `{}`",
@@ -188,11 +201,19 @@ pub fn scan(
             fam.kind
         ),
     };
-    let composed = compose_with(
+    // The driver's loop limit, as every command applies it (gpu/loops.rs): a static trip
+    // count past it is refused here; loops of no static trip count are counted in the same
+    // dispatch, and a configuration that reaches `trip_limit` stops the scan.
+    let trip_limit = gpu.check_loops(method)?;
+    let mut composed = compose_with(
         &method.kernel,
         method.inner.as_deref().map(|m| &m.kernel),
         gpu.capabilities,
     )?;
+    if trip_limit.is_some() {
+        composed.source = count_trips(&composed.source);
+    }
+    let trip_limit = trip_limit.map_or(0, |l| u32::try_from(l.max(1)).unwrap_or(u32::MAX));
     let (_, _, constants) = override_constants(method, &composed)?;
     let constants: Vec<(&str, f64)> = constants.iter().map(|(n, v)| (n.as_str(), *v)).collect();
     let scene = if method.kernel.uses_line {
@@ -270,7 +291,19 @@ pub fn scan(
     let per_dispatch = PER_DISPATCH.min(u64::from(device.limits().max_compute_workgroups_per_dimension) * WORKGROUP);
     let start = std::time::Instant::now();
     let (mut totals, mut captured) = ([0u64; 4], Vec::<Captured>::new());
-    let mut done = 0u64;
+    let (mut done, mut degenerate) = (0u64, 0u64);
+    // As the sweep's sampler: past 1 % (+10) the skipped ones would change the distribution.
+    let allowed = crate::input::sampler::redraw_limit(usize::try_from(count).unwrap_or(usize::MAX)) as u64;
+    let too_many = |degenerate: u64| {
+        anyhow::anyhow!(
+            "case `{}`: family `{}`: {degenerate} of {count} generated configurations were degenerate (more than \
+             the {allowed} the sweep would redraw, which would change the distribution): not representable in \
+             f32 (size outside 2^±60, an M⁻¹ entry above 2^60), the shading point on the segment or a singular \
+             M⁻¹; check distance, length, center or the lobe's alpha, aspect, peak, shear",
+            case.name,
+            fam.name
+        )
+    };
     while done < count {
         let mut encoder = device.create_command_encoder(&Default::default());
         encoder.clear_buffer(&counts, 0, None);
@@ -295,7 +328,8 @@ pub fn scan(
                     capture: (capture - captured.len().min(capture)) as u32,
                     bound: bound.unwrap_or(0.0) as f32,
                     has_bound: bound.is_some() as u32,
-                    pad: [0; 2],
+                    trip_limit,
+                    pad: 0,
                     dists: dists(case, family),
                 };
                 gpu.queue
@@ -332,6 +366,21 @@ pub fn scan(
             for (t, &n) in totals.iter_mut().zip(c) {
                 *t += u64::from(n);
             }
+            degenerate += u64::from(c[6]);
+            if degenerate > allowed {
+                return Err(too_many(degenerate));
+            }
+            if c[5] > 0 {
+                // Earlier submits had none: these are of the first done + in_submit.
+                return Err(truncated(
+                    &format!("{} on family `{}`", method.describe(), fam.name),
+                    u64::from(c[5]),
+                    done + in_submit,
+                    None,
+                    u64::from(trip_limit),
+                )
+                .into());
+            }
             // This submit wrote min(offenders, slots asked for) records, from slot 0.
             let asked = capture - captured.len().min(capture);
             let wrote = (c[4] as usize).min(asked);
@@ -343,8 +392,9 @@ pub fn scan(
         progress(done, totals.iter().sum());
     }
     let seconds = start.elapsed().as_secs_f64();
+    let evaluated = count - degenerate;
     let offending: u64 = totals.iter().sum();
-    let (rate_low, rate_high) = clopper_pearson(offending, count);
+    let (rate_low, rate_high) = clopper_pearson(offending, evaluated);
     let captured = captured
         .iter()
         .map(|c| {
@@ -368,12 +418,13 @@ pub fn scan(
     Ok(ScanResult {
         method: method.label.clone(),
         family: fam.name.clone(),
-        configurations: count,
+        configurations: evaluated,
+        degenerate,
         nan: totals[0],
         inf: totals[1],
         negative: totals[2],
         above_bound: bound.map(|_| totals[3]),
-        rate: offending as f64 / count as f64,
+        rate: offending as f64 / evaluated.max(1) as f64,
         rate_low,
         rate_high,
         seconds,

@@ -1,0 +1,355 @@
+//! The shard record `OUT/shard-I-of-N.cbor` (`sweep --shard I/N`, read by `linelight merge`;
+//! docs/scale.md): the mergeable state and what it was measured from. The case file and every
+//! `--kernel` file are recorded by their path relative to the record's own folder (so a merge
+//! run from another folder finds them) and by the SHA-256 of their contents, as is the text of
+//! every method's kernel (built-ins included): a merge refuses a file changed since sharding,
+//! which would otherwise mix the old statistics with the new file's op counts and attribution.
+
+use super::sweep::{Partial, SHARD_FORMAT};
+use crate::kernel::methods::Method;
+use anyhow::Context;
+use sha2::Digest;
+use std::path::{Path, PathBuf};
+
+/// A file a shard ran, as recorded.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Recorded {
+    /// As given on the shard's command line (shown in messages).
+    pub given: PathBuf,
+    /// Relative to the folder of the shard record.
+    pub relative: PathBuf,
+    /// Absolute, where the shard ran (tried when the relative path finds nothing).
+    pub absolute: PathBuf,
+    /// SHA-256 of the contents, hex.
+    pub sha256: String,
+}
+
+impl Recorded {
+    /// Records `path`, whose contents are `bytes`, for a shard record in `out`.
+    pub fn new(path: &Path, bytes: &[u8], out: &Path) -> Recorded {
+        Recorded {
+            given: path.to_path_buf(),
+            relative: relative_to(path, out),
+            absolute: crate::io::resolved(path),
+            sha256: sha256(bytes),
+        }
+    }
+
+    /// Reads the file `path` and records it.
+    pub fn read(path: &Path, out: &Path) -> anyhow::Result<Recorded> {
+        let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+        Ok(Recorded::new(path, &bytes, out))
+    }
+
+    /// The file as it is now, found from the record in `folder` (then at the absolute path),
+    /// and its contents: refused when it is missing or its contents changed.
+    fn find(&self, what: &str, folder: &Path) -> anyhow::Result<(PathBuf, Vec<u8>)> {
+        let near = crate::io::resolved(&crate::io::resolved(folder).join(&self.relative));
+        let path = [near.clone(), self.absolute.clone()]
+            .into_iter()
+            .find(|p| p.is_file())
+            .ok_or_else(|| {
+                anyhow::anyhow!(
+                    "merge: the {what} {} the shards ran is neither at {} (beside the shard record) nor at {}",
+                    self.given.display(),
+                    near.display(),
+                    self.absolute.display()
+                )
+            })?;
+        let bytes =
+            std::fs::read(&path).with_context(|| format!("merge: cannot read the {what} {}", path.display()))?;
+        let now = sha256(&bytes);
+        anyhow::ensure!(
+            now == self.sha256,
+            "merge: the {what} {} changed since the shards ran (SHA-256 {} now, {} then): its statistics \
+             would be mixed with the new file's; restore it or re-run the shards",
+            path.display(),
+            short(&now),
+            short(&self.sha256)
+        );
+        Ok((path, bytes))
+    }
+}
+
+/// What a shard ran: its record without the state.
+struct Ran {
+    case: Recorded,
+    kernels: Vec<Recorded>,
+    sources: Vec<(String, String)>,
+}
+
+impl Ran {
+    /// Every content hash: equal for the shards of one sweep.
+    fn hashes(&self) -> Vec<&str> {
+        let files = std::iter::once(&self.case)
+            .chain(&self.kernels)
+            .map(|r| r.sha256.as_str());
+        files.chain(self.sources.iter().map(|(_, h)| h.as_str())).collect()
+    }
+}
+
+/// A shard record: what the shard ran and its state.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct ShardFile {
+    case: Recorded,
+    /// The `--kernel` files, in command-line order.
+    kernels: Vec<Recorded>,
+    /// (method label, SHA-256 of its kernel's source) for every method the shard measured.
+    sources: Vec<(String, String)>,
+    state: Partial,
+}
+
+/// The shard records given to a merge, checked against each other and against the files now.
+pub struct Shards {
+    /// The case file as found now (its contents are those the shards ran).
+    pub case_path: PathBuf,
+    /// How to show the case file: as given to the shards, when that still names it.
+    pub case_shown: String,
+    pub case_text: String,
+    pub kernels: Vec<PathBuf>,
+    sources: Vec<(String, String)>,
+    /// The record the merge read the files from (for messages).
+    first: PathBuf,
+    pub parts: Vec<Partial>,
+}
+
+impl Shards {
+    /// Refuses a merge whose methods' kernels (built-ins included, which come with the
+    /// binary) are not the text the shards measured.
+    pub fn check_sources(&self, methods: &[Method]) -> anyhow::Result<()> {
+        for m in methods {
+            let then = self.sources.iter().find(|(l, _)| *l == m.label).map(|(_, h)| h);
+            let now = source_sha256(m);
+            if then.is_some_and(|t| *t != now) {
+                anyhow::bail!(
+                    "merge: the kernel of `{}` ({}) is not the one the shards measured ({}): its statistics \
+                     would be mixed with the new kernel's op counts and attribution; re-run the shards with this \
+                     kernel and this linelight",
+                    crate::input::names::clip(&m.label),
+                    m.kernel.path,
+                    self.first.display()
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Writes `OUT/shard-I-of-N.cbor` (atomically); returns its path. `case` and `kernels` were
+/// recorded when the sweep read them.
+pub fn write_shard(
+    out: &Path,
+    case: Recorded,
+    kernels: Vec<Recorded>,
+    methods: &[Method],
+    part: &Partial,
+) -> anyhow::Result<PathBuf> {
+    let (i, n) = part.shard;
+    let path = out.join(format!("shard-{i}-of-{n}.cbor"));
+    let file = ShardFile {
+        case,
+        kernels,
+        sources: methods.iter().map(|m| (m.label.clone(), source_sha256(m))).collect(),
+        state: part.clone(),
+    };
+    let mut bytes = Vec::new();
+    ciborium::into_writer(&file, &mut bytes).context("cannot encode the shard state")?;
+    crate::io::write_bytes(&path, &bytes)?;
+    Ok(path)
+}
+
+/// Only the format of a record, readable in every version (each keeps `state.format`).
+#[derive(serde::Deserialize)]
+struct Probe {
+    state: ProbeState,
+}
+
+#[derive(serde::Deserialize)]
+struct ProbeState {
+    format: u32,
+}
+
+/// Every `shard-*-of-*.cbor` in the given directories, checked: one format (this
+/// linelight's), one case and one set of kernels, unchanged since the shards ran.
+pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Shards> {
+    let mut files = Vec::new();
+    for d in dirs {
+        let entries = std::fs::read_dir(d).with_context(|| format!("merge: cannot read {}", d.display()))?;
+        for e in entries {
+            let p = e?.path();
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+            if name.starts_with("shard-") && name.ends_with(".cbor") {
+                files.push(p);
+            }
+        }
+    }
+    files.sort();
+    anyhow::ensure!(
+        !files.is_empty(),
+        "merge: no shard-I-of-N.cbor in {}",
+        dirs.iter()
+            .map(|d| d.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let mut first: Option<(PathBuf, Ran)> = None;
+    let mut parts = Vec::new();
+    for p in files {
+        let bytes = std::fs::read(&p).with_context(|| format!("merge: cannot read {}", p.display()))?;
+        let probe: Probe = ciborium::from_reader(bytes.as_slice()).map_err(|e| {
+            anyhow::anyhow!(
+                "merge: {} is not a linelight shard record: {}",
+                p.display(),
+                cbor_error(&e)
+            )
+        })?;
+        anyhow::ensure!(
+            probe.state.format == SHARD_FORMAT,
+            "merge: {} is a shard record of format {}; this linelight reads format {SHARD_FORMAT} (which records \
+             the case's and kernels' contents): re-run the shards with this linelight (`linelight sweep CASE \
+             --shard I/N --out DIR`)",
+            p.display(),
+            probe.state.format
+        );
+        let f: ShardFile = ciborium::from_reader(bytes.as_slice()).map_err(|e| {
+            anyhow::anyhow!(
+                "merge: {} is not a linelight shard record: {}",
+                p.display(),
+                cbor_error(&e)
+            )
+        })?;
+        let ShardFile {
+            case,
+            kernels,
+            sources,
+            state,
+        } = f;
+        let ran = Ran { case, kernels, sources };
+        match &first {
+            None => first = Some((p, ran)),
+            Some((p0, r0)) => anyhow::ensure!(
+                ran.hashes() == r0.hashes(),
+                "merge: {} ran the case file {} with the kernels [{}], and {} ran {} with [{}], not the same \
+                 contents: the shards of one sweep run the same files",
+                p.display(),
+                ran.case.given.display(),
+                shown(&ran.kernels),
+                p0.display(),
+                r0.case.given.display(),
+                shown(&r0.kernels)
+            ),
+        }
+        parts.push(state);
+    }
+    let (record, file) = first.expect("at least one file");
+    let folder = record.parent().unwrap_or(Path::new("."));
+    let (case_path, case_bytes) = file.case.find("case file", folder)?;
+    let case_text = String::from_utf8(case_bytes)
+        .map_err(|_| anyhow::anyhow!("merge: the case file {} is not UTF-8", case_path.display()))?;
+    let kernels = file
+        .kernels
+        .iter()
+        .map(|k| k.find("kernel", folder).map(|(p, _)| p))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    // The path as the shards were given it, when it still names the same file from here.
+    let case_shown = if crate::io::resolved(&file.case.given) == crate::io::resolved(&case_path) {
+        file.case.given.display().to_string()
+    } else {
+        case_path.display().to_string()
+    };
+    Ok(Shards {
+        case_path,
+        case_shown,
+        case_text,
+        kernels,
+        sources: file.sources,
+        first: record,
+        parts,
+    })
+}
+
+fn shown(kernels: &[Recorded]) -> String {
+    kernels
+        .iter()
+        .map(|k| k.given.display().to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// A CBOR decoding error in words (ciborium's own text is its Debug form).
+fn cbor_error(e: &ciborium::de::Error<std::io::Error>) -> String {
+    use ciborium::de::Error;
+    match e {
+        Error::Io(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            "it ends early (truncated, or still being written)".to_string()
+        }
+        Error::Io(io) => io.to_string(),
+        Error::Syntax(at) => format!("not CBOR at byte {at}"),
+        Error::Semantic(Some(at), m) => format!("{} (at byte {at})", crate::input::names::clip(m)),
+        Error::Semantic(None, m) => crate::input::names::clip(m),
+        Error::RecursionLimitExceeded => "nested too deeply".to_string(),
+    }
+}
+
+/// SHA-256 of `bytes`, hex.
+pub fn sha256(bytes: &[u8]) -> String {
+    format!("{:x}", sha2::Sha256::digest(bytes))
+}
+
+/// The first 12 hex digits, enough to tell two hashes apart in a message.
+fn short(hash: &str) -> &str {
+    &hash[..hash.len().min(12)]
+}
+
+/// SHA-256 of what a method's values come from: its kernel's text (every part of a derived
+/// kernel, the GLSL a kernel was translated from) and its inner method's, paths left out.
+fn source_sha256(m: &Method) -> String {
+    let mut h = sha2::Sha256::new();
+    for k in std::iter::once(&m.kernel).chain(m.inner.as_deref().map(|i| &i.kernel)) {
+        for (_, text) in k.parts() {
+            h.update(text.as_bytes());
+            h.update([0]);
+        }
+        if let Some(origin) = &k.origin {
+            h.update(origin.text.as_bytes());
+            h.update([0]);
+        }
+    }
+    format!("{:x}", h.finalize())
+}
+
+/// `path` relative to the folder `base`, both resolved (symlinks, `..`): `../case.toml`.
+fn relative_to(path: &Path, base: &Path) -> PathBuf {
+    let (p, b) = (crate::io::resolved(path), crate::io::resolved(base));
+    let common = p.components().zip(b.components()).take_while(|(x, y)| x == y).count();
+    let mut out = PathBuf::new();
+    for _ in b.components().skip(common) {
+        out.push("..");
+    }
+    for c in p.components().skip(common) {
+        out.push(c);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relative_paths_and_hashes() {
+        assert_eq!(
+            relative_to(Path::new("/a/b/case.toml"), Path::new("/a/c/d")),
+            PathBuf::from("../../b/case.toml")
+        );
+        assert_eq!(
+            relative_to(Path::new("/a/x.wgsl"), Path::new("/a")),
+            PathBuf::from("x.wgsl")
+        );
+        // The SHA-256 of "abc" (FIPS 180-2, appendix B.1).
+        assert_eq!(
+            sha256(b"abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+    }
+}
