@@ -5,11 +5,117 @@
 //! every method's kernel (built-ins included): a merge refuses a file changed since sharding,
 //! which would otherwise mix the old statistics with the new file's op counts and attribution.
 
-use super::sweep::{Partial, SHARD_FORMAT};
+use crate::analyse::analysis::{Accumulators, LeakAccumulator};
+use crate::app::gate::Observations;
 use crate::kernel::methods::Method;
+use crate::measure::sweep::{self, Setup};
 use anyhow::Context;
 use sha2::Digest;
 use std::path::{Path, PathBuf};
+
+/// The version of the shard record (`--shard`, docs/scale.md; 4 records the contents of the
+/// case and kernels, `app::shard`).
+pub const SHARD_FORMAT: u32 = 4;
+
+/// What measuring a sweep's configurations, or one shard's, leaves before the searches and
+/// the cost pass: mergeable (`linelight merge`). Written by `sweep --shard i/n`.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Partial {
+    pub format: u32,
+    pub case: String,
+    pub seed: u64,
+    pub count_override: Option<usize>,
+    /// (i, n): this part is shard i of n; (0, 1) for a whole run.
+    pub shard: (usize, usize),
+    pub methods: Vec<String>,
+    /// The statistics, folded in chunk by chunk.
+    pub accumulators: Accumulators,
+    pub leak: LeakAccumulator,
+    /// The measure stage's kept state, draws and times.
+    pub measured: sweep::Part,
+    /// The gate's observations, when asked for (never in a shard file: the gate is unsharded).
+    #[serde(skip)]
+    pub observations: Option<Observations>,
+}
+
+impl Partial {
+    /// Merges shards 0..n of one sweep (each exactly once) into the state of the whole run.
+    pub fn merge_all(setup: &Setup, mut parts: Vec<Partial>) -> anyhow::Result<Partial> {
+        anyhow::ensure!(!parts.is_empty(), "merge: no shard states given");
+        parts.sort_by_key(|p| p.shard.0);
+        let n = parts[0].shard.1;
+        let labels: Vec<String> = setup.methods.iter().map(|m| m.label.clone()).collect();
+        for (k, p) in parts.iter().enumerate() {
+            anyhow::ensure!(
+                p.format == SHARD_FORMAT,
+                "merge: shard {}/{} is a record of format {}; this linelight reads format {SHARD_FORMAT}: re-run the shards",
+                p.shard.0,
+                p.shard.1,
+                p.format
+            );
+            // `--count 50`, or the case's own counts.
+            let count = |c: Option<usize>| c.map_or("the case's counts".to_string(), |n| format!("--count {n}"));
+            anyhow::ensure!(
+                p.case == setup.case.name && p.seed == setup.case.seed && p.count_override == setup.count_override,
+                "merge: shard {}/{} is of case `{}`, seed {}, {}; not of case `{}`, seed {}, {}",
+                p.shard.0,
+                p.shard.1,
+                crate::input::names::clip(&p.case),
+                p.seed,
+                count(p.count_override),
+                setup.case.name,
+                setup.case.seed,
+                count(setup.count_override)
+            );
+            anyhow::ensure!(
+                p.methods == labels,
+                "merge: shard {}/{} measured the methods {}; the case has {}",
+                p.shard.0,
+                p.shard.1,
+                crate::input::names::clip(&p.methods.join(", ")),
+                crate::input::names::clip(&labels.join(", "))
+            );
+            anyhow::ensure!(
+                p.shard.0 < p.shard.1,
+                "merge: a record claims to be shard {}/{}, which no sweep writes",
+                p.shard.0,
+                p.shard.1
+            );
+            // Sorted by index: place k holds shard k of n, when each is given once.
+            anyhow::ensure!(
+                p.shard.1 == n,
+                "merge: shard {}/{} is of a sweep in {} shards, shard {}/{n} of one in {n}",
+                p.shard.0,
+                p.shard.1,
+                p.shard.1,
+                parts[0].shard.0
+            );
+            if p.shard.0 != k {
+                let given = if p.shard.0 < k { "given twice" } else { "missing" };
+                let which = if p.shard.0 < k { p.shard.0 } else { k };
+                anyhow::bail!(
+                    "merge: shard {which}/{n} is {given}: give each of {n} shards once (0/{n} … {}/{n})",
+                    n - 1
+                );
+            }
+        }
+        anyhow::ensure!(
+            parts.len() == n,
+            "merge: shard {}/{n} is missing: give each of {n} shards once (0/{n} … {}/{n})",
+            parts.len(),
+            n - 1
+        );
+        let mut it = parts.into_iter();
+        let mut all = it.next().expect("not empty");
+        for p in it {
+            all.accumulators.merge(&p.accumulators).map_err(anyhow::Error::msg)?;
+            all.leak.merge(&p.leak);
+            all.measured.merge(p.measured, &setup.case);
+        }
+        all.shard = (0, 1);
+        Ok(all)
+    }
+}
 
 /// A file a shard ran, as recorded.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]

@@ -4,7 +4,7 @@
 //! before it is dropped. Also the shard state files (`--shard`, `linelight merge`,
 //! docs/scale.md), which hold both the measure stage's kept state and the statistics.
 
-use super::shard::{read_shards, write_shard, Recorded};
+use super::shard::{read_shards, write_shard, Partial, Recorded, SHARD_FORMAT};
 use super::{kernel_inputs, open_gpu, GpuOptions, Status};
 use crate::analyse::analysis::{Accumulators, Chunk, Leak, LeakAccumulator, Verdict};
 use crate::analyse::summary::Summary;
@@ -452,31 +452,6 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
     })
 }
 
-/// The version of the shard record (`--shard`, docs/scale.md; 4 records the contents of the
-/// case and kernels, `app::shard`).
-pub const SHARD_FORMAT: u32 = 4;
-
-/// What measuring a sweep's configurations, or one shard's, leaves before the searches and
-/// the cost pass: mergeable (`linelight merge`). Written by `sweep --shard i/n`.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub struct Partial {
-    pub format: u32,
-    pub case: String,
-    pub seed: u64,
-    pub count_override: Option<usize>,
-    /// (i, n): this part is shard i of n; (0, 1) for a whole run.
-    pub shard: (usize, usize),
-    pub methods: Vec<String>,
-    /// The statistics, folded in chunk by chunk.
-    pub accumulators: Accumulators,
-    pub leak: LeakAccumulator,
-    /// The measure stage's kept state, draws and times.
-    pub measured: sweep::Part,
-    /// The gate's observations, when asked for (never in a shard file: the gate is unsharded).
-    #[serde(skip)]
-    pub observations: Option<Observations>,
-}
-
 /// A measured sweep with its folded statistics: what the analysis, the report and the gate
 /// are made from.
 pub struct Swept {
@@ -543,83 +518,4 @@ pub fn finish(setup: &Setup, gpu: &Gpu, part: Partial) -> anyhow::Result<Swept> 
 pub fn measure(setup: &Setup, gpu: &Gpu, options: MeasureOptions, observe: bool) -> anyhow::Result<Swept> {
     let part = measure_part(setup, gpu, options, observe)?;
     finish(setup, gpu, part)
-}
-
-impl Partial {
-    /// Merges shards 0..n of one sweep (each exactly once) into the state of the whole run.
-    pub fn merge_all(setup: &Setup, mut parts: Vec<Partial>) -> anyhow::Result<Partial> {
-        anyhow::ensure!(!parts.is_empty(), "merge: no shard states given");
-        parts.sort_by_key(|p| p.shard.0);
-        let n = parts[0].shard.1;
-        let labels: Vec<String> = setup.methods.iter().map(|m| m.label.clone()).collect();
-        for (k, p) in parts.iter().enumerate() {
-            anyhow::ensure!(
-                p.format == SHARD_FORMAT,
-                "merge: shard {}/{} is a record of format {}; this linelight reads format {SHARD_FORMAT}: re-run the shards",
-                p.shard.0,
-                p.shard.1,
-                p.format
-            );
-            // `--count 50`, or the case's own counts.
-            let count = |c: Option<usize>| c.map_or("the case's counts".to_string(), |n| format!("--count {n}"));
-            anyhow::ensure!(
-                p.case == setup.case.name && p.seed == setup.case.seed && p.count_override == setup.count_override,
-                "merge: shard {}/{} is of case `{}`, seed {}, {}; not of case `{}`, seed {}, {}",
-                p.shard.0,
-                p.shard.1,
-                crate::input::names::clip(&p.case),
-                p.seed,
-                count(p.count_override),
-                setup.case.name,
-                setup.case.seed,
-                count(setup.count_override)
-            );
-            anyhow::ensure!(
-                p.methods == labels,
-                "merge: shard {}/{} measured the methods {}; the case has {}",
-                p.shard.0,
-                p.shard.1,
-                crate::input::names::clip(&p.methods.join(", ")),
-                crate::input::names::clip(&labels.join(", "))
-            );
-            anyhow::ensure!(
-                p.shard.0 < p.shard.1,
-                "merge: a record claims to be shard {}/{}, which no sweep writes",
-                p.shard.0,
-                p.shard.1
-            );
-            // Sorted by index: place k holds shard k of n, when each is given once.
-            anyhow::ensure!(
-                p.shard.1 == n,
-                "merge: shard {}/{} is of a sweep in {} shards, shard {}/{n} of one in {n}",
-                p.shard.0,
-                p.shard.1,
-                p.shard.1,
-                parts[0].shard.0
-            );
-            if p.shard.0 != k {
-                let given = if p.shard.0 < k { "given twice" } else { "missing" };
-                let which = if p.shard.0 < k { p.shard.0 } else { k };
-                anyhow::bail!(
-                    "merge: shard {which}/{n} is {given}: give each of {n} shards once (0/{n} … {}/{n})",
-                    n - 1
-                );
-            }
-        }
-        anyhow::ensure!(
-            parts.len() == n,
-            "merge: shard {}/{n} is missing: give each of {n} shards once (0/{n} … {}/{n})",
-            parts.len(),
-            n - 1
-        );
-        let mut it = parts.into_iter();
-        let mut all = it.next().expect("not empty");
-        for p in it {
-            all.accumulators.merge(&p.accumulators).map_err(anyhow::Error::msg)?;
-            all.leak.merge(&p.leak);
-            all.measured.merge(p.measured, &setup.case);
-        }
-        all.shard = (0, 1);
-        Ok(all)
-    }
 }
