@@ -9,7 +9,7 @@ use crate::analyse::analysis::{Accumulators, Chunk, Leak, LeakAccumulator, Verdi
 use crate::analyse::summary::Summary;
 use crate::app::gate::Observations;
 use crate::input::case::Case;
-use crate::io::{check_output, check_set, stage_output};
+use crate::io::{stage_output, OutputPlan, SetKind};
 use crate::measure::gpu::Gpu;
 use crate::measure::sweep::{self, MeasureOptions, Measured, Setup};
 use anyhow::Context;
@@ -66,18 +66,38 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
         anyhow::bail!("--shard writes a shard state only: --raw and the gate options belong to the unsharded sweep");
     }
     let loaded = crate::input::case::Case::load(&case)?;
-    // Every output is checked before any work: the report folder, then --raw.
+    // Every output is checked before any work, together: the report folder (or the shard
+    // state), --raw, --save-baseline and --junit.
     let dir = out.join(&loaded.name);
-    if shard.is_none() {
-        check_set(&dir)?;
+    let mut plan = OutputPlan::new();
+    plan.input("the case file", &case);
+    for (what, path) in kernel_inputs(&gpu.kernels) {
+        plan.input(what, path);
     }
+    if let Some(base) = &gate.baseline {
+        plan.input("--baseline", base);
+    }
+    match shard {
+        Some((i, n)) => plan.file("--shard", &shard_path(&out, i, n)),
+        None => plan.set("--out", &dir, SetKind::Sweep),
+    };
     if let Some(raw) = &raw {
-        let mut inputs = vec![("the case file", case.as_path())];
-        inputs.extend(kernel_inputs(&gpu.kernels));
-        check_output("--raw", raw, &inputs, &[&dir])?;
+        plan.file("--raw", raw);
     }
+    if let Some(save) = &gate.save_baseline {
+        plan.set("--save-baseline", save, SetKind::Baseline);
+    }
+    if let Some(junit) = &gate.junit {
+        plan.file("--junit", junit);
+    }
+    plan.check()?;
     let command_line = shell_words::join(std::env::args());
-    let setup = prepare_with(loaded, &gpu.kernels, count, raw.is_some())?;
+    let holds = Holds {
+        raw: raw.is_some(),
+        observations: gate.save_baseline.is_some() || gate.baseline.is_some(),
+        all_samples: false,
+    };
+    let setup = prepare_with(loaded, &gpu.kernels, count, holds)?;
     // A claim that names what the case does not have is bad input, found before measuring.
     let labels = setup.methods.iter().map(|m| m.label.clone()).collect();
     crate::analyse::claims::check(
@@ -193,8 +213,13 @@ pub fn merge(shards: &[PathBuf], out: &Path, gpu: &GpuOptions) -> anyhow::Result
     let (case_path, kernels, parts) = read_shards(shards)?;
     let loaded = crate::input::case::Case::load(std::path::Path::new(&case_path))?;
     let dir = out.join(&loaded.name);
-    check_set(&dir)?;
-    let setup = prepare_with(loaded, &kernels, parts[0].count_override, false)?;
+    let mut plan = OutputPlan::new();
+    plan.input("the case file", Path::new(&case_path));
+    for k in &kernels {
+        plan.input("--kernel", k);
+    }
+    plan.set("--out", &dir, SetKind::Sweep).check()?;
+    let setup = prepare_with(loaded, &kernels, parts[0].count_override, Holds::default())?;
     let part = Partial::merge_all(&setup, parts)?;
     let gate = crate::app::gate::GateRun::prepare(None, None, None, Default::default(), &setup)?;
     let device = open_gpu(gpu.adapter.as_deref())?;
@@ -313,7 +338,11 @@ fn report_sweep(
 /// Loads and checks everything a sweep needs, without touching the GPU, and draws the whole
 /// sample into `Setup::samples` (bench and others that hold every configuration).
 pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> anyhow::Result<Setup> {
-    let mut setup = prepare_with(case, user_kernels, count, false)?;
+    let holds = Holds {
+        all_samples: true,
+        ..Holds::default()
+    };
+    let mut setup = prepare_with(case, user_kernels, count, holds)?;
     let (mut samples, draws) = crate::input::sampler::sample_case_counted(&setup.case)
         .map_err(|e| anyhow::anyhow!("case `{}`: {e}", setup.case.name))?;
     let (extra, topups) = crate::input::sampler::top_up(&setup.case, &samples);
@@ -324,25 +353,27 @@ pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> an
     Ok(setup)
 }
 
-/// The most configurations per family a sweep takes; stability counts beyond are
-/// `linelight scan`'s.
-pub const MAX_COUNT: usize = 1_000_000_000_000;
+/// What a run holds beside one measuring chunk and the statistics, for its memory estimate.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Holds {
+    /// `--raw` rows are written (a chunk's at a time).
+    pub raw: bool,
+    /// Every natural configuration's observation is kept (the gate's baseline, `diff`).
+    pub observations: bool,
+    /// Every configuration is drawn up front ([`prepare`]: bench).
+    pub all_samples: bool,
+}
 
 /// [`prepare`] for a streamed sweep ([`crate::measure::sweep::measure_part`] draws the sample chunk by chunk): nothing is
-/// sampled here, `samples`, `draws` and `topups` stay empty. `raw` tells whether `--raw` rows
-/// are written (counted in the memory estimate of one chunk).
-pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, raw: bool) -> anyhow::Result<Setup> {
+/// sampled here, `samples`, `draws` and `topups` stay empty. The run's memory ([`memory_budget`]
+/// with what it `holds`) is checked against `--max-memory`.
+pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, holds: Holds) -> anyhow::Result<Setup> {
     let mut case = case;
-    anyhow::ensure!(count != Some(0), "--count must be at least 1");
     if let Some(n) = count {
-        anyhow::ensure!(
-            n <= MAX_COUNT,
-            "--count {n}: more than the {MAX_COUNT} configurations per family a sweep takes (stability \
-             counts beyond are `linelight scan`'s)"
-        );
+        crate::limits::check_count("--count", n as u64).map_err(anyhow::Error::msg)?;
         // The bins' minimum shrinks with the counts, so a quick run stays quick.
         let largest = case.materials.iter().map(|m| m.count).max().unwrap_or(1).max(1);
-        case.min_per_bin = (case.min_per_bin * n).div_ceil(largest).min(case.min_per_bin);
+        case.min_per_bin = case.min_per_bin.saturating_mul(n).div_ceil(largest).min(case.min_per_bin);
         for m in &mut case.materials {
             m.count = n;
         }
@@ -368,46 +399,88 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
             );
         }
     }
-    // Memory before anything is allocated: one measuring chunk of configurations (samples,
-    // scenes, references, values, --raw rows) plus the statistics' bounded accumulators.
-    let bins: u64 = case.bins.iter().map(|b| b.edges.len().saturating_sub(1) as u64).sum();
-    let total = case.materials.iter().fold(0u64, |t, m| {
-        t.saturating_add(m.count as u64)
-            .saturating_add(bins.saturating_mul(case.min_per_bin as u64))
-    });
-    let estimate = crate::limits::sweep_estimate(
-        total.min(crate::measure::sweep::MEASURE_CHUNK as u64),
-        methods.len() as u64,
-        crate::measure::sweep::needed_targets(&methods).len() as u64,
-        raw,
-    );
-    crate::limits::check(
-        &format!("case `{}` with {total} configurations", case.name),
-        estimate,
-        crate::limits::max_memory(),
-    )
-    .map_err(anyhow::Error::msg)?;
-    if let Some(search) = &case.search {
-        // One step's candidates (samples, scenes, references) at a time.
-        let batch = (search.restarts as u64).saturating_mul(search.population as u64);
-        crate::limits::check(
-            &format!(
-                "case `{}`: [search] with {} × {} candidates per step",
-                case.name, search.restarts, search.population
-            ),
-            crate::limits::search_estimate(batch),
-            crate::limits::max_memory(),
-        )
-        .map_err(anyhow::Error::msg)?;
-    }
-    Ok(Setup {
+    let setup = Setup {
         case,
         methods,
         samples: Vec::new(),
         topups: Vec::new(),
         count_override: count,
         draws: Vec::new(),
+    };
+    check_memory(&setup, holds)?;
+    Ok(setup)
+}
+
+/// Refuses a run whose [`memory_budget`] exceeds `--max-memory`, before anything is allocated.
+pub fn check_memory(setup: &Setup, holds: Holds) -> anyhow::Result<()> {
+    let case = &setup.case;
+    let (_, total) = configurations(case);
+    memory_budget(setup, holds)
+        .check(&format!("case `{}` with {total} configurations", case.name))
+        .map_err(anyhow::Error::msg)
+}
+
+/// (natural, natural and top-up) configurations a run of the case may measure: a family's
+/// top-ups fill its bins to `min_per_bin`, within `topup_draws` times its count.
+fn configurations(case: &Case) -> (u64, u64) {
+    let bins: u64 = case.bins.iter().map(|b| b.edges.len().saturating_sub(1) as u64).sum();
+    case.materials.iter().fold((0u64, 0u64), |(n, t), m| {
+        let count = m.count as u64;
+        let topups = bins
+            .saturating_mul(case.min_per_bin as u64)
+            .min(count.saturating_mul(case.topup_draws as u64));
+        (n.saturating_add(count), t.saturating_add(count).saturating_add(topups))
     })
+}
+
+/// The memory of a sweep (and of merge, diff and bench, which run its stages), part by part:
+/// one measuring chunk of configurations (samples, scenes, references, values, --raw rows),
+/// or every configuration when all are drawn up front; every bin and map cell of the
+/// statistics; one step of the worst-case search; the gate's observations.
+pub fn memory_budget(setup: &Setup, holds: Holds) -> crate::limits::Budget {
+    let case = &setup.case;
+    let (naturals, total) = configurations(case);
+    let methods = setup.methods.len() as u64;
+    let targets = crate::measure::sweep::needed_targets(&setup.methods).len() as u64;
+    let mut budget = crate::limits::Budget::new();
+    let held = if holds.all_samples {
+        total
+    } else {
+        total.min(crate::measure::sweep::MEASURE_CHUNK as u64)
+    };
+    budget.add(
+        format!("{held} configurations measured at once"),
+        crate::limits::sweep_estimate(held, methods, targets, holds.raw),
+    );
+    let size = crate::analyse::analysis::statistics_size(case, &setup.methods);
+    let bins: usize = case.bins.iter().map(|b| b.edges.len().saturating_sub(1)).sum();
+    let cells: usize = case
+        .maps
+        .iter()
+        .map(|m| (m.x.edges.len() - 1).saturating_mul(m.y.edges.len() - 1))
+        .fold(0, usize::saturating_add);
+    budget.add(
+        format!("statistics of {bins} bins and {cells} map cells, per method and material",),
+        crate::limits::statistics_estimate(size, total),
+    );
+    if let Some(search) = &case.search {
+        // One step's candidates (samples, scenes, references) at a time.
+        let batch = (search.restarts as u64).saturating_mul(search.population as u64);
+        budget.add(
+            format!(
+                "[search] with {} × {} candidates per step",
+                search.restarts, search.population
+            ),
+            crate::limits::search_estimate(batch),
+        );
+    }
+    if holds.observations {
+        budget.add(
+            format!("the gate's observations of {naturals} configurations"),
+            crate::limits::observations_estimate(naturals, methods),
+        );
+    }
+    budget
 }
 
 /// The version of the shard state file (`--shard`, docs/scale.md).
@@ -564,11 +637,15 @@ struct ShardFile {
     state: Partial,
 }
 
-/// Writes `OUT/shard-I-of-N.cbor` (atomically); returns its path.
+/// Where shard I of N keeps its state: `OUT/shard-I-of-N.cbor`.
+fn shard_path(out: &Path, i: usize, n: usize) -> PathBuf {
+    out.join(format!("shard-{i}-of-{n}.cbor"))
+}
+
+/// Writes `OUT/shard-I-of-N.cbor` (atomically, its folder made by `io`); returns its path.
 pub fn write_shard(out: &Path, case_file: &Path, kernels: &[PathBuf], part: &Partial) -> anyhow::Result<PathBuf> {
     let (i, n) = part.shard;
-    let path = out.join(format!("shard-{i}-of-{n}.cbor"));
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let path = shard_path(out, i, n);
     let file = ShardFile {
         case_file: case_file.display().to_string(),
         kernels: kernels.to_vec(),

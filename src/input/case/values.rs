@@ -83,7 +83,16 @@ pub fn check(case: &Case) -> Result<(), String> {
                 chart_file(&m.name)
             ));
         }
+        // The same cap as `--count`: a case file is no way around it.
+        crate::limits::check_count(&format!("`materials[{i}].count` ="), m.count as u64)?;
         material(m, i)?;
+    }
+    if case.min_per_bin as u64 > crate::limits::MAX_COUNT {
+        return Err(format!(
+            "`min_per_bin` = {}: more than the {} configurations per family a sweep takes",
+            case.min_per_bin,
+            crate::limits::MAX_COUNT
+        ));
     }
     let mut maps = BTreeMap::new();
     for (k, map) in case.maps.iter().enumerate() {
