@@ -254,23 +254,7 @@ impl OutputPlan {
             let (flag, path) = out.flag_path();
             let shown = path.display();
             let target = resolved(path);
-            match out {
-                Planned::File { .. } => check_file(flag, path, &target, &inputs)?,
-                Planned::Set { kind, .. } => {
-                    check_set(flag, path, *kind)?;
-                    for (input, at) in &inputs {
-                        if at.starts_with(&target) {
-                            return Err(fail(format!(
-                                "{flag} {shown}: this {} is replaced whole, and it holds {} {}, an input of \
-                                 this run: choose another folder",
-                                kind.folder(),
-                                input.what,
-                                input.path.display()
-                            )));
-                        }
-                    }
-                }
-            }
+            // Two outputs that collide first: that is the mistake, whatever else holds.
             for (other, at) in &seen {
                 let (other_flag, other_path) = other.flag_path();
                 let same = match (out, other) {
@@ -298,6 +282,23 @@ impl OutputPlan {
                     nested(other, at, flag, path, &target).or_else(|| nested(out, &target, other_flag, other_path, at))
                 {
                     return Err(e);
+                }
+            }
+            match out {
+                Planned::File { .. } => check_file(flag, path, &target, &inputs)?,
+                Planned::Set { kind, .. } => {
+                    check_set(flag, path, *kind)?;
+                    for (input, at) in &inputs {
+                        if at.starts_with(&target) {
+                            return Err(fail(format!(
+                                "{flag} {shown}: this {} is replaced whole, and it holds {} {}, an input of \
+                                 this run: choose another folder",
+                                kind.folder(),
+                                input.what,
+                                input.path.display()
+                            )));
+                        }
+                    }
                 }
             }
             if let Some((dir, kind)) = enclosing_set(&target) {

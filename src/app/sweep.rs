@@ -373,7 +373,11 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
         crate::limits::check_count("--count", n as u64).map_err(anyhow::Error::msg)?;
         // The bins' minimum shrinks with the counts, so a quick run stays quick.
         let largest = case.materials.iter().map(|m| m.count).max().unwrap_or(1).max(1);
-        case.min_per_bin = case.min_per_bin.saturating_mul(n).div_ceil(largest).min(case.min_per_bin);
+        case.min_per_bin = case
+            .min_per_bin
+            .saturating_mul(n)
+            .div_ceil(largest)
+            .min(case.min_per_bin);
         for m in &mut case.materials {
             m.count = n;
         }
