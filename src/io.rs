@@ -564,6 +564,24 @@ pub fn check_set(flag: &str, dir: &Path, kind: SetKind) -> Result<(), OutputErro
     }
 }
 
+/// Reads an input file the user named (a case file, a kernel): any kind of file, a pipe
+/// from `<(…)` included, but at most `max` bytes, so `/dev/zero` or a runaway generator is
+/// refused rather than read without end.
+pub fn read_bounded(path: &Path, what: &str, max: u64) -> Result<Vec<u8>, InputError> {
+    use std::io::Read;
+    let shown = path.display();
+    let err = |e: std::io::Error| InputError(format!("cannot read {what} {shown}: {e}"));
+    let f = fs::File::open(path).map_err(err)?;
+    let mut bytes = Vec::new();
+    f.take(max + 1).read_to_end(&mut bytes).map_err(err)?;
+    if bytes.len() as u64 > max {
+        return Err(InputError(format!(
+            "{what} {shown} is larger than {max} bytes: not read further"
+        )));
+    }
+    Ok(bytes)
+}
+
 /// Reads an input file that a folder names (a baseline's files, a report folder's marker):
 /// it must be a regular file of at most `max` bytes. It is opened without blocking, so a
 /// FIFO is refused, never waited on, and a device is never read without end.

@@ -143,6 +143,9 @@ pub const MAX_SCAN_COUNT: u64 = 1_000_000_000_000_000;
 /// The most timed or warm-up rounds a bench runs.
 pub const MAX_ROUNDS: u64 = 10_000;
 
+/// The largest case or kernel file read (a case with 200,000 bin edges is 4 MB).
+pub const MAX_TEXT_INPUT: u64 = 64 << 20;
+
 /// The largest JSON record read back (a baseline's `baseline.json`, `timings.json`).
 pub const MAX_RECORD_BYTES: u64 = 64 << 20;
 

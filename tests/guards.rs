@@ -738,3 +738,34 @@ fn no_file_is_written_outside_io() {
         found.join("\n")
     );
 }
+
+#[test]
+fn class4_every_input_is_read_within_a_bound() {
+    let t = tempfile::tempdir().unwrap();
+    let d = t.path();
+    // A case or kernel file without end: refused at the cap, within seconds.
+    let o = within(
+        Duration::from_secs(30),
+        &["sweep", "/dev/zero", "--out", s(&d.join("r"))],
+    );
+    refused(&o, &["case file /dev/zero is larger than 67108864 bytes"]);
+    let o = within(Duration::from_secs(30), &["check", "/dev/zero"]);
+    refused(&o, &["kernel /dev/zero is larger than 67108864 bytes"]);
+    let case = write(d, "case.toml", CASE);
+    let o = within(
+        Duration::from_secs(30),
+        &["sweep", s(&case), "--out", s(&d.join("r")), "--kernel", "/dev/zero"],
+    );
+    refused(&o, &["kernel /dev/zero is larger than"]);
+    // A FIFO named like a shard state: refused, never waited on.
+    let shards = d.join("shards");
+    std::fs::create_dir(&shards).unwrap();
+    mkfifo(&shards.join("shard-0-of-1.cbor"));
+    let before = snapshot(d);
+    let o = within(
+        Duration::from_secs(30),
+        &["merge", s(&shards), "--out", s(&d.join("r"))],
+    );
+    refused(&o, &["shard state", "shard-0-of-1.cbor is not a regular file"]);
+    only_changed(&before, &snapshot(d), &[]);
+}

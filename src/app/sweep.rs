@@ -679,7 +679,8 @@ pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<(String, Vec<PathBuf>, Ve
     let mut first: Option<(String, Vec<PathBuf>)> = None;
     let mut parts = Vec::new();
     for p in files {
-        let text = std::fs::read(&p).with_context(|| format!("merge: cannot read {}", p.display()))?;
+        // A FIFO named like a shard would block; a state larger than the memory limit cannot be held.
+        let text = crate::io::read_regular(&p, "shard state", crate::limits::max_memory().0)?;
         let f: ShardFile = ciborium::from_reader(text.as_slice())
             .with_context(|| format!("merge: {}: not a shard state", p.display()))?;
         match &first {

@@ -3,7 +3,6 @@
 //! read from disk and goes through the same path (kernels/README.md).
 
 use crate::input::target::Target;
-use anyhow::Context;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -190,7 +189,9 @@ fn derive_of(text: &str) -> Option<&str> {
 
 impl KernelFile {
     pub fn read(path: &Path) -> anyhow::Result<KernelFile> {
-        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read kernel {}", path.display()))?;
+        let bytes = crate::io::read_bounded(path, "kernel", crate::limits::MAX_TEXT_INPUT)?;
+        let text = String::from_utf8(bytes)
+            .map_err(|e| anyhow::anyhow!("cannot read kernel {}: not UTF-8 text ({e})", path.display()))?;
         let shown = path.display().to_string();
         if path.extension().is_some_and(|e| e == "glsl") {
             // The header is checked on the GLSL file (its lines), then the translation is the text.
