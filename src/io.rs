@@ -172,10 +172,21 @@ pub fn set_kind(dir: &Path) -> Option<SetKind> {
 }
 
 /// The nearest folder above `path` (not `path` itself) that is a report set, and its kind.
+/// A folder written before the marker counts only with its pair of files (`summary.json` and
+/// `report.md` or `scan.md`; `baseline.json` and `errors/`): a project folder that happens to
+/// hold a `summary.json` does not make every output below it refused.
 fn enclosing_set(path: &Path) -> Option<(PathBuf, SetKind)> {
-    path.ancestors()
-        .skip(1)
-        .find_map(|a| set_kind(a).map(|k| (a.to_path_buf(), k)))
+    path.ancestors().skip(1).find_map(|a| {
+        let kind = set_kind(a)?;
+        let marked = fs::symlink_metadata(a.join(KIND_MARKER)).is_ok();
+        let paired = match kind {
+            SetKind::Sweep => a.join("report.md").is_file(),
+            SetKind::Scan => true,
+            SetKind::Baseline => a.join("errors").is_dir(),
+            SetKind::Chain => false,
+        };
+        (marked || paired).then(|| (a.to_path_buf(), kind))
+    })
 }
 
 /// An input file or folder a run reads, which no output may be, replace or hold.
@@ -937,6 +948,19 @@ mod tests {
         fs::write(legacy.join("summary.json"), "[]").unwrap();
         fs::write(legacy.join("scan.md"), "").unwrap();
         assert_eq!(set_kind(&legacy), Some(SetKind::Scan));
+        // Above an output, only a whole legacy set counts: a lone summary.json is not one.
+        let project = t.path().join("project");
+        fs::create_dir(&project).unwrap();
+        fs::write(project.join("summary.json"), "{}").unwrap();
+        assert!(OutputPlan::new()
+            .file("--junit", &project.join("j.xml"))
+            .check()
+            .is_ok());
+        fs::write(project.join("report.md"), "").unwrap();
+        assert!(OutputPlan::new()
+            .file("--junit", &project.join("j.xml"))
+            .check()
+            .is_err());
         // A baseline folder with a file the save does not write is not replaced.
         let base = t.path().join("base");
         fs::create_dir(&base).unwrap();
