@@ -168,7 +168,7 @@ pub fn check_count(what: &str, n: u64) -> Result<(), String> {
 /// (0..=`max` when `zero` is allowed).
 pub fn check_rounds(what: &str, n: u64, max: u64, zero: bool) -> Result<(), String> {
     if n == 0 && !zero {
-        return Err(format!("{what} 0: must be at least 1"));
+        return Err(format!("{what} must be at least 1"));
     }
     if n > max {
         return Err(format!("{what} {n}: at most {max}"));
