@@ -140,6 +140,16 @@ pub const MAX_COUNT: u64 = 1_000_000_000_000;
 /// counted on the device, its memory does not grow with the count.
 pub const MAX_SCAN_COUNT: u64 = 1_000_000_000_000_000;
 
+/// The `[search]` and `[disagreements]` candidates one step may hold (restarts × population), a
+/// bound on its memory.
+pub const MAX_SEARCH_BATCH: usize = 1 << 20;
+
+/// Refinement steps a search may take.
+pub const MAX_STEPS: usize = 10_000;
+
+/// The top-up budget's largest multiple of a family's count (`topup_draws`).
+pub const MAX_TOPUP_DRAWS: usize = 1000;
+
 /// The most timed or warm-up rounds a bench runs.
 pub const MAX_ROUNDS: u64 = 10_000;
 

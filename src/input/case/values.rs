@@ -12,8 +12,8 @@ use std::collections::BTreeMap;
 /// with a letter or digit, at most this long.
 pub const MAX_NAME: usize = 100;
 
-/// The `[search]` candidates one step may hold (restarts × population), a bound on its memory.
-pub const MAX_SEARCH_BATCH: usize = 1 << 20;
+// The caps on counts live with every other cap, in `crate::limits`.
+pub use crate::limits::{MAX_SEARCH_BATCH, MAX_STEPS, MAX_TOPUP_DRAWS};
 
 fn shown(d: &Dist) -> String {
     match *d {
@@ -204,12 +204,6 @@ pub fn check(case: &Case) -> Result<(), String> {
     }
     Ok(())
 }
-
-/// Refinement steps a search may take.
-pub const MAX_STEPS: usize = 10_000;
-
-/// The top-up budget's largest multiple of a family's count.
-pub const MAX_TOPUP_DRAWS: usize = 1000;
 
 /// A parameter that only makes sense when positive (a length, a roughness).
 fn positive(key: &str, d: &Dist) -> Result<(), String> {
