@@ -383,6 +383,15 @@ fn class1_no_output_of_any_command_lands_in_a_report_folder() {
     refused(&scan, &["--out", why]);
     let fit = linelight(&["fit", "--size", "2", "--out", s(&inside("t.csv"))]);
     refused(&fit, &["--out", why]);
+    // Shard states kept in a report folder: merging into that folder would delete them.
+    let o = linelight(&["sweep", s(&case), "--shard", "0/1", "--out", s(&d.join("sh"))]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    std::fs::rename(d.join("sh/shard-0-of-1.cbor"), set.join("shard-0-of-1.cbor")).unwrap();
+    let before_merge = snapshot(d);
+    let o = linelight(&["merge", s(&set), "--out", s(&reports)]);
+    refused(&o, &["--out", "is replaced whole, and it holds the shard folder"]);
+    only_changed(&before_merge, &snapshot(d), &[]);
+    std::fs::remove_file(set.join("shard-0-of-1.cbor")).unwrap();
     // A report folder that would hold the case file (replacing it whole would delete it).
     let cases = d.join("cases");
     std::fs::create_dir(&cases).unwrap();
@@ -396,7 +405,7 @@ fn class1_no_output_of_any_command_lands_in_a_report_folder() {
     let o = linelight(&["sweep", s(&inner), "--out", s(d)]);
     refused(&o, &["--out", "holds the case file", "cases/case.toml"]);
     only_changed(&before_inner, &snapshot(d), &[]);
-    only_changed(&before, &snapshot(d), &["cases"]);
+    only_changed(&before, &snapshot(d), &["cases", "sh"]);
 }
 
 #[test]

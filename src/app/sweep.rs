@@ -218,6 +218,9 @@ pub fn merge(shards: &[PathBuf], out: &Path, gpu: &GpuOptions) -> anyhow::Result
     for k in &kernels {
         plan.input("--kernel", k);
     }
+    for shard_dir in shards {
+        plan.input("the shard folder", shard_dir);
+    }
     plan.set("--out", &dir, SetKind::Sweep).check()?;
     let setup = prepare_with(loaded, &kernels, parts[0].count_override, Holds::default())?;
     let part = Partial::merge_all(&setup, parts)?;
