@@ -6,10 +6,14 @@
 //!   stays a link);
 //! - anything else (a FIFO, a character device such as `/dev/null` or `/dev/stdout`, a
 //!   socket) is written through, never replaced;
-//! - an output that is one of the run's inputs, or lies inside a report folder, is refused
-//!   before any work ([`check_output`]), as is one the user cannot write;
-//! - a report set is written into a sibling temporary directory and swapped in whole
-//!   ([`write_set`]): a report folder only ever holds one run's files;
+//! - every output of a run is checked before any work, by one plan ([`OutputPlan`]): one
+//!   that is one of the run's inputs, is another output, lies inside a report folder (this
+//!   run's or one on disk), or that the user cannot write, is refused;
+//! - a report set (a sweep's, scan's or chain's report folder, a baseline) is written into a
+//!   sibling temporary directory and swapped in whole ([`write_set`]): a folder only ever
+//!   holds one run's files, of one kind of set ([`SetKind`]);
+//! - an input that a folder names (a baseline's files) is read only when it is a regular
+//!   file of bounded size ([`read_regular`]);
 //! - temporaries of killed runs (sets and single files) are removed by the next run that
 //!   writes the same path.
 
@@ -25,6 +29,11 @@ use std::path::{Component, Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct OutputError(pub String);
+
+/// An input file refused or unreadable ([`read_regular`]), with the path and the reason (exit 2).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct InputError(pub String);
 
 fn fail(message: String) -> OutputError {
     OutputError(message)
@@ -79,31 +88,287 @@ fn writable(path: &Path) -> bool {
     }
 }
 
-/// Checks, before any work, that `path` (given as `flag`) may be written: it is not one
-/// of `inputs` (flag and path), not inside one of `sets` (report folders this run
-/// writes), not a directory, and writable (or creatable) by this user.
-pub fn check_output(flag: &str, path: &Path, inputs: &[(&str, &Path)], sets: &[&Path]) -> Result<(), OutputError> {
+/// Which command a report folder belongs to. A folder holds one kind of set only, so no
+/// command replaces another's folder or mixes its files into it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SetKind {
+    /// `sweep` and `merge`: OUT/<case>/.
+    Sweep,
+    /// `scan`: OUT/<case>-scan/.
+    Scan,
+    /// `chain`: OUT/<case>-chain/, or its --out.
+    Chain,
+    /// `sweep --save-baseline DIR`.
+    Baseline,
+    /// `render`: OUT/<scene>/.
+    Render,
+}
+
+impl SetKind {
+    pub const ALL: [SetKind; 5] = [
+        SetKind::Sweep,
+        SetKind::Scan,
+        SetKind::Chain,
+        SetKind::Baseline,
+        SetKind::Render,
+    ];
+
+    /// The name written in the folder's [`KIND_MARKER`].
+    pub fn name(self) -> &'static str {
+        match self {
+            SetKind::Sweep => "sweep",
+            SetKind::Scan => "scan",
+            SetKind::Chain => "chain",
+            SetKind::Baseline => "baseline",
+            SetKind::Render => "render",
+        }
+    }
+
+    /// What messages call a folder of this kind.
+    pub fn folder(self) -> &'static str {
+        match self {
+            SetKind::Sweep => "report folder",
+            SetKind::Scan => "scan report folder",
+            SetKind::Chain => "chain report folder",
+            SetKind::Baseline => "baseline folder",
+            SetKind::Render => "render folder",
+        }
+    }
+
+    /// The command that writes (and replaces) a folder of this kind.
+    fn writer(self) -> &'static str {
+        match self {
+            SetKind::Sweep => "linelight sweep",
+            SetKind::Scan => "linelight scan",
+            SetKind::Chain => "linelight chain",
+            SetKind::Baseline => "linelight sweep --save-baseline",
+            SetKind::Render => "linelight render",
+        }
+    }
+
+    /// Whether a file or folder of this name, at the top of a folder of this kind, is one
+    /// the command writes. A baseline is committed into the user's repository, where other
+    /// files may be put beside it: a folder holding one is not replaced. Report folders are
+    /// generated and replaced whole (docs/robustness.md).
+    fn owns(self, name: &str) -> bool {
+        match self {
+            SetKind::Baseline => [KIND_MARKER, "baseline.json", "timings.json", "errors"].contains(&name),
+            _ => true,
+        }
+    }
+}
+
+/// The file in every report folder that says which kind of set it is (it holds the kind's
+/// name): a folder without one (or, written before it, without [`SET_MARKER`]) is no report
+/// folder and is never replaced.
+pub const KIND_MARKER: &str = ".linelight-set";
+
+/// The kind of report set `dir` is, if it is one: its [`KIND_MARKER`], or for folders
+/// written before the marker, the file every set of its kind holds.
+pub fn set_kind(dir: &Path) -> Option<SetKind> {
+    let marker = dir.join(KIND_MARKER);
+    if fs::symlink_metadata(&marker).is_ok() {
+        let text = read_regular(&marker, "report folder marker", 64).ok()?;
+        let text = String::from_utf8_lossy(&text);
+        return SetKind::ALL.into_iter().find(|k| k.name() == text.trim());
+    }
+    if dir.join("render.json").is_file() && dir.join("render.md").is_file() {
+        return Some(SetKind::Render);
+    }
+    if dir.join(SET_MARKER).is_file() {
+        return Some(if dir.join("scan.md").is_file() {
+            SetKind::Scan
+        } else {
+            SetKind::Sweep
+        });
+    }
+    dir.join("baseline.json").is_file().then_some(SetKind::Baseline)
+}
+
+/// The nearest folder above `path` (not `path` itself) that is a report set, and its kind.
+/// A folder written before the marker counts only with its pair of files (`summary.json` and
+/// `report.md` or `scan.md`; `baseline.json` and `errors/`): a project folder that happens to
+/// hold a `summary.json` does not make every output below it refused.
+fn enclosing_set(path: &Path) -> Option<(PathBuf, SetKind)> {
+    path.ancestors().skip(1).find_map(|a| {
+        let kind = set_kind(a)?;
+        let marked = fs::symlink_metadata(a.join(KIND_MARKER)).is_ok();
+        let paired = match kind {
+            SetKind::Sweep => a.join("report.md").is_file(),
+            SetKind::Scan => true,
+            SetKind::Baseline => a.join("errors").is_dir(),
+            SetKind::Chain => false,
+            SetKind::Render => true,
+        };
+        (marked || paired).then(|| (a.to_path_buf(), kind))
+    })
+}
+
+/// An input file or folder a run reads, which no output may be, replace or hold.
+struct Input {
+    what: String,
+    path: PathBuf,
+}
+
+/// One output of a run: a file, or a report set written whole into a folder.
+enum Planned {
+    File { flag: String, path: PathBuf },
+    Set { flag: String, dir: PathBuf, kind: SetKind },
+}
+
+impl Planned {
+    fn flag_path(&self) -> (&str, &Path) {
+        match self {
+            Planned::File { flag, path } => (flag, path),
+            Planned::Set { flag, dir, .. } => (flag, dir),
+        }
+    }
+}
+
+/// Every output of one run and every input it reads, checked together before any work
+/// ([`OutputPlan::check`]). Every command builds one: `--raw`, `--junit`, `--save-baseline`,
+/// `--output`, `--json`, shard states, fitted tables and the report folders of sweep, merge,
+/// scan and chain all pass the same rules.
+#[derive(Default)]
+pub struct OutputPlan {
+    inputs: Vec<Input>,
+    outputs: Vec<Planned>,
+}
+
+impl OutputPlan {
+    pub fn new() -> OutputPlan {
+        OutputPlan::default()
+    }
+
+    /// An input file or folder (`what` names it in messages: "the case file", "--kernel").
+    pub fn input(&mut self, what: &str, path: &Path) -> &mut Self {
+        self.inputs.push(Input {
+            what: what.to_string(),
+            path: path.to_path_buf(),
+        });
+        self
+    }
+
+    /// An output file, given as `flag`.
+    pub fn file(&mut self, flag: &str, path: &Path) -> &mut Self {
+        self.outputs.push(Planned::File {
+            flag: flag.to_string(),
+            path: path.to_path_buf(),
+        });
+        self
+    }
+
+    /// A report set of `kind` written whole into `dir` ([`write_set`]).
+    pub fn set(&mut self, flag: &str, dir: &Path, kind: SetKind) -> &mut Self {
+        self.outputs.push(Planned::Set {
+            flag: flag.to_string(),
+            dir: dir.to_path_buf(),
+            kind,
+        });
+        self
+    }
+
+    /// Checks every output, before any work. An output file is not an input (compared by
+    /// device and inode, or by its resolved path), not a directory, and writable or
+    /// creatable. A report folder is absent, empty or a set of its own kind, and holds no
+    /// input. No output is another, or lies inside a report folder this run writes or one
+    /// already on disk (whose next run would delete it): one set per folder.
+    pub fn check(&self) -> Result<(), OutputError> {
+        let inputs: Vec<(&Input, PathBuf)> = self.inputs.iter().map(|i| (i, resolved(&i.path))).collect();
+        let mut seen: Vec<(&Planned, PathBuf)> = Vec::new();
+        for out in &self.outputs {
+            let (flag, path) = out.flag_path();
+            let shown = path.display();
+            let target = resolved(path);
+            // Two outputs that collide first: that is the mistake, whatever else holds.
+            for (other, at) in &seen {
+                let (other_flag, other_path) = other.flag_path();
+                let same = match (out, other) {
+                    (Planned::File { .. }, Planned::File { .. }) => same_file(path, &target, other_path, at),
+                    _ => target == *at,
+                };
+                if same {
+                    return Err(fail(format!(
+                        "{flag} {shown} and {other_flag} {} are the same path: each output needs its own",
+                        other_path.display()
+                    )));
+                }
+                let nested =
+                    |outer: &Planned, outer_at: &Path, inner_flag: &str, inner: &Path, inner_at: &Path| match outer {
+                        Planned::Set { flag, dir, kind } if inner_at.starts_with(outer_at) => Some(fail(format!(
+                            "{inner_flag} {} lies inside the {} {} this run writes ({flag}), which is \
+                             replaced whole: choose a path outside it",
+                            inner.display(),
+                            kind.folder(),
+                            dir.display()
+                        ))),
+                        _ => None,
+                    };
+                if let Some(e) =
+                    nested(other, at, flag, path, &target).or_else(|| nested(out, &target, other_flag, other_path, at))
+                {
+                    return Err(e);
+                }
+            }
+            match out {
+                Planned::File { .. } => check_file(flag, path, &target, &inputs)?,
+                Planned::Set { kind, .. } => {
+                    check_set(flag, path, *kind)?;
+                    for (input, at) in &inputs {
+                        if at.starts_with(&target) {
+                            return Err(fail(format!(
+                                "{flag} {shown}: this {} is replaced whole, and it holds {} {}, an input of \
+                                 this run: choose another folder",
+                                kind.folder(),
+                                input.what,
+                                input.path.display()
+                            )));
+                        }
+                    }
+                }
+            }
+            if let Some((dir, kind)) = enclosing_set(&target) {
+                return Err(fail(format!(
+                    "{flag} {shown} lies inside {}, a {} that `{}` replaces whole: choose a path outside it",
+                    dir.display(),
+                    kind.folder(),
+                    kind.writer()
+                )));
+            }
+            seen.push((out, target));
+        }
+        Ok(())
+    }
+}
+
+/// Whether two output files are one: the same device and inode when both exist, else the
+/// same resolved path. Character devices (`/dev/null`) are written through and never
+/// replaced, so two outputs may share one.
+fn same_file(a: &Path, a_at: &Path, b: &Path, b_at: &Path) -> bool {
+    use std::os::unix::fs::FileTypeExt;
+    if fs::metadata(a).is_ok_and(|m| m.file_type().is_char_device()) {
+        return false;
+    }
+    match (identity(a), identity(b)) {
+        (Some(x), Some(y)) => x == y,
+        _ => a_at == b_at,
+    }
+}
+
+/// One output file: not an input, not a directory, writable or creatable.
+fn check_file(flag: &str, path: &Path, target: &Path, inputs: &[(&Input, PathBuf)]) -> Result<(), OutputError> {
     let shown = path.display();
     let id = identity(path);
-    for (input_flag, input) in inputs {
-        let same = match (id, identity(input)) {
+    for (input, at) in inputs {
+        let same = match (id, identity(&input.path)) {
             (Some(a), Some(b)) => a == b,
-            _ => resolved(path) == resolved(input),
+            _ => target == at,
         };
         if same {
             return Err(fail(format!(
-                "{flag} {shown} is the same file as {input_flag} {}: refusing to overwrite an input",
-                input.display()
-            )));
-        }
-    }
-    let target = resolved(path);
-    for set in sets {
-        let set = resolved(set);
-        if target.starts_with(&set) {
-            return Err(fail(format!(
-                "{flag} {shown} lies inside the report folder {} this run writes: choose a path outside it",
-                set.display()
+                "{flag} {shown} is the same file as {} {}: refusing to overwrite an input",
+                input.what,
+                input.path.display()
             )));
         }
     }
@@ -111,7 +376,7 @@ pub fn check_output(flag: &str, path: &Path, inputs: &[(&str, &Path)], sets: &[&
         Ok(m) if m.is_dir() => Err(fail(format!("{flag} {shown} is a directory, not a file"))),
         Ok(_) if !writable(path) => Err(fail(format!("{flag} {shown}: permission denied (not writable)"))),
         Ok(_) => Ok(()),
-        Err(_) => check_creatable(flag, &target),
+        Err(_) => check_creatable(flag, target),
     }
 }
 
@@ -257,25 +522,57 @@ pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     write_output(path, &mut |w| w.write_all(bytes))
 }
 
-/// The file in a report folder that marks it as one: a folder without it is not replaced.
+/// The file every report folder written before [`KIND_MARKER`] holds: a folder with neither
+/// is not replaced.
 pub const SET_MARKER: &str = "summary.json";
 
-/// Checks, before any work, that the report folder `dir` can be written as a set: it is a
-/// report folder of an earlier run (or empty, or absent) and its parent is writable.
-pub fn check_set(dir: &Path) -> Result<(), OutputError> {
+/// Checks, before any work, that `dir` (given as `flag`) can be written as a report set of
+/// `kind`: it is absent, empty or such a set already (never another command's), holds
+/// nothing the command does not write (a baseline), and its parent is writable.
+pub fn check_set(flag: &str, dir: &Path, kind: SetKind) -> Result<(), OutputError> {
     match fs::metadata(dir) {
         Ok(m) if !m.is_dir() => Err(fail(format!(
-            "report folder {} exists and is not a directory",
-            dir.display()
+            "{flag} {}: the {} exists and is not a directory",
+            dir.display(),
+            kind.folder()
         ))),
         Ok(_) => {
-            let empty = fs::read_dir(dir).map(|mut d| d.next().is_none()).unwrap_or(false);
-            if !empty && !dir.join(SET_MARKER).is_file() {
-                return Err(fail(format!(
-                    "{} exists and is not a linelight report folder (no {SET_MARKER}): \
-                     it would be replaced whole; move it or choose another --out",
-                    dir.display()
-                )));
+            let mut entries = fs::read_dir(dir)
+                .map_err(|e| fail(format!("{flag} {}: cannot read the folder: {e}", dir.display())))?
+                .flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned());
+            if let Some(first) = entries.next() {
+                match set_kind(dir) {
+                    None => {
+                        return Err(fail(format!(
+                            "{flag} {} exists and is not a linelight report folder (no {KIND_MARKER} or \
+                             {SET_MARKER}): it would be replaced whole; move it or choose another folder",
+                            dir.display()
+                        )))
+                    }
+                    Some(found) if found != kind => {
+                        return Err(fail(format!(
+                            "{flag} {} is a {} (written by `{}`), not a {}: it would be replaced whole; \
+                             choose another folder",
+                            dir.display(),
+                            found.folder(),
+                            found.writer(),
+                            kind.folder()
+                        )))
+                    }
+                    Some(_) => {
+                        if let Some(foreign) = std::iter::once(first).chain(entries).find(|n| !kind.owns(n)) {
+                            return Err(fail(format!(
+                                "{flag} {}: the {} holds `{}`, which `{}` does not write; the folder is \
+                                 replaced whole, so move it out first",
+                                dir.display(),
+                                kind.folder(),
+                                foreign.chars().take(80).collect::<String>(),
+                                kind.writer()
+                            )));
+                        }
+                    }
+                }
             }
             let parent = resolved(dir);
             let parent = parent.parent().unwrap_or(Path::new("/"));
@@ -283,14 +580,65 @@ pub fn check_set(dir: &Path) -> Result<(), OutputError> {
                 Ok(())
             } else {
                 Err(fail(format!(
-                    "report folder {}: directory {} is not writable",
+                    "{flag} {}: directory {} is not writable",
                     dir.display(),
                     parent.display()
                 )))
             }
         }
-        Err(_) => check_creatable("--out", &resolved(dir).join(SET_MARKER)),
+        Err(_) => check_creatable(flag, &resolved(dir).join(KIND_MARKER)),
     }
+}
+
+/// Reads an input file the user named (a case file, a kernel): any kind of file, a pipe
+/// from `<(…)` included, but at most `max` bytes, so `/dev/zero` or a runaway generator is
+/// refused rather than read without end.
+pub fn read_bounded(path: &Path, what: &str, max: u64) -> Result<Vec<u8>, InputError> {
+    use std::io::Read;
+    let shown = path.display();
+    let err = |e: std::io::Error| InputError(format!("cannot read {what} {shown}: {e}"));
+    let f = fs::File::open(path).map_err(err)?;
+    let mut bytes = Vec::new();
+    f.take(max + 1).read_to_end(&mut bytes).map_err(err)?;
+    if bytes.len() as u64 > max {
+        return Err(InputError(format!(
+            "{what} {shown} is larger than {max} bytes: not read further"
+        )));
+    }
+    Ok(bytes)
+}
+
+/// Reads an input file that a folder names (a baseline's files, a report folder's marker):
+/// it must be a regular file of at most `max` bytes. It is opened without blocking, so a
+/// FIFO is refused, never waited on, and a device is never read without end.
+pub fn read_regular(path: &Path, what: &str, max: u64) -> Result<Vec<u8>, InputError> {
+    use std::io::Read;
+    use std::os::unix::fs::OpenOptionsExt;
+    let shown = path.display();
+    let err = |e: std::io::Error| InputError(format!("cannot read {what} {shown}: {e}"));
+    let f = fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)
+        .map_err(err)?;
+    let m = f.metadata().map_err(err)?;
+    if !m.is_file() {
+        return Err(InputError(format!(
+            "{what} {shown} is not a regular file (a FIFO, a device or a folder): not read"
+        )));
+    }
+    if m.len() > max {
+        return Err(InputError(format!(
+            "{what} {shown} has {} bytes, more than the {max} it can hold",
+            m.len()
+        )));
+    }
+    let mut bytes = Vec::with_capacity(m.len() as usize);
+    f.take(max + 1).read_to_end(&mut bytes).map_err(err)?;
+    if bytes.len() as u64 > max {
+        return Err(InputError(format!("{what} {shown} grew past {max} bytes while read")));
+    }
+    Ok(bytes)
 }
 
 fn process_alive(pid: u32) -> bool {
@@ -345,15 +693,15 @@ fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
     }
 }
 
-/// Writes a report set into `dir` as one: every file (names relative to `dir`, `/` for
-/// sub-folders) goes into a sibling temporary folder, which then replaces `dir` whole.
-/// On any error nothing in `dir` has changed. Returns the paths written.
-pub fn write_set(dir: &Path, files: &[(String, Vec<u8>)]) -> Result<Vec<PathBuf>, OutputError> {
-    check_set(dir)?;
+/// Writes a report set of `kind` into `dir` as one: every file (names relative to `dir`, `/`
+/// for sub-folders) and the [`KIND_MARKER`] go into a sibling temporary folder, which then
+/// replaces `dir` whole. On any error nothing in `dir` has changed. Returns the paths written.
+pub fn write_set(dir: &Path, kind: SetKind, files: &[(String, Vec<u8>)]) -> Result<Vec<PathBuf>, OutputError> {
+    check_set(kind.folder(), dir, kind)?;
     let mut names = BTreeSet::new();
     for (name, _) in files {
         let relative = Path::new(name);
-        if relative.components().any(|c| !matches!(c, Component::Normal(_))) {
+        if relative.components().any(|c| !matches!(c, Component::Normal(_))) || name == KIND_MARKER {
             return Err(fail(format!("report file name `{name}` leaves the report folder")));
         }
         if !names.insert(name.as_str()) {
@@ -382,6 +730,7 @@ pub fn write_set(dir: &Path, files: &[(String, Vec<u8>)]) -> Result<Vec<PathBuf>
     let _ = fs::remove_dir_all(&tmp);
     let result = (|| -> std::io::Result<()> {
         fs::create_dir(&tmp)?;
+        fs::write(tmp.join(KIND_MARKER), format!("{}\n", kind.name()))?;
         for (file, bytes) in files {
             let path = tmp.join(file);
             if let Some(p) = path.parent() {
@@ -442,13 +791,13 @@ mod tests {
             ("summary.json".to_string(), b"{}".to_vec()),
             ("old.jsonl".to_string(), b"x".to_vec()),
         ];
-        write_set(&dir, &files).unwrap();
+        write_set(&dir, SetKind::Sweep, &files).unwrap();
         assert!(dir.join("old.jsonl").is_file());
         let files = vec![
             ("summary.json".to_string(), b"{\"new\":1}".to_vec()),
             ("maps/a.svg".to_string(), b"<svg/>".to_vec()),
         ];
-        write_set(&dir, &files).unwrap();
+        write_set(&dir, SetKind::Sweep, &files).unwrap();
         assert!(!dir.join("old.jsonl").exists(), "stale file kept");
         assert!(dir.join("maps/a.svg").is_file());
         assert_eq!(fs::read(dir.join("summary.json")).unwrap(), b"{\"new\":1}");
@@ -464,14 +813,14 @@ mod tests {
     fn an_error_partway_leaves_the_old_set_and_no_temporary() {
         let t = tempfile::tempdir().unwrap();
         let dir = t.path().join("case");
-        write_set(&dir, &[("summary.json".into(), b"old".to_vec())]).unwrap();
+        write_set(&dir, SetKind::Sweep, &[("summary.json".into(), b"old".to_vec())]).unwrap();
         // `a` as a file, then `a/b` needs it as a folder: the second write fails.
         let files = vec![
             ("summary.json".to_string(), b"new".to_vec()),
             ("a".to_string(), vec![]),
             ("a/b".to_string(), vec![]),
         ];
-        assert!(write_set(&dir, &files).is_err());
+        assert!(write_set(&dir, SetKind::Sweep, &files).is_err());
         assert_eq!(fs::read(dir.join("summary.json")).unwrap(), b"old");
         assert_eq!(fs::read_dir(t.path()).unwrap().count(), 1, "a temporary was left");
         // A staged output that is never committed leaves nothing either.
@@ -488,7 +837,12 @@ mod tests {
         let live = t.path().join(format!(".case.tmp-{}x", std::process::id()));
         fs::create_dir(&dead).unwrap();
         fs::create_dir(&live).unwrap();
-        write_set(&t.path().join("case"), &[("summary.json".into(), vec![])]).unwrap();
+        write_set(
+            &t.path().join("case"),
+            SetKind::Sweep,
+            &[("summary.json".into(), vec![])],
+        )
+        .unwrap();
         assert!(!dead.exists() && live.exists());
     }
 
@@ -496,7 +850,7 @@ mod tests {
     fn a_folder_that_is_no_report_is_not_replaced() {
         let t = tempfile::tempdir().unwrap();
         fs::write(t.path().join("precious.txt"), "keep").unwrap();
-        let e = write_set(t.path(), &[("summary.json".into(), vec![])]).unwrap_err();
+        let e = write_set(t.path(), SetKind::Sweep, &[("summary.json".into(), vec![])]).unwrap_err();
         assert!(e.to_string().contains("not a linelight report folder"), "{e}");
         assert_eq!(fs::read_to_string(t.path().join("precious.txt")).unwrap(), "keep");
     }
@@ -506,16 +860,147 @@ mod tests {
         let t = tempfile::tempdir().unwrap();
         let input = t.path().join("in.jsonl");
         fs::write(&input, "x").unwrap();
+        let check = |out: &Path, sets: &[&Path]| {
+            let mut plan = OutputPlan::new();
+            plan.input("--input", &input);
+            for s in sets {
+                plan.set("--out", s, SetKind::Sweep);
+            }
+            plan.file("--output", out).check()
+        };
         let spelled = t.path().join("sub/../in.jsonl");
-        let e = check_output("--output", &spelled, &[("--input", &input)], &[]).unwrap_err();
+        let e = check(&spelled, &[]).unwrap_err();
         assert!(e.to_string().contains("same file as --input"), "{e}");
         let link = t.path().join("link");
         std::os::unix::fs::symlink(&input, &link).unwrap();
-        assert!(check_output("--output", &link, &[("--input", &input)], &[]).is_err());
+        assert!(check(&link, &[]).is_err());
         let set = t.path().join("reports/case");
-        let e = check_output("--raw", &set.join("report.md"), &[], &[&set]).unwrap_err();
+        let e = check(&set.join("report.md"), &[&set]).unwrap_err();
         assert!(e.to_string().contains("inside the report folder"), "{e}");
-        assert!(check_output("--raw", &t.path().join("new/raw.jsonl"), &[], &[&set]).is_ok());
+        assert!(check(&t.path().join("new/raw.jsonl"), &[&set]).is_ok());
+    }
+
+    #[test]
+    fn outputs_are_distinct_and_never_nest_in_a_set() {
+        let t = tempfile::tempdir().unwrap();
+        let d = t.path();
+        let plan = |build: &dyn Fn(&mut OutputPlan)| {
+            let mut p = OutputPlan::new();
+            build(&mut p);
+            p.check().map_err(|e| e.to_string())
+        };
+        // Two outputs on one file (spelled apart), or a file inside another output's set.
+        let e = plan(&|p| {
+            p.file("--raw", &d.join("a.xml")).file("--junit", &d.join("x/../a.xml"));
+        })
+        .unwrap_err();
+        assert!(e.contains("--junit") && e.contains("same path"), "{e}");
+        let e = plan(&|p| {
+            p.set("--save-baseline", &d.join("base"), SetKind::Baseline)
+                .file("--junit", &d.join("base/junit.xml"));
+        })
+        .unwrap_err();
+        assert!(e.contains("inside the baseline folder"), "{e}");
+        // A set inside another set, either way round.
+        let e = plan(&|p| {
+            p.set("--out", &d.join("r/case"), SetKind::Sweep).set(
+                "--save-baseline",
+                &d.join("r/case/base"),
+                SetKind::Baseline,
+            );
+        })
+        .unwrap_err();
+        assert!(
+            e.contains("--save-baseline") && e.contains("inside the report folder"),
+            "{e}"
+        );
+        let e = plan(&|p| {
+            p.set("--save-baseline", &d.join("r"), SetKind::Baseline)
+                .set("--out", &d.join("r/case"), SetKind::Sweep);
+        })
+        .unwrap_err();
+        assert!(e.contains("--out") && e.contains("inside the baseline folder"), "{e}");
+        // A set that holds an input would delete it.
+        let case = d.join("cases/case.toml");
+        fs::create_dir_all(d.join("cases")).unwrap();
+        fs::write(&case, "x").unwrap();
+        let e = plan(&|p| {
+            p.input("the case file", &case)
+                .set("--out", &d.join("cases"), SetKind::Chain);
+        })
+        .unwrap_err();
+        assert!(e.contains("not a linelight report folder"), "{e}");
+        fs::write(d.join("cases").join(KIND_MARKER), "chain\n").unwrap();
+        let e = plan(&|p| {
+            p.input("the case file", &case)
+                .set("--out", &d.join("cases"), SetKind::Chain);
+        })
+        .unwrap_err();
+        assert!(e.contains("holds the case file"), "{e}");
+    }
+
+    #[test]
+    fn a_folder_holds_one_kind_of_set_and_outputs_stay_out_of_sets_on_disk() {
+        let t = tempfile::tempdir().unwrap();
+        let dir = t.path().join("x-scan");
+        write_set(&dir, SetKind::Sweep, &[("summary.json".into(), b"{}".to_vec())]).unwrap();
+        assert_eq!(set_kind(&dir), Some(SetKind::Sweep));
+        let e = write_set(&dir, SetKind::Scan, &[("scan.md".into(), vec![])]).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("is a report folder (written by `linelight sweep`)"),
+            "{e}"
+        );
+        // A file output inside any set on disk would be deleted by that set's next run.
+        let mut p = OutputPlan::new();
+        let e = p.file("--junit", &dir.join("j.xml")).check().unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("a report folder that `linelight sweep` replaces whole"),
+            "{e}"
+        );
+        // Folders written before the marker keep their kind.
+        let legacy = t.path().join("legacy");
+        fs::create_dir(&legacy).unwrap();
+        fs::write(legacy.join("summary.json"), "[]").unwrap();
+        fs::write(legacy.join("scan.md"), "").unwrap();
+        assert_eq!(set_kind(&legacy), Some(SetKind::Scan));
+        // Above an output, only a whole legacy set counts: a lone summary.json is not one.
+        let project = t.path().join("project");
+        fs::create_dir(&project).unwrap();
+        fs::write(project.join("summary.json"), "{}").unwrap();
+        assert!(OutputPlan::new()
+            .file("--junit", &project.join("j.xml"))
+            .check()
+            .is_ok());
+        fs::write(project.join("report.md"), "").unwrap();
+        assert!(OutputPlan::new()
+            .file("--junit", &project.join("j.xml"))
+            .check()
+            .is_err());
+        // A baseline folder with a file the save does not write is not replaced.
+        let base = t.path().join("base");
+        fs::create_dir(&base).unwrap();
+        fs::write(base.join("baseline.json"), "{}").unwrap();
+        fs::write(base.join("README.md"), "ours").unwrap();
+        let e = check_set("--save-baseline", &base, SetKind::Baseline).unwrap_err();
+        assert!(e.to_string().contains("holds `README.md`"), "{e}");
+    }
+
+    #[test]
+    fn only_bounded_regular_files_are_read() {
+        let t = tempfile::tempdir().unwrap();
+        let fifo = t.path().join("fifo");
+        let c = CString::new(fifo.as_os_str().as_bytes()).unwrap();
+        // SAFETY: a valid C string; mkfifo only creates a node.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o644) }, 0);
+        let e = read_regular(&fifo, "errors file", 100).unwrap_err();
+        assert!(e.to_string().contains("not a regular file"), "{e}");
+        let big = t.path().join("big");
+        fs::write(&big, vec![b'x'; 101]).unwrap();
+        let e = read_regular(&big, "errors file", 100).unwrap_err();
+        assert!(e.to_string().contains("101 bytes, more than the 100"), "{e}");
+        assert_eq!(read_regular(&big, "errors file", 101).unwrap().len(), 101);
     }
 
     #[test]

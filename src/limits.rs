@@ -1,7 +1,11 @@
-//! Resource limits checked before anything is allocated: a run's memory is estimated from
-//! its sizes (configurations, methods, targets) and refused above `--max-memory`, which
-//! defaults to half of the machine's memory. The estimates are deliberately generous
-//! (measured peaks of a sweep were about 1 KB per configuration for nine methods).
+//! Resource limits checked before anything is allocated, in one place: the caps every count
+//! passes, from the command line and from case files alike ([`check_count`]), and the memory
+//! budget. A run's memory is estimated from its sizes, part by part ([`Budget`]: measuring
+//! chunks, every bin and map cell of the statistics, kept observations, held rows, input
+//! lines), and refused above `--max-memory`, which defaults to half of the machine's memory.
+//! The estimates are deliberately generous (measured peaks of a sweep were about 1 KB per
+//! configuration for nine methods; the per-bin and per-cell sizes below are about twice those
+//! measured).
 
 use std::fmt;
 
@@ -137,6 +141,165 @@ pub fn invocations_in_flight() -> u64 {
     u64::from(crate::kernel::WORKGROUP_SIZE) * cores
 }
 
+/// The most configurations per family a sweep, merge, diff, bench or chain takes, from
+/// `--count` or a case file's `count`: stability counts beyond are `linelight scan`'s.
+pub const MAX_COUNT: u64 = 1_000_000_000_000;
+
+/// The most configurations per method a scan generates (`scan --count`): generated and
+/// counted on the device, its memory does not grow with the count.
+pub const MAX_SCAN_COUNT: u64 = 1_000_000_000_000_000;
+
+/// The `[search]` and `[disagreements]` candidates one step may hold (restarts × population), a
+/// bound on its memory.
+pub const MAX_SEARCH_BATCH: usize = 1 << 20;
+
+/// Refinement steps a search may take.
+pub const MAX_STEPS: usize = 10_000;
+
+/// The top-up budget's largest multiple of a family's count (`topup_draws`).
+pub const MAX_TOPUP_DRAWS: usize = 1000;
+
+/// The most timed or warm-up rounds a bench runs.
+pub const MAX_ROUNDS: u64 = 10_000;
+
+/// The largest case or kernel file read (a case with 200,000 bin edges is 4 MB).
+pub const MAX_TEXT_INPUT: u64 = 64 << 20;
+
+/// The largest JSON record read back (a baseline's `baseline.json`, `timings.json`).
+pub const MAX_RECORD_BYTES: u64 = 64 << 20;
+
+/// Refuses a count of configurations (`what` says where it came from: `--count`, a case
+/// file's key) that is 0 or above [`MAX_COUNT`].
+pub fn check_count(what: &str, n: u64) -> Result<(), String> {
+    if n == 0 {
+        return Err(format!("{what} must be at least 1"));
+    }
+    if n > MAX_COUNT {
+        return Err(format!(
+            "{what} {n}: more than the {MAX_COUNT} configurations per family a sweep takes (stability \
+             counts beyond are `linelight scan`'s)"
+        ));
+    }
+    Ok(())
+}
+
+/// Refuses a number of rounds, repeats or similar (`what`: the option) outside 1..=`max`
+/// (0..=`max` when `zero` is allowed).
+pub fn check_rounds(what: &str, n: u64, max: u64, zero: bool) -> Result<(), String> {
+    if n == 0 && !zero {
+        return Err(format!("{what} must be at least 1"));
+    }
+    if n > max {
+        return Err(format!("{what} {n}: at most {max}"));
+    }
+    Ok(())
+}
+
+/// Bytes of one bin of one material's statistics, for each method and compared pair and once
+/// for the bin itself: its accumulator, finished statistics and rows in every report file
+/// (measured: 11 KB per method, 7 KB per bin, 3 KB per pair, with 20,000 bins).
+pub const BIN_BYTES: u64 = 16 << 10;
+
+/// Bytes of one map cell of one method on one material, with its SVG and table rows
+/// (measured: 4.6 KB).
+pub const MAP_CELL_BYTES: u64 = 8 << 10;
+
+/// Bytes an accumulator grows by for each configuration folded in while it keeps values
+/// exactly: nine distributions of f64, twice for a vector's growth.
+pub const VALUE_BYTES: u64 = 9 * 8 * 2;
+
+/// The most an accumulator grows to: 2048 exact values per distribution (then a sketch of
+/// at most 2048 buckets; `analyse::stats::EXACT_LIMIT`), with a vector's growth.
+pub const FULL_CELL_BYTES: u64 = 2048 * VALUE_BYTES;
+
+/// The sizes a sweep's statistics grow with (`analyse::analysis::statistics_size`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StatisticsSize {
+    /// Accumulators of the bins (each material's whole-material rows included), per method,
+    /// per compared pair and once for the bin itself, over every material.
+    pub bins: u64,
+    /// Map cells × materials × methods each map draws.
+    pub map_cells: u64,
+    /// Accumulators one configuration is folded into.
+    pub per_configuration: u64,
+}
+
+/// Estimated peak bytes of a sweep's statistics over `configurations`: every bin and map
+/// cell, plus the values they keep (bounded per cell).
+pub fn statistics_estimate(size: StatisticsSize, configurations: u64) -> Bytes {
+    let fixed = size
+        .bins
+        .saturating_mul(BIN_BYTES)
+        .saturating_add(size.map_cells.saturating_mul(MAP_CELL_BYTES));
+    let cells = size.bins.saturating_add(size.map_cells);
+    let fill = configurations
+        .saturating_mul(size.per_configuration)
+        .saturating_mul(VALUE_BYTES)
+        .min(cells.saturating_mul(FULL_CELL_BYTES));
+    Bytes(fixed.saturating_add(fill))
+}
+
+/// Estimated bytes of the gate's per-configuration observations: this run's, a loaded
+/// baseline's, and the saved tokens.
+pub fn observations_estimate(configurations: u64, methods: u64) -> Bytes {
+    Bytes(configurations.saturating_mul(methods).saturating_mul(48))
+}
+
+/// Estimated peak bytes of a chain: every configuration with its feeds, GPU scenes, values
+/// and references, and per method its row and the row's JSON.
+pub fn chain_estimate(configurations: u64, methods: u64) -> Bytes {
+    Bytes(configurations.saturating_mul(4096u64.saturating_add(methods.saturating_mul(2048))))
+}
+
+/// Bytes an input line of `bytes` holds once parsed, while a chunk of lines is evaluated: the
+/// text, the configuration and the output row (a texture's numbers as JSON values).
+pub fn line_estimate(bytes: u64) -> Bytes {
+    Bytes(bytes.saturating_mul(4))
+}
+
+/// A run's memory estimate, part by part, checked once against `--max-memory`: a refusal
+/// names the largest parts, so the user sees what to shrink.
+#[derive(Clone, Debug, Default)]
+pub struct Budget {
+    parts: Vec<(String, Bytes)>,
+}
+
+impl Budget {
+    pub fn new() -> Budget {
+        Budget::default()
+    }
+
+    /// Adds a part (`what`: what grows, with its size).
+    pub fn add(&mut self, what: impl Into<String>, bytes: Bytes) -> &mut Self {
+        self.parts.push((what.into(), bytes));
+        self
+    }
+
+    pub fn total(&self) -> Bytes {
+        Bytes(self.parts.iter().fold(0u64, |t, (_, b)| t.saturating_add(b.0)))
+    }
+
+    /// Refuses the run (`what`: which) when the total exceeds the limit in force.
+    pub fn check(&self, what: &str) -> Result<(), String> {
+        self.check_against(what, max_memory())
+    }
+
+    pub fn check_against(&self, what: &str, limit: Bytes) -> Result<(), String> {
+        let total = self.total();
+        if total <= limit {
+            return Ok(());
+        }
+        let mut parts: Vec<&(String, Bytes)> = self.parts.iter().filter(|(_, b)| b.0 > 0).collect();
+        parts.sort_by_key(|p| std::cmp::Reverse(p.1));
+        let shown: Vec<String> = parts.iter().take(4).map(|(w, b)| format!("{w}: {b}")).collect();
+        Err(format!(
+            "{what} needs an estimated {total} of memory ({}), more than --max-memory {limit} \
+             (default: half of this machine's memory): make the largest part smaller or raise --max-memory",
+            shown.join("; ")
+        ))
+    }
+}
+
 /// Refuses an estimate above the limit, with both numbers and what to change.
 pub fn check(what: &str, estimate: Bytes, limit: Bytes) -> Result<(), String> {
     if estimate > limit {
@@ -169,5 +332,37 @@ mod tests {
         assert_eq!(Bytes(1023).to_string(), "1023 B");
         assert_eq!(Bytes(1024).to_string(), "1.0 KiB");
         assert!(default_max_memory().0 > 0);
+    }
+
+    #[test]
+    fn counts_and_budgets_are_refused_naming_what_and_the_parts() {
+        assert!(check_count("--count", 1).is_ok() && check_count("--count", MAX_COUNT).is_ok());
+        let e = check_count("`materials[0].count` =", 9_223_372_036_854_775_807).unwrap_err();
+        assert!(
+            e.contains("`materials[0].count` = 9223372036854775807: more than"),
+            "{e}"
+        );
+        assert!(check_count("--count", 0).unwrap_err().contains("at least 1"));
+        let mut b = Budget::new();
+        b.add("map cells", Bytes(3 << 30)).add("one chunk", Bytes(1 << 20));
+        assert_eq!(b.total(), Bytes((3 << 30) + (1 << 20)));
+        let e = b.check_against("case `x`", Bytes(2 << 30)).unwrap_err();
+        assert!(
+            e.starts_with("case `x` needs an estimated 3.0 GiB of memory (map cells: 3.0 GiB; one chunk: 1.0 MiB)"),
+            "{e}"
+        );
+        assert!(b.check_against("case `x`", Bytes(4 << 30)).is_ok());
+        // The statistics grow with the cells, and with the values until every cell is full.
+        let size = StatisticsSize {
+            bins: 10,
+            map_cells: 0,
+            per_configuration: 3,
+        };
+        assert_eq!(statistics_estimate(size, 0), Bytes(10 * BIN_BYTES));
+        assert_eq!(statistics_estimate(size, 1), Bytes(10 * BIN_BYTES + 3 * VALUE_BYTES));
+        assert_eq!(
+            statistics_estimate(size, u64::MAX),
+            Bytes(10 * BIN_BYTES + 10 * FULL_CELL_BYTES)
+        );
     }
 }

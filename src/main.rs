@@ -3,7 +3,6 @@
 
 use clap::{Parser, Subcommand};
 use linelight::app::{self, bounded, status_of, GpuOptions, Status};
-use linelight::input::case::Case;
 use linelight::limits;
 use linelight::measure::gpu;
 use std::path::PathBuf;
@@ -190,12 +189,13 @@ enum Command {
         aniso_size: Vec<usize>,
     },
     /// The GGX error chain (fit, table, storage, formula, rounding, driver) of a case of ggx
-    /// materials, beside the published table: writes OUT/chain.{md,csv,json}.
+    /// materials, beside the published table: writes OUT/chain.{md,csv,json}
+    /// (OUT: reports/<case name>-chain).
     Chain {
         /// Case file with ggx materials, e.g. cases/ggx.toml.
         #[arg(default_value = "cases/ggx.toml")]
         case: PathBuf,
-        /// Output folder (default: reports/<case name>).
+        /// Output folder, a chain report folder of its own (default: reports/<case name>-chain).
         #[arg(long)]
         out: Option<PathBuf>,
         /// Override every material's count (quick runs).
@@ -266,10 +266,6 @@ impl GpuArgs {
             chunk: self.chunk,
         }
     }
-}
-
-fn open_gpu(args: &GpuArgs) -> anyhow::Result<linelight::measure::gpu::Gpu> {
-    app::open_gpu(args.adapter.as_deref())
 }
 
 fn run(cli: Cli) -> anyhow::Result<Status> {
@@ -381,17 +377,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             }
             Ok(Status::Ok)
         }
-        Command::Chain { case, out, count, gpu } => {
-            let case_path = case.display().to_string();
-            let case = Case::load(&case)?;
-            let device = open_gpu(&gpu)?;
-            let run = linelight::app::chain::measure(&case, &device, count, gpu.chunk)?;
-            let dir = out.unwrap_or_else(|| PathBuf::from("reports").join(&case.name));
-            for path in linelight::app::chain::write(&dir, &case_path, &case, &run)? {
-                eprintln!("wrote {}", path.display());
-            }
-            Ok(Status::Ok)
-        }
+        Command::Chain { case, out, count, gpu } => linelight::app::chain::run(&case, out, count, &gpu.options()),
         Command::Diff {
             case,
             a,

@@ -3,55 +3,12 @@
 //! message, and that nothing outside the intended files changed (a snapshot of the
 //! temporary directory before and after, FIFOs, symlinks and device nodes included).
 
-use std::collections::BTreeMap;
-use std::os::unix::fs::{FileTypeExt, MetadataExt};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
 
 mod common;
+use common::snapshot::{only_changed, refused, s, snapshot};
 use common::{linelight, stderr, write};
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// Every entry under `dir`: its kind and, for files and links, what it holds.
-fn snapshot(dir: &Path) -> BTreeMap<PathBuf, String> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap().flatten() {
-            let p = e.path();
-            let m = std::fs::symlink_metadata(&p).unwrap();
-            let t = m.file_type();
-            let what = if t.is_symlink() {
-                format!("link -> {}", std::fs::read_link(&p).unwrap().display())
-            } else if t.is_dir() {
-                stack.push(p.clone());
-                "dir".to_string()
-            } else if t.is_fifo() {
-                "fifo".to_string()
-            } else if t.is_char_device() {
-                format!("char device {}", m.rdev())
-            } else {
-                format!("file {:?}", std::fs::read(&p).unwrap())
-            };
-            out.insert(p.strip_prefix(dir).unwrap().to_path_buf(), what);
-        }
-    }
-    out
-}
-
-/// Asserts that only `changed` (relative paths) differ between two snapshots.
-fn only_changed(before: &BTreeMap<PathBuf, String>, after: &BTreeMap<PathBuf, String>, changed: &[&str]) {
-    let keys: std::collections::BTreeSet<_> = before.keys().chain(after.keys()).collect();
-    for k in keys {
-        if changed.iter().any(|c| k.starts_with(c)) {
-            continue;
-        }
-        assert_eq!(before.get(k), after.get(k), "{} changed", k.display());
-    }
-}
 
 const CONFIG: &str = r#"{"id":"a","p1":[0.3,-0.2,1.0],"p2":[0.9,0.4,1.6],"material":{"kind":"diffuse"}}"#;
 
@@ -78,15 +35,6 @@ fn sweep(dir: &Path, case: &str, extra: &[&str]) -> Output {
     let mut args = vec!["sweep", s(&path), "--out", s(&out)];
     args.extend(extra);
     linelight(&args)
-}
-
-fn refused(o: &Output, what: &[&str]) {
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(o));
-    let e = stderr(o);
-    for w in what {
-        assert!(e.contains(w), "`{w}` not in: {e}");
-    }
-    assert!(e.len() < 4000, "message too long: {} bytes", e.len());
 }
 
 #[test]

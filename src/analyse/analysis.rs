@@ -583,6 +583,41 @@ fn pair_diff(chunk: &Chunk, a: &MethodRun, b: &MethodRun, i: usize, target: Targ
     Some(((x - y).abs() / r.abs(), d64))
 }
 
+/// The sizes the accumulators of [`Accumulators::new`] grow with, for the memory budget
+/// (`limits::statistics_estimate`): every bin (with each material's whole-material rows) per
+/// method, per compared pair and once for itself; every map cell of the methods a map draws;
+/// and how many accumulators one configuration is folded into.
+pub fn statistics_size(case: &Case, methods: &[Method]) -> crate::limits::StatisticsSize {
+    let m = methods.len() as u64;
+    let pairs = case.compare.len() as u64;
+    let materials = case.materials.len() as u64;
+    let axes = case.bins.len() as u64;
+    let bins: u64 = case
+        .bins
+        .iter()
+        .fold(0u64, |t, b| t.saturating_add(b.edges.len().saturating_sub(1) as u64));
+    let (mut map_cells, mut map_placements) = (0u64, 0u64);
+    for map in &case.maps {
+        let cells =
+            (map.x.edges.len().saturating_sub(1) as u64).saturating_mul(map.y.edges.len().saturating_sub(1) as u64);
+        let shown = methods.iter().filter(|x| map.shows(&x.label)).count() as u64;
+        map_cells = map_cells.saturating_add(cells.saturating_mul(shown));
+        map_placements = map_placements.saturating_add(shown);
+    }
+    let per_material = m
+        .saturating_mul(bins.saturating_add(2))
+        .saturating_add(pairs.saturating_mul(bins.saturating_add(1)))
+        .saturating_add(bins);
+    crate::limits::StatisticsSize {
+        bins: per_material.saturating_mul(materials),
+        map_cells: map_cells.saturating_mul(materials),
+        per_configuration: m
+            .saturating_mul(axes.saturating_add(2))
+            .saturating_add(pairs.saturating_mul(axes.saturating_add(1)))
+            .saturating_add(map_placements),
+    }
+}
+
 /// The statistics of a sweep while it runs: every method × material × bin and every compared
 /// pair, folded in chunk by chunk and mergeable across shards. Memory per bin is bounded
 /// (`stats::Distribution`), so it does not grow with the configurations.

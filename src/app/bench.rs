@@ -23,13 +23,18 @@ pub struct BenchOptions {
 /// `linelight bench`: samples the case's configurations, measures, prints the report to
 /// stdout (progress on stderr) and writes the JSON if asked.
 pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::analyse::bench::BenchRun> {
-    anyhow::ensure!(options.count > 0, "--count must be at least 1");
-    anyhow::ensure!(options.repeats > 0, "--repeats must be at least 1");
+    use crate::limits::{check_count, check_rounds, MAX_ROUNDS};
+    check_count("--count", options.count as u64).map_err(anyhow::Error::msg)?;
+    check_rounds("--repeats", options.repeats as u64, MAX_ROUNDS, false).map_err(anyhow::Error::msg)?;
+    check_rounds("--warmup", options.warmup as u64, MAX_ROUNDS, true).map_err(anyhow::Error::msg)?;
     if let Some(json) = &options.json {
         // Refused before any work: the case file or a kernel as the output.
-        let mut inputs = vec![("the case file", options.case.as_path())];
-        inputs.extend(options.kernels.iter().map(|k| ("--kernel", k.as_path())));
-        crate::io::check_output("--json", json, &inputs, &[])?;
+        let mut plan = crate::io::OutputPlan::new();
+        plan.input("the case file", &options.case);
+        for k in &options.kernels {
+            plan.input("--kernel", k);
+        }
+        plan.file("--json", json).check()?;
     }
     let mut case = crate::input::case::Case::load(&options.case)?;
     if !options.methods.is_empty() {

@@ -1,5 +1,5 @@
 //! `linelight chain`: the error chain from the GGX BRDF to the pixel, per configuration, for
-//! a case of `ggx` materials (cases/ggx.toml → reports/ggx/chain.md, chain.csv, chain.json).
+//! a case of `ggx` materials (cases/ggx.toml → reports/ggx-chain/chain.md, chain.csv, chain.json).
 //!
 //! Every link is measured against the GGX truth T (the f64 reference of the `ggx` lobe), so
 //! the links add up to the total:
@@ -153,17 +153,59 @@ pub struct ChainRun {
     pub adapter: String,
 }
 
-/// Measures the chain for every configuration of the case and every method in it.
-pub fn measure(case: &Case, gpu: &Gpu, count: Option<usize>, chunk: usize) -> anyhow::Result<ChainRun> {
-    // A chain of no configuration would be a report of nothing.
-    anyhow::ensure!(count != Some(0), "--count must be at least 1");
-    let start = Instant::now();
+/// `linelight chain CASE [--out DIR] [--count N]`: the output folder (default
+/// `reports/<case>-chain`, a chain report folder of its own) and the run's size checked before
+/// any work, then measured and written.
+pub fn run(
+    case_path: &Path,
+    out: Option<std::path::PathBuf>,
+    count: Option<usize>,
+    options: &super::GpuOptions,
+) -> anyhow::Result<super::Status> {
+    let case = Case::load(case_path)?;
+    let dir = out.unwrap_or_else(|| Path::new("reports").join(format!("{}-chain", case.name)));
+    let mut plan = crate::io::OutputPlan::new();
+    plan.input("the case file", case_path);
+    plan.set("--out", &dir, crate::io::SetKind::Chain).check()?;
+    let case = sized(&case, count)?;
+    let device = super::open_gpu(options.adapter.as_deref())?;
+    let run = measure(&case, &device, None, options.chunk)?;
+    for path in write(&dir, &case_path.display().to_string(), &case, &run)? {
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(super::Status::Ok)
+}
+
+/// The case with `--count` applied, refused when a count or the memory it takes is past the
+/// limits: the chain holds every configuration, its feeds and rows.
+fn sized(case: &Case, count: Option<usize>) -> anyhow::Result<Case> {
     let mut case = case.clone();
     if let Some(n) = count {
+        crate::limits::check_count("--count", n as u64).map_err(anyhow::Error::msg)?;
         for m in &mut case.materials {
             m.count = n;
         }
     }
+    let configurations = case
+        .materials
+        .iter()
+        .fold(0u64, |t, m| t.saturating_add(m.count as u64));
+    let methods = case.methods.len() as u64;
+    let mut budget = crate::limits::Budget::new();
+    budget.add(
+        format!("{configurations} configurations × {methods} methods, every one held"),
+        crate::limits::chain_estimate(configurations, methods),
+    );
+    budget
+        .check(&format!("chain of case `{}`", case.name))
+        .map_err(anyhow::Error::msg)?;
+    Ok(case)
+}
+
+/// Measures the chain for every configuration of the case and every method in it.
+pub fn measure(case: &Case, gpu: &Gpu, count: Option<usize>, chunk: usize) -> anyhow::Result<ChainRun> {
+    let start = Instant::now();
+    let case = sized(case, count)?;
     let kernels = methods::kernel_set(&[])?;
     let methods: Vec<Method> = case
         .methods
@@ -348,7 +390,8 @@ fn cells(run: &ChainRun, alpha_edges: &[f64], view_edges: &[f64]) -> Vec<Cell> {
     out
 }
 
-/// Writes chain.md, chain.csv and chain.json into `dir`.
+/// Writes chain.md, chain.csv and chain.json as the chain report folder `dir` (a set of its
+/// own, replaced whole).
 pub fn write(dir: &Path, case_path: &str, case: &Case, run: &ChainRun) -> anyhow::Result<Vec<std::path::PathBuf>> {
     let alpha_edges = [0.01, 0.03, 0.1, 0.3, 1.0];
     let view_edges = [0.0, 30.0, 60.0, 75.0, 90.0];
@@ -507,17 +550,13 @@ pub fn write(dir: &Path, case_path: &str, case: &Case, run: &ChainRun) -> anyhow
             })
         }).collect::<Vec<_>>(),
     });
-    let mut written = Vec::new();
-    for (name, bytes) in [
-        ("chain.md", md.into_bytes()),
-        ("chain.csv", csv.into_bytes()),
-        ("chain.json", serde_json::to_vec(&json)?),
-    ] {
-        let path = dir.join(name);
-        crate::io::write_atomic(&path, &bytes)?;
-        written.push(path);
-    }
-    Ok(written)
+    let files = vec![
+        ("chain.md".to_string(), md.into_bytes()),
+        ("chain.csv".to_string(), csv.into_bytes()),
+        ("chain.json".to_string(), serde_json::to_vec(&json)?),
+    ];
+    // Its own report folder, swapped in whole: never mixed into a sweep's.
+    Ok(crate::io::write_set(dir, crate::io::SetKind::Chain, &files)?)
 }
 
 /// Bin edges of the anisotropic chain: α_min/α_max as shaded.

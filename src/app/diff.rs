@@ -21,10 +21,15 @@ pub struct DiffOptions {
     pub output: Option<PathBuf>,
 }
 
+/// Whether A or B names a kernel file rather than a method spec.
+fn is_kernel_file(spec: &str) -> bool {
+    spec.ends_with(".wgsl") || Path::new(spec).is_file()
+}
+
 /// A method spec, or a kernel file (a path ending `.wgsl`): a file is labelled with its path,
 /// so two revisions of one kernel (same id) stay apart.
 fn method_of(spec: &str) -> anyhow::Result<Method> {
-    if spec.ends_with(".wgsl") || Path::new(spec).is_file() {
+    if is_kernel_file(spec) {
         let k = KernelFile::read(Path::new(spec))?;
         let mut kernels = crate::kernel::builtin_kernels();
         kernels.retain(|b| b.id != k.id);
@@ -58,6 +63,18 @@ impl Outcome {
 pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
     crate::app::options::check_float("--noise", options.noise, crate::app::options::FRACTION)
         .map_err(anyhow::Error::msg)?;
+    // The output is checked before any work: not the case file, not a kernel file given
+    // as A or B, not inside a report folder.
+    if let Some(path) = &options.output {
+        let mut plan = crate::io::OutputPlan::new();
+        plan.input("the case file", &options.case);
+        for (which, spec) in [("A", &options.a), ("B", &options.b)] {
+            if is_kernel_file(spec) {
+                plan.input(which, Path::new(spec));
+            }
+        }
+        plan.file("--output", path).check()?;
+    }
     let a = method_of(&options.a)?;
     let b = method_of(&options.b)?;
     if a.label == b.label {
@@ -79,8 +96,14 @@ pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
     case.compare = vec![[a.label.clone(), b.label.clone()]];
     case.claims.clear();
     case.search = None;
-    let mut setup = crate::app::sweep::prepare_with(case, &[], options.count, false)?;
+    // Every natural configuration's observation of both is kept, to pair them.
+    let holds = crate::app::sweep::Holds {
+        observations: true,
+        ..Default::default()
+    };
+    let mut setup = crate::app::sweep::prepare_with(case, &[], options.count, holds)?;
     setup.methods = vec![a.clone(), b.clone()];
+    crate::app::sweep::check_memory(&setup, holds)?;
     let gpu = Gpu::new(options.adapter.as_deref())?;
     eprintln!("adapter: {}", gpu.adapter);
     let swept = crate::app::sweep::measure(

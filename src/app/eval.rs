@@ -2,7 +2,7 @@
 //! line checked before the GPU is touched, then streamed a chunk at a time.
 
 use super::{kernel_inputs, open_gpu, GpuOptions, Status};
-use crate::io::{check_output, write_output};
+use crate::io::{write_output, OutputPlan};
 use anyhow::Context;
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -24,9 +24,20 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
         methods: specs,
         attribution,
     } = options;
-    let mut inputs = vec![("--input", input.as_path())];
-    inputs.extend(kernel_inputs(&gpu.kernels));
-    check_output("--output", &output, &inputs, &[])?;
+    // The input is read three times (counted, checked, evaluated): a FIFO or a device
+    // would give its lines once, or never end.
+    if std::fs::metadata(&input).is_ok_and(|m| !m.is_file()) {
+        anyhow::bail!(
+            "--input {}: not a regular file (it is read three times: counted, checked, then evaluated)",
+            input.display()
+        );
+    }
+    let mut plan = OutputPlan::new();
+    plan.input("--input", &input);
+    for (what, path) in kernel_inputs(&gpu.kernels) {
+        plan.input(what, path);
+    }
+    plan.file("--output", &output).check()?;
     let kernels = crate::kernel::methods::kernel_set(&gpu.kernels)?;
     let specs = if specs.is_empty() {
         kernels.iter().map(|k| k.id.clone()).collect()
@@ -38,19 +49,28 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
         .iter()
         .map(|s| crate::kernel::methods::resolve(s, &kernels))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let lines = crate::measure::eval_rows::count_lines(&input)?;
-    crate::limits::check(
-        &format!("eval of {} ({lines} lines)", input.display()),
-        // One chunk of configurations, values and rows at a time, plus the ids (checked
-        // for repeats over the whole input).
-        crate::limits::Bytes(
-            crate::limits::eval_estimate(lines.min(eval_chunk() as u64), methods.len() as u64)
-                .0
-                .saturating_add(64u64.saturating_mul(lines)),
-        ),
-        crate::limits::max_memory(),
-    )
-    .map_err(anyhow::Error::msg)?;
+    let size = crate::measure::eval_rows::count_lines(&input)?;
+    let lines = size.lines;
+    let chunk = eval_chunk() as u64;
+    // One chunk of configurations, values and rows at a time, the text of its lines (a
+    // texture makes a line long), plus the ids (checked for repeats over the whole input).
+    let mut budget = crate::limits::Budget::new();
+    budget
+        .add(
+            format!("{} configurations evaluated at once", lines.min(chunk)),
+            crate::limits::eval_estimate(lines.min(chunk), methods.len() as u64),
+        )
+        .add(
+            format!("their lines (the longest {} bytes)", size.longest),
+            crate::limits::line_estimate(size.chunk_bytes(chunk)),
+        )
+        .add(
+            format!("the ids of {lines} lines"),
+            crate::limits::Bytes(crate::measure::eval_rows::ID_BYTES.saturating_mul(lines)),
+        );
+    budget
+        .check(&format!("eval of {} ({lines} lines)", input.display()))
+        .map_err(anyhow::Error::msg)?;
     // Every line checked before the GPU is touched; then the input is streamed a chunk
     // at a time (GPU, references, rows), in constant memory and input order.
     crate::measure::eval_rows::for_each_config(&input, eval_chunk(), true, &mut |_| Ok(()))?;

@@ -18,7 +18,7 @@ pub use bench::{bench, BenchOptions};
 
 pub use status::{status_of, Status};
 
-use crate::io::check_set;
+use crate::io::{OutputPlan, SetKind};
 use crate::kernel::methods;
 use crate::measure::gpu::{self, Gpu};
 use anyhow::Result;
@@ -52,7 +52,7 @@ pub fn parse_count(text: &str) -> Result<u64> {
     let v: f64 = clean
         .parse()
         .map_err(|_| anyhow::anyhow!("--count `{text}`: not a number (write e.g. 1000000 or 1e9)"))?;
-    if !((1.0..=1e15).contains(&v) && v.fract() == 0.0) {
+    if !((1.0..=crate::limits::MAX_SCAN_COUNT as f64).contains(&v) && v.fract() == 0.0) {
         anyhow::bail!("--count `{text}`: need a whole number from 1 to 1e15");
     }
     Ok(v as u64)
@@ -112,9 +112,15 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
         capture <= max,
         "--capture {capture}: at most {max} offending configurations are kept per method and family"
     );
-    let case = crate::input::case::Case::load(&case)?;
+    let case_path = case;
+    let case = crate::input::case::Case::load(&case_path)?;
     let dir = out.join(format!("{}-scan", case.name));
-    check_set(&dir)?;
+    let mut plan = OutputPlan::new();
+    plan.input("the case file", &case_path);
+    for (what, path) in kernel_inputs(&gpu.kernels) {
+        plan.input(what, path);
+    }
+    plan.set("--out", &dir, SetKind::Scan).check()?;
     let kernels = methods::kernel_set(&gpu.kernels)?;
     let given = !specs.is_empty();
     let specs: Vec<String> = if given { specs } else { case.methods.clone() };
@@ -225,7 +231,7 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
         ("summary.json".to_string(), serde_json::to_vec_pretty(&results)?),
         ("offending.jsonl".to_string(), crate::io::to_jsonl(&rows)),
     ];
-    crate::io::write_set(&dir, &files)?;
+    crate::io::write_set(&dir, SetKind::Scan, &files)?;
     eprintln!("wrote {}", dir.display());
     Ok(Status::Ok)
 }

@@ -3,7 +3,7 @@
 //! references, the CPU evaluator's f64 and cpu_f32 columns), written as images, FLIP
 //! statistics and the eval files, swapped in whole as one report set.
 
-use super::{kernel_inputs, open_gpu, GpuOptions, Status};
+use super::{open_gpu, GpuOptions, Status};
 use crate::input::render_scene::{FloorPixel, RenderScene, GRAZING_DEG};
 use crate::input::target::Target;
 use crate::kernel::methods::Method;
@@ -91,18 +91,14 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
         .map(|s| crate::kernel::methods::resolve(s, &kernels).map_err(|e| anyhow::anyhow!("{at}: methods: {e:#}")))
         .collect::<anyhow::Result<Vec<Method>>>()?;
     let dir = options.out.join(&scene.name);
-    let mut inputs = vec![("SCENE", options.scene.as_path())];
-    inputs.extend(kernel_inputs(&gpu.kernels));
-    for (flag, path) in &inputs {
-        if crate::io::resolved(path).starts_with(crate::io::resolved(&dir)) {
-            anyhow::bail!(
-                "{flag} {} lies inside the render folder {} this run replaces: choose another --out",
-                path.display(),
-                dir.display()
-            );
-        }
+    // Checked before any work, as every command's outputs are (src/io.rs): the folder is
+    // absent, empty or a render folder, and holds no input.
+    let mut plan = crate::io::OutputPlan::new();
+    plan.input("SCENE", &options.scene);
+    for k in &gpu.kernels {
+        plan.input("--kernel", k);
     }
-    crate::io::check_set(&dir)?;
+    plan.set("--out", &dir, crate::io::SetKind::Render).check()?;
     let started = Instant::now();
     let pixels = scene.floor_pixels().map_err(|e| anyhow::anyhow!("{at}: {e}"))?;
     if pixels.is_empty() {
@@ -212,9 +208,7 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
     });
     let json_bytes = serde_json::to_vec_pretty(&summary)?;
     let mut files: Vec<(String, Vec<u8>)> = vec![
-        ("render.json".into(), json_bytes.clone()),
-        // The report-folder marker (src/io.rs): the same record.
-        (crate::io::SET_MARKER.into(), json_bytes),
+        ("render.json".into(), json_bytes),
         (
             "configurations.jsonl".into(),
             crate::io::to_jsonl(
@@ -235,7 +229,7 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
         ),
     ];
     files.extend(outcome.images);
-    let written = crate::io::write_set(&dir, &files)?;
+    let written = crate::io::write_set(&dir, crate::io::SetKind::Render, &files)?;
     eprintln!(
         "wrote {} files to {} ({} floor pixels, {:.1} s)",
         written.len(),

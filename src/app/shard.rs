@@ -241,6 +241,11 @@ impl Shards {
     }
 }
 
+/// Where shard I of N keeps its state: `OUT/shard-I-of-N.cbor`.
+pub fn shard_path(out: &Path, i: usize, n: usize) -> PathBuf {
+    out.join(format!("shard-{i}-of-{n}.cbor"))
+}
+
 /// Writes `OUT/shard-I-of-N.cbor` (atomically); returns its path. `case` and `kernels` were
 /// recorded when the sweep read them.
 pub fn write_shard(
@@ -251,7 +256,7 @@ pub fn write_shard(
     part: &Partial,
 ) -> anyhow::Result<PathBuf> {
     let (i, n) = part.shard;
-    let path = out.join(format!("shard-{i}-of-{n}.cbor"));
+    let path = shard_path(out, i, n);
     let file = ShardFile {
         case,
         kernels,
@@ -301,7 +306,8 @@ pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Shards> {
     let mut first: Option<(PathBuf, Ran)> = None;
     let mut parts = Vec::new();
     for p in files {
-        let bytes = std::fs::read(&p).with_context(|| format!("merge: cannot read {}", p.display()))?;
+        // A FIFO named like a shard would block; a state larger than the memory limit cannot be held.
+        let bytes = crate::io::read_regular(&p, "shard state", crate::limits::max_memory().0)?;
         let probe: Probe = ciborium::from_reader(bytes.as_slice()).map_err(|e| {
             anyhow::anyhow!(
                 "merge: {} is not a linelight shard record: {}",

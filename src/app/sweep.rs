@@ -4,13 +4,13 @@
 //! before it is dropped. Also the shard state files (`--shard`, `linelight merge`,
 //! docs/scale.md), which hold both the measure stage's kept state and the statistics.
 
-use super::shard::{read_shards, write_shard, Partial, Recorded, SHARD_FORMAT};
+use super::shard::{read_shards, shard_path, write_shard, Partial, Recorded, SHARD_FORMAT};
 use super::{kernel_inputs, open_gpu, GpuOptions, Status};
 use crate::analyse::analysis::{Accumulators, Chunk, Leak, LeakAccumulator, Verdict};
 use crate::analyse::summary::Summary;
 use crate::app::gate::Observations;
 use crate::input::case::Case;
-use crate::io::{check_output, check_set, stage_output};
+use crate::io::{stage_output, OutputPlan, SetKind};
 use crate::measure::gpu::Gpu;
 use crate::measure::sweep::{self, MeasureOptions, Measured, Setup};
 use anyhow::Context;
@@ -66,9 +66,10 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
     {
         anyhow::bail!("--shard writes a shard state only: --raw and the gate options belong to the unsharded sweep");
     }
-    // Read once: a shard records the contents it ran (app::shard).
-    let case_text =
-        std::fs::read_to_string(&case).with_context(|| format!("cannot read case file {}", case.display()))?;
+    // Read once, bounded: a shard records the contents it ran (app::shard).
+    let case_bytes = crate::io::read_bounded(&case, "case file", crate::limits::MAX_TEXT_INPUT)?;
+    let case_text = String::from_utf8(case_bytes)
+        .map_err(|e| anyhow::anyhow!("cannot read case file {}: not UTF-8 text ({e})", case.display()))?;
     let loaded = Case::parse(&case_path, &case_text)?;
     let recorded = match shard {
         Some(_) => Some((
@@ -80,18 +81,38 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
         )),
         None => None,
     };
-    // Every output is checked before any work: the report folder, then --raw.
+    // Every output is checked before any work, together: the report folder (or the shard
+    // state), --raw, --save-baseline and --junit.
     let dir = out.join(&loaded.name);
-    if shard.is_none() {
-        check_set(&dir)?;
+    let mut plan = OutputPlan::new();
+    plan.input("the case file", &case);
+    for (what, path) in kernel_inputs(&gpu.kernels) {
+        plan.input(what, path);
     }
+    if let Some(base) = &gate.baseline {
+        plan.input("--baseline", base);
+    }
+    match shard {
+        Some((i, n)) => plan.file("--shard", &shard_path(&out, i, n)),
+        None => plan.set("--out", &dir, SetKind::Sweep),
+    };
     if let Some(raw) = &raw {
-        let mut inputs = vec![("the case file", case.as_path())];
-        inputs.extend(kernel_inputs(&gpu.kernels));
-        check_output("--raw", raw, &inputs, &[&dir])?;
+        plan.file("--raw", raw);
     }
+    if let Some(save) = &gate.save_baseline {
+        plan.set("--save-baseline", save, SetKind::Baseline);
+    }
+    if let Some(junit) = &gate.junit {
+        plan.file("--junit", junit);
+    }
+    plan.check()?;
     let command_line = shell_words::join(std::env::args());
-    let setup = prepare_with(loaded, &gpu.kernels, count, raw.is_some())?;
+    let holds = Holds {
+        raw: raw.is_some(),
+        observations: gate.save_baseline.is_some() || gate.baseline.is_some(),
+        all_samples: false,
+    };
+    let setup = prepare_with(loaded, &gpu.kernels, count, holds)?;
     // A claim that names what the case does not have is bad input, found before measuring.
     let labels = setup.methods.iter().map(|m| m.label.clone()).collect();
     crate::analyse::claims::check(
@@ -226,16 +247,29 @@ impl Named<'_> {
 
 /// `linelight merge`: the shard states of a sharded sweep merged into the report the unsharded
 /// sweep writes.
-pub fn merge(shards: &[PathBuf], out: &Path, gpu: &GpuOptions) -> anyhow::Result<Status> {
+pub fn merge(dirs: &[PathBuf], out: &Path, gpu: &GpuOptions) -> anyhow::Result<Status> {
     let started = std::time::Instant::now();
     let command_line = shell_words::join(std::env::args());
     // The case and kernels are found beside the records and must be what the shards ran.
-    let shards = read_shards(shards)?;
+    let shards = read_shards(dirs)?;
     let loaded = Case::parse(&shards.case_path.display().to_string(), &shards.case_text)?;
     let case_path = shards.case_shown.clone();
     let dir = out.join(&loaded.name);
-    check_set(&dir)?;
-    let setup = prepare_with(loaded, &shards.kernels, shards.parts[0].count_override, false)?;
+    let mut plan = OutputPlan::new();
+    plan.input("the case file", &shards.case_path);
+    for k in &shards.kernels {
+        plan.input("--kernel", k);
+    }
+    for shard_dir in dirs {
+        plan.input("the shard folder", shard_dir);
+    }
+    plan.set("--out", &dir, SetKind::Sweep).check()?;
+    let setup = prepare_with(
+        loaded,
+        &shards.kernels,
+        shards.parts[0].count_override,
+        Holds::default(),
+    )?;
     shards.check_sources(&setup.methods)?;
     let part = Partial::merge_all(&setup, shards.parts)?;
     let gate = crate::app::gate::GateRun::prepare(None, None, None, Default::default(), &setup)?;
@@ -355,7 +389,11 @@ fn report_sweep(
 /// Loads and checks everything a sweep needs, without touching the GPU, and draws the whole
 /// sample into `Setup::samples` (bench and others that hold every configuration).
 pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> anyhow::Result<Setup> {
-    let mut setup = prepare_with(case, user_kernels, count, false)?;
+    let holds = Holds {
+        all_samples: true,
+        ..Holds::default()
+    };
+    let mut setup = prepare_with(case, user_kernels, count, holds)?;
     let (mut samples, draws) = crate::input::sampler::sample_case_counted(&setup.case)
         .map_err(|e| anyhow::anyhow!("case `{}`: {e}", setup.case.name))?;
     let (extra, topups) = crate::input::sampler::top_up(&setup.case, &samples);
@@ -366,25 +404,31 @@ pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> an
     Ok(setup)
 }
 
-/// The most configurations per family a sweep takes; stability counts beyond are
-/// `linelight scan`'s.
-pub const MAX_COUNT: usize = 1_000_000_000_000;
+/// What a run holds beside one measuring chunk and the statistics, for its memory estimate.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Holds {
+    /// `--raw` rows are written (a chunk's at a time).
+    pub raw: bool,
+    /// Every natural configuration's observation is kept (the gate's baseline, `diff`).
+    pub observations: bool,
+    /// Every configuration is drawn up front ([`prepare`]: bench).
+    pub all_samples: bool,
+}
 
 /// [`prepare`] for a streamed sweep ([`crate::measure::sweep::measure_part`] draws the sample chunk by chunk): nothing is
-/// sampled here, `samples`, `draws` and `topups` stay empty. `raw` tells whether `--raw` rows
-/// are written (counted in the memory estimate of one chunk).
-pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, raw: bool) -> anyhow::Result<Setup> {
+/// sampled here, `samples`, `draws` and `topups` stay empty. The run's memory ([`memory_budget`]
+/// with what it `holds`) is checked against `--max-memory`.
+pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, holds: Holds) -> anyhow::Result<Setup> {
     let mut case = case;
-    anyhow::ensure!(count != Some(0), "--count must be at least 1");
     if let Some(n) = count {
-        anyhow::ensure!(
-            n <= MAX_COUNT,
-            "--count {n}: more than the {MAX_COUNT} configurations per family a sweep takes (stability \
-             counts beyond are `linelight scan`'s)"
-        );
+        crate::limits::check_count("--count", n as u64).map_err(anyhow::Error::msg)?;
         // The bins' minimum shrinks with the counts, so a quick run stays quick.
         let largest = case.materials.iter().map(|m| m.count).max().unwrap_or(1).max(1);
-        case.min_per_bin = (case.min_per_bin * n).div_ceil(largest).min(case.min_per_bin);
+        case.min_per_bin = case
+            .min_per_bin
+            .saturating_mul(n)
+            .div_ceil(largest)
+            .min(case.min_per_bin);
         for m in &mut case.materials {
             m.count = n;
         }
@@ -410,46 +454,88 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
             );
         }
     }
-    // Memory before anything is allocated: one measuring chunk of configurations (samples,
-    // scenes, references, values, --raw rows) plus the statistics' bounded accumulators.
-    let bins: u64 = case.bins.iter().map(|b| b.edges.len().saturating_sub(1) as u64).sum();
-    let total = case.materials.iter().fold(0u64, |t, m| {
-        t.saturating_add(m.count as u64)
-            .saturating_add(bins.saturating_mul(case.min_per_bin as u64))
-    });
-    let estimate = crate::limits::sweep_estimate(
-        total.min(crate::measure::sweep::MEASURE_CHUNK as u64),
-        methods.len() as u64,
-        crate::measure::sweep::needed_targets(&methods).len() as u64,
-        raw,
-    );
-    crate::limits::check(
-        &format!("case `{}` with {total} configurations", case.name),
-        estimate,
-        crate::limits::max_memory(),
-    )
-    .map_err(anyhow::Error::msg)?;
-    if let Some(search) = &case.search {
-        // One step's candidates (samples, scenes, references) at a time.
-        let batch = (search.restarts as u64).saturating_mul(search.population as u64);
-        crate::limits::check(
-            &format!(
-                "case `{}`: [search] with {} × {} candidates per step",
-                case.name, search.restarts, search.population
-            ),
-            crate::limits::search_estimate(batch),
-            crate::limits::max_memory(),
-        )
-        .map_err(anyhow::Error::msg)?;
-    }
-    Ok(Setup {
+    let setup = Setup {
         case,
         methods,
         samples: Vec::new(),
         topups: Vec::new(),
         count_override: count,
         draws: Vec::new(),
+    };
+    check_memory(&setup, holds)?;
+    Ok(setup)
+}
+
+/// Refuses a run whose [`memory_budget`] exceeds `--max-memory`, before anything is allocated.
+pub fn check_memory(setup: &Setup, holds: Holds) -> anyhow::Result<()> {
+    let case = &setup.case;
+    let (_, total) = configurations(case);
+    memory_budget(setup, holds)
+        .check(&format!("case `{}` with {total} configurations", case.name))
+        .map_err(anyhow::Error::msg)
+}
+
+/// (natural, natural and top-up) configurations a run of the case may measure: a family's
+/// top-ups fill its bins to `min_per_bin`, within `topup_draws` times its count.
+fn configurations(case: &Case) -> (u64, u64) {
+    let bins: u64 = case.bins.iter().map(|b| b.edges.len().saturating_sub(1) as u64).sum();
+    case.materials.iter().fold((0u64, 0u64), |(n, t), m| {
+        let count = m.count as u64;
+        let topups = bins
+            .saturating_mul(case.min_per_bin as u64)
+            .min(count.saturating_mul(case.topup_draws as u64));
+        (n.saturating_add(count), t.saturating_add(count).saturating_add(topups))
     })
+}
+
+/// The memory of a sweep (and of merge, diff and bench, which run its stages), part by part:
+/// one measuring chunk of configurations (samples, scenes, references, values, --raw rows),
+/// or every configuration when all are drawn up front; every bin and map cell of the
+/// statistics; one step of the worst-case search; the gate's observations.
+pub fn memory_budget(setup: &Setup, holds: Holds) -> crate::limits::Budget {
+    let case = &setup.case;
+    let (naturals, total) = configurations(case);
+    let methods = setup.methods.len() as u64;
+    let targets = crate::measure::sweep::needed_targets(&setup.methods).len() as u64;
+    let mut budget = crate::limits::Budget::new();
+    let held = if holds.all_samples {
+        total
+    } else {
+        total.min(crate::measure::sweep::MEASURE_CHUNK as u64)
+    };
+    budget.add(
+        format!("{held} configurations measured at once"),
+        crate::limits::sweep_estimate(held, methods, targets, holds.raw),
+    );
+    let size = crate::analyse::analysis::statistics_size(case, &setup.methods);
+    let bins: usize = case.bins.iter().map(|b| b.edges.len().saturating_sub(1)).sum();
+    let cells: usize = case
+        .maps
+        .iter()
+        .map(|m| (m.x.edges.len() - 1).saturating_mul(m.y.edges.len() - 1))
+        .fold(0, usize::saturating_add);
+    budget.add(
+        format!("statistics of {bins} bins and {cells} map cells, per method and material",),
+        crate::limits::statistics_estimate(size, total),
+    );
+    if let Some(search) = &case.search {
+        // One step's candidates (samples, scenes, references) at a time.
+        let batch = (search.restarts as u64).saturating_mul(search.population as u64);
+        budget.add(
+            format!(
+                "[search] with {} × {} candidates per step",
+                search.restarts, search.population
+            ),
+            crate::limits::search_estimate(batch),
+        );
+    }
+    if holds.observations {
+        budget.add(
+            format!("the gate's observations of {naturals} configurations"),
+            crate::limits::observations_estimate(naturals, methods),
+        );
+    }
+    budget
 }
 
 /// A measured sweep with its folded statistics: what the analysis, the report and the gate

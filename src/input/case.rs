@@ -2,7 +2,6 @@
 //! comparisons and tolerances of one sweep (docs/statistics.md, "Sweeps"). Unknown keys are errors.
 
 use crate::input::target::Target;
-use anyhow::Context;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -409,8 +408,9 @@ fn default_topup_draws() -> usize {
 
 impl Case {
     pub fn load(path: &Path) -> anyhow::Result<Case> {
-        let text =
-            std::fs::read_to_string(path).with_context(|| format!("cannot read case file {}", path.display()))?;
+        let bytes = crate::io::read_bounded(path, "case file", crate::limits::MAX_TEXT_INPUT)?;
+        let text = String::from_utf8(bytes)
+            .map_err(|e| anyhow::anyhow!("cannot read case file {}: not UTF-8 text ({e})", path.display()))?;
         Case::parse(&path.display().to_string(), &text)
     }
 

@@ -3,7 +3,6 @@
 //! read from disk and goes through the same path (kernels/README.md).
 
 use crate::input::target::Target;
-use anyhow::Context;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -190,7 +189,9 @@ fn derive_of(text: &str) -> Option<&str> {
 
 impl KernelFile {
     pub fn read(path: &Path) -> anyhow::Result<KernelFile> {
-        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read kernel {}", path.display()))?;
+        let bytes = crate::io::read_bounded(path, "kernel", crate::limits::MAX_TEXT_INPUT)?;
+        let text = String::from_utf8(bytes)
+            .map_err(|e| anyhow::anyhow!("cannot read kernel {}: not UTF-8 text ({e})", path.display()))?;
         // A byte-order mark (some editors write one) is not part of the source, in either language.
         let text = match text.strip_prefix('\u{feff}') {
             Some(rest) => rest.to_string(),

@@ -29,23 +29,53 @@ pub fn number(x: f64) -> Value {
 /// Output rows made and written at a time (eval, sweep --raw): memory stays bounded.
 pub const ROW_BLOCK: usize = 4096;
 
-/// Lines in a file, counted without holding it (for the memory estimate).
-pub fn count_lines(path: &Path) -> anyhow::Result<u64> {
-    use std::io::BufRead;
-    let f = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let mut r = std::io::BufReader::new(f);
-    let mut buf = Vec::new();
-    let mut n = 0u64;
-    loop {
-        buf.clear();
-        let got = r
-            .read_until(b'\n', &mut buf)
-            .with_context(|| format!("cannot read {}", path.display()))?;
-        if got == 0 {
-            return Ok(n);
-        }
-        n += 1;
+/// The size of an input, measured without holding any of it (for the memory estimate).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LineCount {
+    pub lines: u64,
+    /// The longest line, in bytes.
+    pub longest: u64,
+    pub bytes: u64,
+}
+
+impl LineCount {
+    /// The most bytes of text `chunk` lines can hold together.
+    pub fn chunk_bytes(&self, chunk: u64) -> u64 {
+        self.bytes.min(self.longest.saturating_mul(chunk))
     }
+}
+
+/// Lines in a file, counted a block at a time: a line is never held whole, so a
+/// gigabyte line costs nothing here (the estimate refuses it before it is read).
+pub fn count_lines(path: &Path) -> anyhow::Result<LineCount> {
+    use std::io::Read;
+    let mut f = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut buf = vec![0u8; 1 << 16];
+    let (mut count, mut current) = (LineCount::default(), 0u64);
+    loop {
+        let got = match f.read(&mut buf) {
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
+        };
+        if got == 0 {
+            break;
+        }
+        count.bytes += got as u64;
+        for &b in &buf[..got] {
+            current += 1;
+            if b == b'\n' {
+                count.lines += 1;
+                count.longest = count.longest.max(current);
+                current = 0;
+            }
+        }
+    }
+    if current > 0 {
+        count.lines += 1;
+        count.longest = count.longest.max(current);
+    }
+    Ok(count)
 }
 
 /// Reads a JSONL file of configurations, a line at a time; every bad line is reported with
@@ -141,14 +171,44 @@ pub const MAX_ERRORS: usize = 20;
 
 /// One parsed line: the rect normal made perpendicular (recorded in the output, see
 /// [`result_row`]), degenerate configurations and repeated ids refused.
-fn check_config(mut c: Config, at: &str, ids: &mut BTreeSet<String>, notes: bool) -> Result<Config, String> {
+/// An id as held to find repeats: itself when short, else its length and two hashes, so the
+/// ids of a whole input cost a bounded size each, however long (the memory estimate counts
+/// [`ID_BYTES`] per line).
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum IdKey {
+    Short(String),
+    Long(usize, u64, u64),
+}
+
+/// The longest id held as itself.
+const SHORT_ID: usize = 64;
+
+/// Bytes an input line's id takes in the set of ids: the key and the set's own node.
+pub const ID_BYTES: u64 = 2 * SHORT_ID as u64;
+
+impl IdKey {
+    fn of(id: &str) -> IdKey {
+        if id.len() <= SHORT_ID {
+            return IdKey::Short(id.to_string());
+        }
+        use std::hash::{Hash, Hasher};
+        let hash = |salt: u8| {
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            (salt, id).hash(&mut h);
+            h.finish()
+        };
+        IdKey::Long(id.len(), hash(0), hash(1))
+    }
+}
+
+fn check_config(mut c: Config, at: &str, ids: &mut BTreeSet<IdKey>, notes: bool) -> Result<Config, String> {
     let id = crate::input::names::clip(&c.id);
     if c.orthonormalize_rect().is_some_and(|moved| moved > 1e-9) && notes {
         eprintln!("note: {at}: `{id}`: rect.normal made perpendicular to the segment (docs/conventions.md); the output's `rect` records the normal used");
     }
     if let Err(d) = c.validate() {
         Err(format!("{at}: configuration `{id}` is degenerate: {d}"))
-    } else if !ids.insert(c.id.clone()) {
+    } else if !ids.insert(IdKey::of(&c.id)) {
         Err(format!("{at}: id `{id}` appears twice"))
     } else {
         Ok(c)

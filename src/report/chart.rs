@@ -1207,7 +1207,7 @@ mod tests {
             &sample(),
         );
         let path = std::env::temp_dir().join("chart_sample.svg");
-        std::fs::write(&path, svg).unwrap();
+        crate::io::write_bytes(&path, svg.as_bytes()).unwrap();
         println!("{}", path.display());
     }
 }

@@ -100,7 +100,7 @@ pub fn write_reports(dir: &Path, input: &Summary) -> anyhow::Result<Vec<PathBuf>
         .chain(speed_charts(input))
         .chain(extra)
         .collect();
-    Ok(crate::io::write_set(dir, &files)?)
+    Ok(crate::io::write_set(dir, crate::io::SetKind::Sweep, &files)?)
 }
 
 fn heat_maps(input: &Summary) -> Vec<(String, Vec<u8>)> {

@@ -3,6 +3,7 @@
 
 pub mod hostile;
 pub mod independent;
+pub mod snapshot;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

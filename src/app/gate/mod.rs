@@ -219,7 +219,9 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
     sorted[k - 1]
 }
 
-/// Writes DIR/baseline.json and DIR/errors/<method>/<material>.txt; returns the paths.
+/// Writes DIR/baseline.json, DIR/timings.json and DIR/errors/<method>/<material>.txt as one
+/// set ([`crate::io::write_set`]): built in a sibling folder and swapped in whole, so a
+/// failed or killed save leaves the previous baseline as it was. Returns the paths.
 pub fn save(
     dir: &Path,
     setup: &Setup,
@@ -228,7 +230,7 @@ pub fn save(
 ) -> anyhow::Result<Vec<std::path::PathBuf>> {
     let case = &setup.case;
     let obs = observed(setup, measured, observations);
-    let mut written = Vec::new();
+    let mut files: Vec<(String, Vec<u8>)> = Vec::new();
     let mut methods = Vec::new();
     for o in &obs {
         let mut materials = Vec::new();
@@ -242,9 +244,7 @@ pub fn save(
             let errors = supported.then(|| format!("errors/{}/{}.txt", file_name(&o.label), file_name(&family.name)));
             if let Some(rel) = &errors {
                 let text: String = values.iter().map(|v| v.token() + "\n").collect();
-                let path = dir.join(rel);
-                write_atomic(&path, text.as_bytes())?;
-                written.push(path);
+                files.push((rel.clone(), text.into_bytes()));
             }
             materials.push(MaterialEntry {
                 material: family.name.clone(),
@@ -275,11 +275,9 @@ pub fn save(
         materials: natural_counts(setup),
         methods,
     };
-    let path = dir.join("baseline.json");
     let mut json = serde_json::to_string_pretty(&baseline)?;
     json.push('\n');
-    write_atomic(&path, json.as_bytes())?;
-    written.push(path);
+    files.push(("baseline.json".into(), json.into_bytes()));
     let timings = Timings {
         adapter: baseline.adapter.clone(),
         ns_per_eval: baseline
@@ -288,12 +286,10 @@ pub fn save(
             .map(|m| (m.label.clone(), m.ns_per_eval))
             .collect(),
     };
-    let path = dir.join("timings.json");
     let mut json = serde_json::to_string_pretty(&timings)?;
     json.push('\n');
-    write_atomic(&path, json.as_bytes())?;
-    written.push(path);
-    Ok(written)
+    files.push(("timings.json".into(), json.into_bytes()));
+    Ok(crate::io::write_set(dir, crate::io::SetKind::Baseline, &files)?)
 }
 
 fn natural_counts(setup: &Setup) -> Vec<MaterialCount> {
@@ -312,6 +308,9 @@ fn natural_counts(setup: &Setup) -> Vec<MaterialCount> {
         .collect()
 }
 
+/// Bytes a line of an errors file may take (a token is at most about a dozen).
+const MAX_TOKEN_LINE: u64 = 32;
+
 /// A loaded baseline with its errors files.
 pub struct Loaded {
     pub baseline: Baseline,
@@ -322,16 +321,19 @@ pub struct Loaded {
 /// Reads a baseline and checks it was saved from this case with these configurations;
 /// any mismatch is bad input (exit 2), found before measuring.
 pub fn load(dir: &Path, setup: &Setup) -> anyhow::Result<Loaded> {
+    use crate::io::read_regular;
+    use crate::limits::MAX_RECORD_BYTES;
     let path = dir.join("baseline.json");
-    let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read baseline {}", path.display()))?;
+    let text = read_regular(&path, "baseline", MAX_RECORD_BYTES)?;
     let mut baseline: Baseline =
-        serde_json::from_str(&text).with_context(|| format!("{}: not a linelight baseline", path.display()))?;
+        serde_json::from_slice(&text).with_context(|| format!("{}: not a linelight baseline", path.display()))?;
     // Timings are optional (reported, never gated): a baseline without timings.json
     // compares the same.
     let timings = dir.join("timings.json");
-    if let Ok(text) = std::fs::read_to_string(&timings) {
+    if std::fs::symlink_metadata(&timings).is_ok() {
+        let text = read_regular(&timings, "baseline timings", MAX_RECORD_BYTES)?;
         let t: Timings =
-            serde_json::from_str(&text).with_context(|| format!("{}: not linelight timings", timings.display()))?;
+            serde_json::from_slice(&text).with_context(|| format!("{}: not linelight timings", timings.display()))?;
         for m in &mut baseline.methods {
             if let Some((_, ns)) = t.ns_per_eval.iter().find(|(l, _)| *l == m.label) {
                 m.ns_per_eval = *ns;
@@ -372,6 +374,7 @@ pub fn load(dir: &Path, setup: &Setup) -> anyhow::Result<Loaded> {
         )));
     }
     let mut errors = Vec::new();
+    let inside = crate::io::resolved(dir);
     for m in &baseline.methods {
         let mut per = Vec::new();
         for (entry, count) in m.materials.iter().zip(&baseline.materials) {
@@ -380,18 +383,35 @@ pub fn load(dir: &Path, setup: &Setup) -> anyhow::Result<Loaded> {
                 per.push(None);
                 continue;
             };
+            // The errors file is the baseline's own: a path that leaves the folder (`..`, an
+            // absolute path, a symlink out) is refused, never read.
             let file = dir.join(rel);
-            let text = std::fs::read_to_string(&file)
-                .with_context(|| format!("cannot read baseline errors {}", file.display()))?;
+            let plain = Path::new(rel)
+                .components()
+                .all(|c| matches!(c, std::path::Component::Normal(_)));
+            if !plain || !crate::io::resolved(&file).starts_with(&inside) {
+                return Err(here(format!(
+                    "`{}` on `{}`: errors file `{}` is not inside the baseline folder {}",
+                    crate::input::names::clip(&m.label),
+                    crate::input::names::clip(&entry.material),
+                    crate::input::names::clip(rel),
+                    dir.display()
+                )));
+            }
+            // One token a line: the longest is a number such as `1.234e-300`.
+            let max = (n as u64).saturating_mul(MAX_TOKEN_LINE).saturating_add(MAX_TOKEN_LINE);
+            let text = read_regular(&file, "baseline errors file", max)?;
+            let text = String::from_utf8_lossy(&text);
             let obs = text
                 .lines()
                 .enumerate()
                 .map(|(i, t)| {
                     Obs::parse(t.trim()).ok_or_else(|| {
                         anyhow::anyhow!(
-                            "{}:{}: `{t}` is not an error token (a number, nan, dark, light or -)",
+                            "{}:{}: `{}` is not an error token (a number, nan, dark, light or -)",
                             file.display(),
-                            i + 1
+                            i + 1,
+                            crate::input::names::clip(t)
                         )
                     })
                 })

@@ -12,8 +12,8 @@ use std::collections::BTreeMap;
 /// with a letter or digit, at most this long.
 pub const MAX_NAME: usize = 100;
 
-/// The `[search]` candidates one step may hold (restarts × population), a bound on its memory.
-pub const MAX_SEARCH_BATCH: usize = 1 << 20;
+// The caps on counts live with every other cap, in `crate::limits`.
+pub use crate::limits::{MAX_SEARCH_BATCH, MAX_STEPS, MAX_TOPUP_DRAWS};
 
 fn shown(d: &Dist) -> String {
     match *d {
@@ -83,7 +83,16 @@ pub fn check(case: &Case) -> Result<(), String> {
                 chart_file(&m.name)
             ));
         }
+        // The same cap as `--count`: a case file is no way around it.
+        crate::limits::check_count(&format!("`materials[{i}].count` ="), m.count as u64)?;
         material(m, i)?;
+    }
+    if case.min_per_bin as u64 > crate::limits::MAX_COUNT {
+        return Err(format!(
+            "`min_per_bin` = {}: more than the {} configurations per family a sweep takes",
+            case.min_per_bin,
+            crate::limits::MAX_COUNT
+        ));
     }
     let mut maps = BTreeMap::new();
     for (k, map) in case.maps.iter().enumerate() {
@@ -197,9 +206,6 @@ pub fn check(case: &Case) -> Result<(), String> {
     Ok(())
 }
 
-/// Refinement steps a search may take.
-pub const MAX_STEPS: usize = 10_000;
-
 /// The values a family's configurations take on a bin axis (`sampler::Axes`): None when
 /// the family never draws it (its value is NaN there), the drawn distribution's range for an
 /// axis that is a drawn parameter itself, and all numbers for a derived one.
@@ -270,9 +276,6 @@ fn drawn_axes(case: &Case) -> Result<(), String> {
     }
     Ok(())
 }
-
-/// The top-up budget's largest multiple of a family's count.
-pub const MAX_TOPUP_DRAWS: usize = 1000;
 
 /// A parameter that only makes sense when positive (a length, a roughness).
 fn positive(key: &str, d: &Dist) -> Result<(), String> {

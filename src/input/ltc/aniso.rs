@@ -30,7 +30,6 @@ use super::fit::{self, Ltc, M3};
 use super::ggx::Ggx;
 use super::table::Storage;
 use crate::input::geometry::{self, transpose};
-use anyhow::Context;
 use std::f64::consts::FRAC_PI_2;
 
 /// The table's axes: θ ∈ [0, THETA_MAX], φ ∈ [0, π/2], α_max ∈ [ALPHA_MIN, 1], r ∈ [RATIO_MIN, 1].
@@ -522,6 +521,7 @@ pub fn fit_command(out: &std::path::Path, size: [usize; 4]) -> anyhow::Result<()
         anyhow::bail!("--aniso-size: every axis needs at least 2 entries, got {size:?}");
     }
     fit::check_table_size("--aniso-size", &size)?;
+    super::check_fit_outputs(out)?;
     let threads = rayon::current_num_threads();
     let fitted = fitted_count(size);
     eprintln!(
@@ -548,9 +548,7 @@ pub fn fit_command(out: &std::path::Path, size: [usize; 4]) -> anyhow::Result<()
         size[0], size[1], size[2], size[3]
     );
     let csv = table.to_csv(&header);
-    let tmp = out.with_extension("csv.tmp");
-    std::fs::write(&tmp, &csv).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, out).with_context(|| format!("cannot write {}", out.display()))?;
+    crate::io::write_atomic(out, csv.as_bytes())?;
     let l1: Vec<f64> = table.entries.iter().map(|e| e.l1).collect();
     let worst = l1.iter().copied().fold(0.0, f64::max);
     let mut sorted = l1.clone();
@@ -569,8 +567,7 @@ pub fn fit_command(out: &std::path::Path, size: [usize; 4]) -> anyhow::Result<()
         "fit_l1_median": median,
     });
     let run = out.with_extension("run.json");
-    std::fs::write(&run, serde_json::to_string_pretty(&record)? + "\n")
-        .with_context(|| format!("cannot write {}", run.display()))?;
+    crate::io::write_atomic(&run, (serde_json::to_string_pretty(&record)? + "\n").as_bytes())?;
     eprintln!(
         "wrote {} and {}: {} entries ({fitted} fitted) in {seconds:.1} s on {threads} thread(s); relative L1 fit error median {median:.3e}, largest {worst:.3e}",
         out.display(),

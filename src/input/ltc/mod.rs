@@ -11,7 +11,6 @@ pub mod table;
 /// A 3×3 matrix (`scene::Mat3` is this type: the scene builds on this module, not the reverse).
 pub type Mat3 = [[f64; 3]; 3];
 use crate::input::geometry;
-use anyhow::Context;
 use std::collections::HashMap;
 use std::sync::Mutex;
 use table::Storage;
@@ -232,12 +231,23 @@ fn nearest_params(alpha: f64, cos_theta: f64) -> [f64; 3] {
 /// `linelight fit`: fits the isotropic table and writes it (CSV) with a run record beside
 /// it (`<out>.run.json`: run time, threads, table size), so the table itself stays
 /// byte-for-byte the same on every run.
+/// Checks, before a fit's minutes of work, the table `out` and its run record beside it, as
+/// every command's outputs are checked (`io::OutputPlan`).
+pub fn check_fit_outputs(out: &std::path::Path) -> anyhow::Result<()> {
+    let mut plan = crate::io::OutputPlan::new();
+    plan.file("--out", out)
+        .file("the run record", &out.with_extension("run.json"))
+        .check()?;
+    Ok(())
+}
+
 pub fn fit_command(out: &std::path::Path, size: usize) -> anyhow::Result<()> {
     use indicatif::{ProgressBar, ProgressStyle};
     if size < 2 {
         anyhow::bail!("--size must be at least 2, got {size}");
     }
     fit::check_table_size("--size", &[size, size])?;
+    check_fit_outputs(out)?;
     let threads = rayon::current_num_threads();
     eprintln!("fitting a {size}×{size} isotropic GGX LTC table on {threads} thread(s)");
     let pb = ProgressBar::new((size * size) as u64);
@@ -278,9 +288,7 @@ pub fn fit_command(out: &std::path::Path, size: usize) -> anyhow::Result<()> {
     );
     let csv = t.to_csv(&header);
     // Written whole or not at all.
-    let tmp = out.with_extension("csv.tmp");
-    std::fs::write(&tmp, &csv).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, out).with_context(|| format!("cannot write {}", out.display()))?;
+    crate::io::write_atomic(out, csv.as_bytes())?;
     let l1: Vec<f64> = fits.iter().map(|f| f.l1).collect();
     let worst = l1.iter().copied().fold(0.0, f64::max);
     let record = serde_json::json!({
@@ -294,8 +302,7 @@ pub fn fit_command(out: &std::path::Path, size: usize) -> anyhow::Result<()> {
         "fit_l1_max": worst,
     });
     let run = out.with_extension("run.json");
-    std::fs::write(&run, serde_json::to_string_pretty(&record)? + "\n")
-        .with_context(|| format!("cannot write {}", run.display()))?;
+    crate::io::write_atomic(&run, (serde_json::to_string_pretty(&record)? + "\n").as_bytes())?;
     eprintln!(
         "wrote {} and {}: {} entries in {seconds:.1} s on {threads} thread(s); largest relative L1 fit error {worst:.3e}",
         out.display(),
