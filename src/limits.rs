@@ -293,21 +293,27 @@ impl Budget {
         parts.sort_by_key(|p| std::cmp::Reverse(p.1));
         let shown: Vec<String> = parts.iter().take(4).map(|(w, b)| format!("{w}: {b}")).collect();
         Err(format!(
-            "{what} needs an estimated {total} of memory ({}), more than --max-memory {limit} \
-             (default: half of this machine's memory): make the largest part smaller or raise --max-memory",
-            shown.join("; ")
+            "{what} needs an estimated {total} of memory ({}), more than {}: make the largest part smaller \
+             or raise --max-memory",
+            shown.join("; "),
+            limit_named(limit)
         ))
+    }
+}
+
+/// The limit in force, as a message names it: `--max-memory` only when it was given.
+fn limit_named(limit: Bytes) -> String {
+    if GIVEN.load(std::sync::atomic::Ordering::Relaxed) {
+        format!("--max-memory {limit}")
+    } else {
+        format!("the default limit {limit} (half of this machine's memory)")
     }
 }
 
 /// Refuses an estimate above the limit, with both numbers and what to change.
 pub fn check(what: &str, estimate: Bytes, limit: Bytes) -> Result<(), String> {
     if estimate > limit {
-        let limit = if GIVEN.load(std::sync::atomic::Ordering::Relaxed) {
-            format!("--max-memory {limit}")
-        } else {
-            format!("the default limit {limit} (half of this machine's memory)")
-        };
+        let limit = limit_named(limit);
         return Err(format!(
             "{what} needs an estimated {estimate} of memory, more than {limit}: use fewer configurations or \
              raise --max-memory"
