@@ -59,9 +59,12 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
         .map(|m| device.pipeline(m))
         .collect::<Result<Vec<_>, _>>()?;
     let mut written = 0;
+    // The error that stopped the rows, kept whole: it crosses `write_output` as an I/O error,
+    // and a GPU failure must keep its type for its exit status (4, not 2).
+    let mut stopped: Option<anyhow::Error> = None;
     // The output is staged: a reference that cannot be computed (an error) leaves
     // nothing in place of what was there.
-    write_output(&output, &mut |w| {
+    let done = write_output(&output, &mut |w| {
         let mut chunk = |configs: Vec<crate::input::scene::Config>| -> anyhow::Result<()> {
             let scenes: Vec<_> = configs.iter().map(crate::input::scene::GpuScene::from).collect();
             let mut f32s = Vec::new();
@@ -91,8 +94,16 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
         };
         crate::measure::eval_rows::for_each_config(&input, eval_chunk(), false, &mut chunk)
             .map(|_| ())
-            .map_err(|e| std::io::Error::other(format!("{e:#}")))
-    })?;
+            .map_err(|e| {
+                let io = std::io::Error::other(format!("{e:#}"));
+                stopped = Some(e);
+                io
+            })
+    });
+    if let (Err(_), Some(e)) = (&done, stopped) {
+        return Err(e.context(format!("cannot write {}", output.display())));
+    }
+    done?;
     eprintln!("wrote {written} results to {}", output.display());
     Ok(Status::Ok)
 }

@@ -2,6 +2,7 @@
 #![allow(dead_code)] // each test binary uses its own share of these
 
 pub mod independent;
+pub mod snapshot;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
