@@ -57,9 +57,22 @@ fn bench_prints_both_methods_and_their_ratio_and_writes_json() {
         assert_eq!(c["clock"], "gpu-timestamp");
         assert_eq!(c["configurations"], 1024);
         assert_eq!(c["repeats"], 3);
-        assert_eq!(c["gpu_ns_per_eval"].as_array().unwrap().len(), 3);
-        assert!(c["cpu_f32_ns_per_eval"].as_f64().is_some(), "{c}");
-        assert!(c["ops"]["total"].as_u64().is_some_and(|t| t > 0), "{c}");
+        let gpu = c["gpu_ns_per_eval"].as_array().unwrap();
+        assert_eq!(gpu.len(), 3);
+        assert!(
+            gpu.iter().all(|t| t.as_f64().is_some_and(|t| t > 0.01 && t < 1e6)),
+            "{c}"
+        );
+        // A time, not only a number: the CPU evaluator takes 200–250 ns per evaluation on this
+        // machine (README); anything from 1 ns to 1 ms per evaluation is a plausible machine.
+        let cpu = c["cpu_f32_ns_per_eval"].as_f64().unwrap_or(f64::NAN);
+        assert!((1.0..1e6).contains(&cpu), "{c}");
+        // The naga operation counts are 267 and 238 (README); a kernel change may move them
+        // a little, an op count that lost or doubled the kernel may not.
+        assert!(
+            c["ops"]["total"].as_u64().is_some_and(|t| (150..400).contains(&t)),
+            "{c}"
+        );
     }
 }
 

@@ -107,9 +107,12 @@ fn gpu_applies_the_magnitude_like_the_cpu_port() {
             let cpu = m.eval_f32_cpu(c).unwrap();
             let f64v = m.eval_f64(c).unwrap();
             assert!(f64v > 0.0, "{spec} {c:?}");
-            assert!(((v - cpu) / cpu).abs() < 1e-3, "{spec}: GPU {v} CPU f32 {cpu}");
+            // Measured on lavapipe: GPU against CPU f32 at most 1.6e-6, against f64 at most
+            // 1.5e-6; the bounds are 10× that (they were 1e-3 and 1e-2: a GPU path that drops
+            // the magnitude, 0.9954 on the first configuration, is 4.6e-3 off and passed them).
+            assert!(((v - cpu) / cpu).abs() < 1.6e-5, "{spec}: GPU {v} CPU f32 {cpu}");
             assert!(
-                ((f64::from(v) - f64v) / f64v).abs() < 1e-2,
+                ((f64::from(v) - f64v) / f64v).abs() < 1.5e-5,
                 "{spec}: GPU {v} f64 {f64v}"
             );
         }

@@ -66,11 +66,19 @@ fn run(gpu: &Gpu, m: &Method, configs: &[Config]) -> Vec<f32> {
 const LAVAPIPE_ACOS: f64 = 1.6e-4;
 const VULKAN_TRANSCENDENTAL: f64 = 5e-4;
 
-/// Relative accuracy each method must reach against the reference on this benign set:
-/// well inside what shading needs (an 8-bit channel resolves ~4e-3).
+/// Relative accuracy each method must reach against the reference on this benign set, about
+/// 10× its worst error measured here on lavapipe (in the comments) and never looser than the
+/// 1e-3 it was. Every built-in method has its own bound against the reference on a larger set
+/// in tests/method_bounds.rs.
 fn promised(label: &str) -> Option<f64> {
     match label {
-        "line.ltc2017" | "line.ltc2017_fwt" | "line.ltc2023" | "line.ltc2023_full" | "line.ltc2023_fix" => Some(1e-3),
+        // 1.25e-5, 1.10e-5 and 1.28e-5: f32 rounding only.
+        "line.ltc2017" | "line.ltc2017_fwt" | "line.ltc2023_fix" => Some(1.3e-4),
+        // 1.95e-4 and 2.05e-4: the 2023 listing's acos of the end points' cosine loses digits in f32
+        // (reports/line_fwt, "The 2023 listing is much less accurate in f32"). 5× that: the
+        // bound was 1e-3 before, and is not widened to 10×.
+        "line.ltc2023" | "line.ltc2023_full" => Some(1e-3),
+        // 1.52e-5 (7×).
         "line.numeric@64" => Some(1e-4),
         // Listing 1.4 is a crude rule (end points included, weight L/n): only its port is checked.
         _ => None,
@@ -147,20 +155,31 @@ fn the_2023_listing_is_wrong_for_full_matrices_and_the_fix_is_not() {
     let kernels = builtin_kernels();
     let full: Vec<Config> = fixed_set().into_iter().filter(|c| !c.material.is_sparse()).collect();
     let published = run(gpu, &resolve("line.ltc2023", &kernels).unwrap(), &full);
-    let fixed = run(gpu, &resolve("line.ltc2023_full", &kernels).unwrap(), &full);
+    let full_m = resolve("line.ltc2023_full", &kernels).unwrap();
+    let fixed = run(gpu, &full_m, &full);
     let mut worst_published = 0.0f64;
     for ((c, &p), &f) in full.iter().zip(&published).zip(&fixed) {
         let r = reference(c, linelight::input::target::Target::Line).unwrap().value;
         worst_published = worst_published.max((p as f64 - r).abs() / r.abs());
-        let promise = promised("line.ltc2023_full").unwrap();
+        // 1e-4 before the composite commit, which moved it to `promised` (1e-3) without a
+        // word; measured 2.05e-4 (the 2023 acos in f32, not the width factor, which the f64
+        // bound below holds to its INV_PI), so 1e-4 cannot come back: 1e-3, 5× measured.
         assert!(
-            (f as f64 - r).abs() <= promise * r.abs(),
+            (f as f64 - r).abs() <= promised("line.ltc2023_full").unwrap() * r.abs(),
             "{}: fix {f:e} vs {r:e}",
             c.id
         );
+        let fixed_f64 = full_m.eval_f64(c).unwrap();
+        assert!(
+            (fixed_f64 - r).abs() <= 1e-9 * r.abs(),
+            "{}: fix in f64 {fixed_f64:e} vs {r:e}",
+            c.id
+        );
     }
+    // Measured 6.19e-2 on m3s0 (the sparse width factor's own error: f64 gives 6.18e-2), pinned
+    // within a factor 2 both ways: a silent fix of the published listing fails here too.
     assert!(
-        worst_published > 1e-2,
-        "the sparse width factor should be visibly wrong: {worst_published:e}"
+        worst_published > 3e-2 && worst_published < 0.125,
+        "the sparse width factor should be visibly wrong, by what it was: {worst_published:e}"
     );
 }

@@ -80,12 +80,12 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
         .map(|m| device.pipeline(m))
         .collect::<Result<Vec<_>, _>>()?;
     let mut written = 0;
-    // An error of the run itself (a GPU failure, the loop limit, a reference): kept whole, so
-    // its message and exit code are its own, not a failed write's.
-    let mut failed: Option<anyhow::Error> = None;
+    // The error that stopped the rows, kept whole: it crosses `write_output` as an I/O error,
+    // and a GPU failure must keep its type for its exit status (4, not 2).
+    let mut stopped: Option<anyhow::Error> = None;
     // The output is staged: a reference that cannot be computed (an error) leaves
     // nothing in place of what was there.
-    let result = write_output(&output, &mut |w| {
+    let done = write_output(&output, &mut |w| {
         let mut chunk = |configs: Vec<crate::input::scene::Config>| -> anyhow::Result<()> {
             let scenes: Vec<_> = configs.iter().map(crate::input::scene::GpuScene::from).collect();
             let mut f32s = Vec::new();
@@ -114,18 +114,18 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
             written += configs.len();
             Ok(())
         };
-        match crate::measure::eval_rows::for_each_config(&input, eval_chunk(), false, &mut chunk) {
-            Ok(_) => Ok(()),
-            Err(e) => {
-                failed = Some(e);
-                Err(std::io::Error::other("eval stopped"))
-            }
-        }
+        crate::measure::eval_rows::for_each_config(&input, eval_chunk(), false, &mut chunk)
+            .map(|_| ())
+            .map_err(|e| {
+                let io = std::io::Error::other(format!("{e:#}"));
+                stopped = Some(e);
+                io
+            })
     });
-    if let Some(e) = failed {
-        return Err(e);
+    if let (Err(_), Some(e)) = (&done, stopped) {
+        return Err(e.context(format!("cannot write {}", output.display())));
     }
-    result?;
+    done?;
     eprintln!("wrote {written} results to {}", output.display());
     Ok(Status::Ok)
 }

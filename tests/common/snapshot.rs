@@ -2,7 +2,7 @@
 //! and after (FIFOs, symlinks and device nodes included), and a refusal's exit code and message.
 
 use std::collections::BTreeMap;
-use std::os::unix::fs::{FileTypeExt, MetadataExt};
+use std::os::unix::fs::{FileTypeExt, MetadataExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
@@ -12,7 +12,7 @@ pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
-/// Every entry under `dir`: its kind and, for files and links, what it holds.
+/// Every entry under `dir`: its kind, its permission bits and, for files and links, what it holds.
 pub fn snapshot(dir: &Path) -> BTreeMap<PathBuf, String> {
     let mut out = BTreeMap::new();
     let mut stack = vec![dir.to_path_buf()];
@@ -21,17 +21,18 @@ pub fn snapshot(dir: &Path) -> BTreeMap<PathBuf, String> {
             let p = e.path();
             let m = std::fs::symlink_metadata(&p).unwrap();
             let t = m.file_type();
+            let mode = m.permissions().mode() & 0o7777;
             let what = if t.is_symlink() {
                 format!("link -> {}", std::fs::read_link(&p).unwrap().display())
             } else if t.is_dir() {
                 stack.push(p.clone());
-                "dir".to_string()
+                format!("dir {mode:o}")
             } else if t.is_fifo() {
-                "fifo".to_string()
+                format!("fifo {mode:o}")
             } else if t.is_char_device() {
                 format!("char device {}", m.rdev())
             } else {
-                format!("file {:?}", std::fs::read(&p).unwrap())
+                format!("file {mode:o} {:?}", std::fs::read(&p).unwrap())
             };
             out.insert(p.strip_prefix(dir).unwrap().to_path_buf(), what);
         }
@@ -39,7 +40,7 @@ pub fn snapshot(dir: &Path) -> BTreeMap<PathBuf, String> {
     out
 }
 
-/// Asserts that only `changed` (relative paths) differ between two snapshots.
+/// Asserts that only the paths starting with one of `changed` (relative) differ.
 pub fn only_changed(before: &BTreeMap<PathBuf, String>, after: &BTreeMap<PathBuf, String>, changed: &[&str]) {
     let keys: std::collections::BTreeSet<_> = before.keys().chain(after.keys()).collect();
     for k in keys {

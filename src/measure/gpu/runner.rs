@@ -181,6 +181,9 @@ impl Gpu {
         scenes: &[GpuScene],
         values: &mut Vec<f32>,
     ) -> Result<(), String> {
+        if let Some(message) = injected_failure() {
+            return Err(message);
+        }
         let count = scenes.len() as u32;
         let result_bytes = u64::from(count) * RESULT_BYTES;
         scoped(&self.device, || {
@@ -226,6 +229,21 @@ impl Gpu {
         let by_buffer = limits.max_buffer_size / SCENE_BYTES;
         by_dispatch.min(by_binding).min(by_buffer).max(1) as usize
     }
+}
+
+/// Test-only hook (tests/promises.rs), not for users: with `LINELIGHT_TEST_FAIL_DISPATCH=N` set,
+/// every chunk dispatch after the first N of the process fails as a lost device would, so that
+/// a real CLI run ends in exit 4 (N = 1 lets the driver's loop-limit probe through).
+fn injected_failure() -> Option<String> {
+    static DISPATCHED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let pass: usize = std::env::var("LINELIGHT_TEST_FAIL_DISPATCH").ok()?.parse().ok()?;
+    let n = DISPATCHED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    (n >= pass).then(|| {
+        format!(
+            "dispatch {} failed (injected by LINELIGHT_TEST_FAIL_DISPATCH={pass})",
+            n + 1
+        )
+    })
 }
 
 /// The buffers of one chunk, reused for every chunk of a run.
