@@ -80,8 +80,8 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
         .map(|m| device.pipeline(m))
         .collect::<Result<Vec<_>, _>>()?;
     let mut written = 0;
-    // The error that stopped the rows, kept whole: it crosses `write_output` as an I/O error,
-    // and a GPU failure must keep its type for its exit status (4, not 2).
+    // An error of the run itself (a GPU failure, the loop limit, a reference): kept whole, so
+    // its message and exit code are its own (4 for a GPU failure), not a failed write's.
     let mut stopped: Option<anyhow::Error> = None;
     // The output is staged: a reference that cannot be computed (an error) leaves
     // nothing in place of what was there.
@@ -117,13 +117,12 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
         crate::measure::eval_rows::for_each_config(&input, eval_chunk(), false, &mut chunk)
             .map(|_| ())
             .map_err(|e| {
-                let io = std::io::Error::other(format!("{e:#}"));
                 stopped = Some(e);
-                io
+                std::io::Error::other("eval stopped")
             })
     });
-    if let (Err(_), Some(e)) = (&done, stopped) {
-        return Err(e.context(format!("cannot write {}", output.display())));
+    if let Some(e) = stopped {
+        return Err(e);
     }
     done?;
     eprintln!("wrote {written} results to {}", output.display());
