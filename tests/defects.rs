@@ -3,24 +3,10 @@
 //! the message, and that nothing outside the intended files changed.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 mod common;
-use common::hostile::{only_changed, refused, snapshot};
-use common::{linelight, stderr, write};
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// Runs `linelight` with `args` from the folder `dir`.
-fn linelight_in(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("linelight runs")
-}
+use common::snapshot::{only_changed, refused, s, snapshot};
+use common::{linelight, linelight_in, stderr, write};
 
 const CONFIG: &str = r#"{"id":"a","p1":[0.3,-0.2,1.0],"p2":[0.9,0.4,1.6],"material":{"kind":"diffuse"}}"#;
 

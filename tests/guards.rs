@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 mod common;
 use common::snapshot::{only_changed, refused, s, snapshot};
-use common::{linelight, stderr, write};
+use common::{linelight, linelight_in, stderr, write};
 
 const CASE: &str = r#"
 name = "tiny"
@@ -50,15 +50,6 @@ const CONFIG: &str = r#"{"id":"a","p1":[0.3,-0.2,1.0],"p2":[0.9,0.4,1.6],"materi
 
 fn kernel_source() -> String {
     std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/ci/example/my_line.wgsl")).unwrap()
-}
-
-/// `linelight args…` run from `dir` (for the default output folders).
-fn linelight_in(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("linelight runs")
 }
 
 /// `linelight args…`, killed and failed if it runs longer than `limit`: a refusal must come

@@ -4,14 +4,9 @@
 
 mod common;
 
-use common::snapshot::{only_changed, snapshot};
+use common::snapshot::{only_changed, s, snapshot};
 use common::{stderr, write};
-use std::path::Path;
 use std::process::{Command, Output};
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// Runs `linelight` with `env` set.
 fn linelight_with(env: &[(&str, &str)], args: &[&str]) -> Output {

@@ -1,7 +1,6 @@
 //! What the tests share: running the binary, its stderr, writing an input file, the GPU.
 #![allow(dead_code)] // each test binary uses its own share of these
 
-pub mod hostile;
 pub mod independent;
 pub mod snapshot;
 
@@ -11,6 +10,15 @@ use std::process::{Command, Output};
 /// Runs `linelight` with `args` from the test's working directory.
 pub fn linelight(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .args(args)
+        .output()
+        .expect("linelight runs")
+}
+
+/// Runs `linelight` with `args` from the folder `dir` (for the default output folders).
+pub fn linelight_in(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .current_dir(dir)
         .args(args)
         .output()
         .expect("linelight runs")
