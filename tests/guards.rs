@@ -9,22 +9,7 @@ use std::time::{Duration, Instant};
 mod common;
 use common::snapshot::{only_changed, refused, s, snapshot};
 use common::{linelight, linelight_in, stderr, write};
-
-const CASE: &str = r#"
-name = "tiny"
-title = "tiny"
-seed = 7
-methods = ["line.ltc2023"]
-[geometry]
-elevation = { dist = "uniform", min = 10.0, max = 90.0 }
-tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
-length = { dist = "log_uniform", min = 0.1, max = 10.0 }
-center = { dist = "uniform", min = -1.0, max = 1.0 }
-[[materials]]
-name = "diffuse"
-kind = "diffuse"
-count = 20
-"#;
+use common::{CASE, CONFIG};
 
 /// A ggx case small enough for `chain` to run in about a second.
 const GGX: &str = r#"
@@ -45,8 +30,6 @@ count = 3
 alpha = { dist = "log_uniform", min = 0.1, max = 1.0 }
 view_angle = { dist = "uniform", min = 0.0, max = 60.0 }
 "#;
-
-const CONFIG: &str = r#"{"id":"a","p1":[0.3,-0.2,1.0],"p2":[0.9,0.4,1.6],"material":{"kind":"diffuse"}}"#;
 
 fn kernel_source() -> String {
     std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/ci/example/my_line.wgsl")).unwrap()

@@ -3,6 +3,7 @@
 //! files changed.
 
 mod common;
+use common::CONFIG;
 
 use common::snapshot::{only_changed, s, snapshot};
 use common::{stderr, write};
@@ -16,8 +17,6 @@ fn linelight_with(env: &[(&str, &str)], args: &[&str]) -> Output {
         .output()
         .expect("linelight runs")
 }
-
-const CONFIG: &str = r#"{"id":"a","p1":[0.3,-0.2,1.0],"p2":[0.9,0.4,1.6],"material":{"kind":"diffuse"}}"#;
 
 const CASE: &str = r#"
 name = "tiny"

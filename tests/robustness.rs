@@ -9,24 +9,7 @@ use std::process::Output;
 mod common;
 use common::snapshot::{only_changed, refused, s, snapshot};
 use common::{linelight, stderr, write};
-
-const CONFIG: &str = r#"{"id":"a","p1":[0.3,-0.2,1.0],"p2":[0.9,0.4,1.6],"material":{"kind":"diffuse"}}"#;
-
-const CASE: &str = r#"
-name = "tiny"
-title = "tiny"
-seed = 7
-methods = ["line.ltc2023"]
-[geometry]
-elevation = { dist = "uniform", min = 10.0, max = 90.0 }
-tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
-length = { dist = "log_uniform", min = 0.1, max = 10.0 }
-center = { dist = "uniform", min = -1.0, max = 1.0 }
-[[materials]]
-name = "diffuse"
-kind = "diffuse"
-count = 20
-"#;
+use common::{CASE, CONFIG};
 
 /// Runs a sweep of `case` (written to `dir/case.toml`) into `dir/reports`.
 fn sweep(dir: &Path, case: &str, extra: &[&str]) -> Output {

@@ -7,6 +7,26 @@ pub mod snapshot;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+/// A valid eval line (docs/eval-format.md), for the bad-input tests.
+pub const CONFIG: &str = r#"{"id":"a","p1":[0.3,-0.2,1.0],"p2":[0.9,0.4,1.6],"material":{"kind":"diffuse"}}"#;
+
+/// The smallest sweep case the bad-input tests start from.
+pub const CASE: &str = r#"
+name = "tiny"
+title = "tiny"
+seed = 7
+methods = ["line.ltc2023"]
+[geometry]
+elevation = { dist = "uniform", min = 10.0, max = 90.0 }
+tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
+length = { dist = "log_uniform", min = 0.1, max = 10.0 }
+center = { dist = "uniform", min = -1.0, max = 1.0 }
+[[materials]]
+name = "diffuse"
+kind = "diffuse"
+count = 20
+"#;
+
 /// Runs `linelight` with `args` from the test's working directory.
 pub fn linelight(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_linelight"))
