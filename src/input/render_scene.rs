@@ -335,7 +335,12 @@ impl RenderScene {
 
     /// The unit ray of pixel (x, y), y = 0 the top row.
     pub fn ray(&self, x: u32, y: u32) -> Vec3 {
-        let [f, r, u] = self.basis();
+        self.ray_in(&self.basis(), x, y)
+    }
+
+    /// [`ray`](Self::ray) with the camera basis computed once for the whole image.
+    fn ray_in(&self, [f, r, u]: &[Vec3; 3], x: u32, y: u32) -> Vec3 {
+        let (f, r, u) = (*f, *r, *u);
         let (w, h) = (f64::from(self.width), f64::from(self.height));
         let t = (self.camera.fov_deg.to_radians() / 2.0).tan();
         let a = (2.0 * (f64::from(x) + 0.5) / w - 1.0) * t * w / h;
@@ -362,10 +367,11 @@ impl RenderScene {
     /// an error naming it: the scene must keep its light off the visible floor.
     pub fn floor_pixels(&self) -> Result<Vec<FloorPixel>, String> {
         let pos = self.camera.position;
+        let basis = self.basis();
         let mut out = Vec::new();
         for y in 0..self.height {
             for x in 0..self.width {
-                let d = self.ray(x, y);
+                let d = self.ray_in(&basis, x, y);
                 if !(d[2] < 0.0) {
                     continue;
                 }
