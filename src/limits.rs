@@ -239,10 +239,16 @@ pub fn statistics_estimate(size: StatisticsSize, configurations: u64) -> Bytes {
     Bytes(fixed.saturating_add(fill))
 }
 
-/// Estimated bytes of the gate's per-configuration observations: this run's, a loaded
-/// baseline's, and the saved tokens.
+/// Estimated bytes of the gate's per-configuration observations: this run's (with each
+/// reference's ULP), a loaded baseline's, the saved tokens, and each configuration kept for
+/// `regressed.jsonl` with its bins.
 pub fn observations_estimate(configurations: u64, methods: u64) -> Bytes {
-    Bytes(configurations.saturating_mul(methods).saturating_mul(48))
+    Bytes(
+        configurations
+            .saturating_mul(methods)
+            .saturating_mul(56)
+            .saturating_add(configurations.saturating_mul(512)),
+    )
 }
 
 /// Estimated peak bytes of a chain: every configuration with its feeds, GPU scenes, values

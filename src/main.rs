@@ -54,6 +54,14 @@ struct GateArgs {
     /// Op-count growth beyond this fraction is a regression (0 to 1).
     #[arg(long, default_value_t = 0.10, value_parser = app::options::fraction)]
     ops_growth: f64,
+    /// The share rule: the share of configurations allowed to get worse, per material and bin
+    /// (0 to 1; a one-sided binomial test at P < 0.01, at least 5 worse).
+    #[arg(long, default_value_t = 0.05, value_parser = app::options::fraction)]
+    worse_share: f64,
+    /// The share rule: an error that grew by at most K ULPs of the reference did not get worse
+    /// (a driver's last-bit change).
+    #[arg(long, value_name = "K", default_value_t = 4.0, value_parser = app::options::ulps)]
+    worse_ulps: f64,
 }
 
 #[derive(Subcommand)]
@@ -294,6 +302,8 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
                     junit: gate.junit,
                     noise: gate.noise,
                     ops_growth: gate.ops_growth,
+                    worse_share: gate.worse_share,
+                    worse_ulps: gate.worse_ulps,
                 },
             },
             &gpu.options(),

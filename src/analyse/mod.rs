@@ -4,5 +4,6 @@
 pub mod analysis;
 pub mod bench;
 pub mod claims;
+pub mod gate;
 pub mod stats;
 pub mod summary;

@@ -97,6 +97,34 @@ impl QuantileKind {
     }
 }
 
+/// The spacing of f32 numbers at `reference` rounded to f32 (one ULP of what an f32 kernel
+/// can return there), over |reference|: an error that grows by less than a few of these is
+/// a last-bit change. Subnormals and 0 use the smallest subnormal spacing; None for 0 or NaN.
+pub fn ulp_relative(reference: f64) -> Option<f64> {
+    let r = reference as f32;
+    if !(r.is_finite() && reference != 0.0) {
+        return None;
+    }
+    let exponent = ((r.to_bits() >> 23) & 0xff) as i32;
+    let ulp = 2f64.powi(exponent.max(1) - 127 - 23);
+    Some(ulp / reference.abs())
+}
+
+/// One-sided binomial test: P(X ≥ k) for X ~ Binomial(n, p), the chance of `k` or more
+/// successes in `n` trials if each succeeds with probability `p`. 1 when k = 0.
+pub fn binomial_upper_tail(k: usize, n: usize, p: f64) -> f64 {
+    use statrs::distribution::{Binomial, DiscreteCDF};
+    if k == 0 {
+        return 1.0;
+    }
+    if k > n {
+        return 0.0;
+    }
+    let b = Binomial::new(p, n as u64).expect("p in [0, 1]");
+    // sf(x) = P(X > x).
+    b.sf(k as u64 - 1).clamp(0.0, 1.0)
+}
+
 /// Order statistics of a sample of non-negative errors.
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
 pub struct Quantiles {
@@ -502,6 +530,39 @@ pub use crate::input::case::bin_index;
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn binomial_tail_matches_the_sum_of_its_terms() {
+        // P(X >= 4) for n = 20, p = 0.05: 1 - (P0 + P1 + P2 + P3) = 0.0159015...
+        assert!((binomial_upper_tail(4, 20, 0.05) - 0.015_901_5).abs() < 1e-6);
+        // Against the exact sum with exact binomial coefficients.
+        for (n, p) in [(30usize, 0.05), (50, 0.2), (12, 0.5)] {
+            let term = |i: usize| {
+                let c = (0..i).fold(1.0f64, |c, j| c * (n - j) as f64 / (j + 1) as f64);
+                c * p.powi(i as i32) * (1.0 - p).powi((n - i) as i32)
+            };
+            for k in 0..=n {
+                let sum: f64 = (k..=n).map(term).sum();
+                let t = binomial_upper_tail(k, n, p);
+                assert!((t - sum).abs() < 1e-9 * sum.max(1e-300) + 1e-15, "n {n} p {p} k {k}: {t} vs {sum}");
+            }
+        }
+        assert_eq!(binomial_upper_tail(0, 10, 0.05), 1.0);
+        assert_eq!(binomial_upper_tail(11, 10, 0.05), 0.0);
+    }
+
+    #[test]
+    fn ulp_relative_is_the_f32_spacing_over_the_value() {
+        assert_eq!(ulp_relative(1.0), Some(2f64.powi(-23)));
+        // Just below 2: the spacing of [1, 2) over a value near 2.
+        let r = ulp_relative(1.999_999).unwrap();
+        assert!((r - 2f64.powi(-23) / 1.999_999).abs() < 1e-20, "{r}");
+        assert_eq!(ulp_relative(-4.0), Some(2f64.powi(-23)));
+        assert_eq!(ulp_relative(0.0), None);
+        assert_eq!(ulp_relative(f64::NAN), None);
+        // A subnormal: the smallest spacing.
+        assert_eq!(ulp_relative(1e-40), Some(2f64.powi(-149) / 1e-40));
+    }
     use super::*;
 
     #[test]

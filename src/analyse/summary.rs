@@ -73,6 +73,8 @@ pub struct Replayable {
     pub disagreements: Vec<Value>,
     /// The kept non-finite configurations (`nonfinite.jsonl`).
     pub nonfinite: Vec<Value>,
+    /// A gated run's configurations that got worse than the baseline (`regressed.jsonl`).
+    pub regressed: Vec<Value>,
 }
 
 /// Everything a sweep's report is made from.
@@ -106,6 +108,8 @@ pub struct Summary {
     pub charts: Vec<Vec<ChartPoint>>,
     pub heat_maps: Vec<HeatMap>,
     pub replayable: Replayable,
+    /// A gated run's comparison with its baseline (`--baseline`).
+    pub baseline: Option<crate::analyse::gate::GateReport>,
 }
 
 /// How the run was called, and the stages' times, for the summary.
@@ -116,6 +120,13 @@ pub struct RunInfo<'a> {
 }
 
 impl Summary {
+    /// Adds a gated run's comparison, and its configurations to replay.
+    pub fn set_baseline(&mut self, gate: crate::analyse::gate::GateReport) -> Result<(), serde_json::Error> {
+        self.replayable.regressed = gate.replay.iter().map(serde_json::to_value).collect::<Result<_, _>>()?;
+        self.baseline = Some(gate);
+        Ok(())
+    }
+
     /// Gathers the summary of a measured sweep, its analysis and its claims' results.
     pub fn new(
         run: RunInfo,
@@ -133,6 +144,7 @@ impl Summary {
             worst: rows(&mut measured.found.iter().map(|f| &f.config))?,
             disagreements: rows(&mut measured.disagreements.iter().map(|d| &d.config))?,
             nonfinite: rows(&mut measured.nonfinite.iter().map(|(c, _)| c))?,
+            regressed: Vec::new(),
         };
         let costs = crate::analyse::bench::costs(&measured.costs);
         let charts = (0..case.materials.len())
@@ -193,6 +205,7 @@ impl Summary {
             charts,
             heat_maps,
             replayable,
+            baseline: None,
         })
     }
 }

@@ -21,6 +21,15 @@ pub const FRACTION: FloatRange = FloatRange {
     why: "a fraction: 0.05 is 5 %, and 1 already takes a 2× change for none",
 };
 
+/// `--worse-ulps`: ULPs of the reference, from 0 to 2²³ (2²³ ULPs is the reference itself: a
+/// larger k would call no growth a change).
+pub const ULPS: FloatRange = FloatRange {
+    min: 0.0,
+    min_open: false,
+    max: 8_388_608.0,
+    why: "ULPs of the reference in f32; 8388608 ULPs is the reference itself",
+};
+
 /// `scan --bound`: above 0, and no larger than the largest f32, since the kernels' f32
 /// values are compared with it (a larger bound would count nothing).
 pub const BOUND: FloatRange = FloatRange {
@@ -80,6 +89,11 @@ pub fn fraction(text: &str) -> Result<f64, String> {
     parse_float(text, FRACTION)
 }
 
+/// clap's parser of `--worse-ulps`.
+pub fn ulps(text: &str) -> Result<f64, String> {
+    parse_float(text, ULPS)
+}
+
 /// clap's parser of `scan --bound`.
 pub fn bound(text: &str) -> Result<f64, String> {
     parse_float(text, BOUND)
@@ -97,6 +111,11 @@ mod tests {
         assert_eq!(fraction("0"), Ok(0.0));
         assert_eq!(fraction("0.05"), Ok(0.05));
         assert_eq!(fraction("1"), Ok(1.0));
+        for bad in ["NaN", "inf", "-1", "1e7", "x"] {
+            assert!(ulps(bad).is_err(), "{bad}");
+        }
+        assert_eq!(ulps("0"), Ok(0.0));
+        assert_eq!(ulps("4"), Ok(4.0));
         for bad in ["NaN", "inf", "1e300", "3.5e38", "0", "-1"] {
             assert!(bound(bad).is_err(), "{bad}");
         }

@@ -27,6 +27,8 @@ pub struct GateFlags {
     pub junit: Option<PathBuf>,
     pub noise: f64,
     pub ops_growth: f64,
+    pub worse_share: f64,
+    pub worse_ulps: f64,
 }
 
 /// Options of `linelight sweep`.
@@ -128,6 +130,8 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
         crate::app::gate::GateOptions {
             noise: gate.noise,
             ops_growth: gate.ops_growth,
+            worse_share: gate.worse_share,
+            worse_ulps: gate.worse_ulps,
             ..Default::default()
         },
         &setup,
@@ -331,7 +335,8 @@ fn report_sweep(
         analysis_seconds: measured.timing.statistics_seconds + t.elapsed().as_secs_f64(),
         until_report_seconds: started.elapsed().as_secs_f64(),
     };
-    let input = Summary::new(
+    let gate_report = gate.compare(setup, (measured, swept.observations.as_ref()));
+    let mut input = Summary::new(
         crate::analyse::summary::RunInfo {
             case_path,
             command_line,
@@ -343,6 +348,9 @@ fn report_sweep(
         analysis,
         claim_results,
     )?;
+    if let Some(g) = &gate_report {
+        input.set_baseline(g.clone())?;
+    }
     for path in crate::report::write_reports(dir, &input)? {
         eprintln!("wrote {}", path.display());
     }
@@ -351,7 +359,13 @@ fn report_sweep(
         eprintln!("wrote {}", raw.display());
     }
     let (analysis, claim_results) = (&input.analysis, &input.claims);
-    let gate_report = gate.finish(setup, (measured, swept.observations.as_ref()), &analysis.checks)?;
+    gate.finish(
+        setup,
+        (measured, swept.observations.as_ref()),
+        &analysis.checks,
+        gate_report.as_ref(),
+        started.elapsed().as_secs_f64(),
+    )?;
     let regressed = gate_report.as_ref().is_some_and(|g| g.regressed());
     let failed = analysis.checks.iter().filter(|c| !c.pass).count();
     let stale: Vec<&str> = claim_results
@@ -374,6 +388,13 @@ fn report_sweep(
         dir.join("report.md").display()
     );
     if let Some(g) = &gate_report {
+        if !g.replay.is_empty() {
+            eprintln!(
+                "{} configurations got worse, or NaN or false light new since the baseline: {} (replay with linelight eval)",
+                g.replay.len(),
+                dir.join("regressed.jsonl").display()
+            );
+        }
         println!("{}", g.summary());
     }
     // 3: a finding no longer holds (the report says which); 1: a tolerance failed.
@@ -570,7 +591,7 @@ pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions, observe: 
         leak.add(&chunk);
         statistics_seconds += t.elapsed().as_secs_f64();
         if let Some(obs) = &mut observations {
-            crate::app::gate::observe_chunk(obs, &chunk);
+            crate::app::gate::observe_chunk(obs, case, &chunk);
         }
         Ok(())
     })?;

@@ -74,6 +74,11 @@ pub fn write_reports(dir: &Path, input: &Summary) -> anyhow::Result<Vec<PathBuf>
         "disagreements": input.disagreements,
         "analysis": input.analysis,
     });
+    let mut summary = summary;
+    // A gated run only: an ungated run's summary.json keeps its bytes.
+    if let Some(gate) = &input.baseline {
+        summary["baseline"] = serde_json::to_value(gate)?;
+    }
     let mut extra = Vec::new();
     // The eval input format (docs/eval-format.md) and nothing else: replayable with `linelight eval`.
     let replayable = &input.replayable;
@@ -81,6 +86,7 @@ pub fn write_reports(dir: &Path, input: &Summary) -> anyhow::Result<Vec<PathBuf>
         ("worst.jsonl", &replayable.worst),
         ("disagreements.jsonl", &replayable.disagreements),
         ("nonfinite.jsonl", &replayable.nonfinite),
+        ("regressed.jsonl", &replayable.regressed),
     ] {
         if !rows.is_empty() {
             extra.push((name.to_string(), crate::io::to_jsonl(rows)));

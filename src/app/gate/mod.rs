@@ -1,15 +1,19 @@
 //! Baselines for the CI gate (docs/ci/): what `sweep --save-baseline DIR` writes, and how
 //! `sweep --baseline DIR` compares a run with it. The same seed gives the same configurations,
 //! so every comparison is paired, configuration by configuration. Rules per method × material:
-//! `error` (bootstrap of the log error ratios, with a noise threshold), `nan` (new NaN/inf),
+//! `error` (bootstrap of the log error ratios, with a noise threshold), `share` (how many
+//! configurations got worse, per material and bin: src/analyse/gate.rs), `nan` (new NaN/inf),
 //! `false_light` (new light where the reference is 0); per method: `ops` (op-count growth).
-//! Timings are reported beside, never gated. The format is in docs/ci/baseline.md.
+//! Timings are reported beside, never gated. The format is in docs/ci/README.md.
 
+pub use crate::analyse::gate::{paired, Change, GateReport, Paired, RuleResult, ShareOptions, Shares, ERROR_FLOOR};
+use crate::analyse::gate::{g, share_tests, Axis, Pair};
+use crate::analyse::stats::nearest_rank;
+use crate::input::scene::Config;
 use crate::io::write_atomic;
 use crate::measure::sweep::{Measured, Setup};
 use crate::reference::Estimate;
 use anyhow::Context;
-use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -18,10 +22,6 @@ mod junit;
 
 /// Version of the on-disk format; a baseline of another version is bad input.
 pub const FORMAT: u32 = 1;
-
-/// Relative errors below this count as this: f32 cannot resolve them (2⁻²⁴, half an ulp at 1),
-/// so ratios of two such errors are rounding noise, not a change.
-pub const ERROR_FLOOR: f64 = 1.0 / 16_777_216.0;
 
 /// One natural configuration of one method, as the gate sees it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -150,31 +150,49 @@ pub struct Observed {
     pub materials: Vec<(bool, Vec<Obs>)>,
 }
 
-/// Per method, per family: whether supported, and each natural configuration's observation,
-/// in sample order. O(N): kept only for the gate (`--baseline`, `--save-baseline`), whose case
-/// is small.
-pub type Observations = Vec<Vec<(bool, Vec<Obs>)>>;
+/// Every natural configuration as the gate sees it, in sample order. O(N): kept only for the
+/// gate (`--baseline`, `--save-baseline`) and `diff`, whose cases are small.
+#[derive(Clone, Debug, Default)]
+pub struct Observations {
+    /// Per method, per family: whether supported, and each configuration's observation.
+    pub methods: Vec<Vec<(bool, Vec<Obs>)>>,
+    /// Per method, per family, per configuration: the f32 ULP of the method's reference over
+    /// |reference| (`stats::ulp_relative`; NaN where there is none), for the share rule.
+    pub ulps: Vec<Vec<Vec<f64>>>,
+    /// Per family: each configuration (for `regressed.jsonl`) and its bin on each of the
+    /// case's bin axes.
+    pub configs: Vec<Vec<(Config, Vec<Option<usize>>)>>,
+}
 
 /// Empty observations for `methods` methods over `families` families.
 pub fn observations(methods: usize, families: usize) -> Observations {
-    vec![vec![(true, Vec::new()); families]; methods]
+    Observations {
+        methods: vec![vec![(true, Vec::new()); families]; methods],
+        ulps: vec![vec![Vec::new(); families]; methods],
+        configs: vec![Vec::new(); families],
+    }
 }
 
 /// Folds one measured chunk's natural configurations into `obs` (chunks in sample order).
-pub fn observe_chunk(obs: &mut Observations, chunk: &crate::analyse::analysis::Chunk) {
+pub fn observe_chunk(obs: &mut Observations, case: &crate::input::case::Case, chunk: &crate::analyse::analysis::Chunk) {
     for (i, s) in chunk.samples.iter().enumerate().filter(|(_, s)| s.natural()) {
         let c = &s.config;
-        for (per_method, run) in obs.iter_mut().zip(chunk.runs) {
+        let bins = case.bins.iter().map(|a| a.index(s.axes.get(&a.axis))).collect();
+        obs.configs[s.material].push((c.clone(), bins));
+        for ((per_method, ulps), run) in obs.methods.iter_mut().zip(&mut obs.ulps).zip(chunk.runs) {
             let (supported, list) = &mut per_method[s.material];
             if list.is_empty() {
                 *supported = run.method.supports(c);
             }
             let target = run.method.target();
+            let reference = chunk.references[i].get(&target).copied();
             list.push(if run.method.applies(c) {
-                observe(run.f32[i], chunk.references[i].get(&target).copied())
+                observe(run.f32[i], reference)
             } else {
                 Obs::NotApplicable
             });
+            let ulp = reference.and_then(|r| crate::analyse::stats::ulp_relative(r.value));
+            ulps[s.material].push(ulp.unwrap_or(f64::NAN));
         }
     }
 }
@@ -184,7 +202,7 @@ pub fn observed(setup: &Setup, measured: &Measured, observations: &Observations)
     setup
         .methods
         .iter()
-        .zip(observations)
+        .zip(&observations.methods)
         .map(|(method, materials)| {
             let cost = measured.costs.iter().find(|c| c.label == method.label);
             Observed {
@@ -212,13 +230,6 @@ fn file_name(label: &str) -> String {
         .collect()
 }
 
-/// Nearest-rank quantile of sorted values (every number reported is one observed).
-fn quantile(sorted: &[f64], q: f64) -> f64 {
-    let n = sorted.len();
-    let k = ((q * n as f64).ceil() as usize).clamp(1, n);
-    sorted[k - 1]
-}
-
 /// Writes DIR/baseline.json, DIR/timings.json and DIR/errors/<method>/<material>.txt as one
 /// set ([`crate::io::write_set`]): built in a sibling folder and swapped in whole, so a
 /// failed or killed save leaves the previous baseline as it was. Returns the paths.
@@ -240,7 +251,7 @@ pub fn save(
                 .filter_map(|v| if let Obs::Lit(e) = v { Some(*e) } else { None })
                 .collect();
             lit.sort_by(f64::total_cmp);
-            let q = |p: f64| (!lit.is_empty()).then(|| quantile(&lit, p));
+            let q = |p: f64| (!lit.is_empty()).then(|| nearest_rank(&lit, p));
             let errors = supported.then(|| format!("errors/{}/{}.txt", file_name(&o.label), file_name(&family.name)));
             if let Some(rel) = &errors {
                 let text: String = values.iter().map(|v| v.token() + "\n").collect();
@@ -343,8 +354,12 @@ pub fn load(dir: &Path, setup: &Setup) -> anyhow::Result<Loaded> {
     let here = |what: String| anyhow::anyhow!("{}: {what}", path.display());
     if baseline.format != FORMAT {
         return Err(here(format!(
-            "format {} (this linelight reads {FORMAT})",
-            baseline.format
+            "baseline format {} (this linelight reads format {FORMAT}): save it again on this \
+             linelight with the same case and kernels, `linelight sweep {} --kernel … \
+             --save-baseline {}` (or `scripts/ci-gate --save …`), and commit the new folder",
+            baseline.format,
+            setup.case.name,
+            dir.display()
         )));
     }
     if baseline.case != setup.case.name || baseline.seed != setup.case.seed {
@@ -451,6 +466,8 @@ impl GateRun {
         use crate::app::options::{check_float, FRACTION};
         check_float("--noise", options.noise, FRACTION).map_err(anyhow::Error::msg)?;
         check_float("--ops-growth", options.ops_growth, FRACTION).map_err(anyhow::Error::msg)?;
+        check_float("--worse-share", options.worse_share, FRACTION).map_err(anyhow::Error::msg)?;
+        check_float("--worse-ulps", options.worse_ulps, crate::app::options::ULPS).map_err(anyhow::Error::msg)?;
         let baseline = baseline.map(|dir| load(dir, setup)).transpose()?;
         Ok(GateRun {
             save,
@@ -460,39 +477,46 @@ impl GateRun {
         })
     }
 
-    /// After the sweep: saves the baseline, compares with the loaded one (every rule to
-    /// stderr), writes the JUnit file; returns the comparison, if there was a baseline.
     /// Whether the sweep must keep per-configuration observations (saving or comparing a
     /// baseline pairs errors configuration by configuration: O(N), small at a gate's count).
     pub fn wants_observations(&self) -> bool {
         self.save.is_some() || self.baseline.is_some()
     }
 
+    /// After the sweep, before its report: the comparison with the loaded baseline (every
+    /// rule to stderr), if there is one. The report carries it ("Against the baseline").
+    pub fn compare(&self, setup: &Setup, (measured, observations): (&Measured, Option<&Observations>)) -> Option<GateReport> {
+        let report = self.baseline.as_ref().map(|b| {
+            let observations = observations.expect("the gate's sweep keeps its observations (wants_observations)");
+            compare(b, setup, (measured, observations), self.options)
+        });
+        if let Some(g) = &report {
+            eprint!("{}", g.details());
+        }
+        report
+    }
+
+    /// After the report: saves the baseline and writes the JUnit file.
     pub fn finish(
         &self,
         setup: &Setup,
         (measured, observations): (&Measured, Option<&Observations>),
         checks: &[crate::analyse::analysis::Check],
-    ) -> anyhow::Result<Option<GateReport>> {
-        let observations = || observations.expect("the gate's sweep keeps its observations (wants_observations)");
+        report: Option<&GateReport>,
+        seconds: f64,
+    ) -> anyhow::Result<()> {
         if let Some(dir) = &self.save {
-            for path in save(dir, setup, measured, observations())? {
+            let observations = observations.expect("the gate's sweep keeps its observations (wants_observations)");
+            for path in save(dir, setup, measured, observations)? {
                 eprintln!("wrote {}", path.display());
             }
         }
-        let report = self
-            .baseline
-            .as_ref()
-            .map(|b| compare(b, setup, (measured, observations()), self.options));
-        if let Some(g) = &report {
-            eprint!("{}", g.details());
-        }
         if let Some(path) = &self.junit {
-            let xml = junit::junit(&setup.case.name, checks, report.as_ref())?;
+            let xml = junit::junit(&setup.case.name, checks, report, seconds);
             write_atomic(path, xml.as_bytes())?;
             eprintln!("wrote {}", path.display());
         }
-        Ok(report)
+        Ok(())
     }
 }
 
@@ -504,153 +528,35 @@ pub struct GateOptions {
     /// Op-count growth beyond this fraction is a regression.
     pub ops_growth: f64,
     pub resamples: usize,
+    /// The share rule: the share of configurations allowed to get worse (`--worse-share`).
+    pub worse_share: f64,
+    /// The share rule: an error growth up to this many ULPs of the reference is no change
+    /// (`--worse-ulps`).
+    pub worse_ulps: f64,
 }
 
 impl Default for GateOptions {
     fn default() -> Self {
+        let share = ShareOptions::default();
         GateOptions {
             noise: 0.05,
             ops_growth: 0.10,
             resamples: 1000,
+            worse_share: share.share,
+            worse_ulps: share.ulps,
         }
     }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Change {
-    Regressed,
-    Improved,
-    Unchanged,
-    /// Not compared (unsupported material, or a method new since the baseline).
-    Skipped,
-}
-
-impl Change {
-    pub fn name(self) -> &'static str {
-        match self {
-            Change::Regressed => "regressed",
-            Change::Improved => "improved",
-            Change::Unchanged => "unchanged",
-            Change::Skipped => "skipped",
+impl GateOptions {
+    pub fn share_options(&self) -> ShareOptions {
+        ShareOptions {
+            noise: self.noise,
+            ulps: self.worse_ulps,
+            share: self.worse_share,
+            ..ShareOptions::default()
         }
     }
-}
-
-/// One gated rule for one method × material (material `(all)` for per-method rules).
-#[derive(Clone, Debug, Serialize)]
-pub struct RuleResult {
-    pub method: String,
-    pub material: String,
-    pub rule: &'static str,
-    pub change: Change,
-    /// The numbers behind the outcome, one line.
-    pub message: String,
-}
-
-/// The paired statistics of one method × material.
-#[derive(Clone, Debug, Serialize)]
-pub struct Paired {
-    pub pairs: usize,
-    /// exp(mean log ratio): the geometric mean of now / baseline error, with its 95 % bounds.
-    pub geomean: [f64; 3],
-    /// p99 of now over p99 of baseline (over the paired configurations), with its bounds.
-    pub p99_ratio: [f64; 3],
-    /// Configurations worse / better by more than the noise threshold (a sign test's counts).
-    pub worse: usize,
-    pub better: usize,
-}
-
-/// Paired bootstrap of (geometric-mean ratio, p99 ratio) over (baseline, now) error pairs.
-pub fn paired(pairs: &[(f64, f64)], resamples: usize, noise: f64) -> Paired {
-    let n = pairs.len();
-    let fl = |e: f64| e.max(ERROR_FLOOR);
-    let logs: Vec<f64> = pairs.iter().map(|&(b, a)| (fl(a) / fl(b)).ln()).collect();
-    let base: Vec<f64> = pairs.iter().map(|&(b, _)| fl(b)).collect();
-    let now: Vec<f64> = pairs.iter().map(|&(_, a)| fl(a)).collect();
-    let stat = |idx: &mut dyn Iterator<Item = usize>| {
-        let (mut sum, mut b, mut a) = (0.0, Vec::with_capacity(n), Vec::with_capacity(n));
-        for i in idx {
-            sum += logs[i];
-            b.push(base[i]);
-            a.push(now[i]);
-        }
-        let k = ((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1;
-        let pb = *b.select_nth_unstable_by(k, f64::total_cmp).1;
-        let pa = *a.select_nth_unstable_by(k, f64::total_cmp).1;
-        ((sum / n as f64).exp(), pa / pb)
-    };
-    if n == 0 {
-        return Paired {
-            pairs: 0,
-            geomean: [f64::NAN; 3],
-            p99_ratio: [f64::NAN; 3],
-            worse: 0,
-            better: 0,
-        };
-    }
-    let (g, p) = stat(&mut (0..n));
-    // Seeded: the same inputs give the same verdict on every machine.
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x6c696e65);
-    let (mut gs, mut ps) = (Vec::with_capacity(resamples), Vec::with_capacity(resamples));
-    for _ in 0..resamples {
-        let (gi, pi) = stat(&mut (0..n).map(|_| rng.random_range(0..n)));
-        gs.push(gi);
-        ps.push(pi);
-    }
-    gs.sort_by(f64::total_cmp);
-    ps.sort_by(f64::total_cmp);
-    let bounds = |v: &[f64], mid: f64| {
-        if v.is_empty() {
-            [mid, mid, mid]
-        } else {
-            [quantile(v, 0.025), mid, quantile(v, 0.975)]
-        }
-    };
-    let t = (1.0 + noise).ln();
-    Paired {
-        pairs: n,
-        geomean: bounds(&gs, g),
-        p99_ratio: bounds(&ps, p),
-        worse: logs.iter().filter(|&&d| d > t).count(),
-        better: logs.iter().filter(|&&d| d < -t).count(),
-    }
-}
-
-impl Paired {
-    /// Regressed when either ratio's lower bound is above 1 + noise; otherwise improved when
-    /// either ratio's upper bound is below 1/(1 + noise); otherwise unchanged (within noise).
-    pub fn change(&self, noise: f64) -> Change {
-        let up = 1.0 + noise;
-        let [g_lo, _, g_hi] = self.geomean;
-        let [p_lo, _, p_hi] = self.p99_ratio;
-        if self.pairs == 0 {
-            Change::Unchanged
-        } else if g_lo > up || p_lo > up {
-            Change::Regressed
-        } else if g_hi < 1.0 / up || p_hi < 1.0 / up {
-            Change::Improved
-        } else {
-            Change::Unchanged
-        }
-    }
-}
-
-/// The comparison of a run with a baseline.
-#[derive(Clone, Debug, Serialize)]
-pub struct GateReport {
-    pub baseline_adapter: String,
-    pub adapter: String,
-    pub rules: Vec<RuleResult>,
-    /// (method, baseline ns/eval, now ns/eval): reported, never gated.
-    pub timings: Vec<(String, f64, f64)>,
-    /// Methods run now that the baseline does not have (not gated).
-    pub new_methods: Vec<String>,
-    pub change: Change,
-}
-
-fn g(x: f64) -> String {
-    format!("{x:.4}")
 }
 
 pub fn compare(
@@ -659,9 +565,23 @@ pub fn compare(
     (measured, observations): (&Measured, &Observations),
     options: GateOptions,
 ) -> GateReport {
+    let started = std::time::Instant::now();
     let obs = observed(setup, measured, observations);
+    let share_options = options.share_options();
+    let axes: Vec<Axis> = setup
+        .case
+        .bins
+        .iter()
+        .map(|b| Axis {
+            name: &b.axis,
+            edges: &b.edges,
+        })
+        .collect();
     let mut rules = Vec::new();
     let mut timings = Vec::new();
+    let mut shares = Vec::new();
+    // (family, index) of every configuration to replay, from any method.
+    let mut replay = std::collections::BTreeSet::new();
     for (entry, base_errors) in loaded.baseline.methods.iter().zip(&loaded.errors) {
         let rule = |material: &str, rule: &'static str, change: Change, message: String| RuleResult {
             method: entry.label.clone(),
@@ -670,7 +590,7 @@ pub fn compare(
             change,
             message,
         };
-        let Some(now) = obs.iter().find(|o| o.label == entry.label) else {
+        let Some(now_index) = obs.iter().position(|o| o.label == entry.label) else {
             rules.push(rule(
                 "(all)",
                 "present",
@@ -679,6 +599,7 @@ pub fn compare(
             ));
             continue;
         };
+        let now = &obs[now_index];
         timings.push((entry.label.clone(), entry.ns_per_eval, now.ns_per_eval));
         rules.push(match (entry.ops_total, now.ops_total) {
             (Some(b), Some(a)) => {
@@ -703,7 +624,9 @@ pub fn compare(
             }
             _ => rule("(all)", "ops", Change::Skipped, "no op count on one side".into()),
         });
-        for ((m_entry, base), (supported, values)) in entry.materials.iter().zip(base_errors).zip(&now.materials) {
+        for (family, ((m_entry, base), (supported, values))) in
+            entry.materials.iter().zip(base_errors).zip(&now.materials).enumerate()
+        {
             let mat = m_entry.material.as_str();
             let Some(base) = base else {
                 for r in ["error", "nan", "false_light"] {
@@ -721,10 +644,27 @@ pub fn compare(
                 continue;
             }
             let mut pairs = Vec::new();
+            // The share rule's pairs: the errors now rounded as the baseline's tokens are, so
+            // an unchanged kernel pairs equal numbers.
+            let (mut share_pairs, mut share_bins, mut share_index) = (Vec::new(), Vec::new(), Vec::new());
+            let ulps = &observations.ulps[now_index][family];
             let (mut new_nan, mut fixed_nan, mut new_light, mut fixed_light) = (vec![], 0, vec![], 0);
             for (i, (b, a)) in base.iter().zip(values).enumerate() {
                 match (b, a) {
-                    (Obs::Lit(eb), Obs::Lit(ea)) => pairs.push((*eb, *ea)),
+                    (Obs::Lit(eb), Obs::Lit(ea)) => {
+                        pairs.push((*eb, *ea));
+                        let now = Obs::parse(&Obs::Lit(*ea).token()).map_or(*ea, |o| match o {
+                            Obs::Lit(e) => e,
+                            _ => *ea,
+                        });
+                        share_pairs.push(Pair {
+                            base: *eb,
+                            now,
+                            ulp: ulps[i],
+                        });
+                        share_bins.push(observations.configs[family][i].1.clone());
+                        share_index.push(i);
+                    }
                     (b, Obs::NonFinite) if *b != Obs::NonFinite => new_nan.push(i),
                     (Obs::NonFinite, a) if *a != Obs::NonFinite => fixed_nan += 1,
                     (Obs::Dark, Obs::FalseLight) => new_light.push(i),
@@ -744,6 +684,46 @@ pub fn compare(
                     if v.len() > 5 { ", …" } else { "" }
                 )
             };
+            let tests = share_tests(&share_pairs, &share_bins, &axes, &share_options);
+            for (pair, i) in share_pairs.iter().zip(&share_index) {
+                if pair.worse(&share_options) {
+                    replay.insert((family, *i));
+                }
+            }
+            replay.extend(new_nan.iter().chain(&new_light).map(|i| (family, *i)));
+            let failed: Vec<String> = tests
+                .iter()
+                .filter(|t| t.regressed)
+                .map(|t| format!("{} ({} of {}, P = {:.1e})", t.scope, t.worse, t.pairs, t.p_value))
+                .collect();
+            let all = &tests[0];
+            rules.push(rule(
+                mat,
+                "share",
+                if failed.is_empty() {
+                    Change::Unchanged
+                } else {
+                    Change::Regressed
+                },
+                format!(
+                    "worse on {} of {} paired configurations ({:.1} %; better on {}), allowed {} %{}",
+                    all.worse,
+                    all.pairs,
+                    100.0 * all.share(),
+                    all.better,
+                    100.0 * share_options.share,
+                    if failed.is_empty() {
+                        format!(" (no material or bin beyond it at P < {})", share_options.alpha)
+                    } else {
+                        format!("; beyond it: {}", failed.join(", "))
+                    }
+                ),
+            ));
+            shares.push(Shares {
+                method: entry.label.clone(),
+                material: mat.to_string(),
+                tests,
+            });
             let p = paired(&pairs, options.resamples, options.noise);
             let [gl, gm, gh] = p.geomean;
             let [pl, pm, ph] = p.p99_ratio;
@@ -815,78 +795,13 @@ pub fn compare(
         timings,
         new_methods,
         change,
-    }
-}
-
-impl GateReport {
-    pub fn regressed(&self) -> bool {
-        self.change == Change::Regressed
-    }
-
-    /// The one-line summary: verdict, counts, and the regressed rules by name.
-    pub fn summary(&self) -> String {
-        let count = |c: Change| self.rules.iter().filter(|r| r.change == c).count();
-        let regressed: Vec<String> = self
-            .rules
-            .iter()
-            .filter(|r| r.change == Change::Regressed)
-            .map(|r| format!("{} {} {}", r.method, r.material, r.rule))
-            .collect();
-        let improved: Vec<String> = self
-            .rules
-            .iter()
-            .filter(|r| r.change == Change::Improved && r.rule == "error")
-            .map(|r| format!("{} {}", r.method, r.material))
-            .collect();
-        let mut s = format!(
-            "gate: {} ({} regressed, {} improved, {} unchanged, {} skipped)",
-            self.change.name().to_uppercase(),
-            count(Change::Regressed),
-            count(Change::Improved),
-            count(Change::Unchanged),
-            count(Change::Skipped)
-        );
-        if !regressed.is_empty() {
-            s += &format!("; regressed: {}", regressed.join(", "));
-        }
-        if !improved.is_empty() {
-            s += &format!("; error improved: {}", improved.join(", "));
-        }
-        if self.adapter != self.baseline_adapter {
-            // Another driver's transcendentals differ: a change may be the adapter's, not the kernel's.
-            s += "; WARNING: the baseline was saved on another adapter";
-        }
-        s
-    }
-
-    /// Every rule and the timings, for the terminal.
-    pub fn details(&self) -> String {
-        let mut s = format!(
-            "baseline adapter: {}\nthis run's adapter: {}\n",
-            self.baseline_adapter, self.adapter
-        );
-        for r in &self.rules {
-            s += &format!(
-                "  {:<10} {} on {} [{}]: {}\n",
-                r.change.name(),
-                r.method,
-                r.material,
-                r.rule,
-                r.message
-            );
-        }
-        for (m, b, a) in &self.timings {
-            s += &format!(
-                "  timing (not gated) {m}: {} ns/eval against baseline {} ns/eval (×{})\n",
-                g(*a),
-                g(*b),
-                g(a / b)
-            );
-        }
-        for m in &self.new_methods {
-            s += &format!("  new (no baseline, not gated): {m}\n");
-        }
-        s
+        share_options,
+        shares,
+        seconds: started.elapsed().as_secs_f64(),
+        replay: replay
+            .into_iter()
+            .map(|(family, i)| observations.configs[family][i].0.clone())
+            .collect(),
     }
 }
 
@@ -908,26 +823,5 @@ mod tests {
         }
         assert_eq!(Obs::parse("1e-3x"), None);
         assert_eq!(Obs::parse("-1e-3"), None);
-    }
-
-    #[test]
-    fn paired_test_sees_a_shift_and_not_the_noise() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
-        let base: Vec<f64> = (0..2000).map(|_| 10f64.powf(rng.random_range(-7.0..-3.0))).collect();
-        // Same errors, jittered by ±1 %: within noise.
-        let same: Vec<(f64, f64)> = base.iter().map(|&b| (b, b * rng.random_range(0.99..1.01))).collect();
-        assert_eq!(paired(&same, 200, 0.05).change(0.05), Change::Unchanged);
-        // Every error ×1.5: regressed.
-        let worse: Vec<(f64, f64)> = base.iter().map(|&b| (b, b * 1.5)).collect();
-        assert_eq!(paired(&worse, 200, 0.05).change(0.05), Change::Regressed);
-        // Only the worst 2 % ×10: the geometric mean barely moves, p99 catches it.
-        let mut sorted = base.clone();
-        sorted.sort_by(f64::total_cmp);
-        let cut = sorted[sorted.len() * 98 / 100];
-        let tail: Vec<(f64, f64)> = base.iter().map(|&b| (b, if b >= cut { b * 10.0 } else { b })).collect();
-        assert_eq!(paired(&tail, 200, 0.05).change(0.05), Change::Regressed);
-        // Every error halved: improved.
-        let better: Vec<(f64, f64)> = base.iter().map(|&b| (b, b * 0.5)).collect();
-        assert_eq!(paired(&better, 200, 0.05).change(0.05), Change::Improved);
     }
 }

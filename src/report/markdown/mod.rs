@@ -4,6 +4,7 @@
 //! share are here.
 
 mod accuracy;
+mod baseline;
 mod comparisons;
 mod configurations;
 mod cost;
@@ -23,6 +24,7 @@ pub fn render(input: &Summary) -> String {
     verdict::header(w, input);
     verdict::stale_claims(w, input);
     verdict::verdict(w, input);
+    baseline::against_baseline(w, input);
     verdict::findings(w, input);
     verdict::at_a_glance(w, input);
     comparisons::measured_differences(w, input);

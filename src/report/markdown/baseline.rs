@@ -1,0 +1,84 @@
+//! "Against the baseline": a gated run's comparison (`sweep --baseline`, docs/ci/README.md):
+//! the rules, each verdict, and the share rule's tests per material and bin.
+
+use crate::analyse::gate::Change;
+use crate::analyse::summary::Summary;
+use std::fmt::Write;
+
+pub(super) fn against_baseline(w: &mut String, input: &Summary) {
+    let Some(g) = &input.baseline else {
+        return;
+    };
+    let o = &g.share_options;
+    let _ = writeln!(w, "## Against the baseline\n");
+    let _ = writeln!(w, "**{}**\n", g.summary());
+    let _ = writeln!(
+        w,
+        "Baseline saved on {}; this run on {}. The rules (docs/ci/README.md): `error`, the paired \
+         bootstrap of the error ratios (geometric mean and p99, noise ±{} %); `share`, a \
+         configuration is worse when its error ratio exceeds {} and its error grew by more \
+         than {} ULPs of the reference, and a material or bin fails when more than {} % got \
+         worse (one-sided binomial test, P < {}, at least {} worse); `nan` and `false_light`, \
+         any new one; `ops`, op-count growth. Timings are not gated.\n",
+        g.baseline_adapter,
+        g.adapter,
+        100.0 * o.noise,
+        1.0 + o.noise,
+        o.ulps,
+        100.0 * o.share,
+        o.alpha,
+        o.min_worse
+    );
+    let _ = writeln!(w, "| method | material | rule | verdict | numbers |");
+    let _ = writeln!(w, "|---|---|---|---|---|");
+    for r in &g.rules {
+        let verdict = match r.change {
+            Change::Regressed => "**regressed**",
+            c => c.name(),
+        };
+        let _ = writeln!(
+            w,
+            "| {} | {} | {} | {} | {} |",
+            r.method,
+            r.material,
+            r.rule,
+            verdict,
+            r.message.replace('|', "\\|")
+        );
+    }
+    let _ = writeln!(w);
+    let _ = writeln!(
+        w,
+        "Configurations worse and better than the baseline, per material and bin (the share rule):\n"
+    );
+    let _ = writeln!(w, "| method | material | scope | paired | worse | share worse | better | P | verdict |");
+    let _ = writeln!(w, "|---|---|---|---:|---:|---:|---:|---:|---|");
+    for s in &g.shares {
+        for t in &s.tests {
+            let _ = writeln!(
+                w,
+                "| {} | {} | {} | {} | {} | {} | {} | {:.2e} | {} |",
+                s.method,
+                s.material,
+                t.scope,
+                t.pairs,
+                t.worse,
+                super::share(t.worse, t.pairs),
+                t.better,
+                t.p_value,
+                if t.regressed { "**regressed**" } else { "within" }
+            );
+        }
+    }
+    let _ = writeln!(w);
+    if g.replay.is_empty() {
+        let _ = writeln!(w, "No configuration got worse, and none has a new NaN or false light.\n");
+    } else {
+        let _ = writeln!(
+            w,
+            "`regressed.jsonl` holds the {} configurations that got worse, or have a NaN or false \
+             light the baseline did not, in the eval input format: replay them with `linelight eval`.\n",
+            g.replay.len()
+        );
+    }
+}
