@@ -5,6 +5,7 @@
 pub mod bench;
 pub mod eval_rows;
 pub mod gpu;
+pub mod progress;
 pub mod scan;
 pub mod search;
 pub mod sweep;

@@ -207,6 +207,8 @@ fn bar(len: usize, what: &str) -> ProgressBar {
             .progress_chars("=> "),
     );
     pb.set_message(what.to_string());
+    // A CI log gets a plain line every 10 s.
+    crate::measure::progress::plain_lines(&pb);
     pb
 }
 

@@ -1,6 +1,6 @@
 //! Isotropic GGX LTC look-up tables: ours (`data/ltc_ggx_iso.csv`, written by `linelight
-//! fit`, format in docs/ggx.md) and the published one (Heitz et al. 2016, read from
-//! `../shared/anchors/` when present, never copied), sampled as a shader samples a texture.
+//! fit`, format in docs/ggx.md) and the published one (Heitz et al. 2016, shipped under
+//! `data/ltc_code/` with its licence), sampled as a shader samples a texture.
 //!
 //! Both use the published parameterisation: entry (a, t) of an N×N table has roughness
 //! r = a/(N−1), α = max(r², MIN_ALPHA), and x = t/(N−1) with cos θ = 1 − x² (θ ≤ 1.57).
@@ -10,7 +10,6 @@
 //! as (a, b, c, d) in one RGBA texture, and (magnitude, Fresnel) in a second.
 
 use crate::input::geometry::Rows as M3;
-use std::path::{Path, PathBuf};
 
 /// The α of the roughness-0 column (the published table uses 1e-5).
 pub const MIN_ALPHA: f64 = 1e-4;
@@ -226,13 +225,6 @@ impl Table {
     }
 }
 
-/// Where the anchors are: `$LINELIGHT_ANCHORS`, else `../shared/anchors` beside the project.
-pub fn anchors_dir() -> PathBuf {
-    std::env::var_os("LINELIGHT_ANCHORS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/anchors"))
-}
-
 /// Our committed table, compiled in.
 pub fn ours() -> &'static Table {
     static T: std::sync::OnceLock<Table> = std::sync::OnceLock::new();
@@ -242,15 +234,11 @@ pub fn ours() -> &'static Table {
     })
 }
 
-/// The published table, or why it is not there.
+/// The published table (`data/ltc_code/ltc.inc`, compiled in, so every clone and every
+/// `cargo install` has it), or why it does not parse.
 pub fn published() -> Result<&'static Table, String> {
     static T: std::sync::OnceLock<Result<Table, String>> = std::sync::OnceLock::new();
-    T.get_or_init(|| {
-        let path = anchors_dir().join("ltc_code/ltc.inc");
-        let text = std::fs::read_to_string(&path)
-            .map_err(|e| format!("the published LTC table is not available at {}: {e}", path.display()))?;
-        Table::parse_published(&text, &path.display().to_string())
-    })
-    .as_ref()
-    .map_err(Clone::clone)
+    T.get_or_init(|| Table::parse_published(include_str!("../../../data/ltc_code/ltc.inc"), "data/ltc_code/ltc.inc"))
+        .as_ref()
+        .map_err(Clone::clone)
 }
