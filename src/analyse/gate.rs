@@ -285,7 +285,6 @@ pub fn g(x: f64) -> String {
     format!("{x:.4}")
 }
 
-
 impl GateReport {
     pub fn regressed(&self) -> bool {
         self.change == Change::Regressed
@@ -358,7 +357,6 @@ impl GateReport {
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -418,7 +416,13 @@ mod tests {
         let o = ShareOptions::default();
         // 1000 pairs over two bins; 40 worse, all in bin 1 (of 100): 4 % overall, 40 % there.
         let pairs: Vec<Pair> = (0..1000)
-            .map(|i| if (900..940).contains(&i) { pair(1e-4, 1e-3) } else { pair(1e-4, 1e-4) })
+            .map(|i| {
+                if (900..940).contains(&i) {
+                    pair(1e-4, 1e-3)
+                } else {
+                    pair(1e-4, 1e-4)
+                }
+            })
             .collect();
         let bins: Vec<Vec<Option<usize>>> = (0..1000).map(|i| vec![Some(usize::from(i >= 900))]).collect();
         let axes = [Axis {
@@ -429,7 +433,11 @@ mod tests {
         assert_eq!(t.len(), 3);
         assert!(!t[0].regressed && t[0].worse == 40, "{:?}", t[0]);
         assert!(!t[1].regressed && t[1].pairs == 900, "{:?}", t[1]);
-        assert!(t[2].regressed && t[2].scope == "tilt [0.5, 1)" && t[2].worse == 40, "{:?}", t[2]);
+        assert!(
+            t[2].regressed && t[2].scope == "tilt [0.5, 1)" && t[2].worse == 40,
+            "{:?}",
+            t[2]
+        );
     }
 
     #[test]

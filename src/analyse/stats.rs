@@ -544,7 +544,10 @@ mod tests {
             for k in 0..=n {
                 let sum: f64 = (k..=n).map(term).sum();
                 let t = binomial_upper_tail(k, n, p);
-                assert!((t - sum).abs() < 1e-9 * sum.max(1e-300) + 1e-15, "n {n} p {p} k {k}: {t} vs {sum}");
+                assert!(
+                    (t - sum).abs() < 1e-9 * sum.max(1e-300) + 1e-15,
+                    "n {n} p {p} k {k}: {t} vs {sum}"
+                );
             }
         }
         assert_eq!(binomial_upper_tail(0, 10, 0.05), 1.0);

@@ -58,7 +58,11 @@ mod tests {
         pb.finish_and_clear();
         let n = lines.lock().unwrap().len();
         assert!(n >= 3, "{n} lines");
-        assert!(lines.lock().unwrap()[0].starts_with("measuring: 3/10 ("), "{:?}", lines.lock().unwrap());
+        assert!(
+            lines.lock().unwrap()[0].starts_with("measuring: 3/10 ("),
+            "{:?}",
+            lines.lock().unwrap()
+        );
         std::thread::sleep(Duration::from_millis(100));
         assert!(lines.lock().unwrap().len() <= n + 1, "stops once finished");
     }

@@ -55,9 +55,7 @@ struct Suite {
 
 /// `YYYY-MM-DDTHH:MM:SS` in UTC, without a zone (the schema's pattern).
 fn timestamp(t: std::time::SystemTime) -> String {
-    let secs = t
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs()) as i64;
+    let secs = t.duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs()) as i64;
     let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
     // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
     let z = days + 719_468;
@@ -233,7 +231,10 @@ mod tests {
         assert_eq!(xml.matches("<failure").count(), 1, "{xml}");
         assert!(xml.contains("measured 5e-1, limit 1e-2"), "{xml}");
         assert!(xml.contains("name=\"line.x / diffuse / p99 rel. error\""), "{xml}");
-        assert!(xml.contains("time=\"1.250\"") && xml.contains("failures=\"1\""), "{xml}");
+        assert!(
+            xml.contains("time=\"1.250\"") && xml.contains("failures=\"1\""),
+            "{xml}"
+        );
         assert!(xml.contains("<testsuites>\n"), "no attribute on <testsuites>: {xml}");
     }
 

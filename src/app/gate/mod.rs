@@ -6,8 +6,8 @@
 //! `false_light` (new light where the reference is 0); per method: `ops` (op-count growth).
 //! Timings are reported beside, never gated. The format is in docs/ci/README.md.
 
-pub use crate::analyse::gate::{paired, Change, GateReport, Paired, RuleResult, ShareOptions, Shares, ERROR_FLOOR};
 use crate::analyse::gate::{g, share_tests, Axis, Pair};
+pub use crate::analyse::gate::{paired, Change, GateReport, Paired, RuleResult, ShareOptions, Shares, ERROR_FLOOR};
 use crate::analyse::stats::nearest_rank;
 use crate::input::scene::Config;
 use crate::io::write_atomic;
@@ -485,7 +485,11 @@ impl GateRun {
 
     /// After the sweep, before its report: the comparison with the loaded baseline (every
     /// rule to stderr), if there is one. The report carries it ("Against the baseline").
-    pub fn compare(&self, setup: &Setup, (measured, observations): (&Measured, Option<&Observations>)) -> Option<GateReport> {
+    pub fn compare(
+        &self,
+        setup: &Setup,
+        (measured, observations): (&Measured, Option<&Observations>),
+    ) -> Option<GateReport> {
         let report = self.baseline.as_ref().map(|b| {
             let observations = observations.expect("the gate's sweep keeps its observations (wants_observations)");
             compare(b, setup, (measured, observations), self.options)

@@ -51,7 +51,10 @@ pub(super) fn against_baseline(w: &mut String, input: &Summary) {
         w,
         "Configurations worse and better than the baseline, per material and bin (the share rule):\n"
     );
-    let _ = writeln!(w, "| method | material | scope | paired | worse | share worse | better | P | verdict |");
+    let _ = writeln!(
+        w,
+        "| method | material | scope | paired | worse | share worse | better | P | verdict |"
+    );
     let _ = writeln!(w, "|---|---|---|---:|---:|---:|---:|---:|---|");
     for s in &g.shares {
         for t in &s.tests {
@@ -72,7 +75,10 @@ pub(super) fn against_baseline(w: &mut String, input: &Summary) {
     }
     let _ = writeln!(w);
     if g.replay.is_empty() {
-        let _ = writeln!(w, "No configuration got worse, and none has a new NaN or false light.\n");
+        let _ = writeln!(
+            w,
+            "No configuration got worse, and none has a new NaN or false light.\n"
+        );
     } else {
         let _ = writeln!(
             w,
