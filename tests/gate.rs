@@ -328,6 +328,18 @@ fn baseline_from_other_configurations_is_bad_input() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("baseline.json") && err.contains("paired"), "{err}");
     assert!(!d.join("junit.xml").exists());
+    // A baseline of another format version is refused with the command that saves it again.
+    let json_path = baseline.join("baseline.json");
+    let json = std::fs::read_to_string(&json_path).unwrap();
+    std::fs::write(&json_path, json.replace("\"format\": 1,", "\"format\": 0,")).unwrap();
+    let o = gate(&[CASE, b, "--count", "100"], d);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("baseline format 0") && err.contains("save it again") && err.contains("--save-baseline"),
+        "{err}"
+    );
+    std::fs::write(&json_path, json).unwrap();
     // A corrupt errors file names its file and line.
     let file = baseline.join("errors/line.ltc2023_fix/diffuse.txt");
     let t = std::fs::read_to_string(&file).unwrap().replacen('\n', "\nbogus\n", 1);

@@ -77,6 +77,15 @@ pub struct ShareTest {
 }
 
 impl ShareTest {
+    /// The P value as the rule prints it: `< 1e-300` where it underflows to 0.
+    pub fn p_text(&self) -> String {
+        if self.p_value > 0.0 {
+            format!("{:.1e}", self.p_value)
+        } else {
+            "< 1e-300".into()
+        }
+    }
+
     pub fn share(&self) -> f64 {
         if self.pairs == 0 {
             0.0

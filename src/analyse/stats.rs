@@ -536,7 +536,7 @@ mod tests {
         // P(X >= 4) for n = 20, p = 0.05: 1 - (P0 + P1 + P2 + P3) = 0.0159015...
         assert!((binomial_upper_tail(4, 20, 0.05) - 0.015_901_5).abs() < 1e-6);
         // Against the exact sum with exact binomial coefficients.
-        for (n, p) in [(30usize, 0.05), (50, 0.2), (12, 0.5)] {
+        for (n, p) in [(30usize, 0.05f64), (50, 0.2), (12, 0.5)] {
             let term = |i: usize| {
                 let c = (0..i).fold(1.0f64, |c, j| c * (n - j) as f64 / (j + 1) as f64);
                 c * p.powi(i as i32) * (1.0 - p).powi((n - i) as i32)

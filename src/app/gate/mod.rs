@@ -446,6 +446,15 @@ pub fn load(dir: &Path, setup: &Setup) -> anyhow::Result<Loaded> {
     Ok(Loaded { baseline, errors })
 }
 
+/// `= 3.1e-5`, or `< 1e-300` as it stands.
+fn p_eq(p: &str) -> String {
+    if p.starts_with('<') {
+        p.to_string()
+    } else {
+        format!("= {p}")
+    }
+}
+
 /// What a sweep's gate options ask for, checked before measuring.
 pub struct GateRun {
     save: Option<std::path::PathBuf>,
@@ -698,7 +707,7 @@ pub fn compare(
             let failed: Vec<String> = tests
                 .iter()
                 .filter(|t| t.regressed)
-                .map(|t| format!("{} ({} of {}, P = {:.1e})", t.scope, t.worse, t.pairs, t.p_value))
+                .map(|t| format!("{} ({} of {}, P {})", t.scope, t.worse, t.pairs, p_eq(&t.p_text())))
                 .collect();
             let all = &tests[0];
             rules.push(rule(

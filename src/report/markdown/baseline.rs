@@ -60,7 +60,7 @@ pub(super) fn against_baseline(w: &mut String, input: &Summary) {
         for t in &s.tests {
             let _ = writeln!(
                 w,
-                "| {} | {} | {} | {} | {} | {} | {} | {:.2e} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 s.method,
                 s.material,
                 t.scope,
@@ -68,7 +68,7 @@ pub(super) fn against_baseline(w: &mut String, input: &Summary) {
                 t.worse,
                 super::share(t.worse, t.pairs),
                 t.better,
-                t.p_value,
+                t.p_text(),
                 if t.regressed { "**regressed**" } else { "within" }
             );
         }
