@@ -4,5 +4,6 @@
 pub mod analysis;
 pub mod bench;
 pub mod claims;
+pub mod ship;
 pub mod stats;
 pub mod summary;

@@ -330,9 +330,10 @@ impl Distribution {
         let n = s.count();
         // The sketch reads rank ⌊q·(n − 1)⌋; ask for the middle of the wanted rank.
         let at = ((rank as f64 + 0.5) / (n - 1).max(1) as f64).min(1.0);
+        // A sketch of only NaNs (bits of an f64 result) has no observed range.
         s.quantile(at)
             .expect("quantile in [0, 1]")
-            .map_or(f64::NAN, |v| v.clamp(lo, hi))
+            .map_or(f64::NAN, |v| if lo <= hi { v.clamp(lo, hi) } else { v })
     }
 
     /// An upper bound of the `k`-th smallest value (1-based, 1 ≤ k ≤ len): the value itself
@@ -879,10 +880,18 @@ mod tests {
     fn quantile_bound_rank_matches_exact_binomial() {
         // p = 0.9 (n ≤ 35: 20·10³⁵ fits in u128) and p = 0.5 (n ≤ 100).
         for n in 1..=35 {
-            assert_eq!(quantile_upper_rank(n, 0.9, 0.95), exact_rank_95(n as u32, 9, 10), "p 0.9, n {n}");
+            assert_eq!(
+                quantile_upper_rank(n, 0.9, 0.95),
+                exact_rank_95(n as u32, 9, 10),
+                "p 0.9, n {n}"
+            );
         }
         for n in 1..=100 {
-            assert_eq!(quantile_upper_rank(n, 0.5, 0.95), exact_rank_95(n as u32, 1, 2), "p 0.5, n {n}");
+            assert_eq!(
+                quantile_upper_rank(n, 0.5, 0.95),
+                exact_rank_95(n as u32, 1, 2),
+                "p 0.5, n {n}"
+            );
         }
         // p99 at 95 % needs 299 draws: 1 − 0.99²⁹⁸ = 0.94997, 1 − 0.99²⁹⁹ = 0.95047.
         assert_eq!(quantile_upper_rank(298, 0.99, 0.95), None);
@@ -898,7 +907,9 @@ mod tests {
         // below it in no more than 5 % of them (binomial spread: allow 8 %).
         let mut state = 12345u64;
         let mut uniform = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
         let (trials, mut below) = (400, 0);
@@ -906,13 +917,23 @@ mod tests {
             let mut acc = BinAccumulator::default();
             for _ in 0..200 {
                 let e = uniform();
-                acc.push(Outcome::of_f64(1.0 + e, 1.0, 1e-6), None, None, 0.0, false, (false, false));
+                acc.push(
+                    Outcome::of_f64(1.0 + e, 1.0, 1e-6),
+                    None,
+                    None,
+                    0.0,
+                    false,
+                    (false, false),
+                );
             }
             let b = acc.quantile_bound(0.9);
             below += (b.bound.sort_key() < 0.9) as usize;
             assert!(b.point.unwrap() <= b.bound.sort_key());
         }
-        assert!(below <= trials * 8 / 100, "{below} of {trials} bounds below the true p90");
+        assert!(
+            below <= trials * 8 / 100,
+            "{below} of {trials} bounds below the true p90"
+        );
     }
 
     #[test]
@@ -958,7 +979,10 @@ mod tests {
         sorted.sort_by(f64::total_cmp);
         for k in [1, 100, 10_000, 19_800, 19_950, 20_000] {
             let (up, exact) = (d.order_statistic_upper(k), sorted[k - 1]);
-            assert!(up >= exact && up <= exact * (1.0 + SKETCH_ALPHA).powi(2), "rank {k}: {up} against {exact}");
+            assert!(
+                up >= exact && up <= exact * (1.0 + SKETCH_ALPHA).powi(2),
+                "rank {k}: {up} against {exact}"
+            );
         }
     }
 

@@ -106,6 +106,8 @@ pub struct Summary {
     pub charts: Vec<Vec<ChartPoint>>,
     pub heat_maps: Vec<HeatMap>,
     pub replayable: Replayable,
+    /// The "What to ship" answer (None only for a run without methods).
+    pub ship: Option<crate::analyse::ship::Ship>,
 }
 
 /// How the run was called, and the stages' times, for the summary.
@@ -135,6 +137,8 @@ impl Summary {
             nonfinite: rows(&mut measured.nonfinite.iter().map(|(c, _)| c))?,
         };
         let costs = crate::analyse::bench::costs(&measured.costs);
+        let ship = crate::analyse::ship::ShipBudget::resolve(&case.budget(), case.budget.is_some(), &analysis)
+            .map(|b| crate::analyse::ship::choose(&b, &analysis, &costs));
         let charts = (0..case.materials.len())
             .map(|k| chart_points(&analysis, &costs, k))
             .collect();
@@ -193,6 +197,7 @@ impl Summary {
             charts,
             heat_maps,
             replayable,
+            ship,
         })
     }
 }
