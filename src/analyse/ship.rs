@@ -34,6 +34,11 @@ pub fn surface_target(own: Target) -> Option<Target> {
     }
 }
 
+/// Whether a method of target `own` is judged against `target`: its own, or its surface view.
+pub fn judged_against(own: Target, target: Target) -> bool {
+    own == target || surface_target(own) == Some(target)
+}
+
 impl ShipBudget {
     /// `budget` with its target resolved: the stated one, or else the first method's target
     /// clipped to the surface where it can be. None when there is no method.

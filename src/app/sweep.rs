@@ -454,6 +454,20 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
             );
         }
     }
+    if let Some(target) = case.budget.as_ref().and_then(|b| b.target) {
+        if !methods
+            .iter()
+            .any(|m| crate::analyse::ship::judged_against(m.target(), target))
+        {
+            let targets: std::collections::BTreeSet<&str> = methods.iter().map(|m| m.target().name()).collect();
+            anyhow::bail!(
+                "case `{}`: `budget.target` = \"{target}\": no method of this run is judged against it (their \
+                 targets: {}); name one of those, or its surface view (`line_upper` for `line`)",
+                case.name,
+                targets.into_iter().collect::<Vec<_>>().join(", ")
+            );
+        }
+    }
     let setup = Setup {
         case,
         methods,
