@@ -34,6 +34,18 @@ target = "line"
 min_count = 300
 "#;
 
+/// A claim quoting the answer, and one that expects another: the second is STALE.
+const CLAIMS: &str = r#"
+[[claims]]
+id = "ships-short"
+expect = 'shipped("diffuse") == "my.short"'
+text = "Ship {shipped(\"diffuse\")} on diffuse."
+[[claims]]
+id = "ships-numeric"
+expect = 'shipped("diffuse") == "line.numeric@256"'
+text = "Ship {shipped(\"diffuse\")}."
+"#;
+
 /// `docs/ci/example/my_line.wgsl` (Listing 1.6) as `id`, returning 0 for lines longer than
 /// `cut` (every such light missed: a relative error of 1).
 fn kernel(id: &str, cut: Option<f64>) -> String {
@@ -52,7 +64,7 @@ fn kernel(id: &str, cut: Option<f64>) -> String {
 fn a_cheap_user_kernel_ships_except_where_it_breaks_and_a_dearer_method_meets_it_there() {
     let t = tempfile::tempdir().unwrap();
     let d = t.path();
-    let case = write(d, "case.toml", CASE);
+    let case = write(d, "case.toml", &format!("{CASE}{CLAIMS}"));
     let short = write(d, "short.wgsl", &kernel("my.short", Some(9.9)));
     let dark = write(
         d,
@@ -70,13 +82,18 @@ fn a_cheap_user_kernel_ships_except_where_it_breaks_and_a_dearer_method_meets_it
         "--kernel",
         s(&dark),
     ]);
-    assert!(
-        matches!(o.status.code(), Some(0) | Some(1)),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    // Exit 3: a claim is STALE.
+    assert_eq!(o.status.code(), Some(3), "{}", String::from_utf8_lossy(&o.stderr));
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("ship/summary.json")).unwrap()).unwrap();
+    let holds: Vec<(&str, bool)> = summary["claims"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| (c["id"].as_str().unwrap(), c["holds"].as_bool().unwrap()))
+        .collect();
+    assert_eq!(holds, [("ships-short", true), ("ships-numeric", false)]);
+    assert_eq!(summary["claims"][0]["text"], "Ship my.short on diffuse.");
     let ship = &summary["ship"];
     assert_eq!(ship["budget"]["quantile"], 0.99);
     assert_eq!(ship["budget"]["value"], 0.05);

@@ -30,7 +30,7 @@ fn budget_line(b: &ShipBudget, adapter: &str) -> String {
         "Budget{}: {} of the relative error (f32) ≤ {}, against `{}`, in every region with at least {} \
          configurations. A method meets it where the {:.0} % upper confidence bound of the {} is within it \
          (a reference of 0 counts as exact when the method returns 0, as an infinite error when it lights \
-         it; NaN counts infinite). {} ns: {adapter}, measured in this run{}.",
+         it; NaN counts infinite). {} † ns per evaluation measured in this run on {adapter}{}.",
         if b.stated {
             " (the case's `[budget]`)"
         } else {
@@ -48,7 +48,7 @@ fn budget_line(b: &ShipBudget, adapter: &str) -> String {
             "Cost does not matter in this case: the most accurate (smallest bound) that meets it is shipped."
         },
         if adapter.to_lowercase().contains("llvmpipe") || adapter.to_lowercase().contains("lavapipe") {
-            " on a software driver (CPU), which ranks methods differently from a GPU"
+            ": a software driver (the CPU), whose ns rank methods differently from a GPU's, so they do not rank here"
         } else {
             ""
         }
@@ -66,7 +66,7 @@ fn bound(j: &Judgement) -> String {
 fn price(p: &Price) -> String {
     let ops = p.ops.map_or("ops unknown".to_string(), |o| format!("{o} ops"));
     match p.measured_ns {
-        Some(ns) => format!("{ops}, {ns:.0} ns"),
+        Some(ns) => format!("{ops}, {ns:.0} ns†"),
         None => ops,
     }
 }
