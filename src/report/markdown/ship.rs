@@ -169,10 +169,14 @@ fn material(w: &mut String, ship: &Ship, m: &ShipMaterial) {
     } else {
         "most accurate first, ops"
     };
-    let mut tail = format!(
-        "Candidates, {order} ({q} over the whole material): {}.",
-        ranked.join("; ")
-    );
+    let mut tail = if ranked.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "Candidates, {order} ({q} over the whole material): {}.",
+            ranked.join("; ")
+        )
+    };
     if few > 0 {
         let _ = write!(
             tail,
@@ -180,16 +184,21 @@ fn material(w: &mut String, ship: &Ship, m: &ShipMaterial) {
         );
     }
     if !m.not_candidates.is_empty() {
-        let _ = write!(
-            tail,
-            " Not judged against `{}` here: {}.",
-            ship.budget.target,
+        // A long list is in summary.json; the section stays short.
+        let names = if m.not_candidates.len() <= 4 {
             m.not_candidates
                 .iter()
                 .map(|l| format!("`{l}`"))
                 .collect::<Vec<_>>()
                 .join(", ")
+        } else {
+            format!("{} methods (summary.json `ship`)", m.not_candidates.len())
+        };
+        let _ = write!(
+            tail,
+            " Not judged against `{}` here (another target, or a material they do not claim): {names}.",
+            ship.budget.target
         );
     }
-    let _ = writeln!(w, "{tail}\n");
+    let _ = writeln!(w, "{}\n", tail.trim_start());
 }
