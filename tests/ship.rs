@@ -205,3 +205,52 @@ fn bad_budget_values_are_refused_naming_the_key_and_the_value() {
     }
     assert!(!d.join("reports").exists());
 }
+
+#[test]
+fn a_case_without_a_budget_gets_the_documented_default_and_says_so() {
+    let t = tempfile::tempdir().unwrap();
+    let d = t.path();
+    let text = CASE
+        .replace(
+            "[budget]\nquantile = 0.99\nvalue = 0.05\ntarget = \"line\"\nmin_count = 300\n",
+            "",
+        )
+        .replace("count = 2000", "count = 400");
+    assert!(!text.contains("[budget]"));
+    let case = write(d, "case.toml", &text);
+    let out = d.join("reports");
+    let o = linelight(&["sweep", s(&case), "--out", s(&out)]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("ship/summary.json")).unwrap()).unwrap();
+    let b = &summary["ship"]["budget"];
+    // docs/statistics.md: p99 ≤ 1e-2, 300 per region, cost matters, against the first
+    // method's target clipped to the surface (`line` → `line_upper`).
+    assert_eq!(
+        (
+            &b["quantile"],
+            &b["value"],
+            &b["min_count"],
+            &b["cost_matters"],
+            &b["target"],
+            &b["stated"]
+        ),
+        (
+            &serde_json::json!(0.99),
+            &serde_json::json!(0.01),
+            &serde_json::json!(300),
+            &serde_json::json!(true),
+            &serde_json::json!("line_upper"),
+            &serde_json::json!(false)
+        )
+    );
+    assert_eq!(
+        summary["ship"]["materials"][0]["candidates"][0]["judged_against"],
+        "line_upper"
+    );
+    let report = std::fs::read_to_string(out.join("ship/report.md")).unwrap();
+    assert!(
+        report.contains("Budget (the default: the case states none): p99"),
+        "{report}"
+    );
+}
