@@ -177,7 +177,7 @@ pub enum Bound {
     TooFew,
     /// The bounding order statistic is a false light or a NaN/inf: the bound is infinite.
     Infinite,
-    /// The bounding order statistic (from a sketch: its reading × (1 + α)).
+    /// The bounding order statistic (from a sketch: its reading / (1 − α)).
     At { value: f64 },
 }
 
@@ -337,7 +337,7 @@ impl Distribution {
     }
 
     /// An upper bound of the `k`-th smallest value (1-based, 1 ≤ k ≤ len): the value itself
-    /// while exact; from a sketch, its reading times (1 + α), never below the true one since
+    /// while exact; from a sketch, its reading divided by (1 − α), never below the true one since
     /// the reading is within α of it, and at most the observed maximum.
     pub fn order_statistic_upper(&self, k: usize) -> f64 {
         assert!(k >= 1 && k <= self.len(), "rank {k} of {}", self.len());
@@ -348,7 +348,7 @@ impl Distribution {
             }
             Distribution::Sketch(s) => {
                 let hi = s.max().unwrap_or(f64::INFINITY);
-                (Self::sketch_at(s, k - 1) * (1.0 + SKETCH_ALPHA)).min(hi)
+                (Self::sketch_at(s, k - 1) / (1.0 - SKETCH_ALPHA)).min(hi)
             }
         }
     }
@@ -980,7 +980,7 @@ mod tests {
         for k in [1, 100, 10_000, 19_800, 19_950, 20_000] {
             let (up, exact) = (d.order_statistic_upper(k), sorted[k - 1]);
             assert!(
-                up >= exact && up <= exact * (1.0 + SKETCH_ALPHA).powi(2),
+                up >= exact && up <= exact * (1.0 + SKETCH_ALPHA) / (1.0 - SKETCH_ALPHA),
                 "rank {k}: {up} against {exact}"
             );
         }
