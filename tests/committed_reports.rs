@@ -1,6 +1,6 @@
 //! scripts/compare-report, which CI runs through scripts/check-reports on every committed sweep
-//! report: a committed stats.csv or analysis that disagrees with a fresh run fails it, and a
-//! timing that differs does not.
+//! report: a committed stats.csv, analysis or "What to ship" answer that disagrees with a fresh
+//! run fails it, and a timing that differs does not.
 
 use std::path::Path;
 use std::process::Command;
@@ -66,4 +66,21 @@ fn a_moved_number_fails_and_a_timing_does_not() {
     let (code, text) = compare(&a, &b);
     assert_eq!(code, 1, "{text}");
     assert!(text.contains("configurations"), "{text}");
+
+    // The "What to ship" answer: its measured ns is a timing, its choice is not.
+    let with_ship = |dir: &Path, ship: &str, ns: f64| {
+        copy_dir(&committed, dir);
+        let mut s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+        s["ship"] = serde_json::json!({"materials": [{"ship": ship, "candidates": [{"label": ship, "price": {"ops": 120, "measured_ns": ns}}]}]});
+        std::fs::write(dir.join("summary.json"), serde_json::to_string(&s).unwrap()).unwrap();
+    };
+    with_ship(&a, "m.cheap", 40.0);
+    with_ship(&b, "m.cheap", 55.0);
+    let (code, text) = compare(&a, &b);
+    assert_eq!(code, 0, "{text}");
+    with_ship(&b, "m.dear", 40.0);
+    let (code, text) = compare(&a, &b);
+    assert_eq!(code, 1, "{text}");
+    assert!(text.contains("ship/materials/0/"), "{text}");
 }

@@ -44,6 +44,10 @@ pub struct MaterialStats {
     /// For `line` methods: the same results judged against `line_upper`, what a real
     /// surface receives (the difference is the leak below the horizon).
     pub against_line_upper: Option<BinStats>,
+    /// The same view per bin of every axis (empty for other methods): what the "What to ship"
+    /// answer reads region by region.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub against_line_upper_axes: Vec<AxisStats>,
 }
 
 /// Which statistics of a method on a material a claim reads.
@@ -308,6 +312,8 @@ struct MaterialAcc {
     all: BinAccumulator,
     upper: BinAccumulator,
     axes: Vec<Vec<BinAccumulator>>,
+    /// `upper` per bin of every axis; only `line` methods have them (empty otherwise).
+    upper_axes: Vec<Vec<BinAccumulator>>,
     /// Only the methods a map draws have cells (the others' grids would be read by no one).
     maps: Vec<Vec<Vec<BinAccumulator>>>,
 }
@@ -320,16 +326,23 @@ struct MethodAcc {
 }
 
 impl MethodAcc {
-    fn new(case: &Case, label: &str) -> MethodAcc {
+    fn new(case: &Case, method: &Method) -> MethodAcc {
+        let label = method.label.as_str();
+        let axes: Vec<Vec<BinAccumulator>> = case
+            .bins
+            .iter()
+            .map(|b| vec![BinAccumulator::default(); b.edges.len() - 1])
+            .collect();
         let material = MaterialAcc {
             supported: None,
             all: BinAccumulator::default(),
             upper: BinAccumulator::default(),
-            axes: case
-                .bins
-                .iter()
-                .map(|b| vec![BinAccumulator::default(); b.edges.len() - 1])
-                .collect(),
+            upper_axes: if method.target() == Target::Line {
+                axes.clone()
+            } else {
+                Vec::new()
+            },
+            axes,
             maps: case
                 .maps
                 .iter()
@@ -353,9 +366,16 @@ impl MethodAcc {
             let acc = &mut self.materials[p.material];
             acc.supported
                 .get_or_insert_with(|| run.method.supports(&chunk.samples[i].config));
-            if p.natural && target == Target::Line {
+            if target == Target::Line {
                 if let Some(u) = judge(case, chunk, run, i, Target::LineUpper) {
-                    push(&mut acc.upper, u);
+                    if p.natural {
+                        push(&mut acc.upper, u);
+                    }
+                    for (bins, k) in acc.upper_axes.iter_mut().zip(&p.bins) {
+                        if let Some(k) = k {
+                            push(&mut bins[*k], u);
+                        }
+                    }
                 }
             }
             let Some(judged) = judge(case, chunk, run, i, target) else {
@@ -386,6 +406,9 @@ impl MethodAcc {
             for (x, y) in a.axes.iter_mut().flatten().zip(b.axes.iter().flatten()) {
                 x.merge(y);
             }
+            for (x, y) in a.upper_axes.iter_mut().flatten().zip(b.upper_axes.iter().flatten()) {
+                x.merge(y);
+            }
             for (x, y) in a
                 .maps
                 .iter_mut()
@@ -400,6 +423,26 @@ impl MethodAcc {
 
     fn finish(&self, case: &Case, method: &Method) -> MethodStats {
         let target = method.target();
+        // Every bin carries the budget's bound of its quantile (docs/statistics.md).
+        let q = case.budget().quantile;
+        let axes = |accs: &[Vec<BinAccumulator>]| -> Vec<AxisStats> {
+            case.bins
+                .iter()
+                .zip(accs)
+                .map(|(b, accs)| AxisStats {
+                    axis: b.axis.clone(),
+                    bins: accs
+                        .iter()
+                        .enumerate()
+                        .map(|(k, acc)| Bin {
+                            lo: b.edges[k],
+                            hi: b.edges[k + 1],
+                            stats: acc.finish_bounded(q),
+                        })
+                        .collect(),
+                })
+                .collect()
+        };
         let materials = case
             .materials
             .iter()
@@ -407,24 +450,8 @@ impl MethodAcc {
             .map(|(family, acc)| MaterialStats {
                 material: family.name.clone(),
                 supported: acc.supported.unwrap_or(true),
-                all: acc.all.finish(),
-                axes: case
-                    .bins
-                    .iter()
-                    .zip(&acc.axes)
-                    .map(|(b, accs)| AxisStats {
-                        axis: b.axis.clone(),
-                        bins: accs
-                            .iter()
-                            .enumerate()
-                            .map(|(k, acc)| Bin {
-                                lo: b.edges[k],
-                                hi: b.edges[k + 1],
-                                stats: acc.finish(),
-                            })
-                            .collect(),
-                    })
-                    .collect(),
+                all: acc.all.finish_bounded(q),
+                axes: axes(&acc.axes),
                 maps: case
                     .maps
                     .iter()
@@ -438,7 +465,8 @@ impl MethodAcc {
                             .collect(),
                     })
                     .collect(),
-                against_line_upper: (target == Target::Line).then(|| acc.upper.finish()),
+                against_line_upper: (target == Target::Line).then(|| acc.upper.finish_bounded(q)),
+                against_line_upper_axes: axes(&acc.upper_axes),
             })
             .collect();
         MethodStats {
@@ -604,8 +632,11 @@ pub fn statistics_size(case: &Case, methods: &[Method]) -> crate::limits::Statis
         map_cells = map_cells.saturating_add(cells.saturating_mul(shown));
         map_placements = map_placements.saturating_add(shown);
     }
+    // A `line` method has its bins twice: against `line` and against `line_upper`.
+    let lines = methods.iter().filter(|x| x.target() == Target::Line).count() as u64;
     let per_material = m
         .saturating_mul(bins.saturating_add(2))
+        .saturating_add(lines.saturating_mul(bins))
         .saturating_add(pairs.saturating_mul(bins.saturating_add(1)))
         .saturating_add(bins);
     crate::limits::StatisticsSize {
@@ -613,6 +644,7 @@ pub fn statistics_size(case: &Case, methods: &[Method]) -> crate::limits::Statis
         map_cells: map_cells.saturating_mul(materials),
         per_configuration: m
             .saturating_mul(axes.saturating_add(2))
+            .saturating_add(lines.saturating_mul(axes))
             .saturating_add(pairs.saturating_mul(axes.saturating_add(1)))
             .saturating_add(map_placements),
     }
@@ -658,7 +690,7 @@ impl Accumulators {
             })
             .collect();
         Accumulators {
-            methods: methods.iter().map(|m| MethodAcc::new(case, &m.label)).collect(),
+            methods: methods.iter().map(|m| MethodAcc::new(case, m)).collect(),
             pairs,
             configurations: 0,
         }

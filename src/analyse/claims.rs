@@ -42,6 +42,9 @@ pub struct Facts {
     pub costs: Vec<Cost>,
     pub disagreements: Vec<Disagreement>,
     pub found: Vec<crate::measure::search::Found>,
+    /// The case's budget and whether the case states it (for `shipped`).
+    pub budget: crate::input::case::Budget,
+    pub budget_stated: bool,
 }
 
 type Fail = Box<EvalAltResult>;
@@ -460,6 +463,20 @@ fn engine(facts: Rc<Facts>) -> Engine {
         });
         let f = facts.clone();
         e.register_fn("configurations", move || -> f64 { f.configurations as f64 });
+        // The "What to ship" answer, so prose that quotes it goes STALE when it changes.
+        let f = facts.clone();
+        e.register_fn("shipped", move |mat: S| -> Result<S, Fail> {
+            f.check_material(&mat)?;
+            let Some(analysis) = &f.analysis else {
+                return Ok("".into());
+            };
+            use crate::analyse::ship;
+            let shipped = ship::ShipBudget::resolve(&f.budget, f.budget_stated, analysis)
+                .map(|b| ship::choose(&b, analysis, &f.costs))
+                .and_then(|s| s.materials.into_iter().find(|m| m.material == mat.as_str()))
+                .and_then(|m| m.ship);
+            Ok(shipped.unwrap_or_else(|| "none".into()).into())
+        });
     }
     e.register_fn("pct", |x: f64| -> S {
         format!("{} %", format_number(100.0 * x)).into()
@@ -540,6 +557,8 @@ pub fn dry_facts(case: &Case, labels: Vec<String>) -> Facts {
         costs: Vec::new(),
         disagreements: Vec::new(),
         found: Vec::new(),
+        budget: case.budget(),
+        budget_stated: case.budget.is_some(),
     }
 }
 

@@ -5,5 +5,6 @@ pub mod analysis;
 pub mod bench;
 pub mod claims;
 pub mod gate;
+pub mod ship;
 pub mod stats;
 pub mod summary;

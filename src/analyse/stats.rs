@@ -151,6 +151,94 @@ pub fn median(values: &[f64]) -> Option<f64> {
     (!v.is_empty()).then(|| nearest_rank(&v, 0.5))
 }
 
+/// The confidence of every upper bound of a quantile ([`quantile_upper_rank`]): the budget's
+/// "meets" holds with at least this probability of the bound not being below the true quantile.
+pub const BOUND_CONFIDENCE: f64 = 0.95;
+
+/// The rank (1-based) of the order statistic that is a distribution-free upper confidence bound
+/// of the `p`-quantile from `n` independent draws: the smallest k with
+/// P(Binomial(n, p) ≤ k − 1) ≥ `confidence`. None when even the largest value is not enough
+/// (pⁿ > 1 − confidence: too few draws, e.g. fewer than 299 for p = 0.99 at 95 %).
+///
+/// Why it holds for any distribution: with ξ the p-quantile (the smallest x with F(x) ≥ p),
+/// each draw is below ξ with probability at most p, so the count below ξ is at most
+/// Binomial(n, p) in distribution, and X₍ₖ₎ < ξ needs k or more draws below ξ. So
+/// P(X₍ₖ₎ ≥ ξ) ≥ P(Binomial(n, p) ≤ k − 1). The tail is summed in log space from k = n down;
+/// a tail within a relative 1e-9 of 1 − confidence counts as above it, so rounding can only
+/// make the rank larger (the bound more conservative), never smaller.
+pub fn quantile_upper_rank(n: usize, p: f64, confidence: f64) -> Option<usize> {
+    assert!(p > 0.0 && p < 1.0 && confidence > 0.0 && confidence < 1.0);
+    let allowed = (1.0 - confidence) * (1.0 - 1e-9);
+    let (lp, lq) = (p.ln(), (1.0 - p).ln());
+    // log P(X = i), starting at i = n: n·ln p; then P(X = i − 1) = P(X = i)·i/(n − i + 1)·q/p.
+    let mut log_pmf = n as f64 * lp;
+    let mut log_tail = f64::NEG_INFINITY; // log P(X ≥ i + 1)
+    let mut rank = None;
+    for i in (1..=n).rev() {
+        log_tail = log_add(log_tail, log_pmf); // now log P(X ≥ i)
+        if log_tail > allowed.ln() {
+            break;
+        }
+        // P(X ≥ i) ≤ 1 − confidence: X₍ᵢ₎ is a bound; keep going down for a smaller one.
+        rank = Some(i);
+        log_pmf += (i as f64).ln() - ((n - i + 1) as f64).ln() + lq - lp;
+    }
+    rank
+}
+
+/// ln(eᵃ + eᵇ) without overflow.
+fn log_add(a: f64, b: f64) -> f64 {
+    let (hi, lo) = if a > b { (a, b) } else { (b, a) };
+    if lo == f64::NEG_INFINITY {
+        hi
+    } else {
+        hi + (lo - hi).exp().ln_1p()
+    }
+}
+
+/// An upper confidence bound of a quantile of the budget's statistic in one bin
+/// (docs/statistics.md, "What to ship").
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Bound {
+    /// Too few configurations for any order statistic to be a bound at this confidence.
+    TooFew,
+    /// The bounding order statistic is a false light or a NaN/inf: the bound is infinite.
+    Infinite,
+    /// The bounding order statistic (from a sketch: its reading / (1 − α)).
+    At { value: f64 },
+}
+
+impl Bound {
+    /// Whether the bound is known to be within `limit`.
+    pub fn within(self, limit: f64) -> bool {
+        matches!(self, Bound::At { value } if value <= limit)
+    }
+
+    /// The bound as a number for ordering: TooFew and Infinite sort last.
+    pub fn sort_key(self) -> f64 {
+        match self {
+            Bound::At { value } => value,
+            _ => f64::INFINITY,
+        }
+    }
+}
+
+/// The bound of one quantile over one bin, with what it was taken from.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct QuantileBound {
+    pub quantile: f64,
+    pub confidence: f64,
+    /// Configurations judged: every one in the bin, zero references included.
+    pub n: usize,
+    /// The order statistic's rank (1-based), when there is one.
+    pub rank: Option<usize>,
+    pub bound: Bound,
+    /// The plain nearest-rank quantile of the same values (the point estimate the bound sits
+    /// above): a number, or infinite (None) when it falls on a false light or NaN.
+    pub point: Option<f64>,
+}
+
 impl Quantiles {
     /// Nearest-rank quantiles (no interpolation: every number reported is one observed).
     pub fn of(values: &mut [f64]) -> Option<Quantiles> {
@@ -263,23 +351,47 @@ impl Distribution {
         }
     }
 
+    /// The value at 0-based `rank` of a sketch (not empty), within α of the exact one at the
+    /// same rank, clamped to the observed range (which the sketch keeps exactly).
+    fn sketch_at(s: &DDSketch, rank: usize) -> f64 {
+        let (lo, hi) = (s.min().unwrap_or(0.0), s.max().unwrap_or(0.0));
+        let n = s.count();
+        // The sketch reads rank ⌊q·(n − 1)⌋; ask for the middle of the wanted rank.
+        let at = ((rank as f64 + 0.5) / (n - 1).max(1) as f64).min(1.0);
+        // A sketch of only NaNs (bits of an f64 result) has no observed range.
+        s.quantile(at)
+            .expect("quantile in [0, 1]")
+            .map_or(f64::NAN, |v| if lo <= hi { v.clamp(lo, hi) } else { v })
+    }
+
+    /// An upper bound of the `k`-th smallest value (1-based, 1 ≤ k ≤ len): the value itself
+    /// while exact; from a sketch, its reading divided by (1 − α), never below the true one since
+    /// the reading is within α of it, and at most the observed maximum.
+    pub fn order_statistic_upper(&self, k: usize) -> f64 {
+        assert!(k >= 1 && k <= self.len(), "rank {k} of {}", self.len());
+        match self {
+            Distribution::Exact(v) => {
+                let mut v = v.clone();
+                *v.select_nth_unstable_by(k - 1, f64::total_cmp).1
+            }
+            Distribution::Sketch(s) => {
+                let hi = s.max().unwrap_or(f64::INFINITY);
+                (Self::sketch_at(s, k - 1) / (1.0 - SKETCH_ALPHA)).min(hi)
+            }
+        }
+    }
+
     /// Median, p90, p99 and max; None when empty. Exact nearest-rank while exact; from the
     /// sketch after (clamped to the observed range, which the sketch keeps exactly).
     pub fn quantiles(&self) -> Option<Quantiles> {
         match self {
             Distribution::Exact(v) => Quantiles::of(&mut v.clone()),
             Distribution::Sketch(s) => {
-                let (lo, hi) = (s.min()?, s.max()?);
+                let hi = s.max()?;
                 let n = s.count();
-                // The sketch reads rank ⌊p·(n − 1)⌋; ask for the nearest rank ⌈q·n⌉ − 1, so a
-                // sketched quantile is within α of the exact one at the same rank.
-                let q = |p: f64| {
-                    let rank = ((p * n as f64).ceil() as usize).clamp(1, n) - 1;
-                    let at = ((rank as f64 + 0.5) / (n - 1).max(1) as f64).min(1.0);
-                    s.quantile(at)
-                        .expect("quantile in [0, 1]")
-                        .map_or(f64::NAN, |v| v.clamp(lo, hi))
-                };
+                // The nearest rank ⌈q·n⌉ − 1 (0-based), so a sketched quantile is within α of
+                // the exact one at the same rank.
+                let q = |p: f64| Self::sketch_at(s, ((p * n as f64).ceil() as usize).clamp(1, n) - 1);
                 Some(Quantiles {
                     median: q(0.5),
                     p90: q(0.9),
@@ -347,6 +459,10 @@ pub struct BinStats {
     /// The same formula in f64 returns exactly 0 there too (the formula's own missed light,
     /// not rounding).
     pub dark_f64: usize,
+    /// The budget's upper confidence bound of its quantile ([`BinAccumulator::quantile_bound`]),
+    /// where the analysis asked for it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bound: Option<QuantileBound>,
 }
 
 impl BinStats {
@@ -487,6 +603,64 @@ impl BinAccumulator {
         }
     }
 
+    /// The budget's upper confidence bound of the `p`-quantile of the relative error of the f32
+    /// (GPU) result over every configuration of the bin, at [`BOUND_CONFIDENCE`]. Unlike the
+    /// headline statistics, zero references are judged too: exact when the method returns 0,
+    /// an infinite error when it returns light (false light) or NaN; a NaN or ±inf result on a
+    /// lit configuration is an infinite error as well. So nothing a viewer would see is left out.
+    pub fn quantile_bound(&self, p: f64) -> QuantileBound {
+        let exact_zeros = self.zero - self.zero_lit - self.zero_nonfinite;
+        let finite = self.rel.len();
+        let n = exact_zeros + finite + self.nan + self.inf + self.zero_lit + self.zero_nonfinite;
+        // The k-th smallest of: the exact zeros (0), the finite errors, then the infinite ones.
+        let at = |k: usize| -> Option<f64> {
+            if k <= exact_zeros {
+                Some(0.0)
+            } else if k <= exact_zeros + finite {
+                Some(self.rel.order_statistic_upper(k - exact_zeros))
+            } else {
+                None
+            }
+        };
+        let rank = (n > 0).then(|| quantile_upper_rank(n, p, BOUND_CONFIDENCE)).flatten();
+        let bound = match rank.map(at) {
+            None => Bound::TooFew,
+            Some(None) => Bound::Infinite,
+            Some(Some(value)) => Bound::At { value },
+        };
+        let point = if n == 0 {
+            None
+        } else {
+            match (self.rel.is_empty(), ((p * n as f64).ceil() as usize).clamp(1, n)) {
+                (_, k) if k <= exact_zeros => Some(0.0),
+                (false, k) if k <= exact_zeros + finite => Some(match &self.rel {
+                    Distribution::Exact(v) => {
+                        let mut v = v.clone();
+                        *v.select_nth_unstable_by(k - exact_zeros - 1, f64::total_cmp).1
+                    }
+                    Distribution::Sketch(s) => Distribution::sketch_at(s, k - exact_zeros - 1),
+                }),
+                _ => None,
+            }
+        };
+        QuantileBound {
+            quantile: p,
+            confidence: BOUND_CONFIDENCE,
+            n,
+            rank,
+            bound,
+            point,
+        }
+    }
+
+    /// [`BinAccumulator::finish`] with the budget's bound of the `p`-quantile.
+    pub fn finish_bounded(&self, p: f64) -> BinStats {
+        BinStats {
+            bound: Some(self.quantile_bound(p)),
+            ..self.finish()
+        }
+    }
+
     pub fn finish(&self) -> BinStats {
         let total = self.rel.len() + self.nan + self.inf;
         let within = self
@@ -522,6 +696,7 @@ impl BinAccumulator {
             },
             dark: self.dark,
             dark_f64: self.dark_f64,
+            bound: None,
         }
     }
 }
@@ -746,6 +921,132 @@ mod tests {
             }
             assert_eq!(merged.len(), n);
             assert_eq!(merged.quantiles(), one.quantiles(), "n = {n}");
+        }
+    }
+
+    /// The smallest k with P(Binomial(n, a/d) ≥ k) ≤ 1/20, in exact integer arithmetic:
+    /// 20·Σᵢ₌ₖⁿ C(n, i)·aⁱ·(d − a)ⁿ⁻ⁱ ≤ dⁿ.
+    fn exact_rank_95(n: u32, a: u128, d: u128) -> Option<usize> {
+        let binom = |n: u32, i: u32| -> u128 { (0..i).fold(1u128, |c, j| c * (n - j) as u128 / (j + 1) as u128) };
+        let mut tail = 0u128;
+        let mut rank = None;
+        for i in (1..=n).rev() {
+            tail += binom(n, i) * a.pow(i) * (d - a).pow(n - i);
+            if 20 * tail > d.pow(n) {
+                break;
+            }
+            rank = Some(i as usize);
+        }
+        rank
+    }
+
+    #[test]
+    fn quantile_bound_rank_matches_exact_binomial() {
+        // p = 0.9 (n ≤ 35: 20·10³⁵ fits in u128) and p = 0.5 (n ≤ 100).
+        for n in 1..=35 {
+            assert_eq!(
+                quantile_upper_rank(n, 0.9, 0.95),
+                exact_rank_95(n as u32, 9, 10),
+                "p 0.9, n {n}"
+            );
+        }
+        for n in 1..=100 {
+            assert_eq!(
+                quantile_upper_rank(n, 0.5, 0.95),
+                exact_rank_95(n as u32, 1, 2),
+                "p 0.5, n {n}"
+            );
+        }
+        // p99 at 95 % needs 299 draws: 1 − 0.99²⁹⁸ = 0.94997, 1 − 0.99²⁹⁹ = 0.95047.
+        assert_eq!(quantile_upper_rank(298, 0.99, 0.95), None);
+        assert_eq!(quantile_upper_rank(299, 0.99, 0.95), Some(299));
+        // With more draws the bound moves below the maximum but stays above the nearest rank.
+        let k = quantile_upper_rank(20_000, 0.99, 0.95).unwrap();
+        assert!(k > 19_800 && k < 20_000, "{k}");
+    }
+
+    #[test]
+    fn quantile_bound_covers_the_true_quantile() {
+        // Uniform draws on (0, 1): the p90 is 0.9. Over many independent bins the bound falls
+        // below it in no more than 5 % of them (binomial spread: allow 8 %).
+        let mut state = 12345u64;
+        let mut uniform = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (trials, mut below) = (400, 0);
+        for _ in 0..trials {
+            let mut acc = BinAccumulator::default();
+            for _ in 0..200 {
+                let e = uniform();
+                acc.push(
+                    Outcome::of_f64(1.0 + e, 1.0, 1e-6),
+                    None,
+                    None,
+                    0.0,
+                    false,
+                    (false, false),
+                );
+            }
+            let b = acc.quantile_bound(0.9);
+            below += (b.bound.sort_key() < 0.9) as usize;
+            assert!(b.point.unwrap() <= b.bound.sort_key());
+        }
+        assert!(
+            below <= trials * 8 / 100,
+            "{below} of {trials} bounds below the true p90"
+        );
+    }
+
+    #[test]
+    fn quantile_bound_judges_zero_references_and_nonfinite() {
+        let mut acc = BinAccumulator::default();
+        for _ in 0..400 {
+            acc.push(Outcome::of_f32(1.0, 1.0, 1e-6), None, None, 0.0, false, (false, false));
+        }
+        // 100 exact zeros are exact; they count, and lower nothing above them.
+        for _ in 0..100 {
+            acc.push_zero(0.0, Some(0.0));
+        }
+        let b = acc.quantile_bound(0.99);
+        assert_eq!((b.n, b.bound), (500, Bound::At { value: 0.0 }));
+        // Ten false lights: the top 2 % are infinite, so the p99 bound is.
+        for _ in 0..10 {
+            acc.push_zero(0.5, Some(0.5));
+        }
+        let b = acc.quantile_bound(0.99);
+        assert_eq!((b.n, b.bound, b.point), (510, Bound::Infinite, None));
+        assert!(!b.bound.within(1e30));
+        // A NaN is as bad.
+        let mut acc = BinAccumulator::default();
+        for i in 0..300 {
+            let v = if i == 0 { f32::NAN } else { 1.0 };
+            acc.push(Outcome::of_f32(v, 1.0, 1e-6), None, None, 0.0, false, (false, false));
+        }
+        assert_eq!(acc.quantile_bound(0.99).bound, Bound::Infinite);
+        // Too few for p99 at 95 %.
+        let mut acc = BinAccumulator::default();
+        for _ in 0..298 {
+            acc.push(Outcome::of_f32(1.0, 1.0, 1e-6), None, None, 0.0, false, (false, false));
+        }
+        assert_eq!(acc.quantile_bound(0.99).bound, Bound::TooFew);
+    }
+
+    #[test]
+    fn sketched_order_statistics_are_never_below_the_exact_ones() {
+        let values = spread(20_000);
+        let mut d = Distribution::default();
+        values.iter().for_each(|&v| d.push(v));
+        let mut sorted = values.clone();
+        sorted.sort_by(f64::total_cmp);
+        for k in [1, 100, 10_000, 19_800, 19_950, 20_000] {
+            let (up, exact) = (d.order_statistic_upper(k), sorted[k - 1]);
+            assert!(
+                up >= exact && up <= exact * (1.0 + SKETCH_ALPHA) / (1.0 - SKETCH_ALPHA),
+                "rank {k}: {up} against {exact}"
+            );
         }
     }
 

@@ -110,6 +110,8 @@ pub struct Summary {
     pub replayable: Replayable,
     /// A gated run's comparison with its baseline (`--baseline`).
     pub baseline: Option<crate::analyse::gate::GateReport>,
+    /// The "What to ship" answer (None only for a run without methods).
+    pub ship: Option<crate::analyse::ship::Ship>,
 }
 
 /// How the run was called, and the stages' times, for the summary.
@@ -147,6 +149,8 @@ impl Summary {
             regressed: Vec::new(),
         };
         let costs = crate::analyse::bench::costs(&measured.costs);
+        let ship = crate::analyse::ship::ShipBudget::resolve(&case.budget(), case.budget.is_some(), &analysis)
+            .map(|b| crate::analyse::ship::choose(&b, &analysis, &costs));
         let charts = (0..case.materials.len())
             .map(|k| chart_points(&analysis, &costs, k))
             .collect();
@@ -206,6 +210,7 @@ impl Summary {
             heat_maps,
             replayable,
             baseline: None,
+            ship,
         })
     }
 }

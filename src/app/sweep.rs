@@ -115,6 +115,7 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
         all_samples: false,
     };
     let setup = prepare_with(loaded, &gpu.kernels, count, holds)?;
+    check_budget_target(&setup)?;
     // A claim that names what the case does not have is bad input, found before measuring.
     let labels = setup.methods.iter().map(|m| m.label.clone()).collect();
     crate::analyse::claims::check(
@@ -274,6 +275,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path, gpu: &GpuOptions) -> anyhow::Result<S
         shards.parts[0].count_override,
         Holds::default(),
     )?;
+    check_budget_target(&setup)?;
     shards.check_sources(&setup.methods)?;
     let part = Partial::merge_all(&setup, shards.parts)?;
     let gate = crate::app::gate::GateRun::prepare(None, None, None, Default::default(), &setup)?;
@@ -485,6 +487,27 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
     };
     check_memory(&setup, holds)?;
     Ok(setup)
+}
+
+/// Refuses a `[budget]` whose target no method of the sweep is judged against (bench and diff
+/// time or compare methods and do not read the budget).
+fn check_budget_target(setup: &Setup) -> anyhow::Result<()> {
+    let (case, methods) = (&setup.case, &setup.methods);
+    if let Some(target) = case.budget.as_ref().and_then(|b| b.target) {
+        if !methods
+            .iter()
+            .any(|m| crate::analyse::ship::judged_against(m.target(), target))
+        {
+            let targets: std::collections::BTreeSet<&str> = methods.iter().map(|m| m.target().name()).collect();
+            anyhow::bail!(
+                "case `{}`: `budget.target` = \"{target}\": no method of this run is judged against it (their \
+                 targets: {}); name one of those, or its surface view (`line_upper` for `line`)",
+                case.name,
+                targets.into_iter().collect::<Vec<_>>().join(", ")
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Refuses a run whose [`memory_budget`] exceeds `--max-memory`, before anything is allocated.

@@ -302,6 +302,65 @@ pub struct Case {
     /// Absolute floor of the relative error's denominator, per target, in units where d = 1.
     #[serde(default)]
     pub error_floor: BTreeMap<String, f64>,
+    /// What a user of the scene accepts: the "What to ship" answer judges every method against
+    /// it ([`Case::budget`] gives the default when absent).
+    #[serde(default)]
+    pub budget: Option<Budget>,
+}
+
+/// What a user of the scene would accept (docs/statistics.md, "What to ship"): a method meets
+/// it in a region when an upper confidence bound of the `quantile` of the `statistic` is at most
+/// `value`, over at least `min_count` configurations, judged against `target`.
+#[derive(Clone, Debug, PartialEq, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Budget {
+    /// The statistic: only `relative_error` for now (of the f32 result; docs/statistics.md).
+    #[serde(default = "default_statistic")]
+    pub statistic: String,
+    /// A fraction strictly between 0 and 1: 0.99 is p99.
+    pub quantile: f64,
+    /// The most the bound of that quantile may be.
+    pub value: f64,
+    /// The target every method is judged against; a method whose target's surface-clipped view
+    /// is this one (`line` for `line_upper`) is judged in that view. Absent: the case's first
+    /// method's target, clipped to the surface where it can be (`line` → `line_upper`).
+    #[serde(default)]
+    pub target: Option<crate::input::target::Target>,
+    /// The fewest configurations a region (a bin, or the whole material) needs to be judged.
+    #[serde(default = "default_min_count")]
+    pub min_count: usize,
+    /// Whether the cheapest method that meets the budget is the answer (true), or the most
+    /// accurate one (false: ranked by the bound).
+    #[serde(default = "default_cost_matters")]
+    pub cost_matters: bool,
+}
+
+/// The statistic of every budget for now.
+pub const BUDGET_STATISTIC: &str = "relative_error";
+
+fn default_statistic() -> String {
+    BUDGET_STATISTIC.to_string()
+}
+fn default_min_count() -> usize {
+    300
+}
+fn default_cost_matters() -> bool {
+    true
+}
+
+impl Default for Budget {
+    /// The budget of a case without `[budget]`: p99 relative error at most 1e-2 (an 8-bit
+    /// channel's step on a bright light), at least 300 configurations per region, cost matters.
+    fn default() -> Self {
+        Budget {
+            statistic: default_statistic(),
+            quantile: 0.99,
+            value: 1e-2,
+            target: None,
+            min_count: default_min_count(),
+            cost_matters: default_cost_matters(),
+        }
+    }
 }
 
 /// `compare` entries are pairs: a third name is an error, not dropped.
@@ -596,6 +655,11 @@ impl Case {
             }
         }
         Ok(())
+    }
+
+    /// The case's `[budget]`, or the default one (docs/statistics.md).
+    pub fn budget(&self) -> Budget {
+        self.budget.clone().unwrap_or_default()
     }
 
     /// The geometry a family is drawn from.

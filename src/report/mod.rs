@@ -73,6 +73,8 @@ pub fn write_reports(dir: &Path, input: &Summary) -> anyhow::Result<Vec<PathBuf>
         "claims": input.claims,
         "disagreements": input.disagreements,
         "analysis": input.analysis,
+        // The "What to ship" answer, as report.md's first section states it.
+        "ship": input.ship,
     });
     let mut summary = summary;
     // A gated run only: an ungated run's summary.json keeps its bytes.

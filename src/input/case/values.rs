@@ -40,6 +40,40 @@ fn valid_name(name: &str) -> bool {
         && name.len() <= MAX_NAME
 }
 
+/// A `[budget]`'s values: a known statistic, a quantile strictly between 0 and 1, a finite value
+/// > 0, at least one configuration per region.
+fn budget(b: &crate::input::case::Budget) -> Result<(), String> {
+    use crate::input::case::BUDGET_STATISTIC;
+    if b.statistic != BUDGET_STATISTIC {
+        return Err(format!(
+            "`budget.statistic` = \"{}\": the only statistic a budget can name is \"{BUDGET_STATISTIC}\" \
+             (the relative error of the f32 result, docs/statistics.md)",
+            clip(&b.statistic)
+        ));
+    }
+    let q = b.quantile;
+    if !(q > 0.0 && q < 1.0) {
+        let hint = if q > 1.0 && q < 100.0 {
+            format!(" (for p{q} write {})", q / 100.0)
+        } else {
+            String::new()
+        };
+        return Err(format!(
+            "`budget.quantile` = {q}: a quantile is a fraction strictly between 0 and 1, 0.99 for p99{hint}"
+        ));
+    }
+    if !(b.value > 0.0 && b.value.is_finite()) {
+        return Err(format!(
+            "`budget.value` = {}: the most the statistic may be must be a finite number > 0",
+            b.value
+        ));
+    }
+    if b.min_count == 0 {
+        return Err("`budget.min_count` = 0: a region needs at least 1 configuration to be judged".into());
+    }
+    Ok(())
+}
+
 /// Every check below; `Err` is the message without the file name (the caller adds it).
 pub fn check(case: &Case) -> Result<(), String> {
     if !valid_name(&case.name) {
@@ -132,6 +166,9 @@ pub fn check(case: &Case) -> Result<(), String> {
                  finite number > 0"
             ));
         }
+    }
+    if let Some(b) = &case.budget {
+        budget(b)?;
     }
     for (method, t) in &case.tolerances {
         for (key, v) in [("median", t.median), ("p99", t.p99), ("max", t.max)] {

@@ -1,5 +1,5 @@
-//! The Markdown report (`report.md`): verdict and findings first, then the tables they come
-//! from. [`render`] is the report's table of contents; each section is written by one function
+//! The Markdown report (`report.md`): what to ship first, then the verdict and findings, then
+//! the tables they come from. [`render`] is the report's table of contents; each section is written by one function
 //! in a sibling file, grouped by what the sections are about, and the cell formatters they
 //! share are here.
 
@@ -10,6 +10,7 @@ mod configurations;
 mod cost;
 mod maps;
 mod reading;
+mod ship;
 mod verdict;
 
 use crate::analyse::stats::BinStats;
@@ -20,8 +21,9 @@ use std::fmt::Write;
 pub fn render(input: &Summary) -> String {
     let mut o = String::new();
     let w = &mut o;
-    // What was run and what it concludes.
+    // The title and the run, then the answer a reader came for, then what the run concludes.
     verdict::header(w, input);
+    ship::what_to_ship(w, input);
     verdict::stale_claims(w, input);
     verdict::verdict(w, input);
     baseline::against_baseline(w, input);
