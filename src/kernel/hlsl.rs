@@ -286,16 +286,23 @@ fn scratch_dir() -> std::io::Result<Scratch> {
     Ok(Scratch { path })
 }
 
-/// The SPIR-V without `OpLine`/`OpNoLine`, and for each instruction left, its byte offset in
-/// the stripped binary and the line (of the compiled source) in force there, 0 for none.
+/// The SPIR-V without `OpLine`/`OpNoLine`, and for each instruction left, its offset as naga's
+/// spans give it and the line (of the compiled source) in force there, 0 for none. naga 30
+/// counts the words it reads one by one, but reads the interface of `OpEntryPoint` and the
+/// operands of `OpExecutionMode` and `OpTypeFunction` in a batch that it does not count, so
+/// its offsets fall behind the binary's by those words.
 fn strip_lines(words: &[u32]) -> (Vec<u32>, Vec<(usize, u32)>) {
     const OP_LINE: u32 = 8;
     const OP_NO_LINE: u32 = 317;
     const OP_FUNCTION_END: u32 = 56;
+    const OP_ENTRY_POINT: u32 = 15;
+    const OP_EXECUTION_MODE: u32 = 16;
+    const OP_TYPE_FUNCTION: u32 = 33;
     let header = words.len().min(5);
     let mut out = words[..header].to_vec();
     let mut map = Vec::new();
     let mut line = 0;
+    let mut uncounted = 0;
     let mut i = header;
     while i < words.len() {
         let count = (words[i] >> 16) as usize;
@@ -308,8 +315,20 @@ fn strip_lines(words: &[u32]) -> (Vec<u32>, Vec<(usize, u32)>) {
             OP_LINE => line = words.get(i + 2).copied().unwrap_or(0),
             OP_NO_LINE => line = 0,
             _ => {
-                map.push((out.len() * 4, line));
+                map.push((out.len() * 4 - uncounted, line));
                 out.extend_from_slice(&words[i..i + count]);
+                uncounted += 4 * match op {
+                    OP_EXECUTION_MODE | OP_TYPE_FUNCTION => count.saturating_sub(3),
+                    OP_ENTRY_POINT => {
+                        // The name (a nul-terminated string from word 3) is counted, the rest not.
+                        let name = words[i + 3.min(count)..i + count]
+                            .iter()
+                            .position(|w| w.to_le_bytes().contains(&0))
+                            .map_or(count.saturating_sub(3), |k| k + 1);
+                        count.saturating_sub(3 + name)
+                    }
+                    _ => 0,
+                };
                 if op == OP_FUNCTION_END {
                     line = 0;
                 }
