@@ -211,6 +211,7 @@ fn hlsl_attribution_and_errors_name_the_hlsl_files_lines() {
     }
     // The listing's statements are there by their HLSL text.
     let texts: Vec<String> = own.iter().map(|s| s.line.text.split_whitespace().collect()).collect();
+    eprintln!("attributed HLSL lines: {texts:?}");
     for statement in [
         "floatd=length(po);",
         "returnl*l/(d*(d*d+l*l));",

@@ -179,14 +179,14 @@ fn declaration_line(text: &str, name: &str) -> usize {
 /// Runs glslang on `source`; its errors are mapped to file:line by `locate(composed line)`.
 fn compile(path: &str, source: &str, locate: &dyn Fn(usize) -> (String, usize)) -> Result<Vec<u32>, HeaderError> {
     let tool = std::env::var(GLSLANG_ENV).unwrap_or_else(|_| "glslangValidator".to_string());
-    let dir = scratch_dir().map_err(|e| HeaderError {
+    let dir = crate::io::Scratch::new("linelight-hlsl").map_err(|e| HeaderError {
         path: path.to_string(),
         line: 1,
         message: format!("cannot make a scratch folder for glslang: {e}"),
     })?;
-    let input = dir.path.join("kernel.hlsl");
     let output = dir.path.join("kernel.spv");
-    let run = std::fs::write(&input, source).and_then(|_| {
+    let input = dir.path.join("kernel.hlsl");
+    let run = dir.write("kernel.hlsl", source.as_bytes()).and_then(|_| {
         std::process::Command::new(&tool)
             .args(["--quiet", "-D", "-V", "-Od", "-g", "-e", "main", "-S", "comp", "-o"])
             .arg(&output)
@@ -262,28 +262,6 @@ fn compile(path: &str, source: &str, locate: &dyn Fn(usize) -> (String, usize)) 
         .chunks(4)
         .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect())
-}
-
-/// A scratch folder for glslang's input and output, removed when dropped.
-struct Scratch {
-    path: std::path::PathBuf,
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.path);
-    }
-}
-
-fn scratch_dir() -> std::io::Result<Scratch> {
-    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.subsec_nanos());
-    let path = std::env::temp_dir().join(format!("linelight-hlsl-{}-{n}-{nanos}", std::process::id()));
-    std::fs::create_dir(&path)?;
-    Ok(Scratch { path })
 }
 
 /// The SPIR-V without `OpLine`/`OpNoLine`, and for each instruction left, its offset as naga's
@@ -515,9 +493,9 @@ fn pass_values(
             } => {
                 for &i in converted.get(function).map(Vec::as_slice).unwrap_or(&[]) {
                     if let Some(arg) = arguments.get_mut(i) {
-                        let arg_span = expressions.get_span(*arg);
-                        let load = expressions.append(E::Load { pointer: *arg }, arg_span);
-                        block.push(S::Emit(naga::Range::new_from_bounds(load, load)), arg_span);
+                        // The call's line: the argument's own span is its variable's declaration.
+                        let load = expressions.append(E::Load { pointer: *arg }, span);
+                        block.push(S::Emit(naga::Range::new_from_bounds(load, load)), span);
                         *arg = load;
                     }
                 }

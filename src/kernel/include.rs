@@ -188,31 +188,3 @@ fn walk(
     }
     Ok(())
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn includes_expand_and_cycles_are_refused() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = |n: &str| dir.path().join(n);
-        std::fs::write(p("a.h"), "#define K 0.5\n#include \"b.h\"\n").unwrap();
-        std::fs::write(p("b.h"), "float b;\n").unwrap();
-        let e = expand(&p("k.glsl"), "k.glsl", "x\n#include \"a.h\"\ny\n").unwrap();
-        assert_eq!(e.text, "x\n#define K 0.5\nfloat b;\ny\n");
-        let tops: Vec<u32> = e.lines.iter().map(|l| l.top).collect();
-        assert_eq!(tops, [1, 2, 2, 3]);
-        assert_eq!(e.locate(3).map(|(f, l)| (f.ends_with("b.h"), l)), Some((true, 1)));
-        std::fs::write(p("c.h"), "#include \"d.h\"\n").unwrap();
-        std::fs::write(p("d.h"), "\n#include \"c.h\"\n").unwrap();
-        let err = expand(&p("k.glsl"), "k.glsl", "#include \"c.h\"\n").unwrap_err();
-        assert!(err.path.ends_with("d.h") && err.line == 2, "{err}");
-        assert!(err.message.contains("includes itself"), "{err}");
-        let err = expand(&p("k.glsl"), "k.glsl", "\n#include \"nope.h\"\n").unwrap_err();
-        assert_eq!((err.path.as_str(), err.line), ("k.glsl", 2));
-        assert!(err.message.contains("cannot find included file `nope.h`"), "{err}");
-        let err = expand(&p("k.glsl"), "k.glsl", "#include nope.h\n").unwrap_err();
-        assert!(err.message.contains("\"file\" or <file>"), "{err}");
-    }
-}
