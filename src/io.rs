@@ -781,6 +781,38 @@ pub fn to_jsonl(rows: &[serde_json::Value]) -> Vec<u8> {
     out
 }
 
+/// A fresh folder under the system's temporary directory for a tool's input and output (glslang
+/// for an HLSL kernel, src/kernel/hlsl.rs), removed with everything in it when dropped.
+pub struct Scratch {
+    pub path: PathBuf,
+}
+
+impl Scratch {
+    pub fn new(prefix: &str) -> std::io::Result<Scratch> {
+        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.subsec_nanos());
+        let path = std::env::temp_dir().join(format!("{prefix}-{}-{n}-{nanos}", std::process::id()));
+        fs::create_dir(&path)?;
+        Ok(Scratch { path })
+    }
+
+    /// Writes `name` in the folder; its path.
+    pub fn write(&self, name: &str, bytes: &[u8]) -> std::io::Result<PathBuf> {
+        let p = self.path.join(name);
+        fs::write(&p, bytes)?;
+        Ok(p)
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = fs::remove_dir_all(&self.path);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1015,37 +1047,5 @@ mod tests {
         write_bytes(&link, b"new").unwrap();
         assert!(fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
         assert_eq!(fs::read_to_string(&target).unwrap(), "new");
-    }
-}
-
-/// A fresh folder under the system's temporary directory for a tool's input and output (glslang
-/// for an HLSL kernel, src/kernel/hlsl.rs), removed with everything in it when dropped.
-pub struct Scratch {
-    pub path: PathBuf,
-}
-
-impl Scratch {
-    pub fn new(prefix: &str) -> std::io::Result<Scratch> {
-        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-        let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.subsec_nanos());
-        let path = std::env::temp_dir().join(format!("{prefix}-{}-{n}-{nanos}", std::process::id()));
-        fs::create_dir(&path)?;
-        Ok(Scratch { path })
-    }
-
-    /// Writes `name` in the folder; its path.
-    pub fn write(&self, name: &str, bytes: &[u8]) -> std::io::Result<PathBuf> {
-        let p = self.path.join(name);
-        fs::write(&p, bytes)?;
-        Ok(p)
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.path);
     }
 }

@@ -182,7 +182,10 @@ fn mul_minv_is_minv_times_v_as_written() {
         .unwrap()
         .values[0];
     assert_eq!(f64::from(got), expect, "GPU: mul(Minv, v) is not M⁻¹·v");
-    assert_eq!(m.cpu_column(&[c.clone()], Mode::F64).unwrap()[0], Some(expect));
+    assert_eq!(
+        m.cpu_column(std::slice::from_ref(&c), Mode::F64).unwrap()[0],
+        Some(expect)
+    );
     assert_eq!(m.cpu_column(&[c], Mode::F32).unwrap()[0], Some(expect));
 }
 
@@ -283,10 +286,16 @@ fn glsl_and_hlsl_f64_columns_keep_a_constants_written_digits() {
     let c = config([0.1, 0.2, 1.0], [0.3, -0.1, 3.0], Material::Diffuse);
     let quarter: f64 = TWENTY.parse().unwrap();
     let g = resolve("line.twenty_glsl", &kernels).unwrap();
-    assert_eq!(g.cpu_column(&[c.clone()], Mode::F64).unwrap()[0], Some(quarter));
+    assert_eq!(
+        g.cpu_column(std::slice::from_ref(&c), Mode::F64).unwrap()[0],
+        Some(quarter)
+    );
     let h = resolve("line.twenty_hlsl", &kernels).unwrap();
     let expect = quarter + std::f64::consts::PI / 4.0 * 3.0;
-    assert_eq!(h.cpu_column(&[c.clone()], Mode::F64).unwrap()[0], Some(expect));
+    assert_eq!(
+        h.cpu_column(std::slice::from_ref(&c), Mode::F64).unwrap()[0],
+        Some(expect)
+    );
     // Not the f32 rounding: that is 2e-8 away.
     assert!((f64::from(quarter as f32) - quarter).abs() > 1e-8);
     // The GPU gets the same f32 as from the f32 literal.
@@ -315,10 +324,10 @@ fn a_folded_constant_that_cannot_be_recovered_refuses_the_f64_column() {
         "f.hlsl",
         "//! id: line.folded\n//! target: line\nfloat method(Scene scene)\n{\n    return sqrt(2.0) * scene.p1.z;\n}\n",
     );
-    let kernels = kernel_set(&[k.clone()]).unwrap();
+    let kernels = kernel_set(std::slice::from_ref(&k)).unwrap();
     let m = resolve("line.folded", &kernels).unwrap();
     let c = config([0.1, 0.2, 1.0], [0.3, -0.1, 3.0], Material::Diffuse);
-    let e = m.cpu_column(&[c.clone()], Mode::F64).unwrap_err();
+    let e = m.cpu_column(std::slice::from_ref(&c), Mode::F64).unwrap_err();
     assert!(format!("{e:#}").contains("f.hlsl:5: the constant 1.4142135"), "{e:#}");
     // f32 still runs; `check` warns on stderr and passes.
     assert!(m.cpu_column(&[c], Mode::F32).unwrap()[0].is_some());
@@ -349,7 +358,7 @@ fn glsl_as_engines_write_it_and_the_language_header() {
     let v = |id: &str| {
         resolve(id, &kernels)
             .unwrap()
-            .cpu_column(&[c.clone()], Mode::F64)
+            .cpu_column(std::slice::from_ref(&c), Mode::F64)
             .unwrap()[0]
     };
     assert_eq!(v("line.frag"), Some(1.5));
