@@ -15,7 +15,9 @@
 //! - an input that a folder names (a baseline's files) is read only when it is a regular
 //!   file of bounded size ([`read_regular`]);
 //! - temporaries of killed runs (sets and single files) are removed by the next run that
-//!   writes the same path.
+//!   writes the same path;
+//! - a tool's scratch folder (glslang's input and output for an HLSL kernel) is a fresh folder
+//!   under the system's temporary directory, removed when done ([`Scratch`]).
 
 use std::collections::BTreeSet;
 use std::ffi::CString;
@@ -777,6 +779,38 @@ pub fn to_jsonl(rows: &[serde_json::Value]) -> Vec<u8> {
         out.push(b'\n');
     }
     out
+}
+
+/// A fresh folder under the system's temporary directory for a tool's input and output (glslang
+/// for an HLSL kernel, src/kernel/hlsl.rs), removed with everything in it when dropped.
+pub struct Scratch {
+    pub path: PathBuf,
+}
+
+impl Scratch {
+    pub fn new(prefix: &str) -> std::io::Result<Scratch> {
+        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.subsec_nanos());
+        let path = std::env::temp_dir().join(format!("{prefix}-{}-{n}-{nanos}", std::process::id()));
+        fs::create_dir(&path)?;
+        Ok(Scratch { path })
+    }
+
+    /// Writes `name` in the folder; its path.
+    pub fn write(&self, name: &str, bytes: &[u8]) -> std::io::Result<PathBuf> {
+        let p = self.path.join(name);
+        fs::write(&p, bytes)?;
+        Ok(p)
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = fs::remove_dir_all(&self.path);
+    }
 }
 
 #[cfg(test)]

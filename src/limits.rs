@@ -165,6 +165,13 @@ pub const MAX_ROUNDS: u64 = 10_000;
 /// The largest case or kernel file read (a case with 200,000 bin edges is 4 MB).
 pub const MAX_TEXT_INPUT: u64 = 64 << 20;
 
+/// The deepest chain of `#include`s a GLSL or HLSL kernel may nest (src/kernel/include.rs).
+pub const MAX_INCLUDE_DEPTH: usize = 16;
+
+/// The most bytes a kernel and everything it includes may add up to, each file counted every
+/// time it is included.
+pub const MAX_INCLUDE_BYTES: u64 = 16 << 20;
+
 /// The largest JSON record read back (a baseline's `baseline.json`, `timings.json`).
 pub const MAX_RECORD_BYTES: u64 = 64 << 20;
 

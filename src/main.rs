@@ -21,6 +21,10 @@ struct Cli {
     /// default: half of the machine's memory.
     #[arg(long, global = true, value_name = "SIZE", value_parser = limits::parse_memory)]
     max_memory: Option<limits::Bytes>,
+    /// A folder `#include` in a GLSL or HLSL kernel searches, after the including file's own
+    /// (repeatable, searched in order).
+    #[arg(long = "include", global = true, value_name = "DIR")]
+    include: Vec<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -250,6 +254,7 @@ enum Command {
 fn main() -> ExitCode {
     gpu::quiet_driver_environment();
     let cli = Cli::parse();
+    linelight::kernel::set_include_dirs(cli.include.clone());
     let status = match run(cli) {
         Ok(status) => status,
         Err(e) => {

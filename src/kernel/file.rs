@@ -42,7 +42,7 @@ pub struct KernelFile {
     /// `line_isotropic` (`//! uses: line_isotropic`, a composite built on an isotropic-emitter
     /// line formula). Both call it as `I_line(p1, p2)`.
     pub uses_target: Target,
-    /// For a kernel translated from another language (a `.glsl` file): its own text and
+    /// For a kernel translated from another language (GLSL, HLSL): its own text and
     /// which of its lines each line of the translation came from, so that errors and
     /// attributed lines name the file the user wrote.
     pub origin: Option<Arc<Origin>>,
@@ -59,6 +59,60 @@ pub struct Origin {
     /// `lines[i]`: the 1-based line of `text` that line `i + 1` of the translation came
     /// from (0 when none did: the translator's own comment).
     pub lines: Vec<u32>,
+    /// The language it was written in.
+    pub language: Language,
+    /// Constants of the translation whose written digits could not be recovered
+    /// (src/kernel/written.rs), each `path:line: why`: the f64 column of the kernel is refused.
+    pub lost_digits: Vec<String>,
+}
+
+/// The language of a kernel file: by its `//! language:` header, else by its extension
+/// (`.wgsl`; `.glsl`, `.comp`, `.frag`, `.vert`; `.hlsl`, `.hlsli`); WGSL for any other.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Language {
+    Wgsl,
+    Glsl,
+    Hlsl,
+}
+
+impl Language {
+    pub fn from_name(name: &str) -> Option<Language> {
+        match name {
+            "wgsl" => Some(Language::Wgsl),
+            "glsl" => Some(Language::Glsl),
+            "hlsl" => Some(Language::Hlsl),
+            _ => None,
+        }
+    }
+
+    /// The language of the file at `path` with text `text`, or why not.
+    pub fn of(path: &Path, text: &str) -> Result<Language, HeaderError> {
+        for (i, l) in text.lines().enumerate() {
+            let Some((key, value)) = l.trim_start().strip_prefix("//!").and_then(|r| r.split_once(':')) else {
+                continue;
+            };
+            if key.trim() == "language" {
+                return Language::from_name(value.trim()).ok_or_else(|| HeaderError {
+                    path: path.display().to_string(),
+                    line: i + 1,
+                    message: format!(
+                        "language must be `wgsl`, `glsl` or `hlsl`, got `{}`",
+                        crate::input::names::clip(value.trim())
+                    ),
+                });
+            }
+        }
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        Ok(match ext.as_str() {
+            "glsl" | "comp" | "frag" | "vert" => Language::Glsl,
+            "hlsl" | "hlsli" => Language::Hlsl,
+            _ => Language::Wgsl,
+        })
+    }
 }
 
 impl Origin {
@@ -198,15 +252,38 @@ impl KernelFile {
             None => text,
         };
         let shown = path.display().to_string();
-        if path.extension().is_some_and(|e| e == "glsl") {
-            // The header is checked on the GLSL file (its lines), then the translation is the text.
-            KernelFile::parse(&shown, &text)?;
-            let (wgsl, lines) = super::glsl::translate(&shown, &text)?;
-            let mut kernel = KernelFile::parse(&shown, &wgsl)?;
-            kernel.origin = Some(Arc::new(Origin { text, lines }));
-            return Ok(kernel);
+        let language = Language::of(path, &text)?;
+        if language == Language::Wgsl {
+            return Ok(KernelFile::parse(&shown, &text)?);
         }
-        Ok(KernelFile::parse(&shown, &text)?)
+        // The header is checked on the file itself (its lines), then the translation is the text.
+        KernelFile::parse(&shown, &text)?;
+        let expanded = super::include::expand(path, &shown, &text)?;
+        let (wgsl, lines, lost_digits) = match language {
+            Language::Glsl => super::glsl::translate_expanded(&shown, &expanded)?,
+            _ => super::hlsl::translate(&shown, &expanded)?,
+        };
+        let mut kernel = KernelFile::parse(&shown, &wgsl)?;
+        if !lost_digits.is_empty() {
+            static SHOWN: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+            let mut shown_before = SHOWN.lock().unwrap_or_else(|p| p.into_inner());
+            if !shown_before.contains(&kernel.path) {
+                shown_before.push(kernel.path.clone());
+                eprintln!(
+                    "warning: {}: the f64 column is refused, {} constant(s) lost their written digits:\n  {}",
+                    kernel.path,
+                    lost_digits.len(),
+                    lost_digits.join("\n  ")
+                );
+            }
+        }
+        kernel.origin = Some(Arc::new(Origin {
+            text,
+            lines,
+            language,
+            lost_digits,
+        }));
+        Ok(kernel)
     }
 
     /// Parses a kernel file; a derived one (`//! derive:`) is derived from a built-in kernel.
@@ -341,6 +418,15 @@ impl KernelFile {
                     uses_line = true;
                 }
                 "derive" => derive = Some((value.to_string(), lineno)),
+                // Read by `KernelFile::read` (which front end); checked here as any key.
+                "language" => {
+                    if Language::from_name(value).is_none() {
+                        return Err(err(
+                            lineno,
+                            format!("language must be `wgsl`, `glsl` or `hlsl`, got `{value_shown}`"),
+                        ));
+                    }
+                }
                 "replace" => {
                     let names: Vec<String> = value
                         .split(|c: char| c == ',' || c.is_whitespace())
@@ -356,7 +442,7 @@ impl KernelFile {
                     return Err(err(
                         lineno,
                         format!(
-                            "unknown header key `{}` (id, target, source, minv, params, uses, derive, replace)",
+                            "unknown header key `{}` (id, target, source, minv, params, uses, derive, replace, language)",
                             crate::input::names::clip(other)
                         ),
                     ))

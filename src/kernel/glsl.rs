@@ -8,6 +8,7 @@
 //! came from (`kernel::Origin`), so later errors and attribution name GLSL lines too.
 //! Specialization constants become the overrides the header's `params` set.
 
+use super::include::Expanded;
 use super::HeaderError;
 
 pub const GLSL_PRELUDE: &str = include_str!("../../kernels/prelude.glsl");
@@ -29,28 +30,57 @@ const PRELUDE_NAMES: &[&str] = &[
     "main_1",
 ];
 
-/// The WGSL kernel text of a GLSL kernel: its `//!` header lines, then its translated
-/// declarations; and, for each line of that text, the GLSL line it came from
-/// ([`crate::kernel::Origin::lines`]).
+/// The WGSL kernel text of a GLSL kernel without includes: see [`translate_expanded`].
 pub fn translate(path: &str, text: &str) -> Result<(String, Vec<u32>), HeaderError> {
+    let (wgsl, lines, _) = translate_expanded(path, &Expanded::plain(path, text))?;
+    Ok((wgsl, lines))
+}
+
+/// The WGSL kernel text of a GLSL kernel (its includes expanded): its `//!` header lines,
+/// then its translated declarations; for each line of that text, the kernel line it came
+/// from ([`crate::kernel::Origin::lines`]); and the constants whose written digits are lost
+/// (src/kernel/written.rs).
+pub fn translate_expanded(path: &str, expanded: &Expanded) -> Result<(String, Vec<u32>, Vec<String>), HeaderError> {
     let err = |line: usize, message: String| HeaderError {
         path: path.to_string(),
         line,
         message,
     };
-    // `#version` must come first: the kernel's text follows the prelude, so it may not have one.
-    if let Some(i) = text.lines().position(|l| l.trim_start().starts_with("#version")) {
-        return Err(err(
-            i + 1,
-            "a GLSL kernel has no `#version`: the prelude sets 450".into(),
-        ));
+    let text = &expanded.files[0].1;
+    // `#version` as engines write it: the kernel follows the prelude, which sets 450, so the
+    // line is blanked (its number kept); a version naga cannot read is refused.
+    let mut body = String::with_capacity(expanded.text.len());
+    for (i, l) in expanded.text.lines().enumerate() {
+        let directive = l.trim_start().strip_prefix('#').map(str::trim_start);
+        if let Some(v) = directive.and_then(|d| d.strip_prefix("version")) {
+            let number: Option<u32> = v.split_whitespace().next().and_then(|n| n.parse().ok());
+            if !number.is_some_and(|n| (100..=460).contains(&n)) {
+                let (file, line) = expanded.locate(i + 1).unwrap_or((path, 1));
+                return Err(HeaderError {
+                    path: file.to_string(),
+                    line: line as usize,
+                    message: format!(
+                        "`{}`: a GLSL kernel's version is 100 to 460 (it is read as 450, the prelude's)",
+                        crate::input::names::clip(l.trim())
+                    ),
+                });
+            }
+            body.push('\n');
+            continue;
+        }
+        body.push_str(l);
+        body.push('\n');
     }
-    let source = format!("{GLSL_PRELUDE}\n#line 1\n{text}\nvoid main() {{}}\n");
+    let source = format!("{GLSL_PRELUDE}\n#line 1\n{body}\nvoid main() {{}}\n");
     let prelude_lines = GLSL_PRELUDE.lines().count() + 2;
-    // The kernel's own 1-based line holding `span`, 0 for the prelude's.
+    // The kernel's own 1-based line holding `span` (for an included file's, its `#include`),
+    // 0 for the prelude's.
     let glsl_line = |span: naga::Span| -> u32 {
         let line = span.location(&source).line_number as usize;
-        line.saturating_sub(prelude_lines) as u32
+        let k = line.saturating_sub(prelude_lines);
+        k.checked_sub(1)
+            .and_then(|i| expanded.lines.get(i))
+            .map_or(0, |f| f.top)
     };
     let options = naga::front::glsl::Options::from(naga::ShaderStage::Compute);
     let module = naga::front::glsl::Frontend::default()
@@ -73,7 +103,17 @@ pub fn translate(path: &str, text: &str) -> Result<(String, Vec<u32>), HeaderErr
                 };
             };
             if line > prelude_lines {
-                err(line - prelude_lines, format!("{col}: {message} (naga GLSL front end)"))
+                match expanded.locate(line - prelude_lines) {
+                    Some((file, l)) => HeaderError {
+                        path: file.to_string(),
+                        line: l as usize,
+                        message: format!("{col}: {message} (naga GLSL front end)"),
+                    },
+                    None => err(
+                        1,
+                        format!("{message} (naga GLSL front end, after the kernel's last line)"),
+                    ),
+                }
             } else {
                 err(
                     1,
@@ -112,10 +152,24 @@ pub fn translate(path: &str, text: &str) -> Result<(String, Vec<u32>), HeaderErr
         "// Translated from {path} by naga's GLSL front end and WGSL back end.\n\n"
     ));
     lines.extend([0, 0]);
-    let (items, item_lines) = own_items(&wgsl, &module, text, &glsl_line);
+    let drop = |n: &str| PRELUDE_NAMES.contains(&n);
+    let (items, item_lines) = own_items(&wgsl, &module, text, &glsl_line, &drop);
     out.push_str(&prelude_names(&items));
     lines.extend(item_lines);
-    Ok((out, lines))
+    let mut written = super::written::Written::default();
+    written.add(GLSL_PRELUDE, &|_| 0);
+    for (i, (_, t)) in expanded.files.iter().enumerate() {
+        // A line's kernel line: its own in the kernel file; an included file's, its `#include`.
+        let tops: std::collections::HashMap<u32, u32> = expanded
+            .lines
+            .iter()
+            .filter(|f| f.file == i)
+            .map(|f| (f.line, f.top))
+            .collect();
+        written.add(t, &|l| tops.get(&(l as u32)).copied().unwrap_or(0));
+    }
+    let (out, lost) = written.restore(&out, &lines, path);
+    Ok((out, lines, lost))
 }
 
 /// The first character outside GLSL's character set that is not in a comment: its 1-based
@@ -165,11 +219,12 @@ fn declaration_line(text: &str, name: &str) -> usize {
 /// WGSL back end calls expression `N` of a function `_eN`, and writes the functions in
 /// the module's order. A line that names none (a `var`, an argument's store, a bare
 /// `return 0f;`) takes the line before it, and a function's first lines its declaration.
-fn own_items(
+pub(super) fn own_items(
     wgsl: &str,
     module: &naga::Module,
     text: &str,
     glsl_line: &dyn Fn(naga::Span) -> u32,
+    drop: &dyn Fn(&str) -> bool,
 ) -> (String, Vec<u32>) {
     let (mut out, mut map) = (String::new(), Vec::new());
     let mut functions = module.functions.iter();
@@ -209,7 +264,7 @@ fn own_items(
                 }
             }
         }
-        if name.is_some_and(|n| PRELUDE_NAMES.contains(&n)) || line.starts_with('@') {
+        if name.is_some_and(drop) || line.starts_with('@') {
             continue;
         }
         let mut last = declared;
@@ -252,7 +307,7 @@ fn expression_names(line: &str) -> impl Iterator<Item = usize> + '_ {
 
 /// naga's namer appends `_` to names that end in a digit; the WGSL prelude's `Scene.p1`,
 /// `Scene.p2` and `inverse3` keep theirs.
-fn prelude_names(wgsl: &str) -> String {
+pub(super) fn prelude_names(wgsl: &str) -> String {
     let mut out = String::with_capacity(wgsl.len());
     let mut rest = wgsl;
     let ident = |c: char| c.is_alphanumeric() || c == '_';
@@ -304,8 +359,9 @@ mod tests {
         )
         .unwrap_err();
         assert_eq!((e.path.as_str(), e.line), ("k.glsl", 4), "{e}");
-        let e = translate("k.glsl", "#version 450\n").unwrap_err();
-        assert_eq!(e.line, 1);
+        let e = translate("k.glsl", "\n#version 500\n").unwrap_err();
+        assert_eq!(e.line, 2);
+        assert!(e.message.contains("100 to 460"), "{e}");
         let e = translate("k.glsl", "//! id: line.g\nfloat D(vec3 w) {\n    return 1.0;\n}\n").unwrap_err();
         assert_eq!(e.line, 2, "{e}");
         assert!(e.message.contains("`D` is the prelude's"), "{e}");

@@ -77,6 +77,9 @@ pub struct Program {
     /// `Scene` members: name, component offset, length.
     scene: Vec<(String, usize, usize)>,
     scene_minv: (usize, usize),
+    /// Constants of a translated kernel (GLSL, HLSL) whose written digits are lost: the f64
+    /// evaluation is refused (src/kernel/written.rs).
+    lost_digits: Vec<String>,
 }
 
 /// The evaluator's program for `method` (composed once, then cached for the process).
@@ -202,7 +205,13 @@ impl Program {
             ),
             (None, None) => {}
         }
-        Program::prepare(composed, &params)
+        let mut program = Program::prepare(composed, &params)?;
+        for k in std::iter::once(&method.kernel).chain(inner.map(|m| &m.kernel)) {
+            if let Some(o) = &k.origin {
+                program.lost_digits.extend(o.lost_digits.iter().cloned());
+            }
+        }
+        Ok(program)
     }
 
     fn prepare(c: Composed, params: &[(String, f64)]) -> Result<Program> {
@@ -406,6 +415,7 @@ impl Program {
             lines,
             scene,
             scene_minv,
+            lost_digits: Vec::new(),
         })
     }
 
@@ -487,6 +497,13 @@ impl Program {
     /// GPU does (`SceneInput`: a `ggx` one fed and rotated); an LTC method's fed magnitude is
     /// the caller's to apply (`Method::cpu_column`).
     pub fn eval(&self, configs: &[&Config], mode: Mode) -> Result<Vec<f64>> {
+        if mode == Mode::F64 && !self.lost_digits.is_empty() {
+            anyhow::bail!(
+                "no f64 evaluation: constants of the kernel went through f32 and their written digits \
+                 cannot be recovered: {}",
+                self.lost_digits.join("; ")
+            );
+        }
         let parts = configs
             .par_chunks(CHUNK)
             .map(|c| self.chunk(c, mode))

@@ -1,0 +1,190 @@
+//! `#include` for GLSL and HLSL kernels, expanded here before either front end sees the text
+//! (naga's GLSL preprocessor has no `#include`; glslang's is given the expanded text so that
+//! one rule holds for both). `#include "f"` is looked up beside the including file, then in
+//! the `--include` folders in order; `#include <f>` in the folders only. A cycle is refused,
+//! and so are nesting deeper than `limits::MAX_INCLUDE_DEPTH` and a total above
+//! `limits::MAX_INCLUDE_BYTES`. Each line of the expansion remembers its file and line, and
+//! the line of the kernel file that brought it in.
+
+use super::HeaderError;
+use std::path::{Path, PathBuf};
+use std::sync::RwLock;
+
+/// The `--include` folders, set once by the command line.
+static DIRS: RwLock<Vec<PathBuf>> = RwLock::new(Vec::new());
+
+/// Sets the folders `#include` searches after the including file's own.
+pub fn set_include_dirs(dirs: Vec<PathBuf>) {
+    *DIRS.write().unwrap_or_else(|p| p.into_inner()) = dirs;
+}
+
+fn include_dirs() -> Vec<PathBuf> {
+    DIRS.read().unwrap_or_else(|p| p.into_inner()).clone()
+}
+
+/// Where one line of an expansion came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct From {
+    /// Index into [`Expanded::files`]; 0 is the kernel file.
+    pub file: usize,
+    /// 1-based line in that file.
+    pub line: u32,
+    /// The kernel file's line that brought this one in (its own line, or its `#include`).
+    pub top: u32,
+}
+
+/// A kernel with its includes expanded.
+#[derive(Clone, Debug)]
+pub struct Expanded {
+    pub text: String,
+    /// One entry per line of `text`.
+    pub lines: Vec<From>,
+    /// Paths as shown, and texts, of every file read; the kernel file first.
+    pub files: Vec<(String, String)>,
+}
+
+impl Expanded {
+    /// A kernel without includes (its text as it is).
+    pub fn plain(shown: &str, text: &str) -> Expanded {
+        Expanded {
+            text: text.lines().map(|l| format!("{l}\n")).collect(),
+            lines: (1..=text.lines().count() as u32)
+                .map(|line| From {
+                    file: 0,
+                    line,
+                    top: line,
+                })
+                .collect(),
+            files: vec![(shown.to_string(), text.to_string())],
+        }
+    }
+
+    /// `path:line` of 1-based line `n` of the expansion.
+    pub fn locate(&self, n: usize) -> Option<(&str, u32)> {
+        let f = self.lines.get(n.checked_sub(1)?)?;
+        Some((self.files[f.file].0.as_str(), f.line))
+    }
+}
+
+/// Expands the `#include`s of `text`, the kernel file `path` (shown as `shown`).
+pub fn expand(path: &Path, shown: &str, text: &str) -> Result<Expanded, HeaderError> {
+    let mut out = Expanded {
+        text: String::new(),
+        lines: Vec::new(),
+        files: vec![(shown.to_string(), text.to_string())],
+    };
+    let dirs = include_dirs();
+    let mut total = text.len() as u64;
+    let canonical = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    walk(&mut out, 0, path, text, &mut vec![canonical], None, &dirs, &mut total)?;
+    Ok(out)
+}
+
+/// The file an include directive names: (name, quoted), or None when the line is no include.
+fn directive(line: &str) -> Option<Result<(String, bool), String>> {
+    let rest = line
+        .trim_start()
+        .strip_prefix('#')?
+        .trim_start()
+        .strip_prefix("include")?;
+    let rest = rest.trim();
+    let parsed = if let Some(r) = rest.strip_prefix('"') {
+        r.split_once('"').map(|(n, _)| (n.to_string(), true))
+    } else if let Some(r) = rest.strip_prefix('<') {
+        r.split_once('>').map(|(n, _)| (n.to_string(), false))
+    } else {
+        None
+    };
+    Some(parsed.filter(|(n, _)| !n.is_empty()).ok_or_else(|| {
+        format!(
+            "`{}`: an include names its file as \"file\" or <file>",
+            crate::input::names::clip(line.trim())
+        )
+    }))
+}
+
+#[allow(clippy::too_many_arguments)]
+fn walk(
+    out: &mut Expanded,
+    file: usize,
+    path: &Path,
+    text: &str,
+    stack: &mut Vec<PathBuf>,
+    top: Option<u32>,
+    dirs: &[PathBuf],
+    total: &mut u64,
+) -> Result<(), HeaderError> {
+    let shown = out.files[file].0.clone();
+    for (i, line) in text.lines().enumerate() {
+        let here = i as u32 + 1;
+        let top_line = top.unwrap_or(here);
+        let err = |message: String| HeaderError {
+            path: shown.clone(),
+            line: here as usize,
+            message,
+        };
+        let Some(d) = directive(line) else {
+            out.text.push_str(line);
+            out.text.push('\n');
+            out.lines.push(From {
+                file,
+                line: here,
+                top: top_line,
+            });
+            continue;
+        };
+        let (name, quoted) = d.map_err(err)?;
+        if stack.len() > crate::limits::MAX_INCLUDE_DEPTH {
+            return Err(err(format!(
+                "includes nest deeper than {} files",
+                crate::limits::MAX_INCLUDE_DEPTH
+            )));
+        }
+        let beside = path.parent().map(|p| p.join(&name));
+        let candidates: Vec<PathBuf> = beside
+            .into_iter()
+            .filter(|_| quoted)
+            .chain(dirs.iter().map(|d| d.join(&name)))
+            .collect();
+        let Some(found) = candidates.iter().find(|p| p.is_file()) else {
+            let looked: Vec<String> = candidates.iter().map(|p| p.display().to_string()).collect();
+            return Err(err(format!(
+                "cannot find included file `{}` (looked in: {}; add folders with --include DIR)",
+                crate::input::names::clip(&name),
+                if looked.is_empty() {
+                    "no folder".to_string()
+                } else {
+                    looked.join(", ")
+                }
+            )));
+        };
+        let canonical = std::fs::canonicalize(found).unwrap_or_else(|_| found.clone());
+        if let Some(at) = stack.iter().position(|p| *p == canonical) {
+            let chain: Vec<String> = stack[at..].iter().map(|p| p.display().to_string()).collect();
+            return Err(err(format!(
+                "`{}` includes itself: {} → {}",
+                crate::input::names::clip(&name),
+                chain.join(" → "),
+                canonical.display()
+            )));
+        }
+        let bytes = crate::io::read_bounded(found, "included file", crate::limits::MAX_TEXT_INPUT)
+            .map_err(|e| err(e.to_string()))?;
+        *total += bytes.len() as u64;
+        if *total > crate::limits::MAX_INCLUDE_BYTES {
+            return Err(err(format!(
+                "the kernel and its includes exceed {} bytes",
+                crate::limits::MAX_INCLUDE_BYTES
+            )));
+        }
+        let included = String::from_utf8(bytes)
+            .map_err(|_| err(format!("included file {} is not UTF-8 text", found.display())))?;
+        let included = included.strip_prefix('\u{feff}').unwrap_or(&included).to_string();
+        out.files.push((found.display().to_string(), included.clone()));
+        let index = out.files.len() - 1;
+        stack.push(canonical);
+        walk(out, index, found, &included, stack, Some(top_line), dirs, total)?;
+        stack.pop();
+    }
+    Ok(())
+}
