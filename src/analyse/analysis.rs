@@ -44,6 +44,11 @@ pub struct MaterialStats {
     /// For `line` methods: the same results judged against `line_upper`, what a real
     /// surface receives (the difference is the leak below the horizon).
     pub against_line_upper: Option<BinStats>,
+    /// For `line` methods: the configurations whose light is wholly below the surface (both
+    /// end points at z <= 0), judged against `line_upper` (0 for every one of them). A subset
+    /// of `against_line_upper`'s zero references, which also holds lights above the surface
+    /// only outside the lobe.
+    pub wholly_below: Option<BinStats>,
 }
 
 /// Which statistics of a method on a material a claim reads.
@@ -52,6 +57,8 @@ pub enum BinStatsRef {
     All,
     /// The `line` method judged against `line_upper`.
     LineUpper,
+    /// The `line` method on the lights wholly below the surface, against `line_upper`.
+    WhollyBelow,
     /// The bin of `axis` whose lower edge is `lo`.
     Bin {
         axis: String,
@@ -64,6 +71,7 @@ impl std::fmt::Display for BinStatsRef {
         match self {
             BinStatsRef::All => f.write_str("(all)"),
             BinStatsRef::LineUpper => f.write_str("against line_upper (only line methods have it)"),
+            BinStatsRef::WhollyBelow => f.write_str("wholly below the surface (only line methods have it)"),
             BinStatsRef::Bin { axis, lo } => write!(f, "of `{axis}` with lower edge {lo}"),
         }
     }
@@ -74,6 +82,7 @@ impl MaterialStats {
         match which {
             BinStatsRef::All => Some(&self.all),
             BinStatsRef::LineUpper => self.against_line_upper.as_ref(),
+            BinStatsRef::WhollyBelow => self.wholly_below.as_ref(),
             BinStatsRef::Bin { axis, lo } => self
                 .axes
                 .iter()
@@ -256,6 +265,7 @@ enum Judged {
         below_floor: bool,
         /// The GPU value, and the f64 one, are exactly 0 (missed light).
         dark: (bool, bool),
+        reference: f64,
     },
     /// The reference is exactly 0.
     Zero { gpu: f32, f64: Option<f64> },
@@ -270,7 +280,8 @@ fn push(acc: &mut BinAccumulator, j: Judged) {
             reference_rel,
             below_floor,
             dark,
-        } => acc.push(gpu, cpu, f64, reference_rel, below_floor, dark),
+            reference,
+        } => acc.push(gpu, cpu, f64, reference_rel, below_floor, dark, reference),
         Judged::Zero { gpu, f64 } => acc.push_zero(gpu, f64),
     }
 }
@@ -297,6 +308,7 @@ fn judge(case: &Case, chunk: &Chunk, run: &MethodRun, i: usize, judged: Target) 
         reference_rel: r.error / r.value.abs(),
         below_floor: r.value.abs() < floor,
         dark: (run.f32[i] == 0.0, run.f64[i] == Some(0.0)),
+        reference: r.value,
     })
 }
 
@@ -307,6 +319,8 @@ struct MaterialAcc {
     supported: Option<bool>,
     all: BinAccumulator,
     upper: BinAccumulator,
+    /// Against `line_upper`, the lights wholly below the surface only.
+    below: BinAccumulator,
     axes: Vec<Vec<BinAccumulator>>,
     /// Only the methods a map draws have cells (the others' grids would be read by no one).
     maps: Vec<Vec<Vec<BinAccumulator>>>,
@@ -325,6 +339,7 @@ impl MethodAcc {
             supported: None,
             all: BinAccumulator::default(),
             upper: BinAccumulator::default(),
+            below: BinAccumulator::default(),
             axes: case
                 .bins
                 .iter()
@@ -356,6 +371,9 @@ impl MethodAcc {
             if p.natural && target == Target::Line {
                 if let Some(u) = judge(case, chunk, run, i, Target::LineUpper) {
                     push(&mut acc.upper, u);
+                    if chunk.samples[i].config.wholly_below() {
+                        push(&mut acc.below, u);
+                    }
                 }
             }
             let Some(judged) = judge(case, chunk, run, i, target) else {
@@ -383,6 +401,7 @@ impl MethodAcc {
             a.supported = a.supported.or(b.supported);
             a.all.merge(&b.all);
             a.upper.merge(&b.upper);
+            a.below.merge(&b.below);
             for (x, y) in a.axes.iter_mut().flatten().zip(b.axes.iter().flatten()) {
                 x.merge(y);
             }
@@ -439,6 +458,7 @@ impl MethodAcc {
                     })
                     .collect(),
                 against_line_upper: (target == Target::Line).then(|| acc.upper.finish()),
+                wholly_below: (target == Target::Line).then(|| acc.below.finish()),
             })
             .collect();
         MethodStats {

@@ -52,6 +52,27 @@ pub struct Axes {
     /// `ggx`: the view's angle from the normal (degrees) and αy/αx; NaN otherwise.
     pub view_angle: f64,
     pub anisotropy: f64,
+    /// `ggx`: the angle (degrees, 0 to 180) between the view's mirror direction (the view
+    /// reflected about the normal) and the direction to the light's nearest point (the point
+    /// of the segment nearest the shading point; for a tube or rectangle, of its axis). Small
+    /// is the highlight a viewer sees. NaN for other materials.
+    #[serde(default = "nan")]
+    pub highlight: f64,
+}
+
+fn nan() -> f64 {
+    f64::NAN
+}
+
+/// The angle (degrees) between the mirror direction of `view` (reflected about +z) and the
+/// direction from the shading point to the point of segment p1–p2 nearest to it.
+pub fn highlight_angle(view: Vec3, p1: Vec3, p2: Vec3) -> f64 {
+    let (p1, p2) = (v3(p1), v3(p2));
+    let e = p2 - p1;
+    let t = (-p1.dot(e) / e.dot(e)).clamp(0.0, 1.0);
+    let nearest = p1 + e * t;
+    let mirror = DVec3::new(-view[0], -view[1], view[2]);
+    libm::atan2(mirror.cross(nearest).length(), mirror.dot(nearest)).to_degrees()
 }
 
 impl Axes {
@@ -77,6 +98,7 @@ impl Axes {
             "rect_angle" => self.rect_angle,
             "view_angle" => self.view_angle,
             "anisotropy" => self.anisotropy,
+            "highlight" => self.highlight,
             _ => f64::NAN,
         }
     }
@@ -443,7 +465,8 @@ pub fn top_up_counted(case: &Case, counts: &[FamilyCounts]) -> (Vec<Sample>, Vec
                 if !c.finite[a] {
                     return vec![0; c.bins[a].len()];
                 }
-                c.bins[a].iter().map(|&n| case.min_per_bin.saturating_sub(n)).collect()
+                let min = case.bins[a].min_per_bin(case.min_per_bin);
+                c.bins[a].iter().map(|&n| min.saturating_sub(n)).collect()
             })
             .collect();
         let mut report = TopUp {
@@ -488,7 +511,7 @@ pub fn top_up_counted(case: &Case, counts: &[FamilyCounts]) -> (Vec<Sample>, Vec
         for (a, b) in case.bins.iter().enumerate() {
             for (k, &n) in need[a].iter().enumerate() {
                 if n > 0 {
-                    let reached = case.min_per_bin - n;
+                    let reached = b.min_per_bin(case.min_per_bin) - n;
                     report.thin.push((b.axis.clone(), b.edges[k], b.edges[k + 1], reached));
                 }
             }
@@ -562,6 +585,10 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
     });
 
     let (material_value, alpha, view_angle, anisotropy) = sample_material(source, family);
+    let highlight = match &material_value {
+        Material::Ggx { view, .. } => highlight_angle(*view, p1.to_array(), p2.to_array()),
+        _ => f64::NAN,
+    };
     let minv = material_value.minv();
     let (p1o, p2o) = (mat(&minv) * p1, mat(&minv) * p2);
     let (p1, p2) = (p1.to_array(), p2.to_array());
@@ -615,6 +642,7 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
             rect_angle: if rect_width.is_some() { rect_angle_deg } else { f64::NAN },
             view_angle,
             anisotropy,
+            highlight,
         },
     }
 }
