@@ -56,18 +56,20 @@ pub(super) fn worst_cases(w: &mut String, input: &Summary) {
         let _ = writeln!(
             w,
             "For each method and family: the worst relative error in the random sample, and after the \
-             search refined the worst starting points (∞: NaN or inf). Every configuration is in \
+             search refined the worst starting points (∞: NaN or inf), with how bright the light found is: \
+             its reference, the angle its segment subtends (radians) and the reference over the median \
+             reference of the family's lit configurations (× typical). Every configuration is in \
              `worst.jsonl`; replay with `linelight eval --input worst.jsonl --output out.jsonl`.\n"
         );
         let _ = writeln!(
             w,
-            "| method | family | worst in sample | worst found | evaluations | value (f32) | reference | id |"
+            "| method | family | worst in sample | worst found | evaluations | value (f32) | reference | subtended | × typical | id |"
         );
-        let _ = writeln!(w, "|---|---|---:|---:|---:|---:|---:|---|");
+        let _ = writeln!(w, "|---|---|---:|---:|---:|---:|---:|---:|---:|---|");
         for f in &input.found {
             let _ = writeln!(
                 w,
-                "| `{}` | `{}` | {} | {} | {} | {:e} | {:e} ± {:.0e} | `{}` |",
+                "| `{}` | `{}` | {} | {} | {} | {:e} | {:e} ± {:.0e} | {} | {} | `{}` |",
                 f.method,
                 f.family,
                 sci(Some(f.sample_worst)),
@@ -76,6 +78,8 @@ pub(super) fn worst_cases(w: &mut String, input: &Summary) {
                 f.value,
                 f.reference.value,
                 f.reference.error,
+                sci(Some(crate::input::sampler::line_axes(f.config.p1, f.config.p2).2)),
+                super::brightness(input, &f.method, &f.family, f.reference.value),
                 f.config.id
             );
         }
