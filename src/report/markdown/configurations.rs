@@ -6,6 +6,20 @@ use crate::analyse::summary::Summary;
 use crate::report::sci;
 use std::fmt::Write;
 
+/// The axes with their own `min_per_bin`, as a clause (empty when none has).
+fn own_minimum(case: &crate::input::case::Case) -> String {
+    let own: Vec<String> = case
+        .bins
+        .iter()
+        .filter_map(|b| b.min_per_bin.map(|n| format!("`{}` {n}", b.axis)))
+        .collect();
+    if own.is_empty() {
+        String::new()
+    } else {
+        format!(" (axes with their own minimum: {})", own.join(", "))
+    }
+}
+
 /// How the sample was drawn: the natural sample, the top-ups of thin bins, the bins still thin.
 pub(super) fn sampling(w: &mut String, input: &Summary) {
     let case = &input.case;
@@ -14,10 +28,11 @@ pub(super) fn sampling(w: &mut String, input: &Summary) {
         w,
         "Every family is first drawn from the case's distributions (the natural sample: the *all* rows, \
          the maps and the verdict use only it). Then every bin of every axis that holds fewer than {} \
-         configurations is topped up: more configurations are drawn from the same distributions and kept \
+         configurations{} is topped up: more configurations are drawn from the same distributions and kept \
          only for the thin bins they fall in (rejection sampling), so within a bin they follow the natural \
          distribution and need no weights; they are counted only in the bins they were kept for.\n",
-        case.min_per_bin
+        case.min_per_bin,
+        own_minimum(case)
     );
     let _ = writeln!(
         w,
