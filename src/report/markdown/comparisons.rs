@@ -86,7 +86,10 @@ pub(super) fn disagreements(w: &mut String, input: &Summary) {
                 w,
                 "| family | ratio | in sample | err A (f32) | err B (f32) | A f64 | B f64 | reference | × typical | subtended | reach_near_o | reach_o | subtended_o | height_o | tilt_o |"
             );
-            let _ = writeln!(w, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+            let _ = writeln!(
+                w,
+                "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+            );
             for d in found.iter().take(6) {
                 let f = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.6e}"));
                 let x = &d.axes;
