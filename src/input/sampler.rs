@@ -741,6 +741,116 @@ rotation = { dist = "uniform", min = 0.0, max = 180.0 }
     }
 
     #[test]
+    fn highlight_is_the_angle_from_the_mirror_direction_to_the_nearest_point() {
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        let up = [0.0, 0.0, 1.0];
+        // The segment passes through the mirror direction: its nearest point lies on it.
+        assert!(close(highlight_angle(up, [-1.0, 0.0, 1.0], [1.0, 0.0, 1.0]), 0.0));
+        // The nearest point is an end point (p1, clamped): 45° from the zenith.
+        assert!(close(highlight_angle(up, [1.0, 0.0, 1.0], [2.0, 0.0, 1.0]), 45.0));
+        // In the surface: 90°; below it, past 90°.
+        assert!(close(highlight_angle(up, [1.0, -1.0, 0.0], [1.0, 1.0, 0.0]), 90.0));
+        assert!(close(highlight_angle(up, [1.0, -1.0, -1.0], [1.0, 1.0, -1.0]), 135.0));
+        // A view 30° from the normal mirrors to (−sin 30°, 0, cos 30°); a segment across that
+        // direction at distance 2 has its nearest point on it, one 30° further round does not.
+        let v = [0.5, 0.0, 0.75f64.sqrt()];
+        let m = [-0.5, 0.0, 0.75f64.sqrt()];
+        let p = |s: f64, y: f64| [2.0 * m[0], y, 2.0 * m[2] * s];
+        assert!(close(highlight_angle(v, p(1.0, -1.0), p(1.0, 1.0)), 0.0));
+        assert!(close(highlight_angle(v, [0.0, -1.0, 2.0], [0.0, 1.0, 2.0]), 30.0));
+    }
+
+    #[test]
+    fn sampled_highlight_follows_the_view() {
+        let c = Case::parse(
+            "t.toml",
+            r#"
+name = "t"
+title = "t"
+seed = 3
+methods = ["line.ltc2017"]
+[geometry]
+elevation = { dist = "uniform", min = -20.0, max = 90.0 }
+tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
+length = { dist = "log_uniform", min = 0.1, max = 10.0 }
+center = { dist = "uniform", min = -2.0, max = 2.0 }
+[[materials]]
+name = "g"
+kind = "ggx"
+count = 40
+alpha = { dist = "fixed", value = 0.3 }
+view_angle = { dist = "uniform", min = 0.0, max = 80.0 }
+[[materials]]
+name = "d"
+kind = "diffuse"
+count = 10
+"#,
+        )
+        .unwrap();
+        for s in sample_case(&c) {
+            match &s.config.material {
+                Material::Ggx { view, .. } => {
+                    let h = highlight_angle(*view, s.config.p1, s.config.p2);
+                    assert_eq!(s.axes.highlight, h);
+                    assert!((0.0..=180.0).contains(&h));
+                }
+                _ => assert!(s.axes.highlight.is_nan()),
+            }
+        }
+    }
+
+    #[test]
+    fn an_axis_with_its_own_minimum_is_topped_up_alone() {
+        let text = r#"
+name = "t"
+title = "t"
+seed = 4
+min_per_bin = 0
+methods = ["line.ltc2017"]
+[geometry]
+elevation = { dist = "uniform", min = -20.0, max = 90.0 }
+tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
+length = { dist = "log_uniform", min = 0.1, max = 10.0 }
+center = { dist = "uniform", min = -2.0, max = 2.0 }
+[[materials]]
+name = "d"
+kind = "diffuse"
+count = 100
+[[bins]]
+axis = "length"
+edges = [0.1, 0.2, 10.0]
+[[bins]]
+axis = "elevation"
+edges = [-20.0, -19.0, 90.0]
+min_per_bin = 30
+"#;
+        let c = Case::parse("t.toml", text).unwrap();
+        let natural = sample_case(&c);
+        let (extra, reports) = top_up(&c, &natural);
+        // Only the thin elevation bin [-20, -19) asked for configurations, and got them.
+        assert!(!extra.is_empty());
+        assert!(extra.iter().all(|s| s.strata.iter().all(|&(a, k)| (a, k) == (1, 0))));
+        let in_bin = natural.iter().filter(|s| s.axes.elevation < -19.0).count() + extra.len();
+        assert_eq!(in_bin, 30, "{reports:?}");
+    }
+
+    #[test]
+    fn wholly_below_means_both_end_points_at_or_under_the_surface() {
+        let config = |z1: f64, z2: f64| Config {
+            id: String::new(),
+            p1: [1.0, 0.0, z1],
+            p2: [2.0, 0.5, z2],
+            radius: None,
+            rect: None,
+            material: Material::Diffuse,
+        };
+        assert!(config(-1.0, -0.5).wholly_below());
+        assert!(config(0.0, -0.5).wholly_below());
+        assert!(!config(-1.0, 1e-9).wholly_below());
+        assert!(!config(0.5, 0.5).wholly_below());
+    }
+
+    #[test]
     fn same_seed_same_configurations() {
         let a = sample_case(&case());
         let b = sample_case(&case());
