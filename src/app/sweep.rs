@@ -426,8 +426,10 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
         let largest = case.materials.iter().map(|m| m.count).max().unwrap_or(1).max(1);
         let scale = |min: usize| min.saturating_mul(n).div_ceil(largest).min(min);
         case.min_per_bin = scale(case.min_per_bin);
-        for b in &mut case.bins {
-            b.min_per_bin = b.min_per_bin.map(scale);
+        for b in case.bins.iter_mut() {
+            if let Some(min) = b.min_per_bin.as_mut() {
+                *min = scale(*min);
+            }
         }
         for m in &mut case.materials {
             m.count = n;
