@@ -1,6 +1,6 @@
 //! id: rectangle.ltc_polygon_fit
 //! target: rectangle
-//! source: Hill & Heitz 2016, "Real-Time Area Lighting: a Journey from Research to Production" (SIGGRAPH Advances course): the edge integral with the rational fit of θ/sin θ, as the LTC demo and three.js use it (src/renderers/shaders/ShaderChunk/lights_physical_pars_fragment.glsl.js, LTC_EdgeVectorFormFactor); written from the published fit
+//! source: Hill & Heitz 2016, "Real-Time Area Lighting: a Journey from Research to Production" (SIGGRAPH Advances course): the edge integral with the course's rational fit of θ/sin θ, as the LTC demo's IntegrateEdgeVec uses it (three.js's LTC_EdgeVectorFormFactor, lights_physical_pars_fragment.glsl.js, uses a different rational fit, of θ/(2π sin θ) with other coefficients; not this one); written from the published fit
 //! minv: full
 
 // rectangle_ltc_polygon.wgsl with each edge's acos(x)·normalize(a × b) replaced by

@@ -1,6 +1,6 @@
 //! id: rectangle.ltc_sphere
 //! target: rectangle
-//! source: Hill & Heitz 2016, "Real-Time Area Lighting: a Journey from Research to Production" (SIGGRAPH Advances course): unclipped edge vectors with the rational θ/sin θ fit, the horizon handled by the form factor of a clipped sphere with the same vector form factor, (|F|² + F.z)/(|F| + 1), as three.js does (lights_physical_pars_fragment.glsl.js, LTC_ClippedSphereFormFactor); written from the published formulas
+//! source: Hill & Heitz 2016, "Real-Time Area Lighting: a Journey from Research to Production" (SIGGRAPH Advances course): unclipped edge vectors with the rational θ/sin θ fit, the horizon handled by the form factor of a clipped sphere with the same vector form factor, (|F|² + F.z)/(|F| + 1) (the formula three.js's LTC_ClippedSphereFormFactor also uses, lights_physical_pars_fragment.glsl.js); the edge fit is the course's, as in rectangle_ltc_polygon_fit.wgsl, not three.js's (a different rational fit), so this is not three.js's shader; written from the published formulas
 //! minv: full
 
 // The vector form factor F = 1/(2π) Σ (a × b)·θ/sin θ of the whole transformed rectangle

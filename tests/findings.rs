@@ -276,3 +276,161 @@ fn the_disagreement_search_finds_the_region_built_in() {
         .fold(0.0, f64::max);
     assert!(reverse < best / 10.0, "reverse {reverse} against {best}");
 }
+
+/// A case where `line_upper` is 0 for two geometric sets: lights wholly below the surface and
+/// lights above it but only outside an LTC lobe (row 3 of M⁻¹ is (0.5, 0, 1): D is 0 where
+/// 0.5·x + z ≤ 0). Horizontal segments, so a light is wholly below exactly when the closest
+/// point's elevation is ≤ 0 (half the draws).
+const BELOW_CASE: &str = r#"
+name = "below"
+title = "wholly below against line_upper = 0"
+seed = 5
+min_per_bin = 0
+methods = ["test.lights_below", "test.lights_above"]
+[geometry]
+distance = { dist = "fixed", value = 1.0 }
+elevation = { dist = "uniform", min = -20.0, max = 20.0 }
+azimuth = { dist = "uniform", min = 0.0, max = 360.0 }
+tilt_angle = { dist = "fixed", value = 0.0 }
+length = { dist = "log_uniform", min = 0.01, max = 0.1 }
+center = { dist = "uniform", min = -0.05, max = 0.05 }
+[[materials]]
+name = "lobe"
+kind = "ltc_sparse"
+count = 400
+alpha = { dist = "fixed", value = 0.5 }
+shear = { dist = "fixed", value = 0.5 }
+[[claims]]
+id = "apart"
+expect = 'below_false_lit("test.lights_above", "lobe") == 0.0 && upper_false_lit("test.lights_below", "lobe") == below_zero("test.lights_below", "lobe") && below_zero("test.lights_below", "lobe") < upper_zero("test.lights_below", "lobe")'
+text = "{below_zero(\"test.lights_below\", \"lobe\")} wholly below of {upper_zero(\"test.lights_below\", \"lobe\")}."
+"#;
+
+#[test]
+fn wholly_below_is_counted_apart_from_line_upper_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let below = "fn method(scene: Scene) -> f32 {\n    if (scene.p1.z <= 0.0 && scene.p2.z <= 0.0) { return 0.125; }\n    return 0.0;\n}";
+    let above = "fn method(scene: Scene) -> f32 {\n    if (scene.p1.z <= 0.0 && scene.p2.z <= 0.0) { return 0.0; }\n    return 0.125;\n}";
+    let k1 = write(
+        dir.path(),
+        "below.wgsl",
+        &wrapped("line_numeric.wgsl", "test.lights_below", below),
+    );
+    let k2 = write(
+        dir.path(),
+        "above.wgsl",
+        &wrapped("line_numeric.wgsl", "test.lights_above", above),
+    );
+    let case = write(dir.path(), "c.toml", BELOW_CASE);
+    let out = dir.path().join("reports");
+    let o = linelight(&[
+        "sweep",
+        case.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--kernel",
+        k1.to_str().unwrap(),
+        "--kernel",
+        k2.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("below/summary.json")).unwrap()).unwrap();
+    let material = |label: &str| {
+        summary["analysis"]["methods"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["label"] == label)
+            .unwrap()["materials"][0]
+            .clone()
+    };
+    let n = |v: &serde_json::Value| v.as_u64().unwrap();
+    let (b, a) = (material("test.lights_below"), material("test.lights_above"));
+    let wholly = n(&b["wholly_below"]["false_light"]["configurations"]);
+    let upper = n(&b["against_line_upper"]["false_light"]["configurations"]);
+    // Half the elevations are ≤ 0: a binomial(400, 1/2) count, far inside these bounds.
+    assert!((140..=260).contains(&wholly), "wholly below: {wholly}");
+    assert!(
+        upper > wholly + 20,
+        "lights above the surface outside the lobe: {upper} vs {wholly}"
+    );
+    // The kernel lighting exactly the wholly-below ones lights every one of them and no other.
+    assert_eq!(n(&b["wholly_below"]["false_light"]["lit"]), wholly);
+    assert_eq!(n(&b["against_line_upper"]["false_light"]["lit"]), wholly);
+    // The one lighting everything else lights none of them, and every other zero of line_upper.
+    assert_eq!(n(&a["wholly_below"]["false_light"]["lit"]), 0);
+    assert_eq!(n(&a["against_line_upper"]["false_light"]["lit"]), upper - wholly);
+    let report = std::fs::read_to_string(out.join("below/report.md")).unwrap();
+    assert!(
+        report.contains(&format!("{wholly} wholly below of {upper}.")),
+        "{report}"
+    );
+}
+
+#[test]
+fn missed_light_has_its_own_column_apart_from_the_error() {
+    let dir = tempfile::tempdir().unwrap();
+    // Exactly `line.numeric@64`, but 0 for every light whose first end point is above z = 0.3:
+    // missed light on lit configurations, in f32 and in f64.
+    let kernel = wrapped(
+        "line_numeric.wgsl",
+        "test.misses",
+        "fn method(scene: Scene) -> f32 {\n    if (scene.p1.z > 0.3) { return 0.0; }\n    return inner(scene);\n}",
+    );
+    let kernel = write(dir.path(), "misses.wgsl", &kernel);
+    let case = CASE
+        .replace(
+            r#"methods = ["line.ltc2017", "line.ltc2023"]"#,
+            r#"methods = ["line.numeric", "test.misses"]"#,
+        )
+        .replace(r#"compare = [["line.ltc2017", "line.ltc2023"]]"#, "");
+    let case = write(dir.path(), "c.toml", &case);
+    let out = dir.path().join("reports");
+    let o = linelight(&[
+        "sweep",
+        case.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--kernel",
+        kernel.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("claimed/summary.json")).unwrap()).unwrap();
+    let all = |label: &str| {
+        summary["analysis"]["methods"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["label"] == label)
+            .unwrap()["materials"][0]["all"]
+            .clone()
+    };
+    let (plain, misses) = (all("line.numeric"), all("test.misses"));
+    let dark = misses["dark"].as_u64().unwrap();
+    let dark_f64 = misses["dark_f64"].as_u64().unwrap();
+    let lit = misses["count"].as_u64().unwrap();
+    assert!(dark * 10 > lit, "more than a tenth missed: {dark} of {lit}");
+    assert_eq!(dark_f64, dark, "the f64 formula misses the same lights");
+    assert_eq!(plain["dark"], 0);
+    // With the missed ones, p99 is the plateau at 1; without them, the quadrature's own error.
+    assert_eq!(misses["rel"]["p99"].as_f64(), Some(1.0));
+    let p99_lit = misses["rel_lit"]["p99"].as_f64().unwrap();
+    assert!(p99_lit <= plain["rel"]["max"].as_f64().unwrap(), "{p99_lit}");
+    assert!(p99_lit < 1e-2, "{p99_lit}");
+    let report = std::fs::read_to_string(out.join("claimed/report.md")).unwrap();
+    let glance = &report[report.find("## At a glance").unwrap()..];
+    let row = |label: &str| {
+        glance
+            .lines()
+            .find(|l| l.starts_with(&format!("| `{label}` |")))
+            .unwrap_or_else(|| panic!("no At a glance row for {label}"))
+            .to_string()
+    };
+    let r = row("test.misses");
+    assert!(r.contains(&format!("| {dark} of {lit} (f64 {dark_f64}) |")), "{r}");
+    assert!(!r.contains("1.0e0 /"), "the error column leaves missed light out: {r}");
+    assert!(r.contains(&linelight::report::sci(Some(p99_lit))), "{r}");
+    assert!(row("line.numeric").ends_with("| 0 |"), "{}", row("line.numeric"));
+}

@@ -1,6 +1,6 @@
 //! id: line_isotropic.karis2013
 //! target: line_isotropic
-//! source: Karis 2013, "Real Shading in Unreal Engine 4" (SIGGRAPH course notes, tube lights: line irradiance), as Unreal Engine 4 shades it (Engine/Shaders/Private/CapsuleLight.ush, its horizon clip commented out); written from the paper's formula
+//! source: Karis 2013, "Real Shading in Unreal Engine 4" (SIGGRAPH course notes, tube lights: line irradiance), the paper's closed form; Unreal Engine 4's LineIrradiance (Engine/Shaders/Private/CapsuleLight.ush, its horizon clip commented out) adds a distance bias, DistanceBiasSqr·InvLength01 in the denominator (the light softened near its surface), which this kernel omits; written from the paper's formula
 //! minv: diffuse
 
 // Karis's closed form of a line of isotropic emitters' irradiance, with L0, L1 the end points

@@ -1,7 +1,7 @@
 //! id: line.mrp_specular_energy_line
 //! derive: line.mrp_specular
 //! replace: method
-//! source: line_mrp_specular_energy.wgsl with the normalization in one dimension, α/α' instead of (α/α')²: linelight: Karis's argument in one dimension, since a thin segment widens the highlight along its length only
+//! source: line_mrp_specular_energy.wgsl with the normalization in one dimension, α/α' instead of (α/α')², as UE4-derived engines ship it for line lights (AreaLightSpecular: LobeEnergy *= m / saturate(m + 0.5·LineAngle), LineAngle = saturate(SourceLength/distance): a widening of about half the subtended angle, about twice this kernel's); here with this kernel family's widening sin(half-angle)/2; written from the formula
 
 // A sphere widens the highlight in two directions, hence (α/α')²; a thin segment only along
 // itself, hence one factor α/α'.

@@ -48,6 +48,11 @@ pub struct MaterialStats {
     /// answer reads region by region.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub against_line_upper_axes: Vec<AxisStats>,
+    /// For `line` methods: the configurations whose light is wholly below the surface (both
+    /// end points at z <= 0), judged against `line_upper` (0 for every one of them). A subset
+    /// of `against_line_upper`'s zero references, which also holds lights above the surface
+    /// only outside the lobe.
+    pub wholly_below: Option<BinStats>,
 }
 
 /// Which statistics of a method on a material a claim reads.
@@ -56,6 +61,8 @@ pub enum BinStatsRef {
     All,
     /// The `line` method judged against `line_upper`.
     LineUpper,
+    /// The `line` method on the lights wholly below the surface, against `line_upper`.
+    WhollyBelow,
     /// The bin of `axis` whose lower edge is `lo`.
     Bin {
         axis: String,
@@ -68,6 +75,7 @@ impl std::fmt::Display for BinStatsRef {
         match self {
             BinStatsRef::All => f.write_str("(all)"),
             BinStatsRef::LineUpper => f.write_str("against line_upper (only line methods have it)"),
+            BinStatsRef::WhollyBelow => f.write_str("wholly below the surface (only line methods have it)"),
             BinStatsRef::Bin { axis, lo } => write!(f, "of `{axis}` with lower edge {lo}"),
         }
     }
@@ -78,6 +86,7 @@ impl MaterialStats {
         match which {
             BinStatsRef::All => Some(&self.all),
             BinStatsRef::LineUpper => self.against_line_upper.as_ref(),
+            BinStatsRef::WhollyBelow => self.wholly_below.as_ref(),
             BinStatsRef::Bin { axis, lo } => self
                 .axes
                 .iter()
@@ -260,6 +269,7 @@ enum Judged {
         below_floor: bool,
         /// The GPU value, and the f64 one, are exactly 0 (missed light).
         dark: (bool, bool),
+        reference: f64,
     },
     /// The reference is exactly 0.
     Zero { gpu: f32, f64: Option<f64> },
@@ -274,7 +284,8 @@ fn push(acc: &mut BinAccumulator, j: Judged) {
             reference_rel,
             below_floor,
             dark,
-        } => acc.push(gpu, cpu, f64, reference_rel, below_floor, dark),
+            reference,
+        } => acc.push(gpu, cpu, f64, reference_rel, below_floor, dark, reference),
         Judged::Zero { gpu, f64 } => acc.push_zero(gpu, f64),
     }
 }
@@ -301,6 +312,7 @@ fn judge(case: &Case, chunk: &Chunk, run: &MethodRun, i: usize, judged: Target) 
         reference_rel: r.error / r.value.abs(),
         below_floor: r.value.abs() < floor,
         dark: (run.f32[i] == 0.0, run.f64[i] == Some(0.0)),
+        reference: r.value,
     })
 }
 
@@ -311,6 +323,8 @@ struct MaterialAcc {
     supported: Option<bool>,
     all: BinAccumulator,
     upper: BinAccumulator,
+    /// Against `line_upper`, the lights wholly below the surface only.
+    below: BinAccumulator,
     axes: Vec<Vec<BinAccumulator>>,
     /// `upper` per bin of every axis; only `line` methods have them (empty otherwise).
     upper_axes: Vec<Vec<BinAccumulator>>,
@@ -337,6 +351,7 @@ impl MethodAcc {
             supported: None,
             all: BinAccumulator::default(),
             upper: BinAccumulator::default(),
+            below: BinAccumulator::default(),
             upper_axes: if method.target() == Target::Line {
                 axes.clone()
             } else {
@@ -370,6 +385,9 @@ impl MethodAcc {
                 if let Some(u) = judge(case, chunk, run, i, Target::LineUpper) {
                     if p.natural {
                         push(&mut acc.upper, u);
+                        if chunk.samples[i].config.wholly_below() {
+                            push(&mut acc.below, u);
+                        }
                     }
                     for (bins, k) in acc.upper_axes.iter_mut().zip(&p.bins) {
                         if let Some(k) = k {
@@ -403,6 +421,7 @@ impl MethodAcc {
             a.supported = a.supported.or(b.supported);
             a.all.merge(&b.all);
             a.upper.merge(&b.upper);
+            a.below.merge(&b.below);
             for (x, y) in a.axes.iter_mut().flatten().zip(b.axes.iter().flatten()) {
                 x.merge(y);
             }
@@ -467,6 +486,7 @@ impl MethodAcc {
                     .collect(),
                 against_line_upper: (target == Target::Line).then(|| acc.upper.finish_bounded(q)),
                 against_line_upper_axes: axes(&acc.upper_axes),
+                wholly_below: (target == Target::Line).then(|| acc.below.finish()),
             })
             .collect();
         MethodStats {

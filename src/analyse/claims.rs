@@ -300,6 +300,20 @@ fn engine(facts: Rc<Facts>) -> Engine {
     both!("false_max", "bin_false_max", |s: &BinStats| q(|q| q.max)(
         s.false_light.value
     ));
+    // The error of what the method returns, missed light (`dark`) apart.
+    both!("lit_median", "bin_lit_median", |s: &BinStats| q(|q| q.median)(
+        s.rel_lit
+    ));
+    both!("lit_p99", "bin_lit_p99", |s: &BinStats| q(|q| q.p99)(s.rel_lit));
+    both!("lit_max", "bin_lit_max", |s: &BinStats| q(|q| q.max)(s.rel_lit));
+    both!("lit_f64_p99", "bin_lit_f64_p99", |s: &BinStats| q(|q| q.p99)(
+        s.rel_f64_lit
+    ));
+    // How bright the lights are: |reference| over the non-zero references.
+    both!("ref_median", "bin_ref_median", |s: &BinStats| q(|q| q.median)(
+        s.reference
+    ));
+    both!("ref_max", "bin_ref_max", |s: &BinStats| q(|q| q.max)(s.reference));
     for (name, t) in [("within_1e3", 0usize), ("within_1e2", 1), ("within_1e1", 2)] {
         let f = facts.clone();
         e.register_fn(name, move |m: S, mat: S| -> Result<f64, Fail> {
@@ -314,11 +328,19 @@ fn engine(facts: Rc<Facts>) -> Engine {
         ),
         ("upper_zero", |s| Some(s.false_light.configurations as f64)),
         ("upper_false_lit", |s| Some(s.false_light.lit as f64)),
+        ("upper_false_lit_f64", |s| Some(s.false_light.lit_f64 as f64)),
         ("upper_false_max", |s| q(|q| q.max)(s.false_light.value)),
     ] {
         let f = facts.clone();
         e.register_fn(name, move |m: S, mat: S| -> Result<f64, Fail> {
             f.stat(&m, &mat, &BinStatsRef::LineUpper, &get)
+        });
+        // The same over the lights wholly below the surface (both end points at z <= 0): a
+        // subset of `upper_zero`, which also holds lights above the surface only outside the lobe.
+        let below = name.replacen("upper_", "below_", 1);
+        let f = facts.clone();
+        e.register_fn(below, move |m: S, mat: S| -> Result<f64, Fail> {
+            f.stat(&m, &mat, &BinStatsRef::WhollyBelow, &get)
         });
     }
     // Compared pairs: |a − b| / reference.
@@ -353,6 +375,27 @@ fn engine(facts: Rc<Facts>) -> Engine {
             Ok(f.disagreements(&a, &b, &mat)?
                 .map_or(1.0, |d| d.first().map_or(f64::NAN, |d| d.err_b)))
         });
+        // How bright the top disagreement's light is, and where it is (docs/claims.md: a quoted
+        // worst case states its reference and the angle it subtends).
+        let f = facts.clone();
+        e.register_fn("disagree_ref", move |a: S, b: S, mat: S| -> Result<f64, Fail> {
+            Ok(f.disagreements(&a, &b, &mat)?
+                .map_or(1.0, |d| d.first().map_or(f64::NAN, |d| d.reference.value)))
+        });
+        let f = facts.clone();
+        e.register_fn(
+            "disagree_axis",
+            move |a: S, b: S, mat: S, axis: S| -> Result<f64, Fail> {
+                if !crate::input::sampler::Axes::REGION.contains(&axis.as_str()) {
+                    return fail(format!(
+                        "`{axis}` is not a region axis ({})",
+                        crate::input::sampler::Axes::REGION.join(", ")
+                    ));
+                }
+                Ok(f.disagreements(&a, &b, &mat)?
+                    .map_or(1.0, |d| d.first().map_or(f64::NAN, |d| d.axes.get(&axis))))
+            },
+        );
         let f = facts.clone();
         e.register_fn(
             "disagree_count",
@@ -424,6 +467,23 @@ fn engine(facts: Rc<Facts>) -> Engine {
                     .map_or(f64::NAN, |x| x.worst)
             }))
         });
+        // The worst configuration's value, reference and subtended angle (radians).
+        for (name, pick) in [("worst_value", 0usize), ("worst_ref", 1), ("worst_subtended", 2)] {
+            let f = facts.clone();
+            e.register_fn(name, move |m: S, family: S| -> Result<f64, Fail> {
+                f.material(&m, &family)?;
+                Ok(f.analysis.as_ref().map_or(1.0, |_| {
+                    f.found
+                        .iter()
+                        .find(|x| x.method == m.as_str() && x.family == family.as_str())
+                        .map_or(f64::NAN, |x| match pick {
+                            0 => x.value as f64,
+                            1 => x.reference.value,
+                            _ => crate::input::sampler::line_axes(x.config.p1, x.config.p2).2,
+                        })
+                }))
+            });
+        }
     }
     // Speed: per-round ratios of time per evaluation, measured in this run.
     for (name, pick) in [

@@ -463,6 +463,14 @@ pub struct BinStats {
     /// where the analysis asked for it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bound: Option<QuantileBound>,
+    /// `rel` over the configurations the method does not miss (its value is not exactly 0):
+    /// the error of what it returns, with missed light apart (counted in `dark`).
+    pub rel_lit: Option<Quantiles>,
+    /// `rel_f64` over the configurations the f64 formula does not miss (`dark_f64` apart).
+    pub rel_f64_lit: Option<Quantiles>,
+    /// |reference| over the configurations with a non-zero reference: how bright the lights
+    /// of the bin are (a worst case is dim or typical against these).
+    pub reference: Option<Quantiles>,
 }
 
 impl BinStats {
@@ -508,13 +516,17 @@ pub struct BinAccumulator {
     dark: usize,
     #[serde(default)]
     dark_f64: usize,
+    rel_lit: Distribution,
+    rel_f64_lit: Distribution,
+    reference: Distribution,
 }
 
 impl BinAccumulator {
     /// One configuration with a non-zero reference: the GPU result, the CPU f32 and f64
     /// evaluations where they exist, the reference's own relative error estimate, whether
-    /// the reference lies below the floor of the floored variant, and whether the GPU and
-    /// f64 results are exactly 0 (missed light).
+    /// the reference lies below the floor of the floored variant, whether the GPU and
+    /// f64 results are exactly 0 (missed light), and |reference|.
+    #[allow(clippy::too_many_arguments)]
     pub fn push(
         &mut self,
         gpu: Outcome,
@@ -523,9 +535,11 @@ impl BinAccumulator {
         reference_rel: f64,
         below_floor: bool,
         (dark, dark_f64): (bool, bool),
+        reference: f64,
     ) {
         self.dark += dark as usize;
         self.dark_f64 += dark_f64 as usize;
+        self.reference.push(reference.abs());
         match gpu {
             Outcome::Finite {
                 rel,
@@ -534,6 +548,9 @@ impl BinAccumulator {
                 bits,
             } => {
                 self.rel.push(rel);
+                if !dark {
+                    self.rel_lit.push(rel);
+                }
                 self.rel_floored.push(rel_floored);
                 self.abs.push(abs);
                 self.bits.push(bits);
@@ -549,7 +566,12 @@ impl BinAccumulator {
             self.rel_cpu_f32.push(rel);
         }
         match f64_outcome {
-            Some(Outcome::Finite { rel, .. }) => self.rel_f64.push(rel),
+            Some(Outcome::Finite { rel, .. }) => {
+                self.rel_f64.push(rel);
+                if !dark_f64 {
+                    self.rel_f64_lit.push(rel);
+                }
+            }
             Some(Outcome::Nan | Outcome::Inf) => self.nan_f64 += 1,
             None => {}
         }
@@ -581,6 +603,9 @@ impl BinAccumulator {
             (&mut self.bits, &o.bits),
             (&mut self.reference_rel, &o.reference_rel),
             (&mut self.zero_values, &o.zero_values),
+            (&mut self.rel_lit, &o.rel_lit),
+            (&mut self.rel_f64_lit, &o.rel_f64_lit),
+            (&mut self.reference, &o.reference),
         ] {
             a.merge(b);
         }
@@ -697,6 +722,9 @@ impl BinAccumulator {
             dark: self.dark,
             dark_f64: self.dark_f64,
             bound: None,
+            rel_lit: self.rel_lit.quantiles(),
+            rel_f64_lit: self.rel_f64_lit.quantiles(),
+            reference: self.reference.quantiles(),
         }
     }
 }
@@ -776,6 +804,7 @@ mod tests {
             0.0,
             false,
             (false, false),
+            1.0,
         );
         acc.push(
             Outcome::of_f32(f32::INFINITY, 1.0, 1e-6),
@@ -784,6 +813,7 @@ mod tests {
             0.0,
             false,
             (false, false),
+            1.0,
         );
         acc.push(
             Outcome::of_f32(1.001, 1.0, 1e-6),
@@ -792,6 +822,7 @@ mod tests {
             0.0,
             false,
             (false, false),
+            1.0,
         );
         let s = acc.finish();
         assert_eq!((s.count, s.nan, s.inf), (1, 1, 1));
@@ -809,6 +840,7 @@ mod tests {
             1e-5,
             false,
             (false, false),
+            1.0,
         );
         assert!(acc.finish().reference_flag);
         let mut acc = BinAccumulator::default();
@@ -819,6 +851,7 @@ mod tests {
             1e-12,
             false,
             (false, false),
+            1.0,
         );
         assert!(!acc.finish().reference_flag);
     }
@@ -827,7 +860,15 @@ mod tests {
     fn no_floor_and_zero_references_apart() {
         // A dim light: the floored variant hides a 100 % error, the primary statistic shows it.
         let mut acc = BinAccumulator::default();
-        acc.push(Outcome::of_f32(2e-9, 1e-9, 1e-6), None, None, 0.0, true, (false, false));
+        acc.push(
+            Outcome::of_f32(2e-9, 1e-9, 1e-6),
+            None,
+            None,
+            0.0,
+            true,
+            (false, false),
+            1.0,
+        );
         // A reference of exactly 0 lit by the method: false light, not a relative error.
         acc.push_zero(0.25, Some(0.0));
         acc.push_zero(0.0, Some(0.0));
@@ -855,6 +896,7 @@ mod tests {
             0.0,
             false,
             (true, false),
+            1.0,
         );
         a.push(
             Outcome::of_f32(0.0, 1.0, 1e-6),
@@ -863,14 +905,31 @@ mod tests {
             0.0,
             false,
             (true, true),
+            1.0,
         );
         let mut b = BinAccumulator::default();
-        b.push(Outcome::of_f32(0.5, 1.0, 1e-6), None, None, 0.0, false, (false, false));
+        b.push(
+            Outcome::of_f32(0.5, 1.0, 1e-6),
+            None,
+            None,
+            0.0,
+            false,
+            (false, false),
+            1.0,
+        );
         a.merge(&b);
         let s = a.finish();
         assert_eq!((s.count, s.dark, s.dark_f64), (3, 2, 1));
         // The missed ones are relative error exactly 1 in the statistics.
         assert_eq!(s.rel.unwrap().max, 1.0);
+        // Apart from them, the error of what the method returns: the lit one only in f32
+        // (0.5); in f64 the one the formula lit (1e-3 against 1: 0.999).
+        let lit = s.rel_lit.unwrap();
+        assert_eq!((lit.max, lit.median), (0.5, 0.5));
+        let f64_lit = s.rel_f64_lit.unwrap();
+        assert_eq!(f64_lit.median, f64_lit.max);
+        assert!((f64_lit.max - 0.999).abs() < 1e-12);
+        assert_eq!(s.reference.unwrap().max, 1.0);
     }
 
     /// A deterministic spread of errors over twelve decades.

@@ -430,7 +430,10 @@ pub fn write(dir: &Path, case_path: &str, case: &Case, run: &ChainRun) -> anyhow
     let _ = writeln!(
         md,
         "Isotropic configurations, relative error against the GGX truth: the exact LTC integral of each \
-         table's bilinear f32 look-up, and the GPU result of the method fed it.\n"
+         table's bilinear f32 look-up, and the GPU result of the method fed it. \"Published\" is the published \
+         table renormalised per node (each M⁻¹ divided by its own m22, so m22 = 1) before bilinear filtering, \
+         as our table is stored (docs/ggx.md): not the published demo's texture, which divides by another \
+         entry and so interpolates differently.\n"
     );
     let _ = writeln!(md, "| method | n | ours: LTC exact median | published: LTC exact median | ours: GPU median [p90] | published: GPU median [p90] |");
     let _ = writeln!(md, "|---|---:|---:|---:|---:|---:|");

@@ -14,7 +14,9 @@ use sha2::Digest;
 use std::path::{Path, PathBuf};
 
 /// The version of the shard record (`--shard`, docs/scale.md; 4 records the contents of the
-/// case and kernels, `app::shard`; 5 adds the `line_upper` view's per-bin accumulators).
+/// case and kernels, `app::shard`; 5 adds the `line_upper` view's per-bin accumulators, the
+/// error apart from missed light, the references' brightness and the lights wholly below the
+/// surface).
 pub const SHARD_FORMAT: u32 = 5;
 
 /// What measuring a sweep's configurations, or one shard's, leaves before the searches and

@@ -447,11 +447,13 @@ pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, 
         crate::limits::check_count("--count", n as u64).map_err(anyhow::Error::msg)?;
         // The bins' minimum shrinks with the counts, so a quick run stays quick.
         let largest = case.materials.iter().map(|m| m.count).max().unwrap_or(1).max(1);
-        case.min_per_bin = case
-            .min_per_bin
-            .saturating_mul(n)
-            .div_ceil(largest)
-            .min(case.min_per_bin);
+        let scale = |min: usize| min.saturating_mul(n).div_ceil(largest).min(min);
+        case.min_per_bin = scale(case.min_per_bin);
+        for b in case.bins.iter_mut() {
+            if let Some(min) = b.min_per_bin.as_mut() {
+                *min = scale(*min);
+            }
+        }
         for m in &mut case.materials {
             m.count = n;
         }
@@ -522,12 +524,14 @@ pub fn check_memory(setup: &Setup, holds: Holds) -> anyhow::Result<()> {
 /// (natural, natural and top-up) configurations a run of the case may measure: a family's
 /// top-ups fill its bins to `min_per_bin`, within `topup_draws` times its count.
 fn configurations(case: &Case) -> (u64, u64) {
-    let bins: u64 = case.bins.iter().map(|b| b.edges.len().saturating_sub(1) as u64).sum();
+    let wanted: u64 = case
+        .bins
+        .iter()
+        .map(|b| (b.edges.len().saturating_sub(1) as u64).saturating_mul(b.min_per_bin(case.min_per_bin) as u64))
+        .sum();
     case.materials.iter().fold((0u64, 0u64), |(n, t), m| {
         let count = m.count as u64;
-        let topups = bins
-            .saturating_mul(case.min_per_bin as u64)
-            .min(count.saturating_mul(case.topup_draws as u64));
+        let topups = wanted.min(count.saturating_mul(case.topup_draws as u64));
         (n.saturating_add(count), t.saturating_add(count).saturating_add(topups))
     })
 }

@@ -181,9 +181,18 @@ pub enum MaterialKind {
 pub struct BinAxis {
     pub axis: String,
     pub edges: Vec<f64>,
+    /// This axis's own `min_per_bin` (the case's when absent): a region the natural sample
+    /// rarely reaches (the highlight) can be topped up while the others are not.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_per_bin: Option<usize>,
 }
 
 impl BinAxis {
+    /// The configurations each bin of this axis is topped up to.
+    pub fn min_per_bin(&self, case_min: usize) -> usize {
+        self.min_per_bin.unwrap_or(case_min)
+    }
+
     /// Which bin holds `x` (the last bin includes its upper edge); None outside or for NaN.
     pub fn index(&self, x: f64) -> Option<usize> {
         bin_index(&self.edges, x)
@@ -403,6 +412,7 @@ pub const AXES: &[&str] = &[
     "rect_angle",
     "view_angle",
     "anisotropy",
+    "highlight",
 ];
 
 /// A finding: an expectation over the run's analysis and the explanation that holds while it

@@ -52,6 +52,27 @@ pub struct Axes {
     /// `ggx`: the view's angle from the normal (degrees) and αy/αx; NaN otherwise.
     pub view_angle: f64,
     pub anisotropy: f64,
+    /// `ggx`: the angle (degrees, 0 to 180) between the view's mirror direction (the view
+    /// reflected about the normal) and the direction to the light's nearest point (the point
+    /// of the segment nearest the shading point; for a tube or rectangle, of its axis). Small
+    /// is the highlight a viewer sees. NaN for other materials.
+    #[serde(default = "nan")]
+    pub highlight: f64,
+}
+
+fn nan() -> f64 {
+    f64::NAN
+}
+
+/// The angle (degrees) between the mirror direction of `view` (reflected about +z) and the
+/// direction from the shading point to the point of segment p1–p2 nearest to it.
+pub fn highlight_angle(view: Vec3, p1: Vec3, p2: Vec3) -> f64 {
+    let (p1, p2) = (v3(p1), v3(p2));
+    let e = p2 - p1;
+    let t = (-p1.dot(e) / e.dot(e)).clamp(0.0, 1.0);
+    let nearest = p1 + e * t;
+    let mirror = DVec3::new(-view[0], -view[1], view[2]);
+    libm::atan2(mirror.cross(nearest).length(), mirror.dot(nearest)).to_degrees()
 }
 
 impl Axes {
@@ -77,6 +98,7 @@ impl Axes {
             "rect_angle" => self.rect_angle,
             "view_angle" => self.view_angle,
             "anisotropy" => self.anisotropy,
+            "highlight" => self.highlight,
             _ => f64::NAN,
         }
     }
@@ -443,7 +465,8 @@ pub fn top_up_counted(case: &Case, counts: &[FamilyCounts]) -> (Vec<Sample>, Vec
                 if !c.finite[a] {
                     return vec![0; c.bins[a].len()];
                 }
-                c.bins[a].iter().map(|&n| case.min_per_bin.saturating_sub(n)).collect()
+                let min = case.bins[a].min_per_bin(case.min_per_bin);
+                c.bins[a].iter().map(|&n| min.saturating_sub(n)).collect()
             })
             .collect();
         let mut report = TopUp {
@@ -488,7 +511,7 @@ pub fn top_up_counted(case: &Case, counts: &[FamilyCounts]) -> (Vec<Sample>, Vec
         for (a, b) in case.bins.iter().enumerate() {
             for (k, &n) in need[a].iter().enumerate() {
                 if n > 0 {
-                    let reached = case.min_per_bin - n;
+                    let reached = b.min_per_bin(case.min_per_bin) - n;
                     report.thin.push((b.axis.clone(), b.edges[k], b.edges[k + 1], reached));
                 }
             }
@@ -562,6 +585,10 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
     });
 
     let (material_value, alpha, view_angle, anisotropy) = sample_material(source, family);
+    let highlight = match &material_value {
+        Material::Ggx { view, .. } => highlight_angle(*view, p1.to_array(), p2.to_array()),
+        _ => f64::NAN,
+    };
     let minv = material_value.minv();
     let (p1o, p2o) = (mat(&minv) * p1, mat(&minv) * p2);
     let (p1, p2) = (p1.to_array(), p2.to_array());
@@ -615,6 +642,7 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
             rect_angle: if rect_width.is_some() { rect_angle_deg } else { f64::NAN },
             view_angle,
             anisotropy,
+            highlight,
         },
     }
 }
@@ -710,6 +738,116 @@ rotation = { dist = "uniform", min = 0.0, max = 180.0 }
 "#,
         )
         .unwrap()
+    }
+
+    #[test]
+    fn highlight_is_the_angle_from_the_mirror_direction_to_the_nearest_point() {
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        let up = [0.0, 0.0, 1.0];
+        // The segment passes through the mirror direction: its nearest point lies on it.
+        assert!(close(highlight_angle(up, [-1.0, 0.0, 1.0], [1.0, 0.0, 1.0]), 0.0));
+        // The nearest point is an end point (p1, clamped): 45° from the zenith.
+        assert!(close(highlight_angle(up, [1.0, 0.0, 1.0], [2.0, 0.0, 1.0]), 45.0));
+        // In the surface: 90°; below it, past 90°.
+        assert!(close(highlight_angle(up, [1.0, -1.0, 0.0], [1.0, 1.0, 0.0]), 90.0));
+        assert!(close(highlight_angle(up, [1.0, -1.0, -1.0], [1.0, 1.0, -1.0]), 135.0));
+        // A view 30° from the normal mirrors to (−sin 30°, 0, cos 30°); a segment across that
+        // direction at distance 2 has its nearest point on it, one 30° further round does not.
+        let v = [0.5, 0.0, 0.75f64.sqrt()];
+        let m = [-0.5, 0.0, 0.75f64.sqrt()];
+        let p = |s: f64, y: f64| [2.0 * m[0], y, 2.0 * m[2] * s];
+        assert!(close(highlight_angle(v, p(1.0, -1.0), p(1.0, 1.0)), 0.0));
+        assert!(close(highlight_angle(v, [0.0, -1.0, 2.0], [0.0, 1.0, 2.0]), 30.0));
+    }
+
+    #[test]
+    fn sampled_highlight_follows_the_view() {
+        let c = Case::parse(
+            "t.toml",
+            r#"
+name = "t"
+title = "t"
+seed = 3
+methods = ["line.ltc2017"]
+[geometry]
+elevation = { dist = "uniform", min = -20.0, max = 90.0 }
+tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
+length = { dist = "log_uniform", min = 0.1, max = 10.0 }
+center = { dist = "uniform", min = -2.0, max = 2.0 }
+[[materials]]
+name = "g"
+kind = "ggx"
+count = 40
+alpha = { dist = "fixed", value = 0.3 }
+view_angle = { dist = "uniform", min = 0.0, max = 80.0 }
+[[materials]]
+name = "d"
+kind = "diffuse"
+count = 10
+"#,
+        )
+        .unwrap();
+        for s in sample_case(&c) {
+            match &s.config.material {
+                Material::Ggx { view, .. } => {
+                    let h = highlight_angle(*view, s.config.p1, s.config.p2);
+                    assert_eq!(s.axes.highlight, h);
+                    assert!((0.0..=180.0).contains(&h));
+                }
+                _ => assert!(s.axes.highlight.is_nan()),
+            }
+        }
+    }
+
+    #[test]
+    fn an_axis_with_its_own_minimum_is_topped_up_alone() {
+        let text = r#"
+name = "t"
+title = "t"
+seed = 4
+min_per_bin = 0
+methods = ["line.ltc2017"]
+[geometry]
+elevation = { dist = "uniform", min = -20.0, max = 90.0 }
+tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
+length = { dist = "log_uniform", min = 0.1, max = 10.0 }
+center = { dist = "uniform", min = -2.0, max = 2.0 }
+[[materials]]
+name = "d"
+kind = "diffuse"
+count = 100
+[[bins]]
+axis = "length"
+edges = [0.1, 0.2, 10.0]
+[[bins]]
+axis = "elevation"
+edges = [-20.0, -19.0, 90.0]
+min_per_bin = 30
+"#;
+        let c = Case::parse("t.toml", text).unwrap();
+        let natural = sample_case(&c);
+        let (extra, reports) = top_up(&c, &natural);
+        // Only the thin elevation bin [-20, -19) asked for configurations, and got them.
+        assert!(!extra.is_empty());
+        assert!(extra.iter().all(|s| s.strata.iter().all(|&(a, k)| (a, k) == (1, 0))));
+        let in_bin = natural.iter().filter(|s| s.axes.elevation < -19.0).count() + extra.len();
+        assert_eq!(in_bin, 30, "{reports:?}");
+    }
+
+    #[test]
+    fn wholly_below_means_both_end_points_at_or_under_the_surface() {
+        let config = |z1: f64, z2: f64| Config {
+            id: String::new(),
+            p1: [1.0, 0.0, z1],
+            p2: [2.0, 0.5, z2],
+            radius: None,
+            rect: None,
+            material: Material::Diffuse,
+        };
+        assert!(config(-1.0, -0.5).wholly_below());
+        assert!(config(0.0, -0.5).wholly_below());
+        assert!(!config(-1.0, 1e-9).wholly_below());
+        assert!(!config(0.5, 0.5).wholly_below());
     }
 
     #[test]

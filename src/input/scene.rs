@@ -238,6 +238,13 @@ pub enum Degenerate {
 pub const F32_SCALE: f64 = 1_152_921_504_606_846_976.0;
 
 impl Config {
+    /// The segment lies wholly below the surface: both end points at z <= 0, so every point of
+    /// it is in the closed lower half-space and `line_upper` is 0 whatever the material. (The
+    /// segment only: a tube's radius or a rectangle's width is not looked at.)
+    pub fn wholly_below(&self) -> bool {
+        self.p1[2] <= 0.0 && self.p2[2] <= 0.0
+    }
+
     /// What an LTC method evaluates: for a `ggx` material, the configuration rotated about
     /// z into the frame of its fed M⁻¹, as an `ltc` material, and the magnitude the result
     /// is multiplied by; otherwise the configuration itself and 1.

@@ -267,11 +267,12 @@ mod tests {
         let setup = crate::app::sweep::prepare(case, &[], Some(4)).unwrap();
         let picked = split_evenly(&setup.samples, materials, 10);
         assert_eq!(picked.len(), 10);
-        // 3 + 3 + 4 over three families, 2 + 3 + 2 + 3 over four: the first of each
-        // material's samples.
+        // 3 + 3 + 4 over three families, 2 + 3 + 2 + 3 over four, 2 each over five: the
+        // first of each material's samples.
         let shares: &[usize] = match materials {
             3 => &[3, 3, 4],
             4 => &[2, 3, 2, 3],
+            5 => &[2, 2, 2, 2, 2],
             n => panic!("line_fwt has {n} families: add their shares here"),
         };
         let by_material = |i: usize| setup.samples.iter().filter(move |s| s.material == i);

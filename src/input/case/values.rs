@@ -128,6 +128,14 @@ pub fn check(case: &Case) -> Result<(), String> {
             crate::limits::MAX_COUNT
         ));
     }
+    for (i, b) in case.bins.iter().enumerate() {
+        if let Some(n) = b.min_per_bin.filter(|&n| n as u64 > crate::limits::MAX_COUNT) {
+            return Err(format!(
+                "`bins[{i}].min_per_bin` = {n}: more than the {} configurations per family a sweep takes",
+                crate::limits::MAX_COUNT
+            ));
+        }
+    }
     let mut maps = BTreeMap::new();
     for (k, map) in case.maps.iter().enumerate() {
         for label in case.methods.iter().filter(|l| map.shows(l)) {
@@ -256,6 +264,8 @@ pub fn axis_range(case: &Case, family: &MaterialFamily, axis: &str) -> Option<(f
         "alpha" => (family.kind != Diffuse).then(|| or(family.alpha.as_ref(), 1.0)),
         "view_angle" => ggx.then(|| or(family.view_angle.as_ref(), 45.0)),
         "anisotropy" => ggx.then(|| or(family.anisotropy.as_ref(), 1.0)),
+        // Defined where the view is known: the `ggx` material (src/input/sampler.rs).
+        "highlight" => (family.kind == Ggx).then_some((0.0, 180.0)),
         "radius" => g.radius.as_ref().map(range),
         "cap_straddle" => g.radius.as_ref().map(|_| (0.0, 1.0)),
         "width" => g.rect_width.as_ref().map(range),
@@ -291,6 +301,7 @@ fn drawn_axes(case: &Case) -> Result<(), String> {
             let needs = match b.axis.as_str() {
                 "alpha" => "an LTC or ggx material",
                 "view_angle" | "anisotropy" => "a ggx or ltc_ggx material",
+                "highlight" => "a ggx material",
                 "radius" | "cap_straddle" => "a geometry with a `radius`",
                 "width" | "rect_angle" => "a geometry with a `rect_width`",
                 _ => "another case",

@@ -35,11 +35,12 @@ struct LlCaptured {
     index_lo: u32,
     index_hi: u32,
     value: f32,
-    why: u32,        // 1 NaN, 2 inf, 3 negative, 4 above the bound
+    why: u32,        // 1 NaN, 2 inf, 3 negative, 4 above the bound, 5 above the light's bound
 }
 
 @group(0) @binding(3) var<uniform> ll_scan: LlScanParams;
-// nan, inf, negative, above, captured, cut short by the driver's loop limit, degenerate (skipped)
+// nan, inf, negative, above, captured, cut short by the driver's loop limit, degenerate (skipped),
+// above the light's bound
 @group(0) @binding(4) var<storage, read_write> ll_counts: array<atomic<u32>, 8>;
 @group(0) @binding(5) var<storage, read_write> ll_captured: array<LlCaptured>;
 // Loop-body executions of this invocation, when the method's loops are counted (gpu/loops.rs).
@@ -201,6 +202,39 @@ fn ll_degenerate(s: Scene) -> bool {
     return !ll_within(det, 1u, 0x7F7FFFFFu);
 }
 
+// The light's bound B (docs/scan.md), an upper bound on `line` and `line_upper` whatever the
+// method: the same light with D replaced by an upper bound D̂ of its maximum, and the segment's
+// geometric factor ∫ 2‖ω_p × ω_t‖/‖p‖² dl bounded by 2L/r², r the distance from the shading point
+// to the segment (taken a hair short for f32 rounding). D̂ = 1/π for the diffuse material; for an
+// LTC, D ≤ |det M⁻¹|/(π σ_min(M⁻¹)³) and σ_min(M⁻¹) is bounded below two ways: by
+// |det|/‖adj M⁻¹‖_F (as ‖M‖₂ ≤ ‖M‖_F) and by 2|det|/‖M⁻¹‖_F² (as σ₁σ₂ ≤ (σ₁² + σ₂²)/2); the larger
+// is kept. Returns 0 where no bound is computed (r rounds to 0): nothing is counted then. A value
+// counts above it past 1.001·B, so f32 rounding of a value at the bound is not counted.
+fn ll_light_bound(s: Scene) -> f32 {
+    let e = s.p2 - s.p1;
+    let len = length(e);
+    let t = clamp(-dot(s.p1, e) / dot(e, e), 0.0, 1.0);
+    let size = max(length(s.p1), length(s.p2));
+    let r = length(s.p1 + t * e) - 1e-6 * size;
+    if (!(r > 0.0)) {
+        return 0.0;
+    }
+    var d_max = 1.0 / PI;
+    if (ll_scan.material != 0u) {
+        let m = s.minv;
+        let det = abs(determinant(m));
+        // The adjugate's rows are the cross products of M⁻¹'s columns.
+        let a0 = cross(m[1], m[2]);
+        let a1 = cross(m[2], m[0]);
+        let a2 = cross(m[0], m[1]);
+        let adj_f = sqrt(dot(a0, a0) + dot(a1, a1) + dot(a2, a2));
+        let f2 = dot(m[0], m[0]) + dot(m[1], m[1]) + dot(m[2], m[2]);
+        let sigma = max(det / adj_f, 2.0 * det / f2);
+        d_max = det / (PI * sigma * sigma * sigma);
+    }
+    return d_max * 2.0 * len / (r * r);
+}
+
 @compute @workgroup_size(64)
 fn ll_scan_main(@builtin(global_invocation_id) ll_id: vec3<u32>) {
     let ll_i = ll_id.x;
@@ -232,11 +266,16 @@ fn ll_scan_main(@builtin(global_invocation_id) ll_id: vec3<u32>) {
         why = 3u;
     } else if (ll_scan.has_bound != 0u && value > ll_scan.bound) {
         why = 4u;
+    } else {
+        let b = ll_light_bound(ll_scene);
+        if (b > 0.0 && value > 1.001 * b) {
+            why = 5u;
+        }
     }
     if (why == 0u) {
         return;
     }
-    atomicAdd(&ll_counts[why - 1u], 1u);
+    atomicAdd(&ll_counts[select(why - 1u, 7u, why == 5u)], 1u);
     let slot = atomicAdd(&ll_counts[4], 1u);
     if (slot < ll_scan.capture) {
         let m = transpose(ll_scene.minv);

@@ -72,7 +72,10 @@ pub struct ScanResult {
     pub inf: u64,
     pub negative: u64,
     pub above_bound: Option<u64>,
-    /// Offending (NaN, inf, negative or above the bound) over configurations, with its exact
+    /// Values above the light's bound B (docs/scan.md): the same light with D replaced by an
+    /// upper bound of its maximum, a bound every method's true value lies under.
+    pub above_light_bound: u64,
+    /// Offending (NaN, inf, negative, above the bound or above B) over configurations, with its exact
     /// two-sided 95 % Clopper–Pearson interval.
     pub rate: f64,
     pub rate_low: f64,
@@ -291,6 +294,7 @@ pub fn scan(
     let per_dispatch = PER_DISPATCH.min(u64::from(device.limits().max_compute_workgroups_per_dimension) * WORKGROUP);
     let start = std::time::Instant::now();
     let (mut totals, mut captured) = ([0u64; 4], Vec::<Captured>::new());
+    let mut above_light = 0u64;
     let (mut done, mut degenerate) = (0u64, 0u64);
     // As the sweep's sampler: past 1 % (+10) the skipped ones would change the distribution.
     let allowed = crate::input::sampler::redraw_limit(usize::try_from(count).unwrap_or(usize::MAX)) as u64;
@@ -367,6 +371,7 @@ pub fn scan(
                 *t += u64::from(n);
             }
             degenerate += u64::from(c[6]);
+            above_light += u64::from(c[7]);
             if degenerate > allowed {
                 return Err(too_many(degenerate));
             }
@@ -389,17 +394,17 @@ pub fn scan(
         }
         readback.unmap();
         done += in_submit;
-        progress(done, totals.iter().sum());
+        progress(done, totals.iter().sum::<u64>() + above_light);
     }
     let seconds = start.elapsed().as_secs_f64();
     let evaluated = count - degenerate;
-    let offending: u64 = totals.iter().sum();
+    let offending: u64 = totals.iter().sum::<u64>() + above_light;
     let (rate_low, rate_high) = clopper_pearson(offending, evaluated);
     let captured = captured
         .iter()
         .map(|c| {
             let v = |a: [f32; 4]| [a[0] as f64, a[1] as f64, a[2] as f64];
-            let why = ["nan", "inf", "negative", "above"][(c.why.clamp(1, 4) - 1) as usize];
+            let why = ["nan", "inf", "negative", "above", "above_light"][(c.why.clamp(1, 5) - 1) as usize];
             let index = (u64::from(c.index_hi) << 32) | u64::from(c.index_lo);
             Config {
                 id: format!("scan-{}-{}-{index}-{why}", method.label, fam.name),
@@ -424,6 +429,7 @@ pub fn scan(
         inf: totals[1],
         negative: totals[2],
         above_bound: bound.map(|_| totals[3]),
+        above_light_bound: above_light,
         rate: offending as f64 / evaluated.max(1) as f64,
         rate_low,
         rate_high,

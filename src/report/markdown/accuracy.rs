@@ -85,12 +85,13 @@ fn axis_tables(w: &mut String, input: &Summary, k: usize) {
         if !populated {
             continue; // an axis this material has no values on (alpha for diffuse)
         }
+        let min = axis.min_per_bin(case.min_per_bin);
         let _ = writeln!(
             w,
             "p99 relative error by `{}` (f32 / f64), material `{}`; n counts every configuration in the \
              bin, \"ref 0\" those whose reference is 0 (left out of the quantiles); a bin below {} \
              configurations is marked thin:\n",
-            axis.axis, family.name, case.min_per_bin
+            axis.axis, family.name, min
         );
         let head: Vec<String> = a.methods.iter().map(|ms| format!("`{}`", ms.label)).collect();
         let _ = writeln!(w, "| {} | n | ref 0 | {} |", axis.axis, head.join(" | "));
@@ -120,7 +121,7 @@ fn axis_tables(w: &mut String, input: &Summary, k: usize) {
                     c
                 })
                 .collect();
-            let thin = if n < case.min_per_bin { " thin" } else { "" };
+            let thin = if n < min { " thin" } else { "" };
             let _ = writeln!(w, "| [{lo}, {hi}){thin} | {n} | {zero} | {} |", cells.join(" | "));
         }
         let _ = writeln!(w);

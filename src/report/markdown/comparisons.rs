@@ -67,7 +67,10 @@ pub(super) fn disagreements(w: &mut String, input: &Summary) {
          then a hill climb in the family's dimensionless parameters) for the configurations that maximise \
          err_A / max(err_B, ε), ε = {}, relative errors with no floor. Every configuration found is in \
          `disagreements.jsonl` (eval input format; replay with `linelight eval`); its id names the pair and \
-         the direction. Region: the configuration's axes in the transformed (diffuse) configuration.\n",
+         the direction. Region: the configuration's axes in the transformed (diffuse) configuration; \
+         subtended: the angle the segment subtends at the shading point (radians, untransformed); \
+         × typical: the reference over the median reference of the family's lit configurations (how \
+         bright the light is against a typical one of the sample).\n",
         sci(Some(eps))
     );
     for [x, y] in &input.case.compare {
@@ -81,15 +84,18 @@ pub(super) fn disagreements(w: &mut String, input: &Summary) {
             }
             let _ = writeln!(
                 w,
-                "| family | ratio | in sample | err A (f32) | err B (f32) | A f64 | B f64 | reference | reach_near_o | reach_o | subtended_o | height_o | tilt_o |"
+                "| family | ratio | in sample | err A (f32) | err B (f32) | A f64 | B f64 | reference | × typical | subtended | reach_near_o | reach_o | subtended_o | height_o | tilt_o |"
             );
-            let _ = writeln!(w, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+            let _ = writeln!(
+                w,
+                "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+            );
             for d in found.iter().take(6) {
                 let f = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.6e}"));
                 let x = &d.axes;
                 let _ = writeln!(
                     w,
-                    "| `{}` | {} | {} | {} | {} | {} | {} | {:.6e} | {} | {} | {} | {:.2} | {:.3} |",
+                    "| `{}` | {} | {} | {} | {} | {} | {} | {:.6e} | {} | {} | {} | {} | {} | {:.2} | {:.3} |",
                     d.family,
                     sci(Some(d.ratio)),
                     sci(Some(d.sample_ratio)),
@@ -98,6 +104,8 @@ pub(super) fn disagreements(w: &mut String, input: &Summary) {
                     f(d.f64_a),
                     f(d.f64_b),
                     d.reference.value,
+                    super::brightness(input, a, &d.family, d.reference.value),
+                    sci(Some(x.subtended)),
                     sci(Some(x.reach_near_o)),
                     sci(Some(x.reach_o)),
                     sci(Some(x.subtended_o)),

@@ -6,6 +6,20 @@ use crate::analyse::summary::Summary;
 use crate::report::sci;
 use std::fmt::Write;
 
+/// The axes with their own `min_per_bin`, as a clause (empty when none has).
+fn own_minimum(case: &crate::input::case::Case) -> String {
+    let own: Vec<String> = case
+        .bins
+        .iter()
+        .filter_map(|b| b.min_per_bin.map(|n| format!("`{}` {n}", b.axis)))
+        .collect();
+    if own.is_empty() {
+        String::new()
+    } else {
+        format!(" (axes with their own minimum: {})", own.join(", "))
+    }
+}
+
 /// How the sample was drawn: the natural sample, the top-ups of thin bins, the bins still thin.
 pub(super) fn sampling(w: &mut String, input: &Summary) {
     let case = &input.case;
@@ -14,10 +28,11 @@ pub(super) fn sampling(w: &mut String, input: &Summary) {
         w,
         "Every family is first drawn from the case's distributions (the natural sample: the *all* rows, \
          the maps and the verdict use only it). Then every bin of every axis that holds fewer than {} \
-         configurations is topped up: more configurations are drawn from the same distributions and kept \
+         configurations{} is topped up: more configurations are drawn from the same distributions and kept \
          only for the thin bins they fall in (rejection sampling), so within a bin they follow the natural \
          distribution and need no weights; they are counted only in the bins they were kept for.\n",
-        case.min_per_bin
+        case.min_per_bin,
+        own_minimum(case)
     );
     let _ = writeln!(
         w,
@@ -56,18 +71,20 @@ pub(super) fn worst_cases(w: &mut String, input: &Summary) {
         let _ = writeln!(
             w,
             "For each method and family: the worst relative error in the random sample, and after the \
-             search refined the worst starting points (∞: NaN or inf). Every configuration is in \
+             search refined the worst starting points (∞: NaN or inf), with how bright the light found is: \
+             its reference, the angle its segment subtends (radians) and the reference over the median \
+             reference of the family's lit configurations (× typical). Every configuration is in \
              `worst.jsonl`; replay with `linelight eval --input worst.jsonl --output out.jsonl`.\n"
         );
         let _ = writeln!(
             w,
-            "| method | family | worst in sample | worst found | evaluations | value (f32) | reference | id |"
+            "| method | family | worst in sample | worst found | evaluations | value (f32) | reference | subtended | × typical | id |"
         );
-        let _ = writeln!(w, "|---|---|---:|---:|---:|---:|---:|---|");
+        let _ = writeln!(w, "|---|---|---:|---:|---:|---:|---:|---:|---:|---|");
         for f in &input.found {
             let _ = writeln!(
                 w,
-                "| `{}` | `{}` | {} | {} | {} | {:e} | {:e} ± {:.0e} | `{}` |",
+                "| `{}` | `{}` | {} | {} | {} | {:e} | {:e} ± {:.0e} | {} | {} | `{}` |",
                 f.method,
                 f.family,
                 sci(Some(f.sample_worst)),
@@ -76,6 +93,8 @@ pub(super) fn worst_cases(w: &mut String, input: &Summary) {
                 f.value,
                 f.reference.value,
                 f.reference.error,
+                sci(Some(crate::input::sampler::line_axes(f.config.p1, f.config.p2).2)),
+                super::brightness(input, &f.method, &f.family, f.reference.value),
                 f.config.id
             );
         }

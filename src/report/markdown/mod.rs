@@ -64,6 +64,24 @@ fn q3(s: &BinStats, f: impl Fn(&BinStats) -> Option<crate::analyse::stats::Quant
     .map(super::sci)
 }
 
+/// How bright a light of reference `reference` is against the family's typical light: over
+/// the median |reference| of the family's lit configurations (natural sample, `method`'s
+/// target). A worst case on a light 1e-9 of the typical one is a dim light's.
+fn brightness(input: &Summary, method: &str, family: &str, reference: f64) -> String {
+    let median = input
+        .analysis
+        .methods
+        .iter()
+        .find(|m| m.label == method)
+        .and_then(|m| m.materials.iter().find(|x| x.material == family))
+        .and_then(|x| x.all.reference)
+        .map(|q| q.median);
+    match median {
+        Some(m) if m > 0.0 => super::sci(Some(reference.abs() / m)),
+        _ => "—".into(),
+    }
+}
+
 /// `part` as a percentage of `whole`.
 fn share(part: usize, whole: usize) -> String {
     if whole == 0 {

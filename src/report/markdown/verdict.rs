@@ -117,27 +117,41 @@ pub(super) fn findings(w: &mut String, input: &Summary) {
     }
 }
 
-/// p99 per method and material, GPU f32 / CPU f64.
+/// p99 per method and material, GPU f32 / CPU f64, over what the method returns; missed
+/// light (a lit configuration the method returns exactly 0 for) in its own column, as false
+/// light (a reference of 0 the method lights) is apart from the error.
 pub(super) fn at_a_glance(w: &mut String, input: &Summary) {
     let (case, a) = (&input.case, &input.analysis);
     let _ = writeln!(w, "## At a glance\n");
     let _ = writeln!(
         w,
-        "p99 relative error against the reference, no floor, over the configurations whose reference is \
-         not 0: GPU f32 / the same formula in f64 (NaN/inf count if any, reference-0 configurations \
-         included; \"lit 0\": configurations whose reference is 0 that the method lights, of how many; \
-         † = outside the matrices the method claims to handle).\n"
+        "*error*: p99 relative error against the reference, no floor, GPU f32 / the same formula in f64, over \
+         the configurations whose reference is not 0 and whose value is not exactly 0 (NaN/inf count if any, \
+         reference-0 configurations included; \"lit 0\": configurations whose reference is 0 that the method \
+         lights, of how many; † = outside the matrices the method claims to handle). *missed*: configurations \
+         whose reference is not 0 where the method returns exactly 0 (missed light, a relative error of 1 \
+         each), of how many, and how many of them the formula misses in f64 too: kept out of *error* so a \
+         lobe's missing tail does not read as the formula's rounding (every quantile with them is in *Error \
+         against the reference*).\n"
     );
-    let names: Vec<String> = case.materials.iter().map(|f| format!("`{}`", f.name)).collect();
+    let names: Vec<String> = case
+        .materials
+        .iter()
+        .map(|f| format!("`{0}` error | `{0}` missed", f.name))
+        .collect();
     let _ = writeln!(w, "| method | target | {} |", names.join(" | "));
-    let _ = writeln!(w, "|---|---|{}", "---:|".repeat(names.len()));
+    let _ = writeln!(w, "|---|---|{}", "---:|---:|".repeat(names.len()));
     for ms in &a.methods {
         let cells: Vec<String> = ms
             .materials
             .iter()
             .map(|mat| {
                 let s = &mat.all;
-                let mut c = format!("{} / {}", sci(s.rel.map(|q| q.p99)), sci(s.rel_f64.map(|q| q.p99)));
+                let mut c = format!(
+                    "{} / {}",
+                    sci(s.rel_lit.map(|q| q.p99)),
+                    sci(s.rel_f64_lit.map(|q| q.p99))
+                );
                 let nonfinite = s.nan + s.inf + s.false_light.nonfinite;
                 if nonfinite > 0 {
                     c += &format!(" ({nonfinite} NaN/inf)");
@@ -148,7 +162,12 @@ pub(super) fn at_a_glance(w: &mut String, input: &Summary) {
                 if !mat.supported {
                     c += " †";
                 }
-                c
+                let missed = if s.dark == 0 && s.dark_f64 == 0 {
+                    "0".to_string()
+                } else {
+                    format!("{} of {} (f64 {})", s.dark, s.lit_configurations(), s.dark_f64)
+                };
+                format!("{c} | {missed}")
             })
             .collect();
         let _ = writeln!(w, "| `{}` | {} | {} |", ms.label, ms.target, cells.join(" | "));
