@@ -344,6 +344,7 @@ mod tests {
                     0.0,
                     false,
                     (false, false),
+                    1.0,
                 );
             }
         }
@@ -384,6 +385,7 @@ mod tests {
                 maps: Vec::new(),
                 against_line_upper: None,
                 against_line_upper_axes: Vec::new(),
+                wholly_below: None,
             }],
         }
     }
@@ -558,7 +560,15 @@ mod tests {
         a.methods[0].materials[0].against_line_upper = Some({
             let mut acc = BinAccumulator::default();
             for _ in 0..9800 {
-                acc.push(Outcome::of_f32(1.0, 1.0, 1e-6), None, None, 0.0, false, (false, false));
+                acc.push(
+                    Outcome::of_f32(1.0, 1.0, 1e-6),
+                    None,
+                    None,
+                    0.0,
+                    false,
+                    (false, false),
+                    1.0,
+                );
             }
             for _ in 0..200 {
                 acc.push_zero(0.1, Some(0.1));

@@ -1047,6 +1047,7 @@ mod tests {
                     0.0,
                     false,
                     (false, false),
+                    1.0,
                 );
             }
             let b = acc.quantile_bound(0.9);
@@ -1063,7 +1064,15 @@ mod tests {
     fn quantile_bound_judges_zero_references_and_nonfinite() {
         let mut acc = BinAccumulator::default();
         for _ in 0..400 {
-            acc.push(Outcome::of_f32(1.0, 1.0, 1e-6), None, None, 0.0, false, (false, false));
+            acc.push(
+                Outcome::of_f32(1.0, 1.0, 1e-6),
+                None,
+                None,
+                0.0,
+                false,
+                (false, false),
+                1.0,
+            );
         }
         // 100 exact zeros are exact; they count, and lower nothing above them.
         for _ in 0..100 {
@@ -1082,13 +1091,29 @@ mod tests {
         let mut acc = BinAccumulator::default();
         for i in 0..300 {
             let v = if i == 0 { f32::NAN } else { 1.0 };
-            acc.push(Outcome::of_f32(v, 1.0, 1e-6), None, None, 0.0, false, (false, false));
+            acc.push(
+                Outcome::of_f32(v, 1.0, 1e-6),
+                None,
+                None,
+                0.0,
+                false,
+                (false, false),
+                1.0,
+            );
         }
         assert_eq!(acc.quantile_bound(0.99).bound, Bound::Infinite);
         // Too few for p99 at 95 %.
         let mut acc = BinAccumulator::default();
         for _ in 0..298 {
-            acc.push(Outcome::of_f32(1.0, 1.0, 1e-6), None, None, 0.0, false, (false, false));
+            acc.push(
+                Outcome::of_f32(1.0, 1.0, 1e-6),
+                None,
+                None,
+                0.0,
+                false,
+                (false, false),
+                1.0,
+            );
         }
         assert_eq!(acc.quantile_bound(0.99).bound, Bound::TooFew);
     }
