@@ -209,11 +209,12 @@ pub(crate) fn line(lobe: &Lobe, p1: Vec3, p2: Vec3, upper: bool) -> Estimate {
     let foot = reject(p1, dir);
     let d = length(foot);
     let far = length(p1).max(length(p2));
-    if d == 0.0 {
-        // Every ω_p is the same and ‖ω_p × ω_t‖ = 0. The foot carries a rounding error of a
-        // few ε·‖p‖ (see `estimate`), so the true d is below foot_error and
-        // I ≤ 2·foot_error·D(ω_p)·∫ds/s³ ≤ foot_error·D(ω_p)/s_near².
-        let foot_error = 4.0 * f64::EPSILON * far;
+    // The foot carries a rounding error of a few ε·‖p‖ (see `estimate`): a d within it may be
+    // 0, and the chord's angles are then rounding noise (quadrature over them never settles).
+    let foot_error = 4.0 * f64::EPSILON * far;
+    if d <= foot_error {
+        // Every ω_p is the same and ‖ω_p × ω_t‖ = 0 up to the foot's error, so the true d is
+        // below foot_error and I ≤ 2·foot_error·D(ω_p)·∫ds/s³ ≤ foot_error·D(ω_p)/s_near².
         let near = if length(p1) < length(p2) { p1 } else { p2 };
         let r = length(near);
         let bound = foot_error * lobe.eval(mul(near, 1.0 / r)) / (r * r);
@@ -244,7 +245,8 @@ pub(crate) fn line_isotropic(lobe: &Lobe, p1: Vec3, p2: Vec3) -> Estimate {
     let d = length(foot);
     let (r1, r2) = (length(p1), length(p2));
     let far = r1.max(r2);
-    if d == 0.0 {
+    // As in `line`: a d within the foot's rounding error may be 0.
+    if d <= 4.0 * f64::EPSILON * far {
         let near = if r1 < r2 { p1 } else { p2 };
         let value = lobe.eval(mul(near, 1.0 / r1.min(r2))) * len / (r1 * r2);
         // A foot rounded to 0 from a few ε·far moves ω_p by that much relative to the
@@ -354,6 +356,30 @@ mod tests {
         let est = line_isotropic(&diffuse(), [0.0, 0.0, 1.0], [0.0, 0.0, 2.0]);
         assert!(rel(est.value, 0.5 / PI) < 1e-15, "{est:?}");
         assert!(est.error > 0.0 && est.error < 1e-14);
+    }
+
+    /// A line through the shading point whose foot rounds to a few ε instead of 0 (p2 = 2·p1 in
+    /// floating point): the chord's angles are rounding noise. This once never returned and
+    /// grew memory without bound; now it is the exact-0 case, within the foot's error.
+    #[test]
+    fn a_line_through_the_origin_with_a_rounded_foot_returns_its_limit() {
+        let (p1, p2) = ([0.5, 0.25, 1.0], [1.0, 0.5, 2.0]);
+        let r1 = length(p1);
+        for upper in [false, true] {
+            let est = line(&diffuse(), p1, p2, upper);
+            assert_eq!(est.value, 0.0, "{est:?}");
+            assert!(est.error < 1e-14, "{est:?}");
+        }
+        // Isotropic: D(ω)(1/r1 − 1/r2) with r2 = 2·r1 and D = cosθ/π.
+        let exact = (1.0 / r1) / PI * (1.0 / r1 - 1.0 / (2.0 * r1));
+        let est = line_isotropic(&diffuse(), p1, p2);
+        assert!(rel(est.value, exact) < 1e-14, "{est:?} {exact}");
+        // Just off the origin (d ≈ 1e-9 of the distance) the quadrature still settles.
+        let est = line(&diffuse(), p1, [1.0, 0.5, 2.0 + 1e-9], false);
+        assert!(
+            est.value.is_finite() && est.value >= 0.0 && est.error.is_finite(),
+            "{est:?}"
+        );
     }
 
     #[test]
