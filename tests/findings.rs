@@ -4,6 +4,7 @@
 
 mod common;
 use common::{linelight, stderr, write};
+use std::path::{Path, PathBuf};
 
 /// A built-in kernel under a new id, its `method` renamed to `inner` so a test can wrap it.
 /// A derived kernel is flattened (its base's text with the replaced functions, then its own)
@@ -51,6 +52,42 @@ fn wrapped(builtin: &str, id: &str, method: &str) -> String {
         body.join("\n")
             .replace("fn method(scene: Scene) -> f32", "fn inner(scene: Scene) -> f32")
     )
+}
+
+/// Sweeps `CASE` with `line.numeric` beside the user kernel `kernel` (file `file` in `dir`):
+/// the report folder and its summary.
+fn sweep_beside_numeric(dir: &Path, file: &str, label: &str, kernel: &str) -> (PathBuf, serde_json::Value) {
+    let kernel = write(dir, file, kernel);
+    let case = CASE
+        .replace(
+            r#"methods = ["line.ltc2017", "line.ltc2023"]"#,
+            &format!(r#"methods = ["line.numeric", "{label}"]"#),
+        )
+        .replace(r#"compare = [["line.ltc2017", "line.ltc2023"]]"#, "");
+    let case = write(dir, "c.toml", &case);
+    let out = dir.join("reports");
+    let o = linelight(&[
+        "sweep",
+        case.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--kernel",
+        kernel.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let summary = serde_json::from_str(&std::fs::read_to_string(out.join("claimed/summary.json")).unwrap()).unwrap();
+    (out.join("claimed"), summary)
+}
+
+/// A method's statistics on the summary's first material.
+fn first_material(summary: &serde_json::Value, label: &str) -> serde_json::Value {
+    summary["analysis"]["methods"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["label"] == label)
+        .unwrap()["materials"][0]
+        .clone()
 }
 
 const CASE: &str = r#"
@@ -150,35 +187,8 @@ fn light_where_none_arrives_shows_in_the_false_light_row_only() {
         "test.false_light",
         "fn method(scene: Scene) -> f32 {\n    if (scene.p1.z <= 0.0 && scene.p2.z <= 0.0) { return 0.125; }\n    return inner(scene);\n}",
     );
-    let kernel = write(dir.path(), "false_light.wgsl", &kernel);
-    let case = CASE
-        .replace(
-            r#"methods = ["line.ltc2017", "line.ltc2023"]"#,
-            r#"methods = ["line.numeric", "test.false_light"]"#,
-        )
-        .replace(r#"compare = [["line.ltc2017", "line.ltc2023"]]"#, "");
-    let case = write(dir.path(), "c.toml", &case);
-    let out = dir.path().join("reports");
-    let o = linelight(&[
-        "sweep",
-        case.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--kernel",
-        kernel.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("claimed/summary.json")).unwrap()).unwrap();
-    let all = |label: &str| {
-        summary["analysis"]["methods"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|m| m["label"] == label)
-            .unwrap()["materials"][0]["all"]
-            .clone()
-    };
+    let (out, summary) = sweep_beside_numeric(dir.path(), "false_light.wgsl", "test.false_light", &kernel);
+    let all = |label: &str| first_material(&summary, label)["all"].clone();
     let (plain, lit) = (all("line.numeric"), all("test.false_light"));
     let zero = plain["false_light"]["configurations"].as_u64().unwrap();
     assert!(
@@ -192,7 +202,7 @@ fn light_where_none_arrives_shows_in_the_false_light_row_only() {
     // Where light arrives the two are the same method: the error statistics do not move.
     assert_eq!(plain["rel"], lit["rel"]);
     assert_eq!(plain["count"], lit["count"]);
-    let report = std::fs::read_to_string(out.join("claimed/report.md")).unwrap();
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     let row = report
         .lines()
         .find(|l| l.starts_with("| `test.false_light` | `diffuse` |"))
@@ -336,15 +346,7 @@ fn wholly_below_is_counted_apart_from_line_upper_zero() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("below/summary.json")).unwrap()).unwrap();
-    let material = |label: &str| {
-        summary["analysis"]["methods"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|m| m["label"] == label)
-            .unwrap()["materials"][0]
-            .clone()
-    };
+    let material = |label: &str| first_material(&summary, label);
     let n = |v: &serde_json::Value| v.as_u64().unwrap();
     let (b, a) = (material("test.lights_below"), material("test.lights_above"));
     let wholly = n(&b["wholly_below"]["false_light"]["configurations"]);
@@ -378,35 +380,8 @@ fn missed_light_has_its_own_column_apart_from_the_error() {
         "test.misses",
         "fn method(scene: Scene) -> f32 {\n    if (scene.p1.z > 0.3) { return 0.0; }\n    return inner(scene);\n}",
     );
-    let kernel = write(dir.path(), "misses.wgsl", &kernel);
-    let case = CASE
-        .replace(
-            r#"methods = ["line.ltc2017", "line.ltc2023"]"#,
-            r#"methods = ["line.numeric", "test.misses"]"#,
-        )
-        .replace(r#"compare = [["line.ltc2017", "line.ltc2023"]]"#, "");
-    let case = write(dir.path(), "c.toml", &case);
-    let out = dir.path().join("reports");
-    let o = linelight(&[
-        "sweep",
-        case.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--kernel",
-        kernel.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("claimed/summary.json")).unwrap()).unwrap();
-    let all = |label: &str| {
-        summary["analysis"]["methods"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|m| m["label"] == label)
-            .unwrap()["materials"][0]["all"]
-            .clone()
-    };
+    let (out, summary) = sweep_beside_numeric(dir.path(), "misses.wgsl", "test.misses", &kernel);
+    let all = |label: &str| first_material(&summary, label)["all"].clone();
     let (plain, misses) = (all("line.numeric"), all("test.misses"));
     let dark = misses["dark"].as_u64().unwrap();
     let dark_f64 = misses["dark_f64"].as_u64().unwrap();
@@ -419,7 +394,7 @@ fn missed_light_has_its_own_column_apart_from_the_error() {
     let p99_lit = misses["rel_lit"]["p99"].as_f64().unwrap();
     assert!(p99_lit <= plain["rel"]["max"].as_f64().unwrap(), "{p99_lit}");
     assert!(p99_lit < 1e-2, "{p99_lit}");
-    let report = std::fs::read_to_string(out.join("claimed/report.md")).unwrap();
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     let glance = &report[report.find("## At a glance").unwrap()..];
     let row = |label: &str| {
         glance
