@@ -337,15 +337,7 @@ mod tests {
         let mut acc = BinAccumulator::default();
         for &(n, e) in errors {
             for _ in 0..n {
-                acc.push(
-                    Outcome::of_f32((1.0 + e) as f32, 1.0, 1e-6),
-                    None,
-                    None,
-                    0.0,
-                    false,
-                    (false, false),
-                    1.0,
-                );
+                acc.push_gpu(Outcome::of_f32((1.0 + e) as f32, 1.0, 1e-6));
             }
         }
         for _ in 0..zeros {
@@ -560,15 +552,7 @@ mod tests {
         a.methods[0].materials[0].against_line_upper = Some({
             let mut acc = BinAccumulator::default();
             for _ in 0..9800 {
-                acc.push(
-                    Outcome::of_f32(1.0, 1.0, 1e-6),
-                    None,
-                    None,
-                    0.0,
-                    false,
-                    (false, false),
-                    1.0,
-                );
+                acc.push_gpu(Outcome::of_f32(1.0, 1.0, 1e-6));
             }
             for _ in 0..200 {
                 acc.push_zero(0.1, Some(0.1));

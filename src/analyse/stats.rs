@@ -522,6 +522,12 @@ pub struct BinAccumulator {
 }
 
 impl BinAccumulator {
+    /// A test's configuration: only the GPU result, against a reference of 1 known exactly.
+    #[cfg(test)]
+    pub(crate) fn push_gpu(&mut self, gpu: Outcome) {
+        self.push(gpu, None, None, 0.0, false, (false, false), 1.0);
+    }
+
     /// One configuration with a non-zero reference: the GPU result, the CPU f32 and f64
     /// evaluations where they exist, the reference's own relative error estimate, whether
     /// the reference lies below the floor of the floored variant, whether the GPU and
@@ -797,33 +803,9 @@ mod tests {
     #[test]
     fn nan_and_inf_are_counted_not_averaged() {
         let mut acc = BinAccumulator::default();
-        acc.push(
-            Outcome::of_f32(f32::NAN, 1.0, 1e-6),
-            None,
-            None,
-            0.0,
-            false,
-            (false, false),
-            1.0,
-        );
-        acc.push(
-            Outcome::of_f32(f32::INFINITY, 1.0, 1e-6),
-            None,
-            None,
-            0.0,
-            false,
-            (false, false),
-            1.0,
-        );
-        acc.push(
-            Outcome::of_f32(1.001, 1.0, 1e-6),
-            None,
-            None,
-            0.0,
-            false,
-            (false, false),
-            1.0,
-        );
+        acc.push_gpu(Outcome::of_f32(f32::NAN, 1.0, 1e-6));
+        acc.push_gpu(Outcome::of_f32(f32::INFINITY, 1.0, 1e-6));
+        acc.push_gpu(Outcome::of_f32(1.001, 1.0, 1e-6));
         let s = acc.finish();
         assert_eq!((s.count, s.nan, s.inf), (1, 1, 1));
         assert!((s.rel.unwrap().max - 1e-3).abs() < 1e-6);
@@ -1040,15 +1022,7 @@ mod tests {
             let mut acc = BinAccumulator::default();
             for _ in 0..200 {
                 let e = uniform();
-                acc.push(
-                    Outcome::of_f64(1.0 + e, 1.0, 1e-6),
-                    None,
-                    None,
-                    0.0,
-                    false,
-                    (false, false),
-                    1.0,
-                );
+                acc.push_gpu(Outcome::of_f64(1.0 + e, 1.0, 1e-6));
             }
             let b = acc.quantile_bound(0.9);
             below += (b.bound.sort_key() < 0.9) as usize;
@@ -1064,15 +1038,7 @@ mod tests {
     fn quantile_bound_judges_zero_references_and_nonfinite() {
         let mut acc = BinAccumulator::default();
         for _ in 0..400 {
-            acc.push(
-                Outcome::of_f32(1.0, 1.0, 1e-6),
-                None,
-                None,
-                0.0,
-                false,
-                (false, false),
-                1.0,
-            );
+            acc.push_gpu(Outcome::of_f32(1.0, 1.0, 1e-6));
         }
         // 100 exact zeros are exact; they count, and lower nothing above them.
         for _ in 0..100 {
@@ -1091,29 +1057,13 @@ mod tests {
         let mut acc = BinAccumulator::default();
         for i in 0..300 {
             let v = if i == 0 { f32::NAN } else { 1.0 };
-            acc.push(
-                Outcome::of_f32(v, 1.0, 1e-6),
-                None,
-                None,
-                0.0,
-                false,
-                (false, false),
-                1.0,
-            );
+            acc.push_gpu(Outcome::of_f32(v, 1.0, 1e-6));
         }
         assert_eq!(acc.quantile_bound(0.99).bound, Bound::Infinite);
         // Too few for p99 at 95 %.
         let mut acc = BinAccumulator::default();
         for _ in 0..298 {
-            acc.push(
-                Outcome::of_f32(1.0, 1.0, 1e-6),
-                None,
-                None,
-                0.0,
-                false,
-                (false, false),
-                1.0,
-            );
+            acc.push_gpu(Outcome::of_f32(1.0, 1.0, 1e-6));
         }
         assert_eq!(acc.quantile_bound(0.99).bound, Bound::TooFew);
     }
