@@ -70,6 +70,7 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::analyse::bench::Be
             .progress_chars("=> "),
     );
     pb.set_message("bench");
+    crate::measure::progress::plain_lines(&pb);
     let times = crate::measure::bench::bench_methods_with(
         &gpu,
         &setup.methods,

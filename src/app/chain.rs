@@ -104,6 +104,7 @@ fn bar(len: usize, what: &str) -> ProgressBar {
             .progress_chars("=> "),
     );
     pb.set_message(what.to_string());
+    crate::measure::progress::plain_lines(&pb);
     pb
 }
 

@@ -196,6 +196,7 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
             .expect("valid template")
             .progress_chars("=> "),
     );
+    crate::measure::progress::plain_lines(&pb);
     let mut results = Vec::new();
     let mut finished = 0u64;
     for m in &chosen {
