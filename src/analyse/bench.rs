@@ -13,8 +13,10 @@ pub struct Cost {
     pub label: String,
     /// `"gpu-timestamp"` or `"wall"` (submit + wait, when the adapter has no timestamps).
     pub clock: String,
-    /// Configurations per dispatch (and per CPU run).
+    /// Configurations per dispatch.
     pub configurations: usize,
+    /// Configurations per timed CPU-column run (all, or a spread subset in a sweep's cost pass).
+    pub cpu_configurations: usize,
     /// Timed repeats (warm-up runs not counted).
     pub repeats: usize,
     pub ns_per_eval_median: f64,
@@ -48,6 +50,7 @@ impl Cost {
             label: t.label.clone(),
             clock: t.clock.clone(),
             configurations: t.configurations,
+            cpu_configurations: t.cpu_configurations,
             repeats: t.repeats,
             ns_per_eval_median: g.median,
             ns_per_eval_min: g.min,

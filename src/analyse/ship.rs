@@ -387,6 +387,7 @@ mod tests {
             label: label.into(),
             clock: "gpu-timestamp".into(),
             configurations: 1,
+            cpu_configurations: 1,
             repeats: 1,
             ns_per_eval_median: ns,
             ns_per_eval_min: ns,

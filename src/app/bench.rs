@@ -75,8 +75,7 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::analyse::bench::Be
         &gpu,
         &setup.methods,
         &configs,
-        options.warmup,
-        options.repeats,
+        crate::measure::bench::Rounds::fixed(options.warmup, options.repeats),
         &mut |done, total| {
             pb.set_length(total as u64);
             pb.set_position(done as u64);

@@ -42,8 +42,10 @@ pub struct Times {
     pub label: String,
     /// `"gpu-timestamp"` or `"wall"` (submit + wait, when the adapter has no timestamps).
     pub clock: String,
-    /// Configurations per dispatch (and per CPU run).
+    /// Configurations per dispatch.
     pub configurations: usize,
+    /// Configurations per timed CPU-column run (all of them, or a spread subset: [`Rounds`]).
+    pub cpu_configurations: usize,
     /// Timed repeats (warm-up runs not counted).
     pub repeats: usize,
     /// The operation count of one invocation (`crate::eval::cost`); None if it failed.
@@ -62,6 +64,51 @@ pub fn has_cpu_port(method: &Method) -> bool {
     crate::eval::interp::program(method).is_ok()
 }
 
+/// How a timing runs: its rounds, when it may stop early, and how much of the CPU column
+/// each round times.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rounds {
+    /// Untimed rounds first.
+    pub warmup: usize,
+    /// Timed rounds at most.
+    pub repeats: usize,
+    /// Timed rounds at least, whatever the budget.
+    pub min_repeats: usize,
+    /// Wall-clock budget of the whole timing: once it is spent, no further timed round starts
+    /// (after `min_repeats`). Every method stops at the same round, so per-round ratios stay paired.
+    pub budget: Option<std::time::Duration>,
+    /// Seconds one CPU-column run aims at. The first warm-up run times the column on a spread
+    /// subset of [`CPU_PROBE`] configurations; the rest of the rounds time it on a spread subset
+    /// sized from that probe (at least `CPU_PROBE`, at most all). None: every configuration.
+    pub cpu_run_seconds: Option<f64>,
+}
+
+/// Configurations of the CPU column's first warm-up run, which sizes the timed runs.
+pub const CPU_PROBE: usize = 256;
+
+impl Rounds {
+    /// `warmup` untimed and exactly `repeats` timed rounds over every configuration (`bench`).
+    pub fn fixed(warmup: usize, repeats: usize) -> Rounds {
+        Rounds {
+            warmup,
+            repeats,
+            min_repeats: repeats,
+            budget: None,
+            cpu_run_seconds: None,
+        }
+    }
+}
+
+/// Every `n / k`-th of `n` configurations, `k` of them (all when `k >= n`): a subset spread over
+/// the families, which `configs` holds one after another.
+fn spread(configs: &[Config], k: usize) -> Vec<Config> {
+    let n = configs.len();
+    if k >= n {
+        return configs.to_vec();
+    }
+    (0..k).map(|j| configs[j * n / k].clone()).collect()
+}
+
 /// Measures every method on `configs`: `warmup` untimed rounds, then `repeats` timed
 /// rounds (see the module doc). One [`Times`] per method, in input order.
 pub fn bench_methods(
@@ -71,21 +118,28 @@ pub fn bench_methods(
     warmup: usize,
     repeats: usize,
 ) -> anyhow::Result<Vec<Times>> {
-    bench_methods_with(gpu, methods, configs, warmup, repeats, &mut |_, _| {})
+    bench_methods_with(gpu, methods, configs, Rounds::fixed(warmup, repeats), &mut |_, _| {})
 }
 
-/// [`bench_methods`], calling `progress(done, total)` after every timed or warm-up step
-/// (one method on the GPU, or its CPU port).
+/// [`bench_methods`] by `rounds`, calling `progress(done, total)` after every timed or
+/// warm-up step (one method on the GPU, or its CPU column).
 pub fn bench_methods_with(
     gpu: &Gpu,
     methods: &[Method],
     configs: &[Config],
-    warmup: usize,
-    repeats: usize,
+    rounds: Rounds,
     progress: &mut dyn FnMut(usize, usize),
 ) -> anyhow::Result<Vec<Times>> {
+    let Rounds {
+        warmup,
+        repeats,
+        min_repeats,
+        budget,
+        cpu_run_seconds,
+    } = rounds;
     anyhow::ensure!(repeats > 0, "bench: at least one timed repeat is needed");
     anyhow::ensure!(!configs.is_empty(), "bench: no configurations to time");
+    let start = Instant::now();
     let n = configs.len();
     let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
     let timer = gpu.dispatch_timer(&scenes)?;
@@ -95,14 +149,24 @@ pub fn bench_methods_with(
         .map(|m| timer.pipeline(m))
         .collect::<Result<Vec<_>, _>>()?;
     let ported: Vec<bool> = methods.iter().map(has_cpu_port).collect();
+    // The CPU column's configurations per method: all, or a probe first (sized below).
+    let sized = cpu_run_seconds.is_some() && warmup > 0;
+    let probe = spread(configs, CPU_PROBE);
+    let mut cpu_configs: Vec<Option<Vec<Config>>> = vec![None; methods.len()];
 
     let steps_per_round = methods.len() + ported.iter().filter(|&&p| p).count();
-    let total = (warmup + repeats) * steps_per_round;
+    let mut total = (warmup + repeats) * steps_per_round;
     let mut done = 0;
     let mut gpu_ns = vec![Vec::with_capacity(repeats); methods.len()];
     let mut cpu_ns = vec![Vec::with_capacity(repeats); methods.len()];
     for round in 0..warmup + repeats {
         let timed = round >= warmup;
+        if timed && round - warmup >= min_repeats && budget.is_some_and(|b| start.elapsed() >= b) {
+            // The budget is spent: the remaining rounds are not run.
+            total = done;
+            progress(done, total);
+            break;
+        }
         // Rotate the order: every method is first, second, … equally often.
         let order: Vec<usize> = (0..methods.len()).map(|k| (k + round) % methods.len()).collect();
         for &i in &order {
@@ -114,20 +178,32 @@ pub fn bench_methods_with(
             progress(done, total);
         }
         for &i in order.iter().filter(|&&i| ported[i]) {
-            let ns = time_cpu_port(&methods[i], configs);
+            let (ns, used) = match (&cpu_configs[i], sized && round == 0) {
+                (_, true) => {
+                    let ns = time_cpu_port(&methods[i], &probe);
+                    let per = ns / probe.len() as f64;
+                    let want = cpu_run_seconds.unwrap_or(0.0) * 1e9 / per.max(1.0);
+                    cpu_configs[i] = Some(spread(configs, (want.ceil() as usize).clamp(CPU_PROBE, n)));
+                    (ns, probe.len())
+                }
+                (Some(subset), false) => (time_cpu_port(&methods[i], subset), subset.len()),
+                (None, false) => (time_cpu_port(&methods[i], configs), n),
+            };
             if timed {
-                cpu_ns[i].push(ns / n as f64);
+                cpu_ns[i].push(ns / used as f64);
             }
             done += 1;
             progress(done, total);
         }
     }
+    let cpu_counts: Vec<usize> = cpu_configs.iter().map(|c| c.as_ref().map_or(n, Vec::len)).collect();
 
     let clock = timer.clock().name().to_string();
     let times = methods
         .iter()
         .zip(gpu_ns.into_iter().zip(cpu_ns))
-        .map(|(m, (gpu_runs, cpu_runs))| {
+        .zip(cpu_counts)
+        .map(|((m, (gpu_runs, cpu_runs)), cpu_configurations)| {
             let (ops, ops_error) = match crate::eval::cost::method_cost_of(m) {
                 Ok(ops) => (Some(ops), None),
                 Err(e) => (None, Some(format!("{e:#}"))),
@@ -136,7 +212,8 @@ pub fn bench_methods_with(
                 label: m.label.clone(),
                 clock: clock.clone(),
                 configurations: n,
-                repeats,
+                cpu_configurations,
+                repeats: gpu_runs.len(),
                 ops,
                 ops_error,
                 gpu_ns_per_eval: gpu_runs,
@@ -256,6 +333,56 @@ mod tests {
         assert_eq!(costs[0].gpu_ns_per_eval.len(), 2);
         assert!(bench_methods(gpu(), &[], &configs(64), 0, 0).is_err(), "zero repeats");
     }
+    #[test]
+    fn a_spent_budget_stops_every_method_at_the_same_round_and_the_cpu_column_is_sized() {
+        let kernels = crate::kernel::methods::kernel_set(&[]).unwrap();
+        let methods: Vec<Method> = ["line.numeric@64", "line.ltc2017"]
+            .iter()
+            .map(|s| crate::kernel::methods::resolve(s, &kernels).unwrap())
+            .collect();
+        let configs = configs(2000);
+        let rounds = Rounds {
+            warmup: 1,
+            repeats: 7,
+            min_repeats: 2,
+            budget: Some(std::time::Duration::ZERO),
+            cpu_run_seconds: Some(1e-9),
+        };
+        let mut last = (0, 0);
+        let times = bench_methods_with(gpu(), &methods, &configs, rounds, &mut |d, t| last = (d, t)).unwrap();
+        assert_eq!(last.0, last.1, "the progress ends complete: {last:?}");
+        for t in &times {
+            // A zero budget is spent at once: the minimum of timed rounds, GPU and CPU paired.
+            assert_eq!(
+                (t.repeats, t.gpu_ns_per_eval.len(), t.cpu_f32_ns_per_eval_runs.len()),
+                (2, 2, 2)
+            );
+            // A 1 ns run asks for less than the probe: the probe's count is the floor.
+            assert_eq!(
+                (t.configurations, t.cpu_configurations),
+                (2000, CPU_PROBE),
+                "{}",
+                t.label
+            );
+        }
+        let whole = bench_methods_with(gpu(), &methods[1..], &configs, Rounds::fixed(0, 1), &mut |_, _| {}).unwrap();
+        assert_eq!(
+            (whole[0].repeats, whole[0].cpu_configurations),
+            (1, 2000),
+            "fixed rounds time every configuration"
+        );
+        let sub = spread(&configs, 4);
+        assert_eq!(
+            sub,
+            vec![
+                configs[0].clone(),
+                configs[500].clone(),
+                configs[1000].clone(),
+                configs[1500].clone()
+            ]
+        );
+    }
+
     #[test]
     fn split_evenly_takes_count_over_the_materials() {
         let case = Case::load(std::path::Path::new(concat!(

@@ -198,6 +198,13 @@ fn attribute(
 const COST_CONFIGURATIONS: usize = 16384;
 const COST_WARMUP: usize = 2;
 const COST_REPEATS: usize = 7;
+/// Timed rounds the cost pass runs whatever its budget: enough for a median and a spread.
+const COST_MIN_REPEATS: usize = 3;
+/// The cost pass's budget as a share of the sweep's measuring wall before it.
+const COST_SHARE: f64 = 0.1;
+/// Seconds one CPU-column run aims at (the interpreter is slow on the quadratures: a few
+/// hundred configurations time it as well as 16384 do).
+const COST_CPU_RUN_SECONDS: f64 = 0.05;
 
 fn bar(len: usize, what: &str) -> ProgressBar {
     let pb = ProgressBar::new(len as u64);
@@ -556,14 +563,20 @@ pub fn finish(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<Measured> 
     let t = Instant::now();
     let cost_configs: Vec<_> = kept.cost.iter().flatten().map(|(_, c)| c.clone()).collect();
     let pb = bar(methods.len() * (COST_WARMUP + COST_REPEATS), "cost (GPU timestamps)");
-    let costs = crate::measure::bench::bench_methods_with(
-        gpu,
-        methods,
-        &cost_configs,
-        COST_WARMUP,
-        COST_REPEATS,
-        &mut |done, _| pb.set_position(done as u64),
-    )?;
+    // Timing costs what it needs (issue 23): at most about a tenth of the sweep's wall so far,
+    // after COST_MIN_REPEATS rounds, and the CPU column on a subset sized to a short run.
+    let so_far = timing.total_seconds + start.elapsed().as_secs_f64();
+    let rounds = crate::measure::bench::Rounds {
+        warmup: COST_WARMUP,
+        repeats: COST_REPEATS,
+        min_repeats: COST_MIN_REPEATS,
+        budget: Some(std::time::Duration::from_secs_f64(so_far * COST_SHARE)),
+        cpu_run_seconds: Some(COST_CPU_RUN_SECONDS),
+    };
+    let costs = crate::measure::bench::bench_methods_with(gpu, methods, &cost_configs, rounds, &mut |done, total| {
+        pb.set_length(total as u64);
+        pb.set_position(done as u64)
+    })?;
     pb.finish_and_clear();
     timing.cost_seconds = t.elapsed().as_secs_f64();
     let t = Instant::now();

@@ -11,14 +11,27 @@ pub(super) fn speed_against_accuracy(w: &mut String, input: &Summary) {
     }
     let c0 = &input.costs[0];
     let _ = writeln!(w, "## Speed against accuracy\n");
+    let cpu_min = input.costs.iter().map(|c| c.cpu_configurations).min().unwrap_or(0);
+    let cpu_max = input.costs.iter().map(|c| c.cpu_configurations).max().unwrap_or(0);
     let _ = writeln!(
         w,
         "Cost per evaluation on {} ({} clock), {} configurations per dispatch, {} interleaved repeats \
-         after warm-up; median [min–max]. CPU f32: the same formula as plain Rust on all cores, in the \
-         same rounds. ops: one invocation's operation count from the naga IR (a deterministic cost; \
+         after warm-up; median [min–max]. The timing stops after the round in which it has taken a tenth of \
+         the sweep's measuring wall before it (at least 3 and at most 7 timed rounds), so it costs about a \
+         tenth of the run. CPU f32: the kernel on the CPU evaluator on all cores, in the same rounds, on a \
+         spread subset of {} configurations per method sized from a first warm-up run to about 50 ms. \
+         ops: one invocation's operation count from the naga IR (a deterministic cost; \
          total = arithmetic + other + 8 × transcendental + branches). Timings are measured in this run, \
          on this machine: compare ratios, not absolute numbers, across machines.\n",
-        input.timing.adapter, c0.clock, c0.configurations, c0.repeats
+        input.timing.adapter,
+        c0.clock,
+        c0.configurations,
+        c0.repeats,
+        if cpu_min == cpu_max {
+            cpu_min.to_string()
+        } else {
+            format!("{cpu_min}–{cpu_max}")
+        }
     );
     let _ = writeln!(
         w,
