@@ -332,7 +332,9 @@ fn shipped_scenes_load() {
 }
 
 /// An EXR's `Y` and `A` channels (f32, row-major from the top-left) and its size.
-fn read_exr(path: &Path) -> (Vec<f32>, Vec<f32>, (usize, usize)) {
+type Exr = (Vec<f32>, Vec<f32>, (usize, usize));
+
+fn read_exr(path: &Path) -> Exr {
     use exr::prelude::*;
     let image = read_first_flat_layer_from_file(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let layer = image.layer_data;
@@ -341,7 +343,7 @@ fn read_exr(path: &Path) -> (Vec<f32>, Vec<f32>, (usize, usize)) {
             .channel_data
             .list
             .iter()
-            .find(|c| c.name == Text::from(name))
+            .find(|c| c.name == *name)
             .unwrap_or_else(|| panic!("{}: no channel {name}", path.display()));
         match &c.sample_data {
             FlatSamples::F32(v) => v.clone(),
@@ -381,7 +383,7 @@ fn hdr_images_hold_the_pixels_values_exactly() {
     let rows = read_jsonl(&dir.join("pixels.jsonl"));
     let (y_ref, a_ref, size) = read_exr(&dir.join("reference.exr"));
     assert_eq!(size, (w as usize, h as usize));
-    let methods: Vec<(&str, (Vec<f32>, Vec<f32>, (usize, usize)))> = ["line.ltc2017", "line.ltc2023"]
+    let methods: Vec<(&str, Exr)> = ["line.ltc2017", "line.ltc2023"]
         .into_iter()
         .map(|m| (m, read_exr(&dir.join(format!("{m}.exr")))))
         .collect();
