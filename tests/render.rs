@@ -330,3 +330,95 @@ fn shipped_scenes_load() {
     }
     assert_eq!(n, 4);
 }
+
+/// An EXR's `Y` and `A` channels (f32, row-major from the top-left) and its size.
+type Exr = (Vec<f32>, Vec<f32>, (usize, usize));
+
+fn read_exr(path: &Path) -> Exr {
+    use exr::prelude::*;
+    let image = read_first_flat_layer_from_file(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let layer = image.layer_data;
+    let channel = |name: &str| -> Vec<f32> {
+        let c = layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name == *name)
+            .unwrap_or_else(|| panic!("{}: no channel {name}", path.display()));
+        match &c.sample_data {
+            FlatSamples::F32(v) => v.clone(),
+            _ => panic!("{}: channel {name} is not f32", path.display()),
+        }
+    };
+    (channel("Y"), channel("A"), (layer.size.width(), layer.size.height()))
+}
+
+/// An eval value: a number, or "NaN" / "inf" / "-inf".
+fn eval_number(v: &Value) -> f64 {
+    match v {
+        Value::String(s) if s == "NaN" => f64::NAN,
+        Value::String(s) if s == "inf" => f64::INFINITY,
+        Value::String(s) if s == "-inf" => f64::NEG_INFINITY,
+        v => v.as_f64().unwrap_or_else(|| panic!("not a number: {v}")),
+    }
+}
+
+#[test]
+fn hdr_images_hold_the_pixels_values_exactly() {
+    let t = tempfile::tempdir().unwrap();
+    // Held out; the lamp dips below the floor at one end (`line` and `line_upper` differ there).
+    let (w, h) = (36u32, 22u32);
+    let text = scene(
+        "hdr",
+        w,
+        h,
+        "{ position = [-0.4, -2.2, 1.0], look_at = [0.2, 0.7, 0.0], fov_deg = 65.0 }",
+        "{ p1 = [-0.9, 0.5, 0.5], p2 = [0.7, 0.8, -0.2] }",
+        "{ kind = \"ggx\", alpha_ramp = [0.08, 0.7] }",
+        "\"line.ltc2017\", \"line.ltc2023\"",
+    );
+    let (o, out) = render(t.path(), &text);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let dir = out.join("hdr");
+    let rows = read_jsonl(&dir.join("pixels.jsonl"));
+    let (y_ref, a_ref, size) = read_exr(&dir.join("reference.exr"));
+    assert_eq!(size, (w as usize, h as usize));
+    let methods: Vec<(&str, Exr)> = ["line.ltc2017", "line.ltc2023"]
+        .into_iter()
+        .map(|m| (m, read_exr(&dir.join(format!("{m}.exr")))))
+        .collect();
+    let mut floor = vec![false; (w * h) as usize];
+    let mut dark = 0;
+    for r in &rows {
+        let id = r["id"].as_str().unwrap();
+        let (x, y) = id.split_once('_').unwrap();
+        let i = y.parse::<usize>().unwrap() * w as usize + x.parse::<usize>().unwrap();
+        floor[i] = true;
+        // The received target of a line method is `line_upper`, rounded once to f32.
+        let reference = r["reference"]["line_upper"].as_f64().unwrap();
+        assert_eq!(
+            y_ref[i].to_bits(),
+            (reference as f32).to_bits(),
+            "{id}: reference.exr against pixels.jsonl"
+        );
+        assert_eq!(a_ref[i], 1.0, "{id}: a floor pixel");
+        dark += usize::from(reference == 0.0);
+        for (m, (y_m, a_m, _)) in &methods {
+            let f32_value = eval_number(&r["methods"][m]["f32"]) as f32;
+            assert!(
+                y_m[i].to_bits() == f32_value.to_bits() || (y_m[i].is_nan() && f32_value.is_nan()),
+                "{id}: {m}.exr {} against pixels.jsonl {f32_value}",
+                y_m[i]
+            );
+            assert_eq!(a_m[i], 1.0);
+        }
+    }
+    assert!(dark < rows.len(), "the scene should light the floor");
+    let sky: Vec<usize> = (0..floor.len()).filter(|&i| !floor[i]).collect();
+    assert!(!sky.is_empty(), "the scene should show sky");
+    for i in sky {
+        assert_eq!((y_ref[i], a_ref[i]), (0.0, 0.0), "background pixel {i}");
+    }
+    let r: Value = serde_json::from_slice(&std::fs::read(dir.join("render.json")).unwrap()).unwrap();
+    assert_eq!(r["methods"]["line.ltc2023"]["hdr"], "line.ltc2023.exr");
+}

@@ -8,6 +8,7 @@ use crate::input::render_scene::{FloorPixel, RenderScene, GRAZING_DEG};
 use crate::input::target::Target;
 use crate::kernel::methods::Method;
 use crate::measure::eval_rows;
+use crate::report::html::{Gallery, Part};
 use crate::report::image::{self, Rgb, Sample};
 use rayon::prelude::*;
 use serde_json::{json, Value};
@@ -200,6 +201,7 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
             "thresholds": FLIP_THRESHOLDS,
             "visible": {"flip_above": VISIBLE_FLIP, "share_at_least": VISIBLE_SHARE},
         },
+        "hdr": "OpenEXR (lossless ZIP), channel Y the radiance of a unit-intensity light before exposure and tone map, as f32 (a method's GPU values exactly, the reference rounded once; NaN/inf kept), channel A 1 on the floor and 0 on the background: reference.exr (reference_<target>.exr when the methods judge different targets) and each method's `hdr`",
         "relative_error_legend": {"scale": "log10, magma", "left": 10f64.powf(image::REL_LOG_MIN), "right": "≥ 1", "ticks": "one per decade", "nonfinite": "green", "false_light": "cyan (reference 0, value not 0)"},
         "methods": outcome.per_method,
         "failure": scene.failure,
@@ -207,6 +209,7 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
         "timing": timing,
     });
     let json_bytes = serde_json::to_vec_pretty(&summary)?;
+    let md = markdown(&summary, &outcome.image_names);
     let mut files: Vec<(String, Vec<u8>)> = vec![
         ("render.json".into(), json_bytes),
         (
@@ -223,12 +226,25 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
             "relative_error_legend.svg".into(),
             image::relative_error_legend_svg().into_bytes(),
         ),
-        (
-            "render.md".into(),
-            markdown(&summary, &outcome.image_names).into_bytes(),
-        ),
+        ("render.md".into(), md.concat().into_bytes()),
     ];
     files.extend(outcome.images);
+    // The same text as render.md, the images side by side, all inline.
+    let html = crate::report::html::page(
+        &format!("Render {}", scene.name),
+        &[
+            Part::Markdown(&md[0]),
+            Part::Markdown(&md[1]),
+            Part::Gallery(Gallery {
+                columns: vec!["radiance".into(), "relative error".into(), "FLIP".into()],
+                rows: outcome.image_names.clone(),
+                legend: Some("relative_error_legend.svg".into()),
+            }),
+            Part::Markdown(&md[3]),
+        ],
+        &files,
+    );
+    files.push(("report.html".into(), html));
     let written = crate::io::write_set(&dir, crate::io::SetKind::Render, &files)?;
     eprintln!(
         "wrote {} files to {} ({} floor pixels, {:.1} s)",
@@ -299,12 +315,24 @@ fn images_and_stats(
             })
             .collect();
         let img = image::radiance_image(w, h, &samples, exposure, true);
-        let name = if targets.len() == 1 {
-            "reference.png".to_string()
+        let stem = if targets.len() == 1 {
+            "reference".to_string()
         } else {
-            format!("reference_{t}.png")
+            format!("reference_{t}")
         };
+        let name = format!("{stem}.png");
         images.push((name.clone(), img.png()));
+        images.push((
+            format!("{stem}.exr"),
+            image::radiance_exr(w, h, &samples, true, &format!("reference {t}")),
+        ));
+        if targets.len() > 1 && *t == targets[0] {
+            // `reference.exr` is always there too, as `reference.png` is.
+            images.push((
+                "reference.exr".into(),
+                image::radiance_exr(w, h, &samples, true, &format!("reference {t}")),
+            ));
+        }
         image_names.push((format!("reference ({t})"), vec![name]));
         ref_images.insert(*t, img);
     }
@@ -337,6 +365,8 @@ fn images_and_stats(
             format!("{stem}.flip.png"),
         ];
         images.push((names[0].clone(), img.png()));
+        let hdr = format!("{stem}.exr");
+        images.push((hdr.clone(), image::radiance_exr(w, h, &samples, false, &m.label)));
         method_images.insert(m.label.clone(), img.clone());
         images.push((names[1].clone(), image::relative_error_image(w, h, &samples).png()));
         images.push((names[2].clone(), image::flip_image(w, h, &flip, &samples).png()));
@@ -420,6 +450,7 @@ fn images_and_stats(
                 "target": m.target(),
                 "judged_against": t,
                 "images": names,
+                "hdr": hdr,
                 "flip_floor": floor_stats,
                 "flip_lit": flip_stats(&mut lit),
                 "flip_grazing": flip_stats(&mut grazing),
@@ -561,8 +592,9 @@ fn verdict_lines(s: &Value) -> Vec<String> {
     out
 }
 
-/// render.md: the numbers and the images (for diffs and CI logs).
-fn markdown(s: &Value, images: &[(String, Vec<String>)]) -> String {
+/// render.md, in four parts that concatenate to it: the numbers; the images' heading; the
+/// images; the timing. report.html shows the same parts, the images as a grid.
+fn markdown(s: &Value, images: &[(String, Vec<String>)]) -> [String; 4] {
     let mut md = format!(
         "# Render `{}`\n\n{}\n\n`{}`\n\n{} × {} pixels, {} on the floor ({} in the grazing band, view below {}°). Adapter: {}.\n\n",
         s["scene"].as_str().unwrap_or(""),
@@ -613,16 +645,17 @@ fn markdown(s: &Value, images: &[(String, Vec<String>)]) -> String {
         s["exposure"]["from"].as_str().unwrap_or(""),
         s["tone_map"].as_str().unwrap_or("")
     );
-    md += "## Images\n\nPer method: radiance, relative error (legend: `relative_error_legend.svg`), FLIP (magma, 0 black to 1 light yellow).\n\n";
+    let heading = "## Images\n\nPer method: radiance, relative error (legend: `relative_error_legend.svg`), FLIP (magma, 0 black to 1 light yellow).\n\n".to_string();
+    let mut list = String::new();
     for (label, files) in images {
-        md += &format!("**{label}**\n\n");
+        list += &format!("**{label}**\n\n");
         for f in files {
-            md += &format!("![{f}]({f}) ");
+            list += &format!("![{f}]({f}) ");
         }
-        md += "\n\n";
+        list += "\n\n";
     }
     let t = &s["timing"];
-    md += &format!(
+    let timing = format!(
         "## Timing\n\nTotal {} s: pixels {} s, GPU {} s, references {} s, CPU columns {} s, images and FLIP {} s.\n",
         t["total_s"],
         t["pixels_to_configurations_s"],
@@ -631,5 +664,5 @@ fn markdown(s: &Value, images: &[(String, Vec<String>)]) -> String {
         t["cpu_columns_s"],
         t["images_and_flip_s"]
     );
-    md
+    [md, heading, list, timing]
 }

@@ -1,5 +1,5 @@
-//! Render images (docs/render.md): tone mapping, false colour, PNG encoding (the `png` crate)
-//! and FLIP (the `nv-flip` crate, NVIDIA's LDR-FLIP). No codec or metric is written here.
+//! Render images (docs/render.md): tone mapping, false colour, PNG encoding (the `png` crate),
+//! HDR images (the `exr` crate) and FLIP (the `nv-flip` crate, NVIDIA's LDR-FLIP). No codec or metric is written here.
 
 /// 8-bit RGB, row-major from the top-left.
 #[derive(Clone, Debug, PartialEq)]
@@ -129,6 +129,37 @@ pub fn radiance_image(width: u32, height: u32, samples: &[Sample], exposure: f64
         );
     }
     img
+}
+
+/// The HDR image of `value` (or of `reference` when `of_reference`) as OpenEXR bytes (the
+/// `exr` crate, ZIP-compressed, lossless): channel `Y` the radiance of a unit-intensity light,
+/// untouched by exposure or tone map, rounded once to f32 (a method's GPU value is f32 already;
+/// NaN and ±inf kept), and `A` 1 on the floor, 0 on the background (where `Y` is 0).
+pub fn radiance_exr(width: u32, height: u32, samples: &[Sample], of_reference: bool, layer: &str) -> Vec<u8> {
+    use exr::prelude::*;
+    let n = (width * height) as usize;
+    let (mut y, mut a) = (vec![0f32; n], vec![0f32; n]);
+    for s in samples {
+        let i = (s.y * width + s.x) as usize;
+        y[i] = (if of_reference { s.reference } else { s.value }) as f32;
+        a[i] = 1.0;
+    }
+    let channels = AnyChannels::sort(SmallVec::from_vec(vec![
+        AnyChannel::new("Y", FlatSamples::F32(y)),
+        AnyChannel::new("A", FlatSamples::F32(a)),
+    ]));
+    let layer = Layer::new(
+        (width as usize, height as usize),
+        LayerAttributes::named(layer),
+        Encoding::SMALL_LOSSLESS,
+        channels,
+    );
+    let mut out = std::io::Cursor::new(Vec::new());
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(&mut out)
+        .expect("EXR into memory");
+    out.into_inner()
 }
 
 /// Rows of legend under the relative-error image: a colour bar with a tick per decade.

@@ -1,4 +1,5 @@
-//! Reports: Markdown for people, CSV and JSON for tools. The set is written as one
+//! Reports: Markdown for diffs and CI logs, `report.html` (the same text, images inline) for
+//! people, CSV and JSON for tools. The set is written as one
 //! (`crate::io::write_set`): a failed run never leaves half a report and never destroys
 //! the previous one, and a report folder only ever holds one run's files.
 
@@ -7,6 +8,7 @@ pub mod bench;
 pub mod chart;
 mod csv;
 mod findings;
+pub mod html;
 pub mod image;
 mod markdown;
 pub mod scan;
@@ -53,7 +55,8 @@ pub fn draws_line(draws: &[crate::input::sampler::Draws]) -> String {
     format!("Degenerate draws, redrawn: {}.", parts.join(", "))
 }
 
-/// Writes `report.md`, `summary.json`, `stats.csv` and `comparisons.csv` into `dir`.
+/// Writes `report.md`, `report.html`, `summary.json`, `stats.csv`, `comparisons.csv` and the
+/// charts and maps into `dir`.
 pub fn write_reports(dir: &Path, input: &Summary) -> anyhow::Result<Vec<PathBuf>> {
     let summary = serde_json::json!({
         "case": input.case.name,
@@ -94,8 +97,9 @@ pub fn write_reports(dir: &Path, input: &Summary) -> anyhow::Result<Vec<PathBuf>
             extra.push((name.to_string(), crate::io::to_jsonl(rows)));
         }
     }
+    let md = markdown::render(input);
     let files = [
-        ("report.md", markdown::render(input).into_bytes()),
+        ("report.md", md.clone().into_bytes()),
         // Compact: a machine-readable record, large for big cases; report.md is for reading.
         ("summary.json", serde_json::to_vec(&summary)?),
         ("stats.csv", csv::stats(&input.analysis).into_bytes()),
@@ -108,6 +112,10 @@ pub fn write_reports(dir: &Path, input: &Summary) -> anyhow::Result<Vec<PathBuf>
         .chain(speed_charts(input))
         .chain(extra)
         .collect();
+    // The same text as report.md, its charts and maps inline.
+    let html = html::page(&input.case.title, &[html::Part::Markdown(&md)], &files);
+    let mut files = files;
+    files.push(("report.html".into(), html));
     Ok(crate::io::write_set(dir, crate::io::SetKind::Sweep, &files)?)
 }
 
