@@ -5,6 +5,7 @@ pub mod analysis;
 pub mod bench;
 pub mod claims;
 pub mod gate;
+pub mod scan;
 pub mod ship;
 pub mod stats;
 pub mod summary;

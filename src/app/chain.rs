@@ -29,7 +29,7 @@ use crate::input::target::Target;
 use crate::kernel::methods::{self, Method};
 use crate::measure::gpu::Gpu;
 use crate::reference::reference;
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -97,15 +97,7 @@ fn miss_angle(c: &Config) -> f64 {
 }
 
 fn bar(len: usize, what: &str) -> ProgressBar {
-    let pb = ProgressBar::new(len as u64);
-    pb.set_style(
-        ProgressStyle::with_template("{msg:>28} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    pb.set_message(what.to_string());
-    crate::measure::progress::plain_lines(&pb);
-    pb
+    crate::measure::progress::bar(len as u64, what)
 }
 
 /// The same configuration with its LTC fed from `feed`.
@@ -331,9 +323,10 @@ pub fn measure(case: &Case, gpu: &Gpu, count: Option<usize>, chunk: usize) -> an
     })
 }
 
+/// The nearest-rank median of the finite values (analyse::stats), None when there are none.
 fn median(values: impl Iterator<Item = f64>) -> Option<f64> {
-    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
-    Quantiles::of(&mut v).map(|q| q.median)
+    let v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+    crate::analyse::stats::median(&v)
 }
 
 fn quantiles(values: impl Iterator<Item = f64>) -> Option<Quantiles> {
