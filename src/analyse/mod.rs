@@ -3,6 +3,7 @@
 
 pub mod analysis;
 pub mod bench;
+pub mod chain;
 pub mod claims;
 pub mod gate;
 pub mod scan;
