@@ -87,8 +87,8 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::analyse::bench::Be
     };
     print!("{}", crate::report::bench::render(&bench));
     if let Some(path) = &options.json {
-        let json = serde_json::to_string_pretty(&bench.costs)?;
-        crate::io::write_atomic(path, format!("{json}\n").as_bytes())?;
+        use crate::report::format::{write_file, Json, Layout};
+        write_file(path, &Json::new("bench JSON", &bench.costs, Layout::PrettyLine))?;
         eprintln!("wrote {}", path.display());
     }
     Ok(bench)

@@ -19,10 +19,11 @@ fn check_outputs(out: &Path) -> anyhow::Result<()> {
 }
 
 /// The table's CSV, then its run record, each written whole or not at all.
-fn write(out: &Path, csv: &str, record: serde_json::Value) -> anyhow::Result<std::path::PathBuf> {
-    crate::io::write_atomic(out, csv.as_bytes())?;
+fn write(out: &Path, csv: String, record: serde_json::Value) -> anyhow::Result<std::path::PathBuf> {
+    use crate::report::format::{write_file, Csv, Json, Layout};
+    write_file(out, &Csv::new("LTC table", csv))?;
     let run = out.with_extension("run.json");
-    crate::io::write_atomic(&run, (serde_json::to_string_pretty(&record)? + "\n").as_bytes())?;
+    write_file(&run, &Json::new("run record", record, Layout::PrettyLine))?;
     Ok(run)
 }
 
@@ -80,7 +81,7 @@ pub fn iso(out: &Path, size: usize) -> anyhow::Result<()> {
         "moment_grid": fit::MOMENT_GRID,
         "fit_l1_max": worst,
     });
-    let run = write(out, &t.to_csv(&header), record)?;
+    let run = write(out, t.to_csv(&header), record)?;
     eprintln!(
         "wrote {} and {}: {} entries in {seconds:.1} s on {threads} thread(s); largest relative L1 fit error {worst:.3e}",
         out.display(),
@@ -136,7 +137,7 @@ pub fn aniso(out: &Path, size: [usize; 4]) -> anyhow::Result<()> {
         "fit_l1_max": worst,
         "fit_l1_median": median,
     });
-    let run = write(out, &table.to_csv(&header), record)?;
+    let run = write(out, table.to_csv(&header), record)?;
     eprintln!(
         "wrote {} and {}: {} entries ({fitted} fitted) in {seconds:.1} s on {threads} thread(s); relative L1 fit error median {median:.3e}, largest {worst:.3e}",
         out.display(),

@@ -22,6 +22,7 @@ pub use status::{status_of, Status};
 use crate::io::{OutputPlan, SetKind};
 use crate::kernel::methods;
 use crate::measure::gpu::{self, Gpu};
+use crate::report::format::{Format, Json, Jsonl, Layout, Markdown};
 use anyhow::Result;
 use std::path::{Path, PathBuf};
 
@@ -226,12 +227,12 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
         .flat_map(|r| &r.captured)
         .map(serde_json::to_value)
         .collect::<Result<_, _>>()?;
-    let files = vec![
-        ("scan.md".to_string(), text.into_bytes()),
-        ("summary.json".to_string(), serde_json::to_vec_pretty(&results)?),
-        ("offending.jsonl".to_string(), crate::io::to_jsonl(&rows)),
+    let outputs: Vec<Box<dyn Format>> = vec![
+        Box::new(Markdown::new("scan.md", text)),
+        Box::new(Json::new("summary.json", &results, Layout::Pretty)),
+        Box::new(Jsonl::new("offending.jsonl", rows)),
     ];
-    crate::io::write_set(&dir, SetKind::Scan, &files)?;
+    crate::report::format::write_set(&dir, SetKind::Scan, &outputs)?;
     eprintln!("wrote {}", dir.display());
     Ok(Status::Ok)
 }

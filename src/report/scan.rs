@@ -3,6 +3,7 @@
 use crate::analyse::scan::ScanResult;
 use crate::analyse::stats::clopper_pearson;
 use crate::input::case::Case;
+use crate::report::markup::{Align::*, Table};
 use std::fmt::Write;
 
 fn rate(r: &ScanResult) -> String {
@@ -93,26 +94,33 @@ pub fn markdown(case: &Case, command_line: &str, adapter: &str, results: &[ScanR
          bounds, nor a 0 where the light is lit: the scan has no reference (a sweep, or `linelight eval` on \
          `offending.jsonl`, measures errors).\n"
     );
-    let _ = writeln!(
-        o,
-        "| method | family | configurations | NaN | inf | negative | above B | above bound | offending rate [95 %] | s |"
-    );
-    let _ = writeln!(o, "|---|---|---:|---:|---:|---:|---:|---:|---|---:|");
+    let mut table = Table::new(&[
+        ("method", Left),
+        ("family", Left),
+        ("configurations", Right),
+        ("NaN", Right),
+        ("inf", Right),
+        ("negative", Right),
+        ("above B", Right),
+        ("above bound", Right),
+        ("offending rate [95 %]", Left),
+        ("s", Right),
+    ]);
     for r in results {
-        let _ = writeln!(
-            o,
-            "| `{}` | `{}` | {} | {} | {} | {} | {} | {} | {} | {:.1} |",
-            r.counts.method,
-            r.counts.family,
-            r.counts.configurations,
-            r.counts.nan,
-            r.counts.inf,
-            r.counts.negative,
-            r.counts.above_light_bound,
-            r.counts.above_bound.map_or("not checked".into(), |n| n.to_string()),
+        let c = &r.counts;
+        table.row(vec![
+            format!("`{}`", c.method),
+            format!("`{}`", c.family),
+            c.configurations.to_string(),
+            c.nan.to_string(),
+            c.inf.to_string(),
+            c.negative.to_string(),
+            c.above_light_bound.to_string(),
+            c.above_bound.map_or("not checked".into(), |n| n.to_string()),
             rate(r),
-            r.seconds
-        );
+            format!("{:.1}", r.seconds),
+        ]);
     }
+    o.push_str(&table.markdown());
     o
 }
