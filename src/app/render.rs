@@ -8,6 +8,7 @@ use crate::input::render_scene::{FloorPixel, RenderScene, GRAZING_DEG};
 use crate::input::target::Target;
 use crate::kernel::methods::Method;
 use crate::measure::eval_rows;
+use crate::report::format::{Bytes, Format, Json, Jsonl, Layout, Markdown, Svg};
 use crate::report::image::{self, Rgb, Sample};
 use rayon::prelude::*;
 use serde_json::{json, Value};
@@ -206,30 +207,25 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
         "claims": outcome.claims,
         "timing": timing,
     });
-    let json_bytes = serde_json::to_vec_pretty(&summary)?;
-    let mut files: Vec<(String, Vec<u8>)> = vec![
-        ("render.json".into(), json_bytes),
-        (
-            "configurations.jsonl".into(),
-            crate::io::to_jsonl(
-                &configs
-                    .iter()
-                    .map(serde_json::to_value)
-                    .collect::<Result<Vec<_>, _>>()?,
-            ),
-        ),
-        ("pixels.jsonl".into(), crate::io::to_jsonl(&rows)),
-        (
-            "relative_error_legend.svg".into(),
-            image::relative_error_legend_svg().into_bytes(),
-        ),
-        (
-            "render.md".into(),
-            markdown(&summary, &outcome.image_names).into_bytes(),
-        ),
+    let configurations = configs
+        .iter()
+        .map(serde_json::to_value)
+        .collect::<Result<Vec<_>, _>>()?;
+    let md = markdown(&summary, &outcome.image_names);
+    let mut outputs: Vec<Box<dyn Format>> = vec![
+        Box::new(Json::new("render.json", &summary, Layout::Pretty)),
+        Box::new(Jsonl::new("configurations.jsonl", configurations)),
+        Box::new(Jsonl::new("pixels.jsonl", rows)),
+        Box::new(Svg::new(
+            "relative_error_legend.svg",
+            image::relative_error_legend_svg(),
+        )),
+        Box::new(Markdown::new("render.md", md)),
     ];
-    files.extend(outcome.images);
-    let written = crate::io::write_set(&dir, crate::io::SetKind::Render, &files)?;
+    for (name, bytes) in outcome.images {
+        outputs.push(Box::new(Bytes { name, bytes }));
+    }
+    let written = crate::report::format::write_set(&dir, crate::io::SetKind::Render, &outputs)?;
     eprintln!(
         "wrote {} files to {} ({} floor pixels, {:.1} s)",
         written.len(),
