@@ -770,6 +770,20 @@ pub fn write_set(dir: &Path, kind: SetKind, files: &[(String, Vec<u8>)]) -> Resu
     Ok(files.iter().map(|(f, _)| dir.join(f)).collect())
 }
 
+/// A number as docs/eval-format.md writes it: NaN and infinities as strings, never dropped
+/// (eval's rows, `--raw`, chain.json).
+pub fn json_number(x: f64) -> serde_json::Value {
+    if x.is_nan() {
+        serde_json::json!("NaN")
+    } else if x == f64::INFINITY {
+        serde_json::json!("inf")
+    } else if x == f64::NEG_INFINITY {
+        serde_json::json!("-inf")
+    } else {
+        serde_json::json!(x)
+    }
+}
+
 /// Serialises rows as JSONL (one compact JSON value per line): eval's output, the report's
 /// replayable files, `--raw`.
 pub fn to_jsonl(rows: &[serde_json::Value]) -> Vec<u8> {

@@ -135,12 +135,6 @@ pub fn kernel_invocation_bytes(module: &naga::Module) -> Option<u64> {
     Some(private.saturating_add(locals))
 }
 
-/// Invocations whose private memory a CPU driver holds at once: a workgroup per core.
-pub fn invocations_in_flight() -> u64 {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get() as u64);
-    u64::from(crate::kernel::WORKGROUP_SIZE) * cores
-}
-
 /// The most configurations per family a sweep, merge, diff, bench or chain takes, from
 /// `--count` or a case file's `count`: stability counts beyond are `linelight scan`'s.
 pub const MAX_COUNT: u64 = 1_000_000_000_000;

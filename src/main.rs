@@ -131,7 +131,7 @@ enum Command {
         #[command(flatten)]
         gpu: GpuArgs,
     },
-    /// Cost per method: GPU ns per evaluation (timestamp queries), the CPU f32 port on all
+    /// Cost per method: GPU ns per evaluation (timestamp queries), the CPU evaluator's f32 column on all
     /// cores, and an operation count from the kernel's naga IR. Measured, never asserted.
     Bench {
         /// Case file whose sampler makes the configurations and names the methods and pairs.
@@ -282,6 +282,8 @@ impl GpuArgs {
 }
 
 fn run(cli: Cli) -> anyhow::Result<Status> {
+    // LINELIGHT_PROGRESS_SECONDS, checked before any work.
+    linelight::measure::progress::init_interval().map_err(anyhow::Error::msg)?;
     if let Some(limit) = cli.max_memory {
         limits::set_max_memory(limit);
     }
@@ -385,10 +387,10 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
                     .try_into()
                     .map_err(|v: Vec<usize>| anyhow::anyhow!("--aniso-size takes 4 numbers, got {}", v.len()))?;
                 let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_aniso.csv"));
-                linelight::input::ltc::aniso::fit_command(&out, size)?;
+                linelight::app::fit::aniso(&out, size)?;
             } else {
                 let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_iso.csv"));
-                linelight::input::ltc::fit_command(&out, size)?;
+                linelight::app::fit::iso(&out, size)?;
             }
             Ok(Status::Ok)
         }

@@ -287,3 +287,39 @@ fn unknown_adapter_is_a_clear_error() {
     assert!(e.contains("NoSuchGPU-42") && e.contains("llvmpipe"), "{e}");
     assert!(!output.exists());
 }
+
+/// `linelight fit` off a terminal (stderr a pipe, as in a CI log) prints the plain progress
+/// lines every long command prints; LINELIGHT_PROGRESS_SECONDS sets their interval, and a value
+/// that is no interval is refused before any work.
+#[test]
+fn fit_prints_plain_progress_lines_off_a_terminal() {
+    let t = tempfile::tempdir().unwrap();
+    let table = t.path().join("t.csv");
+    let run = |interval: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_linelight"))
+            .args(["fit", "--size", "3", "--out", table.to_str().unwrap()])
+            .env("LINELIGHT_PROGRESS_SECONDS", interval)
+            .output()
+            .unwrap()
+    };
+    for bad in ["0", "-1", "NaN", "inf", "ten"] {
+        let o = run(bad);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains(&format!("LINELIGHT_PROGRESS_SECONDS=`{bad}`")),
+            "{}",
+            stderr(&o)
+        );
+        assert!(!table.exists(), "refused before any work");
+    }
+    // Nine fits of about a quarter of a second each: lines every 20 ms.
+    let o = run("0.02");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let lines: Vec<&str> = std::str::from_utf8(&o.stderr)
+        .unwrap()
+        .lines()
+        .filter(|l| l.starts_with("fit: ") && l.contains("/9 ("))
+        .collect();
+    assert!(!lines.is_empty(), "no plain progress line: {}", stderr(&o));
+    assert!(table.is_file() && table.with_extension("run.json").is_file());
+}

@@ -189,13 +189,15 @@ fn composite_is_its_factor_times_the_inner_on_the_gpu() {
     assert_ne!(coarse, fine);
 }
 
-/// Vulkan lets atan/acos be off by 4096 ULP; the GPU and CPU ports differ by up to that.
+/// Vulkan lets atan/acos be off by 4096 ULP; the GPU and the CPU evaluator's f32
+/// column differ by up to that.
 const VULKAN_TRANSCENDENTAL: f64 = 5e-4;
 
-/// Every built-in composite with two inner methods: the GPU agrees with its CPU port
-/// evaluated on the inner's CPU port (`Method::eval_f32_cpu`), and the f64 column exists.
+/// Every built-in composite with two inner methods: the GPU agrees with the CPU evaluator's
+/// f32 column of the composite over its inner method (`Method::eval_f32_cpu`), and the f64
+/// column exists.
 #[test]
-fn builtin_composites_match_their_ports_on_the_inner_ports() {
+fn builtin_composites_on_the_gpu_match_their_cpu_f32_column() {
     let ks = builtin_kernels();
     // Composites over `line` methods (those over `line_isotropic` are in tests/engines.rs).
     for k in ks
@@ -205,19 +207,21 @@ fn builtin_composites_match_their_ports_on_the_inner_ports() {
         for inner in ["line.ltc2017", "line.numeric@32"] {
             let m = resolve(&format!("{}[{inner}]", k.id), &ks).unwrap();
             for (c, v) in configs().iter().zip(run(&m)) {
-                let cpu = m.eval_f32_cpu(c).unwrap_or_else(|| panic!("{}: no CPU port", m.label));
+                let cpu = m
+                    .eval_f32_cpu(c)
+                    .unwrap_or_else(|| panic!("{}: no CPU f32 column", m.label));
                 let scale = f64::from(cpu.abs()).max(1e-6);
                 assert!(
                     (f64::from(v) - f64::from(cpu)).abs() <= VULKAN_TRANSCENDENTAL * scale,
-                    "{} on {}: GPU {v:e} vs CPU port {cpu:e}",
+                    "{} on {}: GPU {v:e} vs cpu_f32 {cpu:e}",
                     m.label,
                     c.id
                 );
-                // The f64 column is the same formula: within f32 rounding of the CPU port.
+                // The f64 column is the same formula: within f32 rounding of the cpu_f32 column.
                 let f64_value = m.eval_f64(c).unwrap_or(f64::NAN);
                 assert!(
                     (f64_value - f64::from(cpu)).abs() <= VULKAN_TRANSCENDENTAL * scale,
-                    "{} on {}: f64 {f64_value:e} vs CPU port {cpu:e}",
+                    "{} on {}: f64 {f64_value:e} vs cpu_f32 {cpu:e}",
                     m.label,
                     c.id
                 );

@@ -1,5 +1,5 @@
 //! Feeding LTC methods on `ggx` configurations: the JSON form is strict, the fed
-//! configuration is the rotated one with the magnitude applied (CPU ports and GPU alike), and
+//! configuration is the rotated one with the magnitude applied (the CPU evaluator's columns and the GPU alike), and
 //! what a method computes in f64 is the exact integral of the LTC it was fed.
 
 mod common;
@@ -88,7 +88,7 @@ fn fed_configuration_is_rotated_and_scaled() {
 }
 
 #[test]
-fn gpu_applies_the_magnitude_like_the_cpu_port() {
+fn gpu_applies_the_magnitude_like_the_cpu_evaluator() {
     let gpu = common::gpu();
     let kernels = builtin_kernels();
     let configs: Vec<Config> = [

@@ -1,5 +1,5 @@
 //! Every built-in method on lavapipe, on a small fixed set of well-conditioned
-//! configurations: the WGSL port agrees with its CPU port (f32), and the method agrees
+//! configurations: the GPU agrees with the CPU evaluator's f32 column of the same kernel, and the method agrees
 //! with the f64 reference to the accuracy its kind promises.
 
 mod common;
@@ -61,7 +61,7 @@ fn run(gpu: &Gpu, m: &Method, configs: &[Config]) -> Vec<f32> {
 }
 
 /// Vulkan lets atan/acos be off by 4096 ULP (≈ 2.4e-4 relative; lavapipe's acos is measured
-/// at 2.3e-4): the GPU and CPU ports of a formula built on them may differ by that much.
+/// at 2.3e-4): the GPU and the CPU evaluator's f32 column of a formula built on them may differ by that much.
 /// lavapipe's acos, measured against correctly rounded acos: absolute error up to 1.6e-4.
 const LAVAPIPE_ACOS: f64 = 1.6e-4;
 const VULKAN_TRANSCENDENTAL: f64 = 5e-4;
@@ -80,13 +80,13 @@ fn promised(label: &str) -> Option<f64> {
         "line.ltc2023" | "line.ltc2023_full" => Some(1e-3),
         // 1.52e-5 (7×).
         "line.numeric@64" => Some(1e-4),
-        // Listing 1.4 is a crude rule (end points included, weight L/n): only its port is checked.
+        // Listing 1.4 is a crude rule (end points included, weight L/n): only its cpu_f32 column is checked.
         _ => None,
     }
 }
 
 #[test]
-fn every_builtin_method_runs_and_matches_its_port_and_the_reference() {
+fn every_builtin_method_runs_and_matches_its_cpu_f32_column_and_the_reference() {
     let gpu = common::gpu();
     let configs = fixed_set();
     let kernels = builtin_kernels();

@@ -2,8 +2,8 @@
 //! code and comments left out) is an edge. The stages run input → kernel → eval → reference → measure → analyse
 //! → report, under the app layer; an edge from a stage to a later one is an upward
 //! edge, and the report imports neither measure nor the app layer. The graph must have no
-//! circle and no upward edge, except the few listed in `KNOWN`, each with its reason; an
-//! entry that is no longer needed fails the test too, so the list only shrinks.
+//! circle and no upward edge, with no exception. Inside the folders, the files' own import
+//! graph (`crate::` and `super::` paths) must have no circle either.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -27,20 +27,6 @@ const STAGES: &[(&str, &[&str])] = &[
     ("report", &["report"]),
     // One module per command.
     ("app", &["app"]),
-];
-
-/// Edges allowed for now, with why. A new entry needs its reason.
-const KNOWN: &[(&str, &str, &str)] = &[
-    (
-        "limits",
-        "kernel",
-        "the in-flight invocation estimate reads kernel::WORKGROUP_SIZE",
-    ),
-    (
-        "report",
-        "measure",
-        "the scan's table formats the measured ScanResult directly",
-    ),
 ];
 
 /// The text of a file without `//` comments and without a trailing `#[cfg(test)] mod tests`.
@@ -171,19 +157,10 @@ fn the_scanner_reads_paths_and_groups() {
 
 #[test]
 fn modules_keep_to_their_stages_and_form_no_circle() {
-    let mut g = graph();
+    let g = graph();
     assert!(g.len() >= 9, "src/ read: {:?}", g.keys());
     let unplaced: Vec<&String> = g.keys().filter(|m| stage_of(m).is_none()).collect();
     assert!(unplaced.is_empty(), "modules without a stage in STAGES: {unplaced:?}");
-
-    // Every known exception is still an edge; then it is set aside.
-    for (from, to, why) in KNOWN {
-        let had = g.get_mut(*from).is_some_and(|s| s.remove(*to));
-        assert!(
-            had,
-            "KNOWN lists {from} → {to} ({why}), which is no longer an import: drop it"
-        );
-    }
 
     let mut problems = Vec::new();
     for (from, tos) in &g {

@@ -76,6 +76,21 @@ fn merged_shards_give_the_unsharded_report() {
     for key in ["analysis", "configurations", "disagreements", "leak", "draws", "topups"] {
         assert_eq!(a[key], b[key], "{key} differs");
     }
+    // The CPU evaluator's measuring times, one (label, seconds) per method, added over the
+    // shards; named for what they hold.
+    for key in ["cpu_f64_seconds", "cpu_f32_seconds"] {
+        let rows = b["timing"][key]
+            .as_array()
+            .unwrap_or_else(|| panic!("timing.{key}: {}", b["timing"]));
+        let labels: Vec<&str> = rows.iter().map(|r| r[0].as_str().unwrap()).collect();
+        assert_eq!(labels, ["line.ltc2017", "line.ltc2023"], "{key}");
+        assert!(
+            rows.iter().all(|r| r[1].as_f64().is_some_and(|s| s > 0.0)),
+            "{key}: {rows:?}"
+        );
+    }
+    let timing = b["timing"].as_object().unwrap();
+    assert!(!timing.keys().any(|k| k.contains("port")), "{:?}", timing.keys());
     let stats = |dir: &std::path::Path| std::fs::read_to_string(dir.join("sharded/stats.csv")).unwrap();
     assert_eq!(stats(&whole), stats(&merged));
     assert!(

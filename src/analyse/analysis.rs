@@ -1,16 +1,25 @@
 //! Analysis: measured values and references → per-method, per-material, per-bin
 //! statistics, method-against-method comparisons and the verdict. No I/O here.
 
-use crate::analyse::stats::{BinAccumulator, BinStats, Distribution, Outcome, Quantiles};
+use crate::analyse::stats::{merge_each, Accumulate, BinAccumulator, BinStats, Distribution, Outcome, Quantiles};
 use crate::input::case::{BinAxis, Case, Tolerance};
 use crate::input::sampler::Sample;
 use crate::input::target::Target;
 use crate::kernel::methods::Method;
-use crate::reference::Estimate;
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
 
-pub use crate::measure::sweep::{MethodRun, References};
+/// One chunk of measured configurations, as the measure stage hands it over: what the analysis
+/// folds in, then forgets (one type, not a copy).
+pub use crate::measure::sweep::MeasuredChunk as Chunk;
+pub use crate::measure::sweep::MethodRun;
+
+/// What the sweep's fold hands every chunk-level accumulator ([`Accumulators`],
+/// [`LeakAccumulator`], the gate's observations): the case and one measured chunk.
+#[derive(Clone, Copy)]
+pub struct Fold<'a> {
+    pub case: &'a Case,
+    pub chunk: &'a Chunk<'a>,
+}
 
 #[derive(Clone, Debug, Serialize)]
 pub struct Bin {
@@ -249,15 +258,6 @@ fn place(case: &Case, s: &Sample) -> Placement {
     }
 }
 
-/// One chunk of measured configurations: what the analysis folds in, then forgets.
-pub struct Chunk<'a> {
-    pub samples: &'a [Sample],
-    /// References of the same configurations, by target.
-    pub references: &'a [BTreeMap<Target, Estimate>],
-    /// One per method, in the order the accumulators were made for; this chunk's values only.
-    pub runs: &'a [MethodRun],
-}
-
 /// One configuration's contribution to a bin.
 #[derive(Clone, Copy)]
 enum Judged {
@@ -287,6 +287,17 @@ fn push(acc: &mut BinAccumulator, j: Judged) {
             reference,
         } => acc.push(gpu, cpu, f64, reference_rel, below_floor, dark, reference),
         Judged::Zero { gpu, f64 } => acc.push_zero(gpu, f64),
+    }
+}
+
+impl Accumulate<Judged> for BinAccumulator {
+    fn add(&mut self, j: Judged) {
+        push(self, j);
+    }
+
+    fn merge(&mut self, o: &BinAccumulator) -> Result<(), String> {
+        BinAccumulator::merge(self, o);
+        Ok(())
     }
 }
 
@@ -502,6 +513,20 @@ impl MethodAcc {
     }
 }
 
+impl<'a> Accumulate<(&'a Case, &'a Chunk<'a>, &'a [Placement], &'a MethodRun)> for MethodAcc {
+    fn add(&mut self, (case, chunk, placed, run): (&'a Case, &'a Chunk<'a>, &'a [Placement], &'a MethodRun)) {
+        MethodAcc::add(self, case, chunk, placed, run);
+    }
+
+    fn merge(&mut self, o: &MethodAcc) -> Result<(), String> {
+        if self.label != o.label {
+            return Err(format!("the parts measured `{}` and `{}`", self.label, o.label));
+        }
+        MethodAcc::merge(self, o);
+        Ok(())
+    }
+}
+
 /// Configuration-by-configuration differences of two methods in one bin; mergeable.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 struct PairAccumulator {
@@ -528,6 +553,17 @@ impl PairAccumulator {
             diff_f32: self.d32.quantiles(),
             diff_f64: self.d64.quantiles(),
         }
+    }
+}
+
+impl Accumulate<(f64, Option<f64>)> for PairAccumulator {
+    fn add(&mut self, d: (f64, Option<f64>)) {
+        self.push(d);
+    }
+
+    fn merge(&mut self, o: &PairAccumulator) -> Result<(), String> {
+        PairAccumulator::merge(self, o);
+        Ok(())
     }
 }
 
@@ -605,6 +641,20 @@ impl PairAcc {
                 })
                 .collect(),
         }
+    }
+}
+
+impl<'a> Accumulate<(&'a Chunk<'a>, &'a [Placement])> for PairAcc {
+    fn add(&mut self, (chunk, placed): (&'a Chunk<'a>, &'a [Placement])) {
+        PairAcc::add(self, chunk, placed);
+    }
+
+    fn merge(&mut self, o: &PairAcc) -> Result<(), String> {
+        if (self.a, self.b) != (o.a, o.b) {
+            return Err("the parts compared different pairs".to_string());
+        }
+        PairAcc::merge(self, o);
+        Ok(())
     }
 }
 
@@ -745,12 +795,8 @@ impl Accumulators {
                 labels(o)
             ));
         }
-        for (a, b) in self.methods.iter_mut().zip(&o.methods) {
-            a.merge(b);
-        }
-        for (a, b) in self.pairs.iter_mut().zip(&o.pairs) {
-            a.merge(b);
-        }
+        merge_each(&mut self.methods, &o.methods)?;
+        merge_each(&mut self.pairs, &o.pairs)?;
         self.configurations += o.configurations;
         Ok(())
     }
@@ -773,6 +819,16 @@ impl Accumulators {
             checks,
             verdict,
         }
+    }
+}
+
+impl<'a> Accumulate<Fold<'a>> for Accumulators {
+    fn add(&mut self, f: Fold<'a>) {
+        Accumulators::add(self, f.case, f.chunk);
+    }
+
+    fn merge(&mut self, o: &Accumulators) -> Result<(), String> {
+        Accumulators::merge(self, o)
     }
 }
 
@@ -820,21 +876,6 @@ fn checks(case: &Case, methods: &[MethodStats]) -> Vec<Check> {
         }
     }
     out
-}
-
-/// The whole sweep in one chunk: [`Accumulators`] fed once.
-pub fn analyse(case: &Case, samples: &[Sample], references: &References, runs: &[MethodRun]) -> Analysis {
-    let methods: Vec<Method> = runs.iter().map(|r| r.method.clone()).collect();
-    let mut acc = Accumulators::new(case, &methods);
-    acc.add(
-        case,
-        &Chunk {
-            samples,
-            references,
-            runs,
-        },
-    );
-    acc.finish(case, &methods)
 }
 
 /// How much of `line` lies below the horizon, per family, while a sweep runs: configurations
@@ -890,5 +931,19 @@ impl LeakAccumulator {
                 }
             })
             .collect()
+    }
+}
+
+impl<'a> Accumulate<Fold<'a>> for LeakAccumulator {
+    fn add(&mut self, f: Fold<'a>) {
+        LeakAccumulator::add(self, f.chunk);
+    }
+
+    fn merge(&mut self, o: &LeakAccumulator) -> Result<(), String> {
+        if self.families.len() != o.families.len() {
+            return Err(format!("{} families against {}", self.families.len(), o.families.len()));
+        }
+        LeakAccumulator::merge(self, o);
+        Ok(())
     }
 }

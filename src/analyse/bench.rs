@@ -124,7 +124,8 @@ pub fn gpu_time_ratio(a: &Cost, b: &Cost) -> Option<Ratio> {
     Ratio::per_round(&a.gpu_ns_per_eval, &b.gpu_ns_per_eval)
 }
 
-/// CPU f32 port time of `a` over that of `b`, round by round (None without both ports).
+/// CPU f32 column time (the CPU evaluator) of `a` over that of `b`, round by round (None
+/// without both columns).
 pub fn cpu_time_ratio(a: &Cost, b: &Cost) -> Option<Ratio> {
     Ratio::per_round(&a.cpu_f32_ns_per_eval_runs, &b.cpu_f32_ns_per_eval_runs)
 }

@@ -5,7 +5,7 @@
 //! The quantile rules (app/gate) look at the distribution; this rule looks at how many moved,
 //! so a change that improves p99 while worsening many configurations still fails.
 
-use crate::analyse::stats::{binomial_upper_tail, nearest_rank};
+use crate::analyse::stats::{binomial_upper_tail, nearest_rank, nearest_rank_unsorted};
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
@@ -198,9 +198,8 @@ pub fn paired(pairs: &[(f64, f64)], resamples: usize, noise: f64) -> Paired {
             b.push(base[i]);
             a.push(now[i]);
         }
-        let k = ((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1;
-        let pb = *b.select_nth_unstable_by(k, f64::total_cmp).1;
-        let pa = *a.select_nth_unstable_by(k, f64::total_cmp).1;
+        let pb = nearest_rank_unsorted(&mut b, 0.99);
+        let pa = nearest_rank_unsorted(&mut a, 0.99);
         ((sum / n as f64).exp(), pa / pb)
     };
     if n == 0 {

@@ -3,8 +3,10 @@
 
 pub mod analysis;
 pub mod bench;
+pub mod chain;
 pub mod claims;
 pub mod gate;
+pub mod scan;
 pub mod ship;
 pub mod stats;
 pub mod summary;

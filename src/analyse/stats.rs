@@ -125,6 +125,83 @@ pub fn binomial_upper_tail(k: usize, n: usize, p: f64) -> f64 {
     b.sf(k as u64 - 1).clamp(0.0, 1.0)
 }
 
+/// Exact two-sided 95 % Clopper–Pearson interval of a binomial rate k/n: the p at which the
+/// regularized incomplete beta function reaches 0.025 and 0.975, found by bisection (statrs's
+/// `beta_reg`; its `Beta::inverse_cdf` is far too slow for n of 10⁹).
+pub fn clopper_pearson(k: u64, n: u64) -> (f64, f64) {
+    use statrs::function::beta::beta_reg;
+    if n == 0 {
+        return (0.0, 1.0);
+    }
+    let (kf, nf) = (k as f64, n as f64);
+    // The p in (0, 1) where the increasing cdf(p) crosses `target`, in log space: rates of
+    // 1e-10 and below must keep their digits.
+    let solve = |cdf: &dyn Fn(f64) -> f64, target: f64| {
+        let (mut lo, mut hi) = (-60.0f64, 0.0f64); // log10 p
+        for _ in 0..100 {
+            let mid = 0.5 * (lo + hi);
+            if cdf(10f64.powf(mid)) < target {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        10f64.powf(0.5 * (lo + hi))
+    };
+    let low = if k == 0 {
+        0.0
+    } else {
+        solve(&|p| beta_reg(kf, nf - kf + 1.0, p), 0.025)
+    };
+    let high = if k == n {
+        1.0
+    } else {
+        solve(&|p| beta_reg(kf + 1.0, nf - kf, p), 0.975)
+    };
+    (low, high)
+}
+
+/// A mergeable accumulator, the pattern every statistic of a sweep follows: inputs folded in
+/// one at a time ([`Accumulate::add`]), and another part's accumulator of the same shape (other
+/// chunks of the run, another shard) merged in ([`Accumulate::merge`]), which gives what one
+/// pass over both parts would (counts exactly, sketches bucket for bucket). The sweep's fold
+/// ([`add_to_each`]) and the shard merge ([`merge_each`]) use it without knowing which
+/// accumulator they hold.
+pub trait Accumulate<In> {
+    /// Folds in one input.
+    fn add(&mut self, input: In);
+    /// Adds another part's accumulator; an `Err` says why the parts do not fit together.
+    fn merge(&mut self, other: &Self) -> Result<(), String>
+    where
+        Self: Sized;
+}
+
+/// Folds one input into every accumulator.
+pub fn add_to_each<In: Copy>(accumulators: &mut [&mut dyn Accumulate<In>], input: In) {
+    for a in accumulators {
+        a.add(input);
+    }
+}
+
+/// Merges `from` into `into`, accumulator by accumulator (the same number, in the same order).
+pub fn merge_each<In, A: Accumulate<In>>(into: &mut [A], from: &[A]) -> Result<(), String> {
+    if into.len() != from.len() {
+        return Err(format!("{} accumulators against {}", into.len(), from.len()));
+    }
+    into.iter_mut().zip(from).try_for_each(|(a, b)| a.merge(b))
+}
+
+impl Accumulate<f64> for Distribution {
+    fn add(&mut self, v: f64) {
+        self.push(v);
+    }
+
+    fn merge(&mut self, other: &Distribution) -> Result<(), String> {
+        Distribution::merge(self, other);
+        Ok(())
+    }
+}
+
 /// Order statistics of a sample of non-negative errors.
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
 pub struct Quantiles {
@@ -140,8 +217,20 @@ pub struct Quantiles {
 /// ⌈p·n⌉ (at least 1). No interpolation, so every number reported is one observed. The one
 /// quantile of the crate: bins, the gate, the bench, the chain and the fits all use it.
 pub fn nearest_rank(sorted: &[f64], p: f64) -> f64 {
-    let n = sorted.len();
-    sorted[((p * n as f64).ceil() as usize).clamp(1, n) - 1]
+    sorted[rank(sorted.len(), p) - 1]
+}
+
+/// The nearest rank (1-based) of the `p`-quantile among `n` values: ⌈p·n⌉, at least 1.
+fn rank(n: usize, p: f64) -> usize {
+    ((p * n as f64).ceil() as usize).clamp(1, n)
+}
+
+/// [`nearest_rank`] of `values` in any order (not empty), by selection rather than a sort: the
+/// same value, in linear time, for a quantile taken many times (the gate's bootstrap). `values`
+/// is reordered.
+pub fn nearest_rank_unsorted(values: &mut [f64], p: f64) -> f64 {
+    let k = rank(values.len(), p) - 1;
+    *values.select_nth_unstable_by(k, f64::total_cmp).1
 }
 
 /// The nearest-rank median of `values` (any order; NaN sorts last), None when empty.
@@ -776,6 +865,62 @@ mod tests {
         assert_eq!(ulp_relative(1e-40), Some(2f64.powi(-149) / 1e-40));
     }
     use super::*;
+
+    #[test]
+    fn accumulating_in_parts_and_merging_is_one_pass() {
+        // Past the exact limit, so the sketch's merge is exercised too.
+        let values: Vec<f64> = (1..=3 * EXACT_LIMIT).map(|i| (i as f64).sqrt() * 1e-4).collect();
+        let mut whole = Distribution::default();
+        for &v in &values {
+            Accumulate::add(&mut whole, v);
+        }
+        let mut parts = vec![
+            Distribution::default(),
+            Distribution::default(),
+            Distribution::default(),
+        ];
+        for (i, &v) in values.iter().enumerate() {
+            Accumulate::add(&mut parts[i % 3], v);
+        }
+        let mut merged = vec![Distribution::default()];
+        for p in &parts {
+            merge_each(&mut merged, std::slice::from_ref(p)).unwrap();
+        }
+        assert_eq!(merged[0].len(), whole.len());
+        assert_eq!(merged[0].quantiles(), whole.quantiles());
+        assert!(merge_each(&mut merged, &parts).is_err(), "1 against 3 accumulators");
+        // add_to_each folds one input into every accumulator.
+        let (mut a, mut b) = (Distribution::default(), Distribution::default());
+        add_to_each(&mut [&mut a, &mut b], 2.0);
+        assert_eq!((a.len(), b.len()), (1, 1));
+    }
+
+    #[test]
+    fn selection_gives_the_sorted_nearest_rank() {
+        let values = [5.0, 1.0, 4.0, 2.0, 3.0, 9.0, 0.5];
+        let mut sorted = values.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        for p in [0.01, 0.25, 0.5, 0.9, 0.99, 1.0] {
+            assert_eq!(
+                nearest_rank_unsorted(&mut values.to_vec(), p),
+                nearest_rank(&sorted, p),
+                "p {p}"
+            );
+        }
+        assert_eq!(median(&values), Some(3.0));
+        assert_eq!(median(&[2.0, 1.0]), Some(1.0), "nearest rank: the lower of two");
+    }
+
+    #[test]
+    fn clopper_pearson_is_exact_at_the_edges() {
+        // No event in n: the upper bound solves (1 − p)^n = 0.025.
+        let (lo, hi) = clopper_pearson(0, 1_000_000);
+        assert_eq!(lo, 0.0);
+        let expect = 1.0 - 0.025f64.powf(1.0 / 1e6);
+        assert!((hi - expect).abs() < 1e-9 * expect, "{hi} vs {expect}");
+        let (lo, hi) = clopper_pearson(5, 100);
+        assert!(lo < 0.05 && 0.05 < hi && lo > 0.01 && hi < 0.12, "{lo} {hi}");
+    }
 
     #[test]
     fn bits_count_ulps() {

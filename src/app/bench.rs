@@ -63,14 +63,7 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::analyse::bench::Be
 
     let gpu = crate::measure::gpu::Gpu::new(options.adapter.as_deref())?;
     println!("adapter: {}", gpu.adapter);
-    let pb = indicatif::ProgressBar::new(0);
-    pb.set_style(
-        indicatif::ProgressStyle::with_template("{msg:>12} [{bar:40}] {pos}/{len} (eta {eta})")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    pb.set_message("bench");
-    crate::measure::progress::plain_lines(&pb);
+    let pb = crate::measure::progress::styled(0, "bench", "{msg:>12} [{bar:40}] {pos}/{len} (eta {eta})");
     let times = crate::measure::bench::bench_methods_with(
         &gpu,
         &setup.methods,
@@ -93,8 +86,8 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::analyse::bench::Be
     };
     print!("{}", crate::report::bench::render(&bench));
     if let Some(path) = &options.json {
-        let json = serde_json::to_string_pretty(&bench.costs)?;
-        crate::io::write_atomic(path, format!("{json}\n").as_bytes())?;
+        use crate::report::format::{write_file, Json, Layout};
+        write_file(path, &Json::new("bench JSON", &bench.costs, Layout::PrettyLine))?;
         eprintln!("wrote {}", path.display());
     }
     Ok(bench)

@@ -188,7 +188,7 @@ pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
             .iter()
             .map(|d| serde_json::to_value(&d.config))
             .collect::<Result<_, _>>()?;
-        crate::io::write_atomic(path, &crate::io::to_jsonl(&rows))?;
+        crate::report::format::write_file(path, &crate::report::format::Jsonl::new("disagreements", rows))?;
         eprintln!("wrote {} (replay with linelight eval)", path.display());
     }
     let (regressed, improved) = (

@@ -7,6 +7,7 @@ mod bench;
 pub mod chain;
 pub mod diff;
 pub mod eval;
+pub mod fit;
 pub mod gate;
 pub mod options;
 pub mod render;
@@ -21,6 +22,7 @@ pub use status::{status_of, Status};
 use crate::io::{OutputPlan, SetKind};
 use crate::kernel::methods;
 use crate::measure::gpu::{self, Gpu};
+use crate::report::format::{Format, Json, Jsonl, Layout, Markdown};
 use anyhow::Result;
 use std::path::{Path, PathBuf};
 
@@ -190,13 +192,11 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
     }
     let families = scannable.len() as u64;
     let per_family = count.div_ceil(families);
-    let pb = indicatif::ProgressBar::new(per_family * families * chosen.len() as u64);
-    pb.set_style(
-        indicatif::ProgressStyle::with_template("{msg:>40} [{bar:30}] {human_pos}/{human_len} ({per_sec}, eta {eta})")
-            .expect("valid template")
-            .progress_chars("=> "),
+    let pb = crate::measure::progress::styled(
+        per_family * families * chosen.len() as u64,
+        "",
+        "{msg:>40} [{bar:30}] {human_pos}/{human_len} ({per_sec}, eta {eta})",
     );
-    crate::measure::progress::plain_lines(&pb);
     let mut results = Vec::new();
     let mut finished = 0u64;
     for m in &chosen {
@@ -206,7 +206,7 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
                 capture,
                 bound,
             };
-            let r = crate::measure::scan::scan(&device, &case, m, f, size, &mut |done, bad| {
+            let scanned = crate::measure::scan::scan(&device, &case, m, f, size, &mut |done, bad| {
                 pb.set_position(finished + done);
                 pb.set_message(format!(
                     "{} {}: rate {:.1e}",
@@ -216,7 +216,7 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
                 ));
             })?;
             finished += per_family;
-            results.push(r);
+            results.push(crate::analyse::scan::ScanResult::from(scanned));
         }
     }
     pb.finish_and_clear();
@@ -227,12 +227,12 @@ pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
         .flat_map(|r| &r.captured)
         .map(serde_json::to_value)
         .collect::<Result<_, _>>()?;
-    let files = vec![
-        ("scan.md".to_string(), text.into_bytes()),
-        ("summary.json".to_string(), serde_json::to_vec_pretty(&results)?),
-        ("offending.jsonl".to_string(), crate::io::to_jsonl(&rows)),
+    let outputs: Vec<Box<dyn Format>> = vec![
+        Box::new(Markdown::new("scan.md", text)),
+        Box::new(Json::new("summary.json", &results, Layout::Pretty)),
+        Box::new(Jsonl::new("offending.jsonl", rows)),
     ];
-    crate::io::write_set(&dir, SetKind::Scan, &files)?;
+    crate::report::format::write_set(&dir, SetKind::Scan, &outputs)?;
     eprintln!("wrote {}", dir.display());
     Ok(Status::Ok)
 }

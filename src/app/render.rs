@@ -8,6 +8,7 @@ use crate::input::render_scene::{FloorPixel, RenderScene, GRAZING_DEG};
 use crate::input::target::Target;
 use crate::kernel::methods::Method;
 use crate::measure::eval_rows;
+use crate::report::format::{Bytes, Format, Json, Jsonl, Layout, Markdown, Svg};
 use crate::report::html::{Gallery, Part};
 use crate::report::image::{self, Rgb, Sample};
 use rayon::prelude::*;
@@ -208,28 +209,26 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
         "claims": outcome.claims,
         "timing": timing,
     });
-    let json_bytes = serde_json::to_vec_pretty(&summary)?;
+    let configurations = configs
+        .iter()
+        .map(serde_json::to_value)
+        .collect::<Result<Vec<_>, _>>()?;
     let md = markdown(&summary, &outcome.image_names);
-    let mut files: Vec<(String, Vec<u8>)> = vec![
-        ("render.json".into(), json_bytes),
-        (
-            "configurations.jsonl".into(),
-            crate::io::to_jsonl(
-                &configs
-                    .iter()
-                    .map(serde_json::to_value)
-                    .collect::<Result<Vec<_>, _>>()?,
-            ),
-        ),
-        ("pixels.jsonl".into(), crate::io::to_jsonl(&rows)),
-        (
-            "relative_error_legend.svg".into(),
-            image::relative_error_legend_svg().into_bytes(),
-        ),
-        ("render.md".into(), md.concat().into_bytes()),
+    let mut outputs: Vec<Box<dyn Format>> = vec![
+        Box::new(Json::new("render.json", &summary, Layout::Pretty)),
+        Box::new(Jsonl::new("configurations.jsonl", configurations)),
+        Box::new(Jsonl::new("pixels.jsonl", rows)),
+        Box::new(Svg::new(
+            "relative_error_legend.svg",
+            image::relative_error_legend_svg(),
+        )),
+        Box::new(Markdown::new("render.md", md.concat())),
     ];
-    files.extend(outcome.images);
+    for (name, bytes) in outcome.images {
+        outputs.push(Box::new(Bytes { name, bytes }));
+    }
     // The same text as render.md, the images side by side, all inline.
+    let mut files = crate::report::format::encode_all(&outputs)?;
     let html = crate::report::html::page(
         &format!("Render {}", scene.name),
         &[

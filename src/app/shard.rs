@@ -6,6 +6,7 @@
 //! which would otherwise mix the old statistics with the new file's op counts and attribution.
 
 use crate::analyse::analysis::{Accumulators, LeakAccumulator};
+use crate::analyse::stats::Accumulate;
 use crate::app::gate::Observations;
 use crate::kernel::methods::Method;
 use crate::measure::sweep::{self, Setup};
@@ -16,8 +17,9 @@ use std::path::{Path, PathBuf};
 /// The version of the shard record (`--shard`, docs/scale.md; 4 records the contents of the
 /// case and kernels, `app::shard`; 5 adds the `line_upper` view's per-bin accumulators, the
 /// error apart from missed light, the references' brightness and the lights wholly below the
-/// surface).
-pub const SHARD_FORMAT: u32 = 5;
+/// surface; 6 names the measuring times of the CPU evaluator's columns `cpu_f64_seconds` and
+/// `cpu_f32_seconds`, once `f64_ports` and `f32_ports`).
+pub const SHARD_FORMAT: u32 = 6;
 
 /// What measuring a sweep's configurations, or one shard's, leaves before the searches and
 /// the cost pass: mergeable (`linelight merge`). Written by `sweep --shard i/n`.
@@ -110,8 +112,8 @@ impl Partial {
         let mut it = parts.into_iter();
         let mut all = it.next().expect("not empty");
         for p in it {
-            all.accumulators.merge(&p.accumulators).map_err(anyhow::Error::msg)?;
-            all.leak.merge(&p.leak);
+            Accumulate::merge(&mut all.accumulators, &p.accumulators).map_err(anyhow::Error::msg)?;
+            Accumulate::merge(&mut all.leak, &p.leak).map_err(anyhow::Error::msg)?;
             all.measured.merge(p.measured, &setup.case);
         }
         all.shard = (0, 1);

@@ -1,4 +1,4 @@
-//! The sweep's orchestration: the measure stage yields measured chunks (`sweep::measure_part`),
+//! The sweep's orchestration: the measure stage yields measured chunks (`measure::sweep::measure_chunks`),
 //! and each is folded here into the statistics (`analysis::Accumulators`), the leak below the
 //! horizon and, for the gate, the per-configuration observations (`baseline::observe_chunk`)
 //! before it is dropped. Also the shard state files (`--shard`, `linelight merge`,
@@ -6,7 +6,8 @@
 
 use super::shard::{read_shards, shard_path, write_shard, Partial, Recorded, SHARD_FORMAT};
 use super::{kernel_inputs, open_gpu, GpuOptions, Status};
-use crate::analyse::analysis::{Accumulators, Chunk, Leak, LeakAccumulator, Verdict};
+use crate::analyse::analysis::{Accumulators, Fold, Leak, LeakAccumulator, Verdict};
+use crate::analyse::stats::add_to_each;
 use crate::analyse::summary::Summary;
 use crate::app::gate::Observations;
 use crate::input::case::Case;
@@ -438,7 +439,7 @@ pub struct Holds {
     pub all_samples: bool,
 }
 
-/// [`prepare`] for a streamed sweep ([`crate::measure::sweep::measure_part`] draws the sample chunk by chunk): nothing is
+/// [`prepare`] for a streamed sweep ([`crate::measure::sweep::measure_chunks`] draws the sample chunk by chunk): nothing is
 /// sampled here, `samples`, `draws` and `topups` stay empty. The run's memory ([`memory_budget`]
 /// with what it `holds`) is checked against `--max-memory`.
 pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, holds: Holds) -> anyhow::Result<Setup> {
@@ -607,18 +608,12 @@ pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions, observe: 
     let mut leak = LeakAccumulator::new(case.materials.len());
     let mut observations = observe.then(|| crate::app::gate::observations(methods.len(), case.materials.len()));
     let mut statistics_seconds = 0.0;
-    let mut measured = sweep::measure_part(setup, gpu, options, &mut |c| {
+    let mut measured = sweep::measure_chunks(setup, gpu, options, &mut |c| {
         let t = Instant::now();
-        let chunk = Chunk {
-            samples: c.samples,
-            references: c.references,
-            runs: c.runs,
-        };
-        accumulators.add(case, &chunk);
-        leak.add(&chunk);
+        add_to_each(&mut [&mut accumulators, &mut leak], Fold { case, chunk: c });
         statistics_seconds += t.elapsed().as_secs_f64();
         if let Some(obs) = &mut observations {
-            crate::app::gate::observe_chunk(obs, case, &chunk);
+            crate::app::gate::observe_chunk(obs, case, c);
         }
         Ok(())
     })?;
@@ -640,7 +635,7 @@ pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions, observe: 
 /// The searches, the cost pass and the attribution after measuring: a swept sweep.
 pub fn finish(setup: &Setup, gpu: &Gpu, part: Partial) -> anyhow::Result<Swept> {
     Ok(Swept {
-        measured: sweep::finish(setup, gpu, part.measured)?,
+        measured: sweep::search_and_cost(setup, gpu, part.measured)?,
         accumulators: part.accumulators,
         leak: part.leak.finish(&setup.case),
         observations: part.observations,

@@ -74,6 +74,13 @@ pub(crate) fn inner_name(name: &str) -> String {
 pub const ENTRY_NAME: &str = "ll_main";
 pub const WORKGROUP_SIZE: u32 = 64;
 
+/// Invocations whose private memory a CPU driver holds at once: a workgroup per core (the
+/// memory check of a kernel's private arrays, `methods::validate_kernel`, multiplies by it).
+pub fn invocations_in_flight() -> u64 {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get() as u64);
+    u64::from(WORKGROUP_SIZE) * cores
+}
+
 /// A kernel ready for a pipeline: the composed WGSL and naga's validated module.
 #[derive(Debug)]
 pub struct Composed {

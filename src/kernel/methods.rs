@@ -263,7 +263,7 @@ pub fn validate_kernel(path: &std::path::Path, others: &[KernelFile]) -> anyhow:
     let composed = crate::kernel::compose_with(&k, None, crate::kernel::kernel_capabilities())?;
     // Private arrays are per invocation: a large one times the invocations in flight.
     if let Some(bytes) = crate::limits::kernel_invocation_bytes(&composed.module) {
-        let in_flight = crate::limits::invocations_in_flight();
+        let in_flight = crate::kernel::compose::invocations_in_flight();
         crate::limits::check(
             &format!(
                 "{}: its private and local variables ({} per invocation, × {in_flight} invocations in flight)",

@@ -8,7 +8,7 @@
 //!   Then `warmup` untimed rounds and `repeats` timed rounds. One round runs every method
 //!   once on the GPU (one dispatch over all configurations, its own submission, waited on,
 //!   timed by GPU timestamps at the beginning and end of the compute pass, or by the wall
-//!   clock on an adapter without them) and then every method's CPU f32 port once over the
+//!   clock on an adapter without them) and then every method's CPU f32 column (the CPU evaluator) once over the
 //!   same configurations on all cores (rayon). The order of the methods rotates from round
 //!   to round, so drift and machine noise spread evenly over the methods, and the ratios
 //!   between methods, and between GPU and CPU, are taken within one run.
@@ -22,8 +22,8 @@
 //! positive number.
 //!
 //! On lavapipe the "GPU" is the CPU: llvmpipe's threads run the dispatch on the same cores
-//! the CPU port uses, so the GPU/CPU ratio there compares lavapipe's compiled SIMD kernel
-//! with the Rust port, not two pieces of hardware.
+//! the CPU evaluator uses, so the GPU/CPU ratio there compares lavapipe's compiled SIMD kernel
+//! with the evaluator of the same kernel's naga IR, not two pieces of hardware.
 
 use crate::eval::cost::OpCount;
 use crate::eval::interp::CpuColumns;
@@ -60,7 +60,7 @@ pub struct Times {
 
 /// Whether the CPU evaluator runs `method` (every kernel it can compose and evaluate:
 /// built-in or user's).
-pub fn has_cpu_port(method: &Method) -> bool {
+pub fn has_cpu_column(method: &Method) -> bool {
     crate::eval::interp::program(method).is_ok()
 }
 
@@ -122,7 +122,7 @@ pub fn bench_methods(
 }
 
 /// [`bench_methods`] by `rounds`, calling `progress(done, total)` after every timed or
-/// warm-up step (one method on the GPU, or its CPU column).
+/// warm-up step (one method on the GPU, or its CPU f32 column).
 pub fn bench_methods_with(
     gpu: &Gpu,
     methods: &[Method],
@@ -148,13 +148,13 @@ pub fn bench_methods_with(
         .iter()
         .map(|m| timer.pipeline(m))
         .collect::<Result<Vec<_>, _>>()?;
-    let ported: Vec<bool> = methods.iter().map(has_cpu_port).collect();
+    let evaluated: Vec<bool> = methods.iter().map(has_cpu_column).collect();
     // The CPU column's configurations per method: all, or a probe first (sized below).
     let sized = cpu_run_seconds.is_some() && warmup > 0;
     let probe = spread(configs, CPU_PROBE);
     let mut cpu_configs: Vec<Option<Vec<Config>>> = vec![None; methods.len()];
 
-    let steps_per_round = methods.len() + ported.iter().filter(|&&p| p).count();
+    let steps_per_round = methods.len() + evaluated.iter().filter(|&&p| p).count();
     let mut total = (warmup + repeats) * steps_per_round;
     let mut done = 0;
     let mut gpu_ns = vec![Vec::with_capacity(repeats); methods.len()];
@@ -177,17 +177,17 @@ pub fn bench_methods_with(
             done += 1;
             progress(done, total);
         }
-        for &i in order.iter().filter(|&&i| ported[i]) {
+        for &i in order.iter().filter(|&&i| evaluated[i]) {
             let (ns, used) = match (&cpu_configs[i], sized && round == 0) {
                 (_, true) => {
-                    let ns = time_cpu_port(&methods[i], &probe);
+                    let ns = time_cpu_column(&methods[i], &probe);
                     let per = ns / probe.len() as f64;
                     let want = cpu_run_seconds.unwrap_or(0.0) * 1e9 / per.max(1.0);
                     cpu_configs[i] = Some(spread(configs, (want.ceil() as usize).clamp(CPU_PROBE, n)));
                     (ns, probe.len())
                 }
-                (Some(subset), false) => (time_cpu_port(&methods[i], subset), subset.len()),
-                (None, false) => (time_cpu_port(&methods[i], configs), n),
+                (Some(subset), false) => (time_cpu_column(&methods[i], subset), subset.len()),
+                (None, false) => (time_cpu_column(&methods[i], configs), n),
             };
             if timed {
                 cpu_ns[i].push(ns / used as f64);
@@ -226,7 +226,7 @@ pub fn bench_methods_with(
 
 /// Wall-clock ns of the method's kernel in f32 on the CPU evaluator over every
 /// configuration, on all cores.
-fn time_cpu_port(method: &Method, configs: &[Config]) -> f64 {
+fn time_cpu_column(method: &Method, configs: &[Config]) -> f64 {
     let start = Instant::now();
     black_box(
         method
@@ -291,7 +291,7 @@ mod tests {
             assert_eq!(c.repeats, 3);
             assert_eq!(c.clock, "gpu-timestamp");
             assert_eq!(c.gpu_ns_per_eval.len(), 3);
-            assert_eq!(c.cpu_f32_ns_per_eval_runs.len(), 3, "{} has a CPU port", c.label);
+            assert_eq!(c.cpu_f32_ns_per_eval_runs.len(), 3, "{} has a CPU f32 column", c.label);
             assert!(c.ns_per_eval_min <= c.ns_per_eval_median && c.ns_per_eval_median <= c.ns_per_eval_max);
             assert!(c.ns_per_eval_min > 0.0 && c.ns_per_eval_max.is_finite(), "{c:?}");
             assert!(c.cpu_f32_ns_per_eval.is_some_and(|x| x > 0.0), "{c:?}");
@@ -326,7 +326,7 @@ mod tests {
             inner: None,
             judged: None,
         };
-        assert!(has_cpu_port(&m));
+        assert!(has_cpu_column(&m));
         let costs = crate::analyse::bench::costs(&bench_methods(gpu(), &[m], &configs(64), 0, 2).unwrap());
         assert!(costs[0].cpu_f32_ns_per_eval.is_some());
         assert_eq!(costs[0].cpu_f32_ns_per_eval_runs.len(), 2);

@@ -14,17 +14,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
 /// A number as docs/eval-format.md writes it: NaN and infinities as strings, never dropped.
-pub fn number(x: f64) -> Value {
-    if x.is_nan() {
-        json!("NaN")
-    } else if x == f64::INFINITY {
-        json!("inf")
-    } else if x == f64::NEG_INFINITY {
-        json!("-inf")
-    } else {
-        json!(x)
-    }
-}
+pub use crate::io::json_number as number;
 
 /// Output rows made and written at a time (eval, sweep --raw): memory stays bounded.
 pub const ROW_BLOCK: usize = 4096;

@@ -1,18 +1,65 @@
-//! Progress when stderr is not a terminal (a CI log, a pipe): indicatif draws nothing there,
-//! so a long sweep would print no line for minutes. A ticker prints the bar's state as one
-//! plain line at a fixed interval until the bar is finished or dropped.
+//! Progress bars, one style for every long-running step (sweep, scan, chain, bench, fit). When
+//! stderr is not a terminal (a CI log, a pipe) indicatif draws nothing there, so a long run
+//! would print no line for minutes: a ticker prints the bar's state as one plain line at a
+//! fixed interval until the bar is finished or dropped.
 
-use indicatif::ProgressBar;
+use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::Duration;
 
-/// The interval of plain progress lines.
+/// The interval of plain progress lines, unless `LINELIGHT_PROGRESS_SECONDS` sets another.
 pub const INTERVAL: Duration = Duration::from_secs(10);
 
-/// When stderr is not a terminal, prints `pb`'s state to stderr every [`INTERVAL`].
+/// The environment variable that sets the interval of plain progress lines, in seconds.
+pub const INTERVAL_VARIABLE: &str = "LINELIGHT_PROGRESS_SECONDS";
+
+/// The bar template of every step but the scan's: what, bar, count, rate, time left.
+pub const TEMPLATE: &str = "{msg:>28} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})";
+
+static CHOSEN: std::sync::OnceLock<Duration> = std::sync::OnceLock::new();
+
+/// Reads [`INTERVAL_VARIABLE`] once, before any work (main.rs): a value that is not a number
+/// of seconds from 0.001 to 86400 is bad input.
+pub fn init_interval() -> Result<Duration, String> {
+    let chosen = match std::env::var(INTERVAL_VARIABLE) {
+        Err(_) => INTERVAL,
+        Ok(text) => text
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|s| (0.001..=86400.0).contains(s))
+            .map(Duration::from_secs_f64)
+            .ok_or_else(|| format!("{INTERVAL_VARIABLE}=`{text}`: need a number of seconds from 0.001 to 86400"))?,
+    };
+    Ok(*CHOSEN.get_or_init(|| chosen))
+}
+
+fn interval() -> Duration {
+    CHOSEN.get().copied().unwrap_or(INTERVAL)
+}
+
+/// A bar of `len` steps named `what` in [`TEMPLATE`]'s style, with plain lines off-terminal.
+pub fn bar(len: u64, what: &str) -> ProgressBar {
+    styled(len, what, TEMPLATE)
+}
+
+/// [`bar`] with another template (the scan's, which counts in millions).
+pub fn styled(len: u64, what: &str, template: &str) -> ProgressBar {
+    let pb = ProgressBar::new(len);
+    pb.set_style(
+        ProgressStyle::with_template(template)
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    pb.set_message(what.to_string());
+    plain_lines(&pb);
+    pb
+}
+
+/// When stderr is not a terminal, prints `pb`'s state to stderr every interval.
 pub fn plain_lines(pb: &ProgressBar) {
     if !std::io::stderr().is_terminal() {
-        tick(pb, INTERVAL, |line| eprintln!("{line}"));
+        tick(pb, interval(), |line| eprintln!("{line}"));
     }
 }
 

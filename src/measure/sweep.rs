@@ -11,7 +11,7 @@ use crate::input::target::Target;
 use crate::kernel::methods::Method;
 use crate::measure::gpu::Gpu;
 use crate::reference::{self, Estimate};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 use rayon::prelude::*;
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
@@ -24,14 +24,12 @@ pub struct MethodRun {
     /// The CPU evaluator in f32 and f64, where the method applies.
     pub f32_cpu: Vec<Option<f32>>,
     pub f64: Vec<Option<f64>>,
-    pub gpu_seconds: f64,
-    pub f64_seconds: f64,
 }
 
 /// References per configuration, by target.
 pub type References = Vec<BTreeMap<Target, Estimate>>;
 
-/// One chunk of measured configurations, handed to the caller of [`measure_part`] (the app
+/// One chunk of measured configurations, handed to the caller of [`measure_chunks`] (the app
 /// layer folds it into the statistics and the gate's observations), then dropped.
 pub struct MeasuredChunk<'a> {
     pub samples: &'a [Sample],
@@ -63,10 +61,10 @@ pub struct Timing {
     /// (method label, GPU seconds incl. upload and readback, configurations per second).
     pub gpu: Vec<(String, f64, f64)>,
     /// (method label, seconds of the CPU evaluator's f64 column on all cores).
-    pub f64_ports: Vec<(String, f64)>,
+    pub cpu_f64_seconds: Vec<(String, f64)>,
     /// (method label, seconds of the CPU evaluator's f32 column on all cores): beside the
     /// GPU seconds, the same kernel on the CPU, measured in the same run.
-    pub f32_ports: Vec<(String, f64)>,
+    pub cpu_f32_seconds: Vec<(String, f64)>,
     /// Seconds of the "where the bits go" attribution (a subset, `ATTRIBUTION_CONFIGURATIONS`).
     pub attribution_seconds: f64,
     pub references_seconds: f64,
@@ -154,7 +152,10 @@ impl Timing {
                 x.1 += y.1;
             }
         }
-        for (a, b) in [(&mut self.f64_ports, &o.f64_ports), (&mut self.f32_ports, &o.f32_ports)] {
+        for (a, b) in [
+            (&mut self.cpu_f64_seconds, &o.cpu_f64_seconds),
+            (&mut self.cpu_f32_seconds, &o.cpu_f32_seconds),
+        ] {
             for (x, y) in a.iter_mut().zip(b) {
                 x.1 += y.1;
             }
@@ -207,16 +208,8 @@ const COST_SHARE: f64 = 0.1;
 const COST_CPU_RUN_SECONDS: f64 = 0.05;
 
 fn bar(len: usize, what: &str) -> ProgressBar {
-    let pb = ProgressBar::new(len as u64);
-    pb.set_style(
-        ProgressStyle::with_template("{msg:>28} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    pb.set_message(what.to_string());
     // A CI log gets a plain line every 10 s.
-    crate::measure::progress::plain_lines(&pb);
-    pb
+    crate::measure::progress::bar(len as u64, what)
 }
 
 /// The targets whose references a sweep needs: every method's, plus `line_upper`
@@ -325,7 +318,7 @@ impl Part {
 
 /// Measures the configurations (all, or one shard's) chunk by chunk into a [`Part`], handing
 /// each measured chunk to `fold` before it is dropped.
-pub fn measure_part(
+pub fn measure_chunks(
     setup: &Setup,
     gpu: &Gpu,
     options: MeasureOptions,
@@ -448,8 +441,6 @@ pub fn measure_part(
                 f32,
                 f32_cpu,
                 f64,
-                gpu_seconds: 0.0,
-                f64_seconds: 0.0,
             });
         }
         let t = Instant::now();
@@ -487,8 +478,8 @@ pub fn measure_part(
     let (_, topups) = topups.unwrap_or_default();
     for (j, m) in methods.iter().enumerate() {
         timing.gpu.push((m.label.clone(), gpu_seconds[j], 0.0));
-        timing.f64_ports.push((m.label.clone(), f64_seconds[j]));
-        timing.f32_ports.push((m.label.clone(), f32_seconds[j]));
+        timing.cpu_f64_seconds.push((m.label.clone(), f64_seconds[j]));
+        timing.cpu_f32_seconds.push((m.label.clone(), f32_seconds[j]));
     }
     timing.total_seconds = start.elapsed().as_secs_f64();
     Ok(Part {
@@ -500,7 +491,7 @@ pub fn measure_part(
 }
 
 /// The searches from the kept starts, the cost pass and the attribution: a measured sweep.
-pub fn finish(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<Measured> {
+pub fn search_and_cost(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<Measured> {
     let start = Instant::now();
     let case = &setup.case;
     let methods = &setup.methods;

@@ -5,16 +5,20 @@
 
 mod attribution;
 pub mod bench;
+pub mod chain;
 pub mod chart;
 mod csv;
 mod findings;
+pub mod format;
 pub mod html;
 pub mod image;
 mod markdown;
+pub mod markup;
 pub mod scan;
 mod svg;
 
 use crate::analyse::summary::Summary;
+use format::{Csv, Format, Json, Jsonl, Layout, Markdown, Svg};
 use std::path::{Path, PathBuf};
 
 pub use crate::analyse::summary::Stages;
@@ -84,7 +88,16 @@ pub fn write_reports(dir: &Path, input: &Summary) -> anyhow::Result<Vec<PathBuf>
     if let Some(gate) = &input.baseline {
         summary["baseline"] = serde_json::to_value(gate)?;
     }
-    let mut extra = Vec::new();
+    let md = markdown::render(input);
+    let mut outputs: Vec<Box<dyn Format>> = vec![
+        Box::new(Markdown::new("report.md", md.clone())),
+        // Compact: a machine-readable record, large for big cases; report.md is for reading.
+        Box::new(Json::new("summary.json", summary, Layout::Compact)),
+        Box::new(Csv::new("stats.csv", csv::stats(&input.analysis))),
+        Box::new(Csv::new("comparisons.csv", csv::comparisons(&input.analysis))),
+    ];
+    outputs.extend(heat_maps(input));
+    outputs.extend(speed_charts(input));
     // The eval input format (docs/eval-format.md) and nothing else: replayable with `linelight eval`.
     let replayable = &input.replayable;
     for (name, rows) in [
@@ -94,32 +107,17 @@ pub fn write_reports(dir: &Path, input: &Summary) -> anyhow::Result<Vec<PathBuf>
         ("regressed.jsonl", &replayable.regressed),
     ] {
         if !rows.is_empty() {
-            extra.push((name.to_string(), crate::io::to_jsonl(rows)));
+            outputs.push(Box::new(Jsonl::new(name, rows.clone())));
         }
     }
-    let md = markdown::render(input);
-    let files = [
-        ("report.md", md.clone().into_bytes()),
-        // Compact: a machine-readable record, large for big cases; report.md is for reading.
-        ("summary.json", serde_json::to_vec(&summary)?),
-        ("stats.csv", csv::stats(&input.analysis).into_bytes()),
-        ("comparisons.csv", csv::comparisons(&input.analysis).into_bytes()),
-    ];
-    let files: Vec<(String, Vec<u8>)> = files
-        .into_iter()
-        .map(|(n, b)| (n.to_string(), b))
-        .chain(heat_maps(input))
-        .chain(speed_charts(input))
-        .chain(extra)
-        .collect();
     // The same text as report.md, its charts and maps inline.
+    let mut files = format::encode_all(&outputs)?;
     let html = html::page(&input.case.title, &[html::Part::Markdown(&md)], &files);
-    let mut files = files;
     files.push(("report.html".into(), html));
     Ok(crate::io::write_set(dir, crate::io::SetKind::Sweep, &files)?)
 }
 
-fn heat_maps(input: &Summary) -> Vec<(String, Vec<u8>)> {
+fn heat_maps(input: &Summary) -> Vec<Box<dyn Format>> {
     input
         .heat_maps
         .iter()
@@ -127,15 +125,15 @@ fn heat_maps(input: &Summary) -> Vec<(String, Vec<u8>)> {
             let (map, ms) = (&input.case.maps[h.map], &input.analysis.methods[h.method]);
             let mat = &ms.materials[h.material];
             let title = format!("{} ({}) on {}", ms.label, ms.target, mat.material);
-            (
+            Box::new(Svg::new(
                 map_file(&ms.label, &mat.material, &map.x.axis, &map.y.axis),
-                svg::heat_map(&mat.maps[h.map], &title).into_bytes(),
-            )
+                svg::heat_map(&mat.maps[h.map], &title),
+            )) as Box<dyn Format>
         })
         .collect()
 }
 
-fn speed_charts(input: &Summary) -> Vec<(String, Vec<u8>)> {
+fn speed_charts(input: &Summary) -> Vec<Box<dyn Format>> {
     let clock = input.costs.first().map_or("", |c| c.clock.as_str());
     input
         .case
@@ -155,7 +153,7 @@ fn speed_charts(input: &Summary) -> Vec<(String, Vec<u8>)> {
                 "cost (GPU ns per evaluation, median of interleaved repeats)",
                 &input.charts[k],
             );
-            (chart_file(&family.name), svg.into_bytes())
+            Box::new(Svg::new(chart_file(&family.name), svg)) as Box<dyn Format>
         })
         .collect()
 }

@@ -1,7 +1,9 @@
 //! The scan's report: a table of counts and rates with their intervals, as Markdown and text.
 
+use crate::analyse::scan::ScanResult;
+use crate::analyse::stats::clopper_pearson;
 use crate::input::case::Case;
-use crate::measure::scan::{clopper_pearson, ScanResult};
+use crate::report::markup::{Align::*, Table};
 use std::fmt::Write;
 
 fn rate(r: &ScanResult) -> String {
@@ -29,16 +31,16 @@ pub fn table(results: &[ScanResult]) -> String {
         let _ = writeln!(
             o,
             "{:<24} {:<22} {:>14} {:>8} {:>8} {:>8} {:>8} {:>8}  {:<32} {:>9.1}",
-            r.method,
-            r.family,
-            r.configurations,
-            r.nan,
-            r.inf,
-            r.negative,
-            r.above_bound.map_or("—".into(), |n| n.to_string()),
-            r.above_light_bound,
+            r.counts.method,
+            r.counts.family,
+            r.counts.configurations,
+            r.counts.nan,
+            r.counts.inf,
+            r.counts.negative,
+            r.counts.above_bound.map_or("—".into(), |n| n.to_string()),
+            r.counts.above_light_bound,
             rate(r),
-            r.configurations as f64 / r.seconds / 1e6
+            r.counts.configurations as f64 / r.seconds / 1e6
         );
     }
     o
@@ -47,7 +49,7 @@ pub fn table(results: &[ScanResult]) -> String {
 /// `scan.md`.
 pub fn markdown(case: &Case, command_line: &str, adapter: &str, results: &[ScanResult]) -> String {
     let mut o = String::new();
-    let total: u64 = results.iter().map(|r| r.configurations).sum();
+    let total: u64 = results.iter().map(|r| r.counts.configurations).sum();
     let seconds: f64 = results.iter().map(|r| r.seconds).sum();
     let _ = writeln!(o, "# Stability scan: {}\n", case.title);
     let _ = writeln!(
@@ -62,14 +64,14 @@ pub fn markdown(case: &Case, command_line: &str, adapter: &str, results: &[ScanR
         case.seed,
         results
             .iter()
-            .map(|r| r.configurations)
+            .map(|r| r.counts.configurations)
             .max()
             .map_or("—".into(), |n| format!("{:.1e} for n = {n}", clopper_pearson(0, n).1))
     );
     let skipped: Vec<String> = results
         .iter()
-        .filter(|r| r.degenerate > 0)
-        .map(|r| format!("`{}` on `{}` {}", r.method, r.family, r.degenerate))
+        .filter(|r| r.counts.degenerate > 0)
+        .map(|r| format!("`{}` on `{}` {}", r.counts.method, r.counts.family, r.counts.degenerate))
         .collect();
     if !skipped.is_empty() {
         let _ = writeln!(
@@ -92,26 +94,33 @@ pub fn markdown(case: &Case, command_line: &str, adapter: &str, results: &[ScanR
          bounds, nor a 0 where the light is lit: the scan has no reference (a sweep, or `linelight eval` on \
          `offending.jsonl`, measures errors).\n"
     );
-    let _ = writeln!(
-        o,
-        "| method | family | configurations | NaN | inf | negative | above B | above bound | offending rate [95 %] | s |"
-    );
-    let _ = writeln!(o, "|---|---|---:|---:|---:|---:|---:|---:|---|---:|");
+    let mut table = Table::new(&[
+        ("method", Left),
+        ("family", Left),
+        ("configurations", Right),
+        ("NaN", Right),
+        ("inf", Right),
+        ("negative", Right),
+        ("above B", Right),
+        ("above bound", Right),
+        ("offending rate [95 %]", Left),
+        ("s", Right),
+    ]);
     for r in results {
-        let _ = writeln!(
-            o,
-            "| `{}` | `{}` | {} | {} | {} | {} | {} | {} | {} | {:.1} |",
-            r.method,
-            r.family,
-            r.configurations,
-            r.nan,
-            r.inf,
-            r.negative,
-            r.above_light_bound,
-            r.above_bound.map_or("not checked".into(), |n| n.to_string()),
+        let c = &r.counts;
+        table.row(vec![
+            format!("`{}`", c.method),
+            format!("`{}`", c.family),
+            c.configurations.to_string(),
+            c.nan.to_string(),
+            c.inf.to_string(),
+            c.negative.to_string(),
+            c.above_light_bound.to_string(),
+            c.above_bound.map_or("not checked".into(), |n| n.to_string()),
             rate(r),
-            r.seconds
-        );
+            format!("{:.1}", r.seconds),
+        ]);
     }
+    o.push_str(&table.markdown());
     o
 }

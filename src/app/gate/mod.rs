@@ -10,9 +10,9 @@ use crate::analyse::gate::{g, share_tests, Axis, Pair};
 pub use crate::analyse::gate::{paired, Change, GateReport, Paired, RuleResult, ShareOptions, Shares, ERROR_FLOOR};
 use crate::analyse::stats::nearest_rank;
 use crate::input::scene::Config;
-use crate::io::write_atomic;
 use crate::measure::sweep::{Measured, Setup};
 use crate::reference::Estimate;
+use crate::report::format::{Format, Json, Layout, Plain};
 use anyhow::Context;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -241,7 +241,7 @@ pub fn save(
 ) -> anyhow::Result<Vec<std::path::PathBuf>> {
     let case = &setup.case;
     let obs = observed(setup, measured, observations);
-    let mut files: Vec<(String, Vec<u8>)> = Vec::new();
+    let mut files: Vec<Box<dyn Format>> = Vec::new();
     let mut methods = Vec::new();
     for o in &obs {
         let mut materials = Vec::new();
@@ -255,7 +255,7 @@ pub fn save(
             let errors = supported.then(|| format!("errors/{}/{}.txt", file_name(&o.label), file_name(&family.name)));
             if let Some(rel) = &errors {
                 let text: String = values.iter().map(|v| v.token() + "\n").collect();
-                files.push((rel.clone(), text.into_bytes()));
+                files.push(Box::new(Plain::new(rel.clone(), text)));
             }
             materials.push(MaterialEntry {
                 material: family.name.clone(),
@@ -286,9 +286,6 @@ pub fn save(
         materials: natural_counts(setup),
         methods,
     };
-    let mut json = serde_json::to_string_pretty(&baseline)?;
-    json.push('\n');
-    files.push(("baseline.json".into(), json.into_bytes()));
     let timings = Timings {
         adapter: baseline.adapter.clone(),
         ns_per_eval: baseline
@@ -297,10 +294,10 @@ pub fn save(
             .map(|m| (m.label.clone(), m.ns_per_eval))
             .collect(),
     };
-    let mut json = serde_json::to_string_pretty(&timings)?;
-    json.push('\n');
-    files.push(("timings.json".into(), json.into_bytes()));
-    Ok(crate::io::write_set(dir, crate::io::SetKind::Baseline, &files)?)
+    // The struct itself, not a JSON value: its fields keep their order.
+    files.push(Box::new(Json::new("baseline.json", baseline, Layout::PrettyLine)));
+    files.push(Box::new(Json::new("timings.json", timings, Layout::PrettyLine)));
+    crate::report::format::write_set(dir, crate::io::SetKind::Baseline, &files)
 }
 
 fn natural_counts(setup: &Setup) -> Vec<MaterialCount> {
@@ -526,7 +523,7 @@ impl GateRun {
         }
         if let Some(path) = &self.junit {
             let xml = junit::junit(&setup.case.name, checks, report, seconds);
-            write_atomic(path, xml.as_bytes())?;
+            crate::report::format::write_file(path, &crate::report::format::Junit::new("JUnit report", xml))?;
             eprintln!("wrote {}", path.display());
         }
         Ok(())

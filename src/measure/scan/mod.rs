@@ -4,7 +4,8 @@
 //! values; the first offending configurations are captured for replay with `linelight eval`.
 //! No value is read back, so 10⁹ configurations cost only the arithmetic.
 //!
-//! The result is a rate with an exact (Clopper–Pearson) 95 % interval per method and family.
+//! The result is counts per method and family; the analyse stage makes them a rate with an exact
+//! (Clopper–Pearson) 95 % interval (`analyse::scan`).
 
 use crate::input::case::{Case, Dist, MaterialKind};
 use crate::input::scene::{Config, Material};
@@ -58,9 +59,10 @@ struct Captured {
     why: u32,
 }
 
-/// What a scan of one method over one family found.
+/// What a scan of one method over one family counted (the analyse stage adds the rate and its
+/// interval, `analyse::scan`).
 #[derive(Clone, Debug, Serialize)]
-pub struct ScanResult {
+pub struct ScanCounts {
     pub method: String,
     pub family: String,
     /// Configurations evaluated: those generated, less the degenerate ones.
@@ -75,11 +77,14 @@ pub struct ScanResult {
     /// Values above the light's bound B (docs/scan.md): the same light with D replaced by an
     /// upper bound of its maximum, a bound every method's true value lies under.
     pub above_light_bound: u64,
-    /// Offending (NaN, inf, negative, above the bound or above B) over configurations, with its exact
-    /// two-sided 95 % Clopper–Pearson interval.
-    pub rate: f64,
-    pub rate_low: f64,
-    pub rate_high: f64,
+}
+
+/// A scan of one method over one family, raw: the counts, the time, the first offenders.
+#[derive(Clone, Debug)]
+pub struct Scanned {
+    pub counts: ScanCounts,
+    /// Offending values: the sum of the NaN, inf, negative, above-bound and above-B counts.
+    pub offending: u64,
     pub seconds: f64,
     /// The first offending configurations, in the eval input format.
     pub captured: Vec<Config>,
@@ -126,42 +131,6 @@ pub fn generated_on_device(kind: MaterialKind) -> bool {
     )
 }
 
-/// Exact two-sided 95 % Clopper–Pearson interval of a binomial rate k/n: the p at which the
-/// regularized incomplete beta function reaches 0.025 and 0.975, found by bisection (statrs's
-/// `beta_reg`; its `Beta::inverse_cdf` is far too slow for n of 10⁹).
-pub fn clopper_pearson(k: u64, n: u64) -> (f64, f64) {
-    use statrs::function::beta::beta_reg;
-    if n == 0 {
-        return (0.0, 1.0);
-    }
-    let (kf, nf) = (k as f64, n as f64);
-    // The p in (0, 1) where the increasing cdf(p) crosses `target`, in log space: rates of
-    // 1e-10 and below must keep their digits.
-    let solve = |cdf: &dyn Fn(f64) -> f64, target: f64| {
-        let (mut lo, mut hi) = (-60.0f64, 0.0f64); // log10 p
-        for _ in 0..100 {
-            let mid = 0.5 * (lo + hi);
-            if cdf(10f64.powf(mid)) < target {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        10f64.powf(0.5 * (lo + hi))
-    };
-    let low = if k == 0 {
-        0.0
-    } else {
-        solve(&|p| beta_reg(kf, nf - kf + 1.0, p), 0.025)
-    };
-    let high = if k == n {
-        1.0
-    } else {
-        solve(&|p| beta_reg(kf + 1.0, nf - kf, p), 0.975)
-    };
-    (low, high)
-}
-
 /// How much to scan: configurations per family, offenders to capture, the optional bound.
 #[derive(Clone, Copy, Debug)]
 pub struct ScanSize {
@@ -179,7 +148,7 @@ pub fn scan(
     family: usize,
     size: ScanSize,
     progress: &mut dyn FnMut(u64, u64),
-) -> anyhow::Result<ScanResult> {
+) -> anyhow::Result<Scanned> {
     let ScanSize { count, capture, bound } = size;
     anyhow::ensure!(
         capture <= MAX_CAPTURE,
@@ -399,7 +368,6 @@ pub fn scan(
     let seconds = start.elapsed().as_secs_f64();
     let evaluated = count - degenerate;
     let offending: u64 = totals.iter().sum::<u64>() + above_light;
-    let (rate_low, rate_high) = clopper_pearson(offending, evaluated);
     let captured = captured
         .iter()
         .map(|c| {
@@ -420,36 +388,20 @@ pub fn scan(
             }
         })
         .collect();
-    Ok(ScanResult {
-        method: method.label.clone(),
-        family: fam.name.clone(),
-        configurations: evaluated,
-        degenerate,
-        nan: totals[0],
-        inf: totals[1],
-        negative: totals[2],
-        above_bound: bound.map(|_| totals[3]),
-        above_light_bound: above_light,
-        rate: offending as f64 / evaluated.max(1) as f64,
-        rate_low,
-        rate_high,
+    Ok(Scanned {
+        counts: ScanCounts {
+            method: method.label.clone(),
+            family: fam.name.clone(),
+            configurations: evaluated,
+            degenerate,
+            nan: totals[0],
+            inf: totals[1],
+            negative: totals[2],
+            above_bound: bound.map(|_| totals[3]),
+            above_light_bound: above_light,
+        },
+        offending,
         seconds,
         captured,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn clopper_pearson_is_exact_at_the_edges() {
-        // No event in n: the upper bound solves (1 − p)^n = 0.025.
-        let (lo, hi) = clopper_pearson(0, 1_000_000);
-        assert_eq!(lo, 0.0);
-        let expect = 1.0 - 0.025f64.powf(1.0 / 1e6);
-        assert!((hi - expect).abs() < 1e-9 * expect, "{hi} vs {expect}");
-        let (lo, hi) = clopper_pearson(5, 100);
-        assert!(lo < 0.05 && 0.05 < hi && lo > 0.01 && hi < 0.12, "{lo} {hi}");
-    }
 }

@@ -108,7 +108,7 @@ pub(super) fn timing(w: &mut String, input: &Summary) {
         "| method | GPU s | configs/s (GPU) | CPU f32 evaluator s (all cores) | CPU f32 / GPU | f64 evaluator s |"
     );
     let _ = writeln!(w, "|---|---:|---:|---:|---:|---:|");
-    for (((label, s, rate), (_, f)), (_, c)) in t.gpu.iter().zip(&t.f64_ports).zip(&t.f32_ports) {
+    for (((label, s, rate), (_, f)), (_, c)) in t.gpu.iter().zip(&t.cpu_f64_seconds).zip(&t.cpu_f32_seconds) {
         let _ = writeln!(
             w,
             "| `{label}` | {s:.3} | {rate:.3e} | {c:.3} | {:.2} | {f:.3} |",
@@ -128,10 +128,10 @@ pub(super) fn timing(w: &mut String, input: &Summary) {
 pub(super) fn throughput(w: &mut String, input: &Summary) {
     let t = &input.timing;
     let gpu: f64 = t.gpu.iter().map(|g| g.1).sum();
-    let ports: f64 = t.f64_ports.iter().chain(&t.f32_ports).map(|p| p.1).sum();
+    let evaluator: f64 = t.cpu_f64_seconds.iter().chain(&t.cpu_f32_seconds).map(|p| p.1).sum();
     let other = (t.total_seconds
         - gpu
-        - ports
+        - evaluator
         - t.references_seconds
         - t.search_seconds
         - t.disagree_seconds
@@ -155,8 +155,8 @@ pub(super) fn throughput(w: &mut String, input: &Summary) {
         pct(t.sampling_seconds),
         gpu,
         pct(gpu),
-        ports,
-        pct(ports),
+        evaluator,
+        pct(evaluator),
         t.references_seconds,
         pct(t.references_seconds),
         t.search_seconds,

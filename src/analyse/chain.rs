@@ -1,0 +1,463 @@
+//! The GGX error chain, analysed: each measured point's links (|a − b| / T, so they add up to
+//! the total), the medians per bin of roughness × view angle and the link that dominates, our
+//! table beside the published one, the anisotropic bins, and the findings as sentences computed
+//! from the data. What `report::chain` formats.
+
+use crate::analyse::stats::{bin_index, Quantiles};
+use crate::measure::chain::{ChainRun, Point};
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// The links, in chain order.
+pub const LINKS: [&str; 6] = ["fit", "table", "storage", "formula", "rounding", "driver"];
+
+/// Bins of roughness α and view angle (degrees) of the dominant-link tables.
+pub const ALPHA_EDGES: [f64; 5] = [0.01, 0.03, 0.1, 0.3, 1.0];
+pub const VIEW_EDGES: [f64; 5] = [0.0, 30.0, 60.0, 75.0, 90.0];
+/// Bins of the miss angle (degrees) of the table beside the published one.
+pub const MISS_EDGES: [f64; 6] = [0.0, 2.0, 5.0, 15.0, 45.0, 180.0];
+
+/// One configuration's chain for one method.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    pub config: usize,
+    pub method: String,
+    pub family: String,
+    pub alpha: f64,
+    pub view_angle: f64,
+    pub anisotropy: f64,
+    /// α_min/α_max as shaded (after each α is clamped to 1); 1 for isotropic roughness.
+    pub ratio: f64,
+    pub truth: f64,
+    /// Relative size of each link (NaN where it does not apply).
+    pub links: [f64; 6],
+    /// |GPU − T|/T with our feed (the isotropic table, or the anisotropic one).
+    pub total: f64,
+    /// Isotropic only: the same method fed the published table (f32 bilinear): |GPU − T|/T,
+    /// and that look-up's exact LTC integral against T.
+    pub published_total: f64,
+    pub published_fit: f64,
+    /// Our table's look-up (isotropic or anisotropic), exact LTC integral against T.
+    pub table_fit: f64,
+    /// Angle (degrees) between the mirror direction of the view and the segment's nearest
+    /// direction: how close the light comes to the lobe's peak.
+    pub miss: f64,
+}
+
+fn rel(a: f64, b: f64, truth: f64) -> f64 {
+    (a - b).abs() / truth.abs()
+}
+
+impl Row {
+    /// The links of a measured point, or None where the light is not seen (T not above 0: no
+    /// relative error to chain).
+    fn of(p: &Point) -> Option<Row> {
+        let truth = p.truth;
+        if !(truth > 0.0) {
+            return None;
+        }
+        let lookup = p.table;
+        Some(Row {
+            config: p.config,
+            method: p.method.clone(),
+            family: p.family.clone(),
+            alpha: p.alpha,
+            view_angle: p.view_angle,
+            anisotropy: p.anisotropy,
+            ratio: p.ratio,
+            truth,
+            links: [
+                rel(p.fit, truth, truth),
+                rel(p.table, p.fit, truth),
+                rel(p.table16, p.table, truth),
+                rel(p.f64, lookup, truth),
+                rel(p.cpu_f32, p.f64, truth),
+                rel(p.gpu, p.cpu_f32, truth),
+            ],
+            total: rel(p.gpu, truth, truth),
+            published_total: p.published_gpu.map_or(f64::NAN, |v| rel(v, truth, truth)),
+            published_fit: rel(p.published_exact, truth, truth),
+            table_fit: rel(p.table, truth, truth),
+            miss: p.miss,
+        })
+    }
+}
+
+/// Our table beside the published one, for one method (isotropic configurations).
+#[derive(Clone, Debug)]
+pub struct Published {
+    pub method: String,
+    pub n: usize,
+    /// Medians of each look-up's exact LTC integral against T.
+    pub ours_exact: Option<f64>,
+    pub published_exact: Option<f64>,
+    /// |GPU − T|/T fed each table.
+    pub ours_gpu: Option<Quantiles>,
+    pub published_gpu: Option<Quantiles>,
+}
+
+/// The same, in one bin of the miss angle: medians of |GPU − T|/T.
+#[derive(Clone, Debug)]
+pub struct ByMiss {
+    pub method: String,
+    pub miss: [f64; 2],
+    pub n: usize,
+    pub ours: Option<f64>,
+    pub published: Option<f64>,
+}
+
+/// The anisotropic chain: its findings, and per method its bins of r × view angle and r × α.
+#[derive(Clone, Debug)]
+pub struct Aniso {
+    pub findings: Vec<String>,
+    pub methods: Vec<(String, Vec<Bin2>, Vec<Bin2>)>,
+}
+
+/// Everything the chain report shows.
+pub struct Chain {
+    pub rows: Vec<Row>,
+    pub cells: Vec<Cell>,
+    pub findings: Vec<String>,
+    pub published: Vec<Published>,
+    pub by_miss: Vec<ByMiss>,
+    /// None without anisotropic configurations.
+    pub aniso: Option<Aniso>,
+    pub configurations: usize,
+    pub adapter: String,
+    pub seconds: f64,
+}
+
+/// The chain analysed.
+pub fn analyse(run: &ChainRun) -> Chain {
+    let rows: Vec<Row> = run.points.iter().filter_map(Row::of).collect();
+    let cells = cells(&rows, &ALPHA_EDGES, &VIEW_EDGES);
+    let findings = findings(&rows, &cells);
+    let mut published = Vec::new();
+    let mut by_miss = Vec::new();
+    for (method, rs) in by_method(&rows, true) {
+        let q = |f: &dyn Fn(&Row) -> f64| quantiles(rs.iter().map(|r| f(r)));
+        published.push(Published {
+            method: method.clone(),
+            n: rs.len(),
+            ours_exact: q(&|r| r.table_fit).map(|q| q.median),
+            published_exact: q(&|r| r.published_fit).map(|q| q.median),
+            ours_gpu: q(&|r| r.total),
+            published_gpu: q(&|r| r.published_total),
+        });
+    }
+    for (method, rs) in by_method(&rows, true) {
+        for w in MISS_EDGES.windows(2) {
+            let near: Vec<&&Row> = rs.iter().filter(|r| r.miss >= w[0] && r.miss < w[1]).collect();
+            if near.is_empty() {
+                continue;
+            }
+            by_miss.push(ByMiss {
+                method: method.clone(),
+                miss: [w[0], w[1]],
+                n: near.len(),
+                ours: median(near.iter().map(|r| r.total)),
+                published: median(near.iter().map(|r| r.published_total)),
+            });
+        }
+    }
+    let aniso = aniso(&rows);
+    Chain {
+        rows,
+        cells,
+        findings,
+        published,
+        by_miss,
+        aniso,
+        configurations: run.configurations,
+        adapter: run.adapter.clone(),
+        seconds: run.seconds,
+    }
+}
+
+/// The anisotropic rows (r < 1) binned by r against the view angle and against α, per method.
+fn aniso(rows: &[Row]) -> Option<Aniso> {
+    let aniso: Vec<&Row> = rows.iter().filter(|r| r.ratio < 1.0).collect();
+    if aniso.is_empty() {
+        return None;
+    }
+    let mut methods: Vec<&str> = aniso.iter().map(|r| r.method.as_str()).collect();
+    methods.sort();
+    methods.dedup();
+    let methods = methods
+        .into_iter()
+        .map(|m| {
+            let rs: Vec<&Row> = aniso.iter().copied().filter(|r| r.method == m).collect();
+            (
+                m.to_string(),
+                bins2(&rs, |r| r.ratio, &RATIO_EDGES, |r| r.view_angle, &VIEW_EDGES),
+                bins2(&rs, |r| r.ratio, &RATIO_EDGES, |r| r.alpha, &ALPHA_EDGES),
+            )
+        })
+        .collect();
+    Some(Aniso {
+        findings: aniso_findings(&aniso),
+        methods,
+    })
+}
+
+/// The nearest-rank median of the finite values (analyse::stats), None when there are none.
+fn median(values: impl Iterator<Item = f64>) -> Option<f64> {
+    let v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+    crate::analyse::stats::median(&v)
+}
+
+fn quantiles(values: impl Iterator<Item = f64>) -> Option<Quantiles> {
+    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+    Quantiles::of(&mut v)
+}
+
+/// A median as the chain's tables and sentences show it.
+pub fn sci(x: Option<f64>) -> String {
+    x.map_or("–".into(), |v| format!("{v:.2e}"))
+}
+
+/// One bin's medians per link and the link that dominates.
+#[derive(Clone, Debug, Serialize)]
+pub struct Cell {
+    pub method: String,
+    pub family: String,
+    pub alpha: [f64; 2],
+    pub view_angle: [f64; 2],
+    pub count: usize,
+    pub links: [Option<f64>; 6],
+    pub total: Option<f64>,
+    pub dominant: Option<&'static str>,
+}
+
+fn cells(rows: &[Row], alpha_edges: &[f64], view_edges: &[f64]) -> Vec<Cell> {
+    let mut out = Vec::new();
+    let mut keys: Vec<(String, String)> = rows.iter().map(|r| (r.method.clone(), r.family.clone())).collect();
+    keys.dedup();
+    keys.sort();
+    keys.dedup();
+    for (method, family) in keys {
+        for a in 0..alpha_edges.len() - 1 {
+            for v in 0..view_edges.len() - 1 {
+                let rows: Vec<&Row> = rows
+                    .iter()
+                    .filter(|r| r.method == method && r.family == family)
+                    .filter(|r| {
+                        bin_index(alpha_edges, r.alpha) == Some(a) && bin_index(view_edges, r.view_angle) == Some(v)
+                    })
+                    .collect();
+                let links: [Option<f64>; 6] = std::array::from_fn(|k| median(rows.iter().map(|r| r.links[k])));
+                let dominant = LINKS
+                    .iter()
+                    .zip(links)
+                    .filter_map(|(n, l)| l.map(|l| (*n, l)))
+                    .max_by(|x, y| x.1.total_cmp(&y.1))
+                    .map(|(n, _)| n);
+                out.push(Cell {
+                    method: method.clone(),
+                    family: family.clone(),
+                    alpha: [alpha_edges[a], alpha_edges[a + 1]],
+                    view_angle: [view_edges[v], view_edges[v + 1]],
+                    count: rows.len(),
+                    links,
+                    total: median(rows.iter().map(|r| r.total)),
+                    dominant: if rows.is_empty() { None } else { dominant },
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Bin edges of the anisotropic chain: α_min/α_max as shaded.
+const RATIO_EDGES: [f64; 5] = [0.25, 0.4, 0.6, 0.8, 1.0];
+
+/// Median links per bin of two axes, over the given rows: (x bin, y bin, count, links,
+/// total, dominant link).
+pub type Bin2 = (
+    [f64; 2],
+    [f64; 2],
+    usize,
+    [Option<f64>; 6],
+    Option<f64>,
+    Option<&'static str>,
+);
+
+fn bins2(rows: &[&Row], fx: fn(&Row) -> f64, ex: &[f64], fy: fn(&Row) -> f64, ey: &[f64]) -> Vec<Bin2> {
+    let mut out = Vec::new();
+    for x in 0..ex.len() - 1 {
+        for y in 0..ey.len() - 1 {
+            let rs: Vec<&&Row> = rows
+                .iter()
+                .filter(|r| bin_index(ex, fx(r)) == Some(x) && bin_index(ey, fy(r)) == Some(y))
+                .collect();
+            if rs.is_empty() {
+                continue;
+            }
+            let links: [Option<f64>; 6] = std::array::from_fn(|k| median(rs.iter().map(|r| r.links[k])));
+            let dominant = LINKS
+                .iter()
+                .zip(links)
+                .filter_map(|(n, l)| l.map(|l| (*n, l)))
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(n, _)| n);
+            out.push((
+                [ex[x], ex[x + 1]],
+                [ey[y], ey[y + 1]],
+                rs.len(),
+                links,
+                median(rs.iter().map(|r| r.total)),
+                dominant,
+            ));
+        }
+    }
+    out
+}
+
+/// Sentences about the anisotropic rows, computed from them.
+fn aniso_findings(rows: &[&Row]) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut methods: Vec<&str> = rows.iter().map(|r| r.method.as_str()).collect();
+    methods.sort();
+    methods.dedup();
+    for m in methods {
+        let rs: Vec<&Row> = rows.iter().copied().filter(|r| r.method == m).collect();
+        let med = |k: usize| median(rs.iter().map(|r| r.links[k]));
+        let bins = bins2(
+            &rs,
+            |r| r.ratio,
+            &RATIO_EDGES,
+            |r| r.view_angle,
+            &[0.0, 30.0, 60.0, 75.0, 90.0],
+        );
+        let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
+        for b in &bins {
+            if let Some(d) = b.5 {
+                *counts.entry(d).or_default() += 1;
+            }
+        }
+        let counts: Vec<String> = counts.iter().map(|(k, v)| format!("{k} in {v}")).collect();
+        let (fit, table) = (med(0), med(1));
+        let compare = match (fit, table) {
+            (Some(f), Some(t)) if t > f => {
+                format!("the look-up adds more than the fit itself (median table link {t:.2e} against fit {f:.2e})")
+            }
+            (Some(f), Some(t)) => {
+                format!("the look-up adds less than the fit itself (median table link {t:.2e} against fit {f:.2e})")
+            }
+            _ => "no table or fit link".into(),
+        };
+        let worst = bins
+            .iter()
+            .filter(|b| b.3[1].is_some())
+            .max_by(|a, b| a.3[1].unwrap_or(0.0).total_cmp(&b.3[1].unwrap_or(0.0)));
+        let worst = worst.map_or(String::new(), |b| {
+            format!(
+                " The table link is largest at r {}–{}, view {}–{}° (median {}, {} configurations).",
+                b.0[0],
+                b.0[1],
+                b.1[0],
+                b.1[1],
+                sci(b.3[1]),
+                b.2
+            )
+        });
+        out.push(format!(
+            "`{m}` ({} anisotropic configurations): {compare}; storage in binary16 {}, formula {}, rounding {}, \
+             driver {}; total {} (median |GPU − T|/T). Dominant link per r × view bin: {} of {} bins.{worst}",
+            rs.len(),
+            sci(med(2)),
+            sci(med(3)),
+            sci(med(4)),
+            sci(med(5)),
+            sci(median(rs.iter().map(|r| r.total))),
+            counts.join(", "),
+            bins.len()
+        ));
+    }
+    out
+}
+
+fn by_method(rows: &[Row], iso_only: bool) -> Vec<(String, Vec<&Row>)> {
+    let mut out: BTreeMap<String, Vec<&Row>> = BTreeMap::new();
+    for r in rows {
+        if !iso_only || r.published_total.is_finite() {
+            out.entry(r.method.clone()).or_default().push(r);
+        }
+    }
+    out.into_iter().collect()
+}
+
+/// Sentences computed from the data.
+fn findings(all: &[Row], cells: &[Cell]) -> Vec<String> {
+    let mut out = Vec::new();
+    for (method, rows) in by_method(all, false) {
+        let fams: Vec<String> = {
+            let mut f: Vec<String> = rows.iter().map(|r| r.family.clone()).collect();
+            f.sort();
+            f.dedup();
+            f
+        };
+        for fam in fams {
+            let rs: Vec<&&Row> = rows.iter().filter(|r| r.family == fam).collect();
+            let meds: Vec<(&str, Option<f64>)> = LINKS
+                .iter()
+                .enumerate()
+                .map(|(k, n)| (*n, median(rs.iter().map(|r| r.links[k]))))
+                .collect();
+            let dominant: Vec<&Cell> = cells
+                .iter()
+                .filter(|c| c.method == method && c.family == fam && c.count > 0)
+                .collect();
+            let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
+            for c in &dominant {
+                if let Some(d) = c.dominant {
+                    *counts.entry(d).or_default() += 1;
+                }
+            }
+            let counts: Vec<String> = counts.iter().map(|(k, v)| format!("{k} in {v}")).collect();
+            let medians: Vec<String> = meds
+                .iter()
+                .filter_map(|(n, m)| m.map(|m| format!("{n} {m:.2e}")))
+                .collect();
+            out.push(format!(
+                "`{method}` on `{fam}` ({} configurations): the dominant link per bin is {} of {} bins. \
+                 Medians over all: {}; total {}.",
+                rs.len(),
+                counts.join(", "),
+                dominant.len(),
+                medians.join(", "),
+                sci(median(rs.iter().map(|r| r.total)))
+            ));
+        }
+    }
+    for (method, rows) in by_method(all, true) {
+        let ours = median(rows.iter().map(|r| r.total));
+        let theirs = median(rows.iter().map(|r| r.published_total));
+        if let (Some(o), Some(t)) = (ours, theirs) {
+            let verdict = if o <= t {
+                "at least as close to the GGX truth as"
+            } else {
+                "farther from the GGX truth than"
+            };
+            let near: Vec<&&Row> = rows.iter().filter(|r| r.miss < 5.0).collect();
+            let (no, nt) = (
+                median(near.iter().map(|r| r.total)),
+                median(near.iter().map(|r| r.published_total)),
+            );
+            let near_text = match (no, nt) {
+                (Some(a), Some(b)) => format!(
+                    " On the {} lights that pass within 5° of the mirror direction: {a:.3e} against {b:.3e}.",
+                    near.len()
+                ),
+                _ => String::new(),
+            };
+            out.push(format!(
+                "Fed to `{method}` (bilinear f32 look-up, {} isotropic configurations), our table is {verdict} the \
+                 published one: median relative error {o:.3e} against {t:.3e} (ratio {:.3}).{near_text}",
+                rows.len(),
+                o / t
+            ));
+        }
+    }
+    out
+}
