@@ -4,6 +4,7 @@
 pub mod analysis;
 pub mod bench;
 pub mod claims;
+pub mod envelope;
 pub mod gate;
 pub mod ship;
 pub mod stats;

@@ -3,6 +3,7 @@
 //! rows of `eval`. No statistics and no files here beyond what each run hands on.
 
 pub mod bench;
+pub mod envelope;
 pub mod eval_rows;
 pub mod gpu;
 pub mod progress;

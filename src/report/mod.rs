@@ -6,6 +6,7 @@ mod attribution;
 pub mod bench;
 pub mod chart;
 mod csv;
+mod envelope;
 mod findings;
 pub mod image;
 mod markdown;

@@ -232,6 +232,20 @@ impl<'p> Walk<'p> {
         let q = iv::div(a, b, k).map_err(|g| self.gap(g))?;
         self.fin(q)
     }
+    /// `x * x` of one value: never negative (a product of two intervals would be).
+    fn square(&self, x: Iv) -> R<Iv> {
+        let (lo, hi) = (x.mig(), x.mag());
+        self.fin(Iv::new(iv::down(lo * lo, 0.0), iv::up(hi * hi, 0.0)).flush())
+    }
+    /// `dot(x, x)`, left to right, each term a square.
+    fn dot_self(&mut self, a: &[Iv]) -> R<Iv> {
+        let mut acc = self.square(a[0])?;
+        for &x in &a[1..] {
+            let t = self.square(x)?;
+            acc = self.add(acc, t)?;
+        }
+        Ok(acc)
+    }
     fn dot(&mut self, a: &[Iv], b: &[Iv]) -> R<Iv> {
         let mut acc = self.mul(a[0], b[0])?;
         for k in 1..a.len() {
@@ -775,7 +789,12 @@ impl<'p> Walk<'p> {
                 let lt = self.inner(fun, *left);
                 let rt = self.inner(fun, *right);
                 let (a, b) = (self.val(fr, *left)?.clone(), self.val(fr, *right)?.clone());
-                Slot::Val(self.binary(*op, lt, rt, &a, &b)?)
+                if left == right && *op == B::Multiply && float && a.len() == b.len() {
+                    // One value times itself: a square per component.
+                    Slot::Val(a.iter().map(|&x| self.square(x)).collect::<R<V>>()?)
+                } else {
+                    Slot::Val(self.binary(*op, lt, rt, &a, &b)?)
+                }
             }
             E::Select {
                 condition,
@@ -827,7 +846,11 @@ impl<'p> Walk<'p> {
                 let b = arg1.map(|x| self.val(fr, x).cloned()).transpose()?;
                 let c = arg2.map(|x| self.val(fr, x).cloned()).transpose()?;
                 let at = self.inner(fun, *arg);
-                Slot::Val(self.math(*mf, at, &a, b.as_ref(), c.as_ref())?)
+                if *mf == M::Dot && *arg1 == Some(*arg) {
+                    Slot::Val(vec![self.dot_self(&a)?])
+                } else {
+                    Slot::Val(self.math(*mf, at, &a, b.as_ref(), c.as_ref())?)
+                }
             }
             E::As {
                 expr,
@@ -1109,7 +1132,7 @@ impl<'p> Walk<'p> {
 
     /// Inherited from `sqrt(dot(x, x))` (vector) or `sqrt(x * x)` (scalar).
     fn length(&mut self, a: &[Iv]) -> R<Iv> {
-        let d = self.dot(a, a)?;
+        let d = self.dot_self(a)?;
         self.sqrt(d)
     }
 }
