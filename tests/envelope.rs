@@ -56,7 +56,8 @@ fn neighbours(exact: f64) -> Iv {
 #[test]
 fn one_add_sub_or_mul_is_exactly_round_down_and_round_up_of_the_exact_result() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(22);
-    let ops: [(&str, fn(f64, f64) -> f64); 3] = [("+", |a, b| a + b), ("-", |a, b| a - b), ("*", |a, b| a * b)];
+    type Exact = fn(f64, f64) -> f64;
+    let ops: [(&str, Exact); 3] = [("+", |a, b| a + b), ("-", |a, b| a - b), ("*", |a, b| a * b)];
     for (i, (op, exact)) in ops.iter().enumerate() {
         let (m, _dir) = user(
             &format!("user.op{i}"),

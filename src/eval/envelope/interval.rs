@@ -39,7 +39,7 @@ impl Iv {
     pub fn contains(self, x: f64) -> bool {
         self.lo <= x && x <= self.hi
     }
-    pub fn neg(self) -> Iv {
+    pub fn negated(self) -> Iv {
         Iv::new(-self.hi, -self.lo)
     }
     /// The larger magnitude of the two ends.
@@ -142,7 +142,7 @@ pub fn add(a: Iv, b: Iv) -> Iv {
 }
 
 pub fn sub(a: Iv, b: Iv) -> Iv {
-    add(a, b.neg())
+    add(a, b.negated())
 }
 
 /// Products of f32 values are exact in f64 (48 significant bits, exponents in range).

@@ -774,7 +774,7 @@ impl<'p> Walk<'p> {
                 let out = a
                     .iter()
                     .map(|x| match (op, float) {
-                        (U::Negate, _) => Ok(x.neg()),
+                        (U::Negate, _) => Ok(x.negated()),
                         (U::LogicalNot, _) => Ok(Iv::new(1.0 - x.hi, 1.0 - x.lo)),
                         (U::BitwiseNot, _) if x.is_point() => Ok(Iv::point(match kind(ty) {
                             Some(ScalarKind::Sint) => !(x.lo as i32) as f64,
