@@ -128,6 +128,10 @@ enum Command {
         /// (local error per operation, docs/eval-format.md `attribution`).
         #[arg(long)]
         attribution: bool,
+        /// Also give each line the envelope of every method: the interval of f32 results any
+        /// WGSL implementation within the spec's accuracy rules may return (docs/envelope.md).
+        #[arg(long)]
+        envelope: bool,
         #[command(flatten)]
         gpu: GpuArgs,
     },
@@ -324,6 +328,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             output,
             methods,
             attribution,
+            envelope,
             gpu,
         } => app::eval::eval(
             app::eval::EvalOptions {
@@ -331,6 +336,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
                 output,
                 methods,
                 attribution,
+                envelope,
             },
             &gpu.options(),
         ),

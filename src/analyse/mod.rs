@@ -5,6 +5,7 @@ pub mod analysis;
 pub mod bench;
 pub mod chain;
 pub mod claims;
+pub mod envelope;
 pub mod gate;
 pub mod scan;
 pub mod ship;

@@ -112,6 +112,8 @@ pub struct Summary {
     pub baseline: Option<crate::analyse::gate::GateReport>,
     /// The "What to ship" answer (None only for a run without methods).
     pub ship: Option<crate::analyse::ship::Ship>,
+    /// The "Any conforming driver" section, when the case asks for it (docs/envelope.md).
+    pub any_driver: Option<crate::analyse::envelope::AnyDriver>,
 }
 
 /// How the run was called, and the stages' times, for the summary.
@@ -149,8 +151,20 @@ impl Summary {
             regressed: Vec::new(),
         };
         let costs = crate::analyse::bench::costs(&measured.costs);
-        let ship = crate::analyse::ship::ShipBudget::resolve(&case.budget(), case.budget.is_some(), &analysis)
-            .map(|b| crate::analyse::ship::choose(&b, &analysis, &costs));
+        let budget = crate::analyse::ship::ShipBudget::resolve(&case.budget(), case.budget.is_some(), &analysis);
+        let ship = budget
+            .as_ref()
+            .map(|b| crate::analyse::ship::choose(b, &analysis, &costs));
+        let materials: Vec<String> = case.materials.iter().map(|m| m.name.clone()).collect();
+        let any_driver = match (&case.envelope, &budget) {
+            (Some(spec), Some(b)) => Some(crate::analyse::envelope::any_driver(
+                &measured.envelope,
+                &materials,
+                b,
+                spec.sample,
+            )),
+            _ => None,
+        };
         let charts = (0..case.materials.len())
             .map(|k| chart_points(&analysis, &costs, k))
             .collect();
@@ -211,6 +225,7 @@ impl Summary {
             replayable,
             baseline: None,
             ship,
+            any_driver,
         })
     }
 }

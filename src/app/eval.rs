@@ -15,6 +15,8 @@ pub struct EvalOptions {
     pub methods: Vec<String>,
     /// `--attribution`: each line's kernel source lines where f32 rounding loses bits.
     pub attribution: bool,
+    /// `--envelope`: each line's envelope per method (docs/envelope.md).
+    pub envelope: bool,
 }
 
 pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
@@ -23,6 +25,7 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
         output,
         methods: specs,
         attribution,
+        envelope,
     } = options;
     // The input is read three times (counted, checked, evaluated): a FIFO or a device
     // would give its lines once, or never end.
@@ -107,7 +110,8 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
                 let at = block * crate::measure::eval_rows::ROW_BLOCK
                     ..block * crate::measure::eval_rows::ROW_BLOCK + part.len();
                 let values: Vec<&[f32]> = f32s.iter().map(|v| &v[at.clone()]).collect();
-                let rows = crate::measure::eval_rows::rows(part, &methods, &values, &references[at], attribution)?;
+                let rows =
+                    crate::measure::eval_rows::rows(part, &methods, &values, &references[at], attribution, envelope)?;
                 w.write_all(&crate::io::to_jsonl(&rows))
                     .with_context(|| format!("cannot write {}", output.display()))?;
             }

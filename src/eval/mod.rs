@@ -2,4 +2,5 @@
 //! (`interp`), and its deterministic operation count (`cost`).
 
 pub mod cost;
+pub mod envelope;
 pub mod interp;

@@ -315,6 +315,17 @@ pub struct Case {
     /// it ([`Case::budget`] gives the default when absent).
     #[serde(default)]
     pub budget: Option<Budget>,
+    /// Opt-in: the report's "Any conforming driver" section (docs/envelope.md).
+    #[serde(default)]
+    pub envelope: Option<EnvelopeSpec>,
+}
+
+/// `envelope = { sample = N }`: each method's envelope on N configurations spread over those
+/// it applies to (the attribution's spread subset, at most 2048).
+#[derive(Clone, Debug, PartialEq, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnvelopeSpec {
+    pub sample: usize,
 }
 
 /// What a user of the scene would accept (docs/statistics.md, "What to ship"): a method meets
@@ -514,6 +525,14 @@ impl Case {
         }
         if self.materials.is_empty() {
             return Err("no [[materials]]".into());
+        }
+        if let Some(e) = &self.envelope {
+            if e.sample == 0 || e.sample > 2048 {
+                return Err(format!(
+                    "envelope: sample = {} (configurations per method, from 1 to 2048: the spread subset's size)",
+                    e.sample
+                ));
+            }
         }
         for m in &self.materials {
             let name = format!("materials `{}`", m.name);

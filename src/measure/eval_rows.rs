@@ -307,6 +307,7 @@ pub fn rows(
     f32s: &[&[f32]],
     references: &[BTreeMap<Target, Estimate>],
     attribution: bool,
+    envelope: bool,
 ) -> anyhow::Result<Vec<Value>> {
     use rayon::prelude::*;
     let mut f64s = Vec::new();
@@ -336,9 +337,72 @@ pub fn rows(
                 }
                 row["attribution"] = Value::Object(per);
             }
+            if envelope {
+                let (bounds, undefined) = envelope_fields(c, methods);
+                row["envelope"] = bounds;
+                if let Some(u) = undefined {
+                    row["envelope_undefined"] = u;
+                }
+            }
             row
         })
         .collect())
+}
+
+/// `"envelope": {"<method>": [lo, hi]}` and, where an intermediate may be infinite or NaN or an
+/// operation leaves the range the spec bounds, `"envelope_undefined": {"<method>": {"line": N,
+/// "source": "…", "file": "…", "why": "…"}}` (the interval is then `["-inf", "inf"]`). A method
+/// the envelope cannot bound (too wide, an unsupported construct) gets `["-inf", "inf"]` and
+/// `"why"` without a line.
+fn envelope_fields(c: &Config, methods: &[Method]) -> (Value, Option<Value>) {
+    use crate::eval::interp::EnvelopeStop as Stop;
+    let mut bounds = Map::new();
+    let mut undefined = Map::new();
+    let unbounded = || json!([number(f64::NEG_INFINITY), number(f64::INFINITY)]);
+    for m in methods {
+        let outcome = match crate::eval::interp::envelope(m, c) {
+            Ok(Some(o)) => o,
+            Ok(None) => continue,
+            Err(e) => {
+                bounds.insert(m.label.clone(), unbounded());
+                undefined.insert(m.label.clone(), json!({"why": format!("{e:#}")}));
+                continue;
+            }
+        };
+        match outcome.value {
+            Ok(v) => {
+                bounds.insert(m.label.clone(), json!([number(v.lo), number(v.hi)]));
+            }
+            Err(stop) => {
+                bounds.insert(m.label.clone(), unbounded());
+                let entry = match stop {
+                    Stop::Gap { gap, line, forked } => {
+                        let why = match gap {
+                            crate::eval::envelope::interval::Gap::NonFinite(w) => {
+                                format!("undefined on a driver that assumes finite math: {w}")
+                            }
+                            crate::eval::envelope::interval::Gap::Domain(w) => {
+                                format!("outside the spec's accuracy domain: {w}")
+                            }
+                        };
+                        let mut e = json!({"why": why, "forked": forked});
+                        if let Some(l) = line.and_then(|l| crate::eval::interp::program(m).ok()?.lines.get(l).cloned())
+                        {
+                            e["file"] = json!(l.path);
+                            e["line"] = json!(l.line);
+                            e["source"] = json!(l.text.trim());
+                        }
+                        e
+                    }
+                    Stop::TooWide(w) => json!({"why": format!("too wide to inform: {w}")}),
+                    Stop::Unsupported(w) => json!({"why": w}),
+                };
+                undefined.insert(m.label.clone(), entry);
+            }
+        }
+    }
+    let undefined = (!undefined.is_empty()).then_some(Value::Object(undefined));
+    (Value::Object(bounds), undefined)
 }
 
 /// Per configuration (None where the method does not apply): the kernel's source lines

@@ -4,6 +4,7 @@
 
 pub mod bench;
 pub mod chain;
+pub mod envelope;
 pub mod eval_rows;
 pub mod gpu;
 pub mod progress;

@@ -97,6 +97,8 @@ pub struct Measured {
     pub costs: Vec<crate::measure::bench::Times>,
     /// Where each method's f32 rounding loses bits, on a subset (src/eval/interp attribution).
     pub attribution: Vec<MethodAttribution>,
+    /// The envelope on a subsample, when the case asks (`envelope = { sample = N }`).
+    pub envelope: Vec<crate::measure::envelope::MethodEnvelope>,
     /// Configurations measured (natural and top-ups), and natural ones per family.
     pub configurations: usize,
     pub natural: Vec<usize>,
@@ -578,6 +580,13 @@ pub fn search_and_cost(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<M
         .collect();
     let attribution = attribute(methods, &subsets)?;
     timing.attribution_seconds = t.elapsed().as_secs_f64();
+    let envelope = match &case.envelope {
+        Some(spec) => {
+            let material_of = |g: usize| setup.samples.get(g).map_or(0, |s| s.material);
+            crate::measure::envelope::any_driver(methods, &kept.attribution, &material_of, spec.sample)?
+        }
+        None => Vec::new(),
+    };
     timing.total_seconds += start.elapsed().as_secs_f64();
     Ok(Measured {
         timing,
@@ -585,6 +594,7 @@ pub fn search_and_cost(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<M
         disagreements,
         costs,
         attribution,
+        envelope,
         configurations: kept.seen,
         natural: kept.natural,
         draws,

@@ -8,6 +8,7 @@ pub mod bench;
 pub mod chain;
 pub mod chart;
 mod csv;
+mod envelope;
 mod findings;
 pub mod format;
 pub mod html;

@@ -1133,7 +1133,7 @@ fn nan0(x: f64) -> f64 {
 }
 
 /// WGSL integer arithmetic: wrapping, `x / 0 = x`, `x % 0 = 0`; also bool `&`, `|`, `^`.
-fn int_op(op: B, p: f64, q: f64, signed: bool) -> f64 {
+pub(super) fn int_op(op: B, p: f64, q: f64, signed: bool) -> f64 {
     if signed {
         let (a, b) = (p as i64 as i32, q as i64 as i32);
         (match op {

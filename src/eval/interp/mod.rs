@@ -18,6 +18,7 @@
 //! (`exec.rs`), chunks in parallel with rayon.
 
 mod digits;
+mod envelope;
 mod exec;
 
 use crate::input::scene::Config;
@@ -29,6 +30,7 @@ use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
+pub use envelope::{Outcome as EnvelopeOutcome, Stop as EnvelopeStop};
 pub use exec::ulp_bits;
 
 /// Configurations per chunk: enough lanes to amortise the per-operation dispatch.
@@ -166,6 +168,48 @@ impl CpuColumns for Method {
     fn eval_f32_cpu(&self, config: &Config) -> Option<f32> {
         cpu_one(self, config, Mode::F32).map(|v| v as f32)
     }
+}
+
+/// A method's envelope on one configuration (docs/envelope.md): every f32 result a WGSL
+/// implementation within the spec's accuracy rules may return when it evaluates the kernel
+/// in its written order; None where the method does not apply. An LTC method's result is
+/// multiplied by a `ggx` configuration's fed magnitude, as the shader multiplies.
+pub fn envelope(method: &Method, config: &Config) -> Result<Option<EnvelopeOutcome>> {
+    if !method.applies(config) {
+        return Ok(None);
+    }
+    let program = program(method)?;
+    let mut out = program.envelope(config, None);
+    let magnitude = method.magnitude(config);
+    if magnitude != 1.0 {
+        let m = crate::eval::envelope::interval::Iv::point(magnitude as f32 as f64);
+        out.value = out.value.map(|v| crate::eval::envelope::interval::mul(v, m));
+    }
+    Ok(Some(out))
+}
+
+/// "Where the freedom goes" on one configuration: for each line whose operations used an
+/// allowance beyond correct rounding, log2 of the envelope's width over its width with that
+/// line's operations held to correct rounding (bits of width the line's freedom adds).
+/// Empty where the envelope is not a finite interval.
+pub fn freedom(method: &Method, config: &Config) -> Result<Vec<(Line, f64)>> {
+    if !method.applies(config) {
+        return Ok(Vec::new());
+    }
+    let program = program(method)?;
+    let full = program.envelope(config, None);
+    let Ok(v) = full.value else { return Ok(Vec::new()) };
+    let floor = crate::eval::envelope::interval::ulp32(v.lo.abs().max(v.hi.abs()));
+    let width = (v.hi - v.lo).max(floor);
+    let mut out = Vec::new();
+    for &l in &full.loose {
+        if let Ok(s) = program.envelope(config, Some(l)).value {
+            let bits = (width / (s.hi - s.lo).max(floor)).log2();
+            out.push((program.lines[l].clone(), bits));
+        }
+    }
+    out.sort_by(|a, b| b.1.total_cmp(&a.1));
+    Ok(out)
 }
 
 /// One configuration's value in `mode`.
@@ -509,6 +553,22 @@ impl Program {
             .map(|c| self.chunk(c, mode))
             .collect::<Result<Vec<_>>>()?;
         Ok(parts.concat())
+    }
+
+    /// The envelope of one configuration (the kernel's own result, before any magnitude);
+    /// `strict`: a line (index into `lines`) whose operations are held to correct rounding.
+    pub fn envelope(&self, config: &Config, strict: Option<usize>) -> EnvelopeOutcome {
+        let total: usize = self.scene.iter().map(|s| s.2).sum();
+        let mut scene = vec![crate::eval::envelope::interval::Iv::point(0.0); total];
+        let input = crate::input::scene::SceneInput::new(config);
+        for (name, off, _) in &self.scene {
+            let v = input.member(name).expect("checked in prepare");
+            for (k, x) in v.into_iter().enumerate() {
+                // The kernel reads its scene in f32.
+                scene[off + k] = crate::eval::envelope::interval::Iv::point(x as f32 as f64);
+            }
+        }
+        envelope::Walk::run(self, scene, strict)
     }
 
     /// The f32 values with each source line's local error (module doc).

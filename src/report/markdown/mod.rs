@@ -45,6 +45,9 @@ pub fn render(input: &Summary) -> String {
     // What it cost, where the bits go, how long the run took.
     cost::speed_against_accuracy(w, input);
     let _ = write!(w, "{}", super::attribution::render(&input.attribution));
+    if let Some(a) = &input.any_driver {
+        let _ = write!(w, "{}", super::envelope::render(a));
+    }
     cost::timing(w, input);
     cost::throughput(w, input);
     // Definitions.

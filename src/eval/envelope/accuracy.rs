@@ -1,0 +1,221 @@
+//! The WGSL specification's accuracy rules for f32, as data: the envelope (src/eval/interp/
+//! envelope.rs) takes every allowance from [`TABLE`], so the numbers are written once, here.
+//! Paraphrased (not copied) from the spec named in [`SPEC`]; docs/envelope.md cites each row.
+
+/// Where the rules were read.
+pub struct SpecSource {
+    pub repository: &'static str,
+    pub path: &'static str,
+    pub commit: &'static str,
+    pub date: &'static str,
+    pub sections: &'static str,
+}
+
+pub const SPEC: SpecSource = SpecSource {
+    repository: "gpuweb/gpuweb",
+    path: "wgsl/index.bs",
+    commit: "da251f90d8a04f3b52de9de306ba4155146de729",
+    date: "2026-08-19",
+    sections: "§ Floating Point Accuracy (#floating-point-accuracy), its table \"Accuracy of concrete floating \
+               point operations / built-in functions\" (#concrete-float-accuracy), § Floating Point Rounding and \
+               Overflow, § Reassociation and Fusion, § Floating Point Conversion, and the flush-to-zero and \
+               Finite Math Assumption rules of § Floating Point Evaluation",
+};
+
+/// How far an f32 result may be from the exact result.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Bound {
+    /// Either f32 neighbour of the exact result (the exact value when representable).
+    CorrectlyRounded,
+    /// Within this many ULP (the spec's ULP: the smallest gap between f32 values around x).
+    Ulp(f64),
+    /// Within `a + b·|x|` ULP, x the argument (`exp`, `exp2`).
+    UlpAffine(f64, f64),
+    /// Within this absolute error.
+    Absolute(f64),
+    /// Absolute error on `[lo, hi]` of the argument, `ulp` ULP outside it (`log`, `log2`).
+    AbsoluteInsideUlpOutside { abs: f64, lo: f64, hi: f64, ulp: f64 },
+    /// The accuracy of evaluating the named WGSL expression, each of its operations by its
+    /// own rule.
+    Inherited(&'static str),
+    /// The worse (the hull) of an absolute error and an inherited form (`acos`, `asin`).
+    AbsoluteOrInherited(f64, &'static str),
+    /// No bound at all ("Infinite ULP").
+    Infinite,
+}
+
+/// One row: an operation, its bound, the argument range where the bound holds, and this
+/// project's policy where the spec leaves a gap.
+pub struct Rule {
+    pub op: &'static str,
+    pub bound: Bound,
+    pub domain: &'static str,
+    pub policy: &'static str,
+}
+
+/// 2^-126 and 2^126: the divisor range of `x / y` and of `atan2`'s `x`.
+pub const DOMAIN_MIN: f64 = 1.1754943508222875e-38;
+pub const DOMAIN_MAX: f64 = 8.507059173023462e37;
+/// `sin`/`cos`'s bounded range: [−π, π].
+pub const TRIG_RANGE: f64 = std::f64::consts::PI;
+
+pub const TABLE: &[Rule] = &[
+    Rule { op: "x + y", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    Rule { op: "x - y", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    Rule { op: "x * y", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    Rule {
+        op: "x / y",
+        bound: Bound::Ulp(2.5),
+        domain: "|y| in [2^-126, 2^126]",
+        policy: "outside the range the result is unbounded: flagged, never bounded",
+    },
+    Rule { op: "x % y", bound: Bound::Inherited("x - y * trunc(x / y)"), domain: "", policy: "" },
+    Rule { op: "-x", bound: Bound::CorrectlyRounded, domain: "", policy: "exact" },
+    Rule { op: "comparisons", bound: Bound::CorrectlyRounded, domain: "", policy: "correct result" },
+    Rule {
+        op: "literal",
+        bound: Bound::CorrectlyRounded,
+        domain: "",
+        policy: "a literal (and a folded constant) is its written value rounded either way",
+    },
+    Rule { op: "f32(int)", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    Rule { op: "abs", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    Rule {
+        op: "acos",
+        bound: Bound::AbsoluteOrInherited(6.77e-5, "atan2(sqrt(1.0 - x * x), x)"),
+        domain: "",
+        policy: "where the inherited form leaves atan2's domain (x near 0) the absolute bound alone (beyond the spec)",
+    },
+    Rule {
+        op: "asin",
+        bound: Bound::AbsoluteOrInherited(6.81e-5, "atan2(x, sqrt(1.0 - x * x))"),
+        domain: "",
+        policy: "where the inherited form leaves atan2's domain (x near ±1) the absolute bound alone (beyond the spec)",
+    },
+    Rule { op: "atan", bound: Bound::Ulp(4096.0), domain: "", policy: "" },
+    Rule {
+        op: "atan2",
+        bound: Bound::Ulp(4096.0),
+        domain: "|x| in [2^-126, 2^126], y finite and normal",
+        policy: "a zero y is taken as in the domain (beyond the spec: the spec's \"normal\" excludes zero); an x outside the range is flagged",
+    },
+    Rule { op: "ceil", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    Rule { op: "clamp", bound: Bound::CorrectlyRounded, domain: "", policy: "min(max(x, lo), hi)" },
+    Rule {
+        op: "cos",
+        bound: Bound::Absolute(0.00048828125),
+        domain: "x in [-π, π]",
+        policy: "outside [-π, π] unbounded; the envelope keeps only [-1 - 2^-11, 1 + 2^-11] (beyond the spec)",
+    },
+    Rule { op: "cross", bound: Bound::Inherited("x[i] * y[j] - x[j] * y[i]"), domain: "", policy: "" },
+    Rule {
+        op: "determinant",
+        bound: Bound::Infinite,
+        domain: "",
+        policy: "beyond the spec: inherited from the cofactor expansion along the first column (the evaluator's order)",
+    },
+    Rule { op: "distance", bound: Bound::Inherited("length(x - y)"), domain: "", policy: "" },
+    Rule {
+        op: "dot",
+        bound: Bound::Inherited("sum of x[i] * y[i]"),
+        domain: "",
+        policy: "summed left to right (reassociation excluded)",
+    },
+    Rule { op: "exp", bound: Bound::UlpAffine(3.0, 2.0), domain: "", policy: "" },
+    Rule { op: "exp2", bound: Bound::UlpAffine(3.0, 2.0), domain: "", policy: "" },
+    Rule { op: "floor", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    Rule {
+        op: "fma",
+        bound: Bound::Inherited("x * y + z"),
+        domain: "",
+        policy: "a fused result lies inside the two-rounding interval",
+    },
+    Rule { op: "fract", bound: Bound::Inherited("x - floor(x)"), domain: "", policy: "" },
+    Rule {
+        op: "inverseSqrt",
+        bound: Bound::Ulp(2.0),
+        domain: "x > 0",
+        policy: "x ≤ 0 gives an infinity or NaN: flagged",
+    },
+    Rule { op: "length", bound: Bound::Inherited("sqrt(dot(x, x))"), domain: "", policy: "" },
+    Rule {
+        op: "log",
+        bound: Bound::AbsoluteInsideUlpOutside { abs: 4.76837158203125e-7, lo: 0.5, hi: 2.0, ulp: 3.0 },
+        domain: "x > 0",
+        policy: "",
+    },
+    Rule {
+        op: "log2",
+        bound: Bound::AbsoluteInsideUlpOutside { abs: 4.76837158203125e-7, lo: 0.5, hi: 2.0, ulp: 3.0 },
+        domain: "x > 0",
+        policy: "",
+    },
+    Rule { op: "max", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    Rule { op: "min", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    Rule { op: "mix", bound: Bound::Inherited("x * (1.0 - z) + y * z"), domain: "", policy: "" },
+    Rule { op: "normalize", bound: Bound::Inherited("x / length(x)"), domain: "", policy: "" },
+    Rule { op: "pow", bound: Bound::Inherited("exp2(y * log2(x))"), domain: "", policy: "" },
+    Rule { op: "round", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    Rule { op: "saturate", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    Rule { op: "sign", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    Rule {
+        op: "sin",
+        bound: Bound::Absolute(0.00048828125),
+        domain: "x in [-π, π]",
+        policy: "outside [-π, π] unbounded; the envelope keeps only [-1 - 2^-11, 1 + 2^-11] (beyond the spec)",
+    },
+    Rule {
+        op: "sqrt",
+        bound: Bound::Inherited("1.0 / inverseSqrt(x)"),
+        domain: "",
+        policy: "sqrt(0) is 0 (beyond the spec: the inherited form divides by inverseSqrt(0) = inf)",
+    },
+    Rule { op: "step", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    Rule { op: "tan", bound: Bound::Inherited("sin(x) / cos(x)"), domain: "", policy: "" },
+    Rule { op: "transpose", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    Rule { op: "trunc", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+];
+
+/// The row for `op` (a table entry must exist for every operation the envelope uses).
+pub fn rule(op: &str) -> &'static Rule {
+    TABLE
+        .iter()
+        .find(|r| r.op == op)
+        .unwrap_or_else(|| panic!("no accuracy rule for `{op}` in src/eval/envelope/accuracy.rs"))
+}
+
+/// `op`'s ULP allowance (a `Bound::Ulp` row).
+pub fn ulps(op: &str) -> f64 {
+    match rule(op).bound {
+        Bound::Ulp(k) => k,
+        other => panic!("`{op}` is not a ULP bound: {other:?}"),
+    }
+}
+
+/// `op`'s absolute allowance (a `Bound::Absolute` or `AbsoluteOrInherited` row).
+pub fn absolute(op: &str) -> f64 {
+    match rule(op).bound {
+        Bound::Absolute(e) | Bound::AbsoluteOrInherited(e, _) => e,
+        other => panic!("`{op}` is not an absolute bound: {other:?}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_row_named_once_and_the_constants_are_the_powers_of_two() {
+        for (i, r) in TABLE.iter().enumerate() {
+            assert!(TABLE[..i].iter().all(|q| q.op != r.op), "{} twice", r.op);
+        }
+        assert_eq!(DOMAIN_MIN, 2f64.powi(-126));
+        assert_eq!(DOMAIN_MAX, 2f64.powi(126));
+        assert_eq!(absolute("sin"), 2f64.powi(-11));
+        match rule("log").bound {
+            Bound::AbsoluteInsideUlpOutside { abs, .. } => assert_eq!(abs, 2f64.powi(-21)),
+            _ => panic!("log"),
+        }
+        assert_eq!(ulps("atan"), 4096.0);
+    }
+}

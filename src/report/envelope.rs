@@ -1,0 +1,97 @@
+//! "Any conforming driver" (docs/envelope.md): the envelope's worst relative error per method
+//! and material, the share past the budget, the configurations without a finite envelope and
+//! where the freedom goes. Rendered only when the case asks (`envelope = { sample = N }`).
+
+use crate::analyse::envelope::AnyDriver;
+use std::fmt::Write;
+
+/// Lines shown per method in "where the freedom goes".
+const TOP: usize = 5;
+
+fn sig(x: f64) -> String {
+    format!("{x:.3e}")
+}
+
+pub fn render(a: &AnyDriver) -> String {
+    let mut o = String::new();
+    let _ = writeln!(o, "## Any conforming driver\n");
+    let _ = writeln!(
+        o,
+        "The envelope: every f32 result a WGSL implementation within the spec's accuracy rules may \
+         return when it evaluates the kernel in its written order (interval arithmetic with outward \
+         rounding over the kernel's IR; reassociation excluded; docs/envelope.md). An outer bound, \
+         not an estimate: interval dependency can make it far wider than any real driver. On a \
+         stated subsample: at most {} configurations per method, spread evenly over those it \
+         applies to ({:.1} s in all). Worst relative error = max(|lo − ref|, |hi − ref|) / |ref| \
+         against the budget's target (`{}`) where the method is judged against it, else against \
+         its own; \"past the budget\": envelopes whose worst relative error exceeds the budget's \
+         value {}. \"No finite envelope\": an intermediate may be Inf or NaN (undefined on a \
+         driver that assumes finite math), an operation leaves the range the spec bounds, or the \
+         interval is too wide to inform.\n",
+        a.sample,
+        a.seconds,
+        a.budget_target,
+        sig(a.budget_value)
+    );
+    let _ = writeln!(
+        o,
+        "| method | material | target | n | p50 | p90 | p99 | max | past the budget | no finite envelope |"
+    );
+    let _ = writeln!(o, "|---|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    for r in &a.rows {
+        let q = |i: usize| r.quantiles.map_or("—".to_string(), |q| sig(q[i]));
+        let past = match r.breaks {
+            Some((k, n)) if n > 0 => format!("{k}/{n} ({:.1}%)", 100.0 * k as f64 / n as f64),
+            Some(_) => "—".into(),
+            None => "not judged".into(),
+        };
+        let _ = writeln!(
+            o,
+            "| `{}` | {} | `{}` | {} | {} | {} | {} | {} | {} | {} |",
+            r.label,
+            r.material,
+            r.target,
+            r.n,
+            q(0),
+            q(1),
+            q(2),
+            q(3),
+            past,
+            r.undefined
+        );
+    }
+    let _ = writeln!(o);
+    let named: Vec<_> = a.rows.iter().filter(|r| !r.lines.is_empty()).collect();
+    if !named.is_empty() {
+        let _ = writeln!(
+            o,
+            "Where the envelope has no finite bound (configurations, per method and material):\n"
+        );
+        for r in named {
+            for (at, k) in &r.lines {
+                let _ = writeln!(o, "- `{}` ({}): {k} × {}", r.label, r.material, at.replace('|', "\\|"));
+            }
+        }
+        let _ = writeln!(o);
+    }
+    let _ = writeln!(
+        o,
+        "### Where the freedom goes\n\nPer method, the source lines whose allowed error (beyond correct \
+         rounding) widens the envelope most: the mean over the configurations of log2(envelope width / \
+         width with that line's operations held to correct rounding), in bits, on an evenly spread part \
+         of the subsample (count per method).\n"
+    );
+    for f in &a.freedom {
+        if f.lines.is_empty() {
+            continue;
+        }
+        let _ = writeln!(o, "`{}` ({} configurations):\n", f.label, f.configurations);
+        let _ = writeln!(o, "| file:line | source | mean bits |");
+        let _ = writeln!(o, "|---|---|---:|");
+        for (at, text, bits) in f.lines.iter().take(TOP) {
+            let _ = writeln!(o, "| `{at}` | `{}` | {bits:.2} |", text.replace('|', "\\|"));
+        }
+        let _ = writeln!(o);
+    }
+    o
+}
