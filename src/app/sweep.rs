@@ -612,6 +612,7 @@ pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions, observe: 
         let chunk = Chunk {
             samples: c.samples,
             references: c.references,
+            references_f32: Some(c.references_f32),
             runs: c.runs,
         };
         accumulators.add(case, &chunk);
