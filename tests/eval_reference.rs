@@ -251,3 +251,143 @@ fn eval_writes_the_summed_references_a_method_needs() {
         assert!(err >= 0.999 * parts, "{summed}: error {err} below its parts' {parts}");
     }
 }
+
+/// Eval format 2: `reference_f32_inputs` holds every reference again at the configuration with
+/// each input number rounded to f32 as given (`as f32 as f64`, nothing renormalised), with its
+/// own error estimate; `line` and `line_upper` there agree with this file's quadrature at those
+/// rounded inputs. On segments far along their own line the rounding alone moves the value by
+/// percents (issue 18 item 7), which the exact reference (also checked) keeps apart.
+#[test]
+fn eval_writes_the_references_at_f32_rounded_inputs() {
+    use serde_json::json;
+    let mut cs = configs();
+    let unit = |a: V| {
+        let n = dot(a, a).sqrt();
+        a.map(|x| x / n)
+    };
+    let cross = |a: V, b: V| -> V {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    // Distance 1 from the shading point, the near end `along` away from the closest point,
+    // 0.05 long, above the surface.
+    for (k, along) in [30.0, 100.0, 300.0, 1000.0].into_iter().enumerate() {
+        let t = unit([1.0, 0.7, 0.3]);
+        let foot = unit(cross(cross(t, [0.0, 0.0, 1.0]), t));
+        assert!(foot[2] > 0.0);
+        let p1 = axpy(along, t, foot);
+        let p2 = axpy(along + 0.05, t, foot);
+        cs.push(json!({"id": format!("far{k}"), "p1": p1, "p2": p2, "material": {"kind": "diffuse"}}));
+    }
+    let rows = run_eval(&cs, "line.ltc2017");
+    let v = |x: &serde_json::Value| -> V { [0, 1, 2].map(|i| x[i].as_f64().unwrap()) };
+    let r32 = |x: f64| x as f32 as f64;
+    let mut moved = Vec::new();
+    for (c, row) in cs.iter().zip(&rows) {
+        assert_eq!(row["version"], 2, "{row}");
+        let minv = match c["material"]["kind"].as_str().unwrap() {
+            "diffuse" => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            _ => [0, 1, 2].map(|r| v(&c["material"]["minv"][r])),
+        };
+        let (p1, p2) = (v(&c["p1"]).map(r32), v(&c["p2"]).map(r32));
+        let minv32 = minv.map(|r| r.map(r32));
+        for (target, upper) in [("line", false), ("line_upper", true)] {
+            let expected = independent_line(p1, p2, minv32, upper);
+            let got = row["reference_f32_inputs"][target].as_f64().unwrap();
+            let err = row["reference_f32_inputs_error"][target].as_f64().unwrap();
+            let rel = (got - expected).abs() / expected.abs().max(1e-300);
+            assert!(
+                rel <= 1e-8 || (got - expected).abs() < 1e-14,
+                "{} {target}: eval at f32 inputs {got:e} ± {err:e}, independent {expected:e} (rel {rel:e})",
+                c["id"]
+            );
+            assert!(
+                err >= 0.0 && err <= 1e-8 * got.abs().max(1e-14),
+                "{} {target}: {err:e}",
+                c["id"]
+            );
+            let exact = row["reference"][target].as_f64().unwrap();
+            let independent = independent_line(v(&c["p1"]), v(&c["p2"]), minv, upper);
+            assert!(
+                (exact - independent).abs() <= 1e-8 * independent.abs().max(1e-6),
+                "{}",
+                c["id"]
+            );
+            if exact != 0.0 {
+                moved.push(((got - exact).abs() / exact.abs(), c["id"].as_str().unwrap().to_string()));
+            }
+        }
+        // Every target of the row is there again at the f32 inputs, and only those.
+        let keys = |k: &str| row[k].as_object().unwrap().keys().cloned().collect::<Vec<_>>();
+        assert_eq!(keys("reference"), keys("reference_f32_inputs"), "{}", c["id"]);
+        assert_eq!(
+            keys("reference_error"),
+            keys("reference_f32_inputs_error"),
+            "{}",
+            c["id"]
+        );
+    }
+    moved.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (worst, id) = moved.last().unwrap();
+    eprintln!("largest input rounding: {worst:e} ({id})");
+    assert!(id.starts_with("far") && *worst > 1e-2, "{moved:?}");
+    // Near the shading point the inputs' rounding moves the value by about f32's ε, no more.
+    let near = moved.iter().find(|(_, id)| id == "design").unwrap().0;
+    assert!(near < 1e-5, "design: {near:e}");
+}
+
+/// The surface views in eval (format 2): with a radius and a rect, `cylinder_upper`,
+/// `caps_upper`, `tube_upper` and `rectangle_upper` are written beside the unclipped ones, at
+/// the exact and at the f32-rounded configuration, each the library's reference of that
+/// configuration (tests/reference_independent.rs checks those against its own quadrature), and
+/// 0 exactly for a tube wholly below the surface.
+#[test]
+fn eval_writes_the_surface_views_at_both_configurations() {
+    use linelight::input::scene::Config;
+    use linelight::input::target::Target;
+    use linelight::reference::reference;
+    use serde_json::json;
+    let cs = [
+        json!({"id": "straddle", "p1": [0.31, -0.22, -0.4], "p2": [0.93, 0.41, 0.6], "radius": 0.013,
+               "rect": {"normal": [0.6, -0.8, 0.0], "width": 0.021},
+               "material": {"kind": "ltc", "minv": [[3.1, 0.0, -1.3], [0.0, 2.7, 0.0], [0.7, 0.0, 1.0]]}}),
+        json!({"id": "below", "p1": [0.31, -0.22, -0.4], "p2": [0.93, 0.41, -0.3], "radius": 0.013,
+               "rect": {"normal": [0.6, -0.8, 0.0], "width": 0.021},
+               "material": {"kind": "ltc", "minv": [[3.1, 0.0, -1.3], [0.0, 2.7, 0.0], [0.7, 0.0, 1.0]]}}),
+    ];
+    let rows = run_eval(&cs, "caps.point");
+    for (c, row) in cs.iter().zip(&rows) {
+        let mut config: Config = serde_json::from_value(c.clone()).unwrap();
+        config.orthonormalize_rect();
+        let mut rounded: Config = serde_json::from_value(c.clone()).unwrap();
+        rounded.orthonormalize_rect();
+        let rounded = rounded.rounded_to_f32();
+        for t in [
+            Target::CylinderUpper,
+            Target::CapsUpper,
+            Target::TubeUpper,
+            Target::RectangleUpper,
+        ] {
+            let got = row["reference"][t.name()].as_f64().unwrap();
+            assert_eq!(got, reference(&config, t).unwrap().value, "{} {t}", c["id"]);
+            let got32 = row["reference_f32_inputs"][t.name()].as_f64().unwrap();
+            assert_eq!(got32, reference(&rounded, t).unwrap().value, "{} {t}", c["id"]);
+            let own = row["reference"][t.own().name()].as_f64().unwrap();
+            if c["id"] == "below" {
+                assert_eq!((got, got32), (0.0, 0.0), "{t}");
+            } else {
+                // Neither cap faces the shading point here (it is beside the tube).
+                assert!(got <= own, "{t}: {got} vs {own}");
+                assert!(got > 0.0 || t == Target::CapsUpper, "{t}: {got}");
+                assert!(got < own || t == Target::CapsUpper, "{t}: no leak cut, {got} vs {own}");
+            }
+        }
+        // The leaking lobe lights the tube below the surface in its own target.
+        if c["id"] == "below" {
+            assert!(row["reference"]["cylinder"].as_f64().unwrap() > 0.0, "{row}");
+        }
+    }
+}

@@ -350,7 +350,7 @@ fn wholly_below_is_counted_apart_from_line_upper_zero() {
     let n = |v: &serde_json::Value| v.as_u64().unwrap();
     let (b, a) = (material("test.lights_below"), material("test.lights_above"));
     let wholly = n(&b["wholly_below"]["false_light"]["configurations"]);
-    let upper = n(&b["against_line_upper"]["false_light"]["configurations"]);
+    let upper = n(&b["all"]["false_light"]["configurations"]);
     // Half the elevations are ≤ 0: a binomial(400, 1/2) count, far inside these bounds.
     assert!((140..=260).contains(&wholly), "wholly below: {wholly}");
     assert!(
@@ -359,10 +359,10 @@ fn wholly_below_is_counted_apart_from_line_upper_zero() {
     );
     // The kernel lighting exactly the wholly-below ones lights every one of them and no other.
     assert_eq!(n(&b["wholly_below"]["false_light"]["lit"]), wholly);
-    assert_eq!(n(&b["against_line_upper"]["false_light"]["lit"]), wholly);
+    assert_eq!(n(&b["all"]["false_light"]["lit"]), wholly);
     // The one lighting everything else lights none of them, and every other zero of line_upper.
     assert_eq!(n(&a["wholly_below"]["false_light"]["lit"]), 0);
-    assert_eq!(n(&a["against_line_upper"]["false_light"]["lit"]), upper - wholly);
+    assert_eq!(n(&a["all"]["false_light"]["lit"]), upper - wholly);
     let report = std::fs::read_to_string(out.join("below/report.md")).unwrap();
     assert!(
         report.contains(&format!("{wholly} wholly below of {upper}.")),

@@ -179,12 +179,32 @@ fn line_isotropic_agrees_with_sinh_quadrature() {
     assert!(nonzero >= 30, "only {nonzero} of 60 configurations see the light");
 }
 
-/// `cylinder` per Eq. 1.2 in (l, φ): outer l = l0 + d·sinh u, inner φ over the visible arc
-/// (where −p1·ω_n(φ) > R, the same for every l) cut where D's support plane crosses it.
-fn cylinder(c: &Config) -> f64 {
+/// The planes through the origin where an integrand has a kink or a jump: D's support plane
+/// and, for the `_upper` targets, the horizon z = 0.
+fn planes(minv: &[[f64; 3]; 3], upper: bool) -> Vec<Vec3> {
+    let mut planes = vec![minv[2]];
+    if upper {
+        planes.push([0.0, 0.0, 1.0]);
+    }
+    planes
+}
+
+/// D, or `D·[ω.z > 0]` for the `_upper` targets.
+fn d_clipped(minv: &[[f64; 3]; 3], w: Vec3, upper: bool) -> f64 {
+    if upper && w[2] <= 0.0 {
+        0.0
+    } else {
+        d_of(minv, w)
+    }
+}
+
+/// `cylinder` (or `cylinder_upper`) per Eq. 1.2 in (l, φ): outer l = l0 + d·sinh u, inner φ
+/// over the visible arc (where −p1·ω_n(φ) > R, the same for every l) cut where D's support
+/// plane (and the horizon) crosses it.
+fn cylinder(c: &Config, upper: bool) -> f64 {
     let r = c.radius.unwrap();
     let minv = c.material.minv();
-    let sigma = minv[2];
+    let planes = planes(&minv, upper);
     let e = sub(c.p2, c.p1);
     let len = norm(e);
     let t = mul(e, 1.0 / len);
@@ -199,17 +219,17 @@ fn cylinder(c: &Config) -> f64 {
     let half = (r / rho).acos();
     let centre = b.atan2(a) + PI;
     let (lo, hi) = (centre - half, centre + half);
-    let support = |l: f64, phi: f64| dot(sigma, add(add(c.p1, mul(t, l)), mul(wn(phi), r)));
     let inner = |l: f64| {
         let base = add(c.p1, mul(t, l));
         let f = |phi: f64| {
             let n = wn(phi);
             let p = add(base, mul(n, r));
             let w = unit(p);
-            d_of(&minv, w) * (-dot(w, n)).max(0.0) / dot(p, p) * r
+            d_clipped(&minv, w, upper) * (-dot(w, n)).max(0.0) / dot(p, p) * r
         };
-        let cuts: Vec<f64> = trig_roots(dot(sigma, base), r * dot(sigma, e1), r * dot(sigma, e2))
-            .into_iter()
+        let cuts: Vec<f64> = planes
+            .iter()
+            .flat_map(|&sigma| trig_roots(dot(sigma, base), r * dot(sigma, e1), r * dot(sigma, e2)))
             .flat_map(|x| [x - 2.0 * PI, x, x + 2.0 * PI])
             .collect();
         composite(&f, lo, hi, &cuts, 16)
@@ -219,12 +239,15 @@ fn cylinder(c: &Config) -> f64 {
     let u = |l: f64| ((l - l0) / d).asinh();
     // Kinks of the inner integral in l: the support's zeros reach an arc end, or appear.
     let mut cuts = Vec::new();
-    for phi in [lo, hi] {
-        cuts.extend(linear_root(support(0.0, phi), dot(sigma, t)).map(u));
-    }
-    let s_perp = r * (dot(sigma, e1)).hypot(dot(sigma, e2));
-    for sign in [-1.0, 1.0] {
-        cuts.extend(linear_root(dot(sigma, c.p1) + sign * s_perp, dot(sigma, t)).map(u));
+    for &sigma in &planes {
+        let support = |l: f64, phi: f64| dot(sigma, add(add(c.p1, mul(t, l)), mul(wn(phi), r)));
+        for phi in [lo, hi] {
+            cuts.extend(linear_root(support(0.0, phi), dot(sigma, t)).map(u));
+        }
+        let s_perp = r * (dot(sigma, e1)).hypot(dot(sigma, e2));
+        for sign in [-1.0, 1.0] {
+            cuts.extend(linear_root(dot(sigma, c.p1) + sign * s_perp, dot(sigma, t)).map(u));
+        }
     }
     let f = |x: f64| {
         let l = l0 + d * x.sinh();
@@ -233,12 +256,66 @@ fn cylinder(c: &Config) -> f64 {
     composite(&f, u(0.0), u(len), &cuts, 60)
 }
 
-/// `caps` per Eq. 1.29 in the disks' polar coordinates (φ outer, r inner), one-sided as in
-/// Listing 1.8.
-fn caps(c: &Config) -> f64 {
+/// `cylinder` (or `cylinder_upper`) per Eq. 1.2 along the generators: outer φ over the visible
+/// arc, inner l = l0 + d(φ)·sinh u along the generator at φ. The horizon makes the integrand
+/// jump; along a generator that is a cut at its crossing, and across the generators the inner
+/// integral then only has kinks where the crossing reaches an end (l = 0 or L), cut too. (In
+/// (l, φ) the clipped arc grows like a square root where the horizon touches the cross-section,
+/// which equal panels resolve slowly.) `−ω_p·ω_n = −(p1·ω_n + R)/‖p‖` is the same along a
+/// generator.
+fn cylinder_generators(c: &Config, upper: bool) -> f64 {
     let r = c.radius.unwrap();
     let minv = c.material.minv();
-    let sigma = minv[2];
+    let planes = planes(&minv, upper);
+    let e = sub(c.p2, c.p1);
+    let len = norm(e);
+    let t = mul(e, 1.0 / len);
+    let (e1, e2) = basis(t);
+    let wn = |phi: f64| add(mul(e1, phi.cos()), mul(e2, phi.sin()));
+    let (a, b) = (dot(c.p1, e1), dot(c.p1, e2));
+    let rho = a.hypot(b);
+    if rho <= r {
+        return 0.0;
+    }
+    let half = (r / rho).acos();
+    let centre = b.atan2(a) + PI;
+    let (lo, hi) = (centre - half, centre + half);
+    let l0 = -dot(c.p1, t);
+    let inner = |phi: f64| {
+        let n = wn(phi);
+        let facing = -dot(c.p1, n) - r;
+        let base = add(c.p1, mul(n, r));
+        let d = norm(sub(base, mul(t, dot(base, t))));
+        let u = |l: f64| ((l - l0) / d).asinh();
+        let f = |x: f64| {
+            let p = add(base, mul(t, l0 + d * x.sinh()));
+            d_clipped(&minv, unit(p), upper) / x.cosh().powi(2)
+        };
+        let cuts: Vec<f64> = planes
+            .iter()
+            .filter_map(|&sigma| linear_root(dot(sigma, base), dot(sigma, t)).map(u))
+            .collect();
+        facing * r / (d * d) * composite(&f, u(0.0), u(len), &cuts, 40)
+    };
+    let mut cuts = Vec::new();
+    for &sigma in &planes {
+        for end in [c.p1, c.p2] {
+            cuts.extend(
+                trig_roots(dot(sigma, end), r * dot(sigma, e1), r * dot(sigma, e2))
+                    .into_iter()
+                    .flat_map(|x| [x - 2.0 * PI, x, x + 2.0 * PI]),
+            );
+        }
+    }
+    composite(&inner, lo, hi, &cuts, 200)
+}
+
+/// `caps` (or `caps_upper`) per Eq. 1.29 in the disks' polar coordinates (φ outer, r inner),
+/// one-sided as in Listing 1.8.
+fn caps(c: &Config, upper: bool) -> f64 {
+    let r = c.radius.unwrap();
+    let minv = c.material.minv();
+    let planes = planes(&minv, upper);
     let t = unit(sub(c.p2, c.p1));
     let (e1, e2) = basis(t);
     let mut total = 0.0;
@@ -251,22 +328,29 @@ fn caps(c: &Config) -> f64 {
             let f = |rr: f64| {
                 let p = add(centre, mul(u(phi), rr));
                 let w = unit(p);
-                rr * d_of(&minv, w) * dot(w, normal).max(0.0) / dot(p, p)
+                rr * d_clipped(&minv, w, upper) * dot(w, normal).max(0.0) / dot(p, p)
             };
-            let cut = linear_root(dot(sigma, centre), dot(sigma, u(phi)));
-            composite(&f, 0.0, r, &cut.into_iter().collect::<Vec<_>>(), 12)
+            let cut: Vec<f64> = planes
+                .iter()
+                .filter_map(|&sigma| linear_root(dot(sigma, centre), dot(sigma, u(phi))))
+                .collect();
+            composite(&f, 0.0, r, &cut, 12)
         };
-        let cuts = trig_roots(dot(sigma, centre), r * dot(sigma, e1), r * dot(sigma, e2));
+        let cuts: Vec<f64> = planes
+            .iter()
+            .flat_map(|&sigma| trig_roots(dot(sigma, centre), r * dot(sigma, e1), r * dot(sigma, e2)))
+            .collect();
         total += composite(&inner, 0.0, 2.0 * PI, &cuts, 30);
     }
     total
 }
 
-/// `rectangle` in (l, s) with both sinh-graded about the origin's foot on the plane.
-fn rectangle(c: &Config) -> f64 {
+/// `rectangle` (or `rectangle_upper`) in (l, s) with both sinh-graded about the origin's foot
+/// on the plane.
+fn rectangle(c: &Config, upper: bool) -> f64 {
     let rect = c.rect.as_ref().unwrap();
     let minv = c.material.minv();
-    let sigma = minv[2];
+    let planes = planes(&minv, upper);
     let e = sub(c.p2, c.p1);
     let len = norm(e);
     let t = mul(e, 1.0 / len);
@@ -286,15 +370,20 @@ fn rectangle(c: &Config) -> f64 {
             let s = sf + dl * x.sinh();
             let p = add(base, mul(wb, s));
             let w = unit(p);
-            d_of(&minv, w) * dot(w, n).abs() / dot(p, p) * dl * x.cosh()
+            d_clipped(&minv, w, upper) * dot(w, n).abs() / dot(p, p) * dl * x.cosh()
         };
-        let cut = linear_root(dot(sigma, base), dot(sigma, wb)).map(v);
-        composite(&f, v(-half), v(half), &cut.into_iter().collect::<Vec<_>>(), 12)
+        let cut: Vec<f64> = planes
+            .iter()
+            .filter_map(|&sigma| linear_root(dot(sigma, base), dot(sigma, wb)).map(v))
+            .collect();
+        composite(&f, v(-half), v(half), &cut, 12)
     };
     let mut cuts = Vec::new();
-    for s in [-half, half] {
-        let a = dot(sigma, add(c.p1, mul(wb, s)));
-        cuts.extend(linear_root(a, dot(sigma, t)).map(u));
+    for &sigma in &planes {
+        for s in [-half, half] {
+            let a = dot(sigma, add(c.p1, mul(wb, s)));
+            cuts.extend(linear_root(a, dot(sigma, t)).map(u));
+        }
     }
     let f = |x: f64| {
         let l = lf + scale * x.sinh();
@@ -352,7 +441,7 @@ fn surfaces_agree_with_area_quadrature() {
     let nonzero = configs
         .par_iter()
         .map(|c| {
-            let (side, ends, flat) = (cylinder(c), caps(c), rectangle(c));
+            let (side, ends, flat) = (cylinder(c, false), caps(c, false), rectangle(c, false));
             check(c, Target::Cylinder, side, 1e-7);
             check(c, Target::Caps, ends, 1e-7);
             check(c, Target::Tube, side + ends, 1e-7);
@@ -452,4 +541,107 @@ fn line_isotropic_on_ggx_agrees_with_sinh_quadrature() {
         check(&c, Target::LineIsotropic, v, 1e-7);
     }
     assert!(lit >= 10, "{lit}");
+}
+
+/// Configurations the samplers never draw: a tube or rectangle whose light straddles the
+/// horizon (p1 below, p2 above, at tilts the cases do not use), and one wholly below the
+/// surface (both end points and the whole shape at z <= 0), with the lobe leaking below.
+fn straddling_config(rng: &mut ChaCha8Rng, i: usize) -> Config {
+    loop {
+        let material = match i % 3 {
+            0 => Material::Diffuse,
+            // A lobe tilted towards the horizon, so that `D` reaches below it (the leak).
+            _ => Material::Ltc {
+                minv: [
+                    [rng.random_range(1.0..6.0), 0.0, rng.random_range(0.5..2.0)],
+                    [0.0, rng.random_range(1.0..6.0), 0.0],
+                    [rng.random_range(-0.9..-0.3), 0.0, 1.0],
+                ],
+            },
+        };
+        let below = i % 5 == 4;
+        let mut p = || [0; 3].map(|_| rng.random_range(-1.5..1.5f64));
+        let (mut p1, mut p2) = (p(), p());
+        let radius = rng.random_range(0.01..0.3);
+        if below {
+            p1[2] = -p1[2].abs() - radius;
+            p2[2] = -p2[2].abs() - radius;
+        } else {
+            p1[2] = -p1[2].abs() * 0.5;
+            p2[2] = p2[2].abs() * 0.5 + 0.05;
+        }
+        let t = unit(sub(p2, p1));
+        let (e1, e2) = basis(t);
+        let a = rng.random_range(0.0..2.0 * PI);
+        let mut c = Config {
+            id: format!("straddle{i}"),
+            p1,
+            p2,
+            radius: Some(radius),
+            rect: Some(Rect {
+                normal: add(mul(e1, a.cos()), mul(e2, a.sin())),
+                // The rectangle's half-width stays within the radius, so "wholly below" holds
+                // for it too.
+                width: 2.0 * radius,
+            }),
+            material,
+        };
+        c.orthonormalize_rect();
+        if c.validate().is_ok() && c.distance_to_segment() > 2.0 * radius + 0.05 {
+            return c;
+        }
+    }
+}
+
+/// `cylinder_upper`, `caps_upper`, `tube_upper` and `rectangle_upper` against this file's own
+/// quadrature with the integrand clipped at the horizon, on lights straddling the horizon and
+/// wholly below it (where every one of them is 0, while the unclipped leak is not).
+#[test]
+fn upper_surfaces_agree_with_clipped_area_quadrature() {
+    let mut rng = ChaCha8Rng::seed_from_u64(18);
+    let configs: Vec<Config> = (0..40).map(|i| straddling_config(&mut rng, i)).collect();
+    let counts = configs
+        .par_iter()
+        .map(|c| {
+            let (side, ends, flat) = (cylinder_generators(c, true), caps(c, true), rectangle(c, true));
+            let below = c.p1[2] <= 0.0 && c.p2[2] <= 0.0;
+            if below {
+                for t in [
+                    Target::CylinderUpper,
+                    Target::CapsUpper,
+                    Target::TubeUpper,
+                    Target::RectangleUpper,
+                ] {
+                    assert_eq!(reference(c, t).unwrap().value, 0.0, "{t} {c:?}");
+                }
+                assert_eq!(side + ends + flat, 0.0, "{c:?}");
+            } else {
+                check(c, Target::CylinderUpper, side, 1e-7);
+                check(c, Target::CapsUpper, ends, 1e-7);
+                check(c, Target::TubeUpper, side + ends, 1e-7);
+                check(c, Target::RectangleUpper, flat, 1e-7);
+            }
+            // The clipped target never exceeds the unclipped one, and is below it somewhere
+            // for a leaking lobe.
+            let leak = [
+                (Target::Cylinder, side),
+                (Target::Caps, ends),
+                (Target::Rectangle, flat),
+            ]
+            .map(|(t, upper)| {
+                let all = reference(c, t).unwrap().value;
+                assert!(upper <= all * (1.0 + 1e-9) + 1e-300, "{t} {c:?}: {upper} > {all}");
+                upper < all * (1.0 - 1e-6)
+            });
+            [
+                usize::from(below),
+                usize::from(!below && side > 0.0 && flat > 0.0),
+                usize::from(leak.iter().any(|&l| l)),
+            ]
+        })
+        .reduce(|| [0; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]]);
+    let [below, lit, leaking] = counts;
+    assert!(below >= 6, "{counts:?}");
+    assert!(lit >= 15, "{counts:?}");
+    assert!(leaking >= 15, "{counts:?}");
 }

@@ -47,20 +47,24 @@ pub struct MaterialStats {
     pub material: String,
     /// False when the method does not claim to handle this material's M⁻¹ (shown, not gated).
     pub supported: bool,
+    /// The headline: judged against `MethodStats::judged`, what the surface receives where the
+    /// method's target has a surface view (`line` → `line_upper`, `cylinder` →
+    /// `cylinder_upper`, …). There a quit test's zero for a light wholly below the surface is
+    /// right and a lobe's leak below the horizon is an error.
     pub all: BinStats,
     pub axes: Vec<AxisStats>,
     pub maps: Vec<MapStats>,
-    /// For `line` methods: the same results judged against `line_upper`, what a real
-    /// surface receives (the difference is the leak below the horizon).
-    pub against_line_upper: Option<BinStats>,
-    /// The same view per bin of every axis (empty for other methods): what the "What to ship"
-    /// answer reads region by region.
+    /// For methods with a surface view: the same results judged against the method's own
+    /// target (the lobe as the LTC defines it, leak included): the formula's own error.
+    pub own_target: Option<BinStats>,
+    /// The same view per bin of every axis (empty for other methods).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub against_line_upper_axes: Vec<AxisStats>,
-    /// For `line` methods: the configurations whose light is wholly below the surface (both
-    /// end points at z <= 0), judged against `line_upper` (0 for every one of them). A subset
-    /// of `against_line_upper`'s zero references, which also holds lights above the surface
-    /// only outside the lobe.
+    pub own_axes: Vec<AxisStats>,
+    /// For methods with a surface view: the configurations whose light is wholly below the
+    /// surface (both end points, and for a tube or rectangle the whole shape, at z <= 0),
+    /// judged against the surface view (0 for every one of them). A subset of the headline's
+    /// zero references ("surface receives nothing"), which also holds lights above the
+    /// surface only outside the lobe.
     pub wholly_below: Option<BinStats>,
 }
 
@@ -68,9 +72,17 @@ pub struct MaterialStats {
 #[derive(Clone, Debug)]
 pub enum BinStatsRef {
     All,
-    /// The `line` method judged against `line_upper`.
-    LineUpper,
-    /// The `line` method on the lights wholly below the surface, against `line_upper`.
+    /// The headline of a method with a surface view (`upper_*` claims): `All`, refused for a
+    /// method that has no own-target view beside it.
+    Upper,
+    /// A method with a surface view judged against its own target (the formula's own error).
+    Own,
+    /// The same, in the bin of `axis` whose lower edge is `lo`.
+    OwnBin {
+        axis: String,
+        lo: f64,
+    },
+    /// The lights wholly below the surface, against the surface view.
     WhollyBelow,
     /// The bin of `axis` whose lower edge is `lo`.
     Bin {
@@ -83,8 +95,14 @@ impl std::fmt::Display for BinStatsRef {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             BinStatsRef::All => f.write_str("(all)"),
-            BinStatsRef::LineUpper => f.write_str("against line_upper (only line methods have it)"),
-            BinStatsRef::WhollyBelow => f.write_str("wholly below the surface (only line methods have it)"),
+            BinStatsRef::Upper => f.write_str("against the surface view (only methods with one have it)"),
+            BinStatsRef::Own => f.write_str("against its own target (only methods with a surface view have it)"),
+            BinStatsRef::OwnBin { axis, lo } => {
+                write!(f, "against its own target, of `{axis}` with lower edge {lo}")
+            }
+            BinStatsRef::WhollyBelow => {
+                f.write_str("wholly below the surface (only methods with a surface view have it)")
+            }
             BinStatsRef::Bin { axis, lo } => write!(f, "of `{axis}` with lower edge {lo}"),
         }
     }
@@ -94,18 +112,22 @@ impl MaterialStats {
     pub fn select(&self, which: &BinStatsRef) -> Option<&BinStats> {
         match which {
             BinStatsRef::All => Some(&self.all),
-            BinStatsRef::LineUpper => self.against_line_upper.as_ref(),
+            BinStatsRef::Upper => self.own_target.as_ref().map(|_| &self.all),
+            BinStatsRef::Own => self.own_target.as_ref(),
             BinStatsRef::WhollyBelow => self.wholly_below.as_ref(),
-            BinStatsRef::Bin { axis, lo } => self
-                .axes
-                .iter()
-                .find(|a| &a.axis == axis)?
-                .bins
-                .iter()
-                .find(|b| b.lo == *lo)
-                .map(|b| &b.stats),
+            BinStatsRef::Bin { axis, lo } => find_bin(&self.axes, axis, *lo),
+            BinStatsRef::OwnBin { axis, lo } => find_bin(&self.own_axes, axis, *lo),
         }
     }
+}
+
+fn find_bin<'a>(axes: &'a [AxisStats], axis: &str, lo: f64) -> Option<&'a BinStats> {
+    axes.iter()
+        .find(|a| a.axis == axis)?
+        .bins
+        .iter()
+        .find(|b| b.lo == lo)
+        .map(|b| &b.stats)
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -114,7 +136,11 @@ pub struct MethodStats {
     /// The label with a composite's inner method spelled out (`cylinder.line[line.ltc2023_full]`).
     pub describe: String,
     pub id: String,
+    /// The method's own target (what its formula models).
     pub target: Target,
+    /// What the headline judges it against: the surface view of `target` where there is one
+    /// ([`headline_target`]), else `target`.
+    pub judged: Target,
     pub source: String,
     pub kernel: String,
     pub has_f64: bool,
@@ -270,6 +296,8 @@ enum Judged {
         /// The GPU value, and the f64 one, are exactly 0 (missed light).
         dark: (bool, bool),
         reference: f64,
+        /// |reference at f32 inputs − reference| / |reference|, where measured.
+        input_rounding: Option<f64>,
     },
     /// The reference is exactly 0.
     Zero { gpu: f32, f64: Option<f64> },
@@ -285,7 +313,13 @@ fn push(acc: &mut BinAccumulator, j: Judged) {
             below_floor,
             dark,
             reference,
-        } => acc.push(gpu, cpu, f64, reference_rel, below_floor, dark, reference),
+            input_rounding,
+        } => {
+            acc.push(gpu, cpu, f64, reference_rel, below_floor, dark, reference);
+            if let Some(x) = input_rounding {
+                acc.push_input_rounding(x);
+            }
+        }
         Judged::Zero { gpu, f64 } => acc.push_zero(gpu, f64),
     }
 }
@@ -316,14 +350,20 @@ fn judge(case: &Case, chunk: &Chunk, run: &MethodRun, i: usize, judged: Target) 
         });
     }
     let floor = case.floor_for(judged, config);
+    // The f32 columns against the reference at the f32-rounded inputs (what an f32 kernel could
+    // at best return; the exact one where that is missing or 0), the f64 column against the
+    // exact reference (docs/statistics.md).
+    let rounded = chunk.references_f32.get(i).and_then(|refs| refs.get(&judged));
+    let r32 = rounded.map(|e| e.value).filter(|&v| v != 0.0).unwrap_or(r.value);
     Some(Judged::Lit {
-        gpu: Outcome::of_f32(run.f32[i], r.value, floor),
-        cpu: run.f32_cpu[i].map(|v| Outcome::of_f32(v, r.value, floor)),
+        gpu: Outcome::of_f32(run.f32[i], r32, floor),
+        cpu: run.f32_cpu[i].map(|v| Outcome::of_f32(v, r32, floor)),
         f64: run.f64[i].map(|v| Outcome::of_f64(v, r.value, floor)),
         reference_rel: r.error / r.value.abs(),
         below_floor: r.value.abs() < floor,
         dark: (run.f32[i] == 0.0, run.f64[i] == Some(0.0)),
         reference: r.value,
+        input_rounding: rounded.map(|e| (e.value - r.value).abs() / r.value.abs()),
     })
 }
 
@@ -332,13 +372,15 @@ fn judge(case: &Case, chunk: &Chunk, run: &MethodRun, i: usize, judged: Target) 
 struct MaterialAcc {
     /// Whether the method supports the material, from its first configuration seen.
     supported: Option<bool>,
+    /// Against the headline target (the surface view where there is one).
     all: BinAccumulator,
-    upper: BinAccumulator,
-    /// Against `line_upper`, the lights wholly below the surface only.
+    /// Against the method's own target, for methods with a surface view.
+    own: BinAccumulator,
+    /// Against the surface view, the lights wholly below the surface only.
     below: BinAccumulator,
     axes: Vec<Vec<BinAccumulator>>,
-    /// `upper` per bin of every axis; only `line` methods have them (empty otherwise).
-    upper_axes: Vec<Vec<BinAccumulator>>,
+    /// `own` per bin of every axis; only methods with a surface view have them (empty otherwise).
+    own_axes: Vec<Vec<BinAccumulator>>,
     /// Only the methods a map draws have cells (the others' grids would be read by no one).
     maps: Vec<Vec<Vec<BinAccumulator>>>,
 }
@@ -361,9 +403,9 @@ impl MethodAcc {
         let material = MaterialAcc {
             supported: None,
             all: BinAccumulator::default(),
-            upper: BinAccumulator::default(),
+            own: BinAccumulator::default(),
             below: BinAccumulator::default(),
-            upper_axes: if method.target() == Target::Line {
+            own_axes: if headline_target(method.target()) != method.target() {
                 axes.clone()
             } else {
                 Vec::new()
@@ -386,23 +428,21 @@ impl MethodAcc {
     }
 
     fn add(&mut self, case: &Case, chunk: &Chunk, placed: &[Placement], run: &MethodRun) {
-        let target = run.method.target();
+        let own = run.method.target();
+        let target = headline_target(own);
         self.has_f64 |= run.f64.iter().any(Option::is_some);
         for (i, p) in placed.iter().enumerate() {
             let acc = &mut self.materials[p.material];
             acc.supported
                 .get_or_insert_with(|| run.method.supports(&chunk.samples[i].config));
-            if target == Target::Line {
-                if let Some(u) = judge(case, chunk, run, i, Target::LineUpper) {
+            if target != own {
+                if let Some(o) = judge(case, chunk, run, i, own) {
                     if p.natural {
-                        push(&mut acc.upper, u);
-                        if chunk.samples[i].config.wholly_below() {
-                            push(&mut acc.below, u);
-                        }
+                        push(&mut acc.own, o);
                     }
-                    for (bins, k) in acc.upper_axes.iter_mut().zip(&p.bins) {
+                    for (bins, k) in acc.own_axes.iter_mut().zip(&p.bins) {
                         if let Some(k) = k {
-                            push(&mut bins[*k], u);
+                            push(&mut bins[*k], o);
                         }
                     }
                 }
@@ -410,6 +450,9 @@ impl MethodAcc {
             let Some(judged) = judge(case, chunk, run, i, target) else {
                 continue;
             };
+            if target != own && p.natural && chunk.samples[i].config.shape_wholly_below(own) {
+                push(&mut acc.below, judged);
+            }
             if p.natural {
                 push(&mut acc.all, judged);
                 for (cells, cell) in acc.maps.iter_mut().zip(&p.cells) {
@@ -431,12 +474,12 @@ impl MethodAcc {
         for (a, b) in self.materials.iter_mut().zip(&o.materials) {
             a.supported = a.supported.or(b.supported);
             a.all.merge(&b.all);
-            a.upper.merge(&b.upper);
+            a.own.merge(&b.own);
             a.below.merge(&b.below);
             for (x, y) in a.axes.iter_mut().flatten().zip(b.axes.iter().flatten()) {
                 x.merge(y);
             }
-            for (x, y) in a.upper_axes.iter_mut().flatten().zip(b.upper_axes.iter().flatten()) {
+            for (x, y) in a.own_axes.iter_mut().flatten().zip(b.own_axes.iter().flatten()) {
                 x.merge(y);
             }
             for (x, y) in a
@@ -453,6 +496,8 @@ impl MethodAcc {
 
     fn finish(&self, case: &Case, method: &Method) -> MethodStats {
         let target = method.target();
+        let judged = headline_target(target);
+        let viewed = judged != target;
         // Every bin carries the budget's bound of its quantile (docs/statistics.md).
         let q = case.budget().quantile;
         let axes = |accs: &[Vec<BinAccumulator>]| -> Vec<AxisStats> {
@@ -495,9 +540,9 @@ impl MethodAcc {
                             .collect(),
                     })
                     .collect(),
-                against_line_upper: (target == Target::Line).then(|| acc.upper.finish_bounded(q)),
-                against_line_upper_axes: axes(&acc.upper_axes),
-                wholly_below: (target == Target::Line).then(|| acc.below.finish()),
+                own_target: viewed.then(|| acc.own.finish_bounded(q)),
+                own_axes: axes(&acc.own_axes),
+                wholly_below: viewed.then(|| acc.below.finish()),
             })
             .collect();
         MethodStats {
@@ -505,6 +550,7 @@ impl MethodAcc {
             describe: method.describe(),
             id: method.id().to_string(),
             target,
+            judged,
             source: method.kernel.source.clone(),
             kernel: method.kernel.path.clone(),
             has_f64: self.has_f64,
@@ -702,8 +748,11 @@ pub fn statistics_size(case: &Case, methods: &[Method]) -> crate::limits::Statis
         map_cells = map_cells.saturating_add(cells.saturating_mul(shown));
         map_placements = map_placements.saturating_add(shown);
     }
-    // A `line` method has its bins twice: against `line` and against `line_upper`.
-    let lines = methods.iter().filter(|x| x.target() == Target::Line).count() as u64;
+    // A method with a surface view has its bins twice: against it and against its own target.
+    let lines = methods
+        .iter()
+        .filter(|x| headline_target(x.target()) != x.target())
+        .count() as u64;
     let per_material = m
         .saturating_mul(bins.saturating_add(2))
         .saturating_add(lines.saturating_mul(bins))
@@ -876,6 +925,13 @@ fn checks(case: &Case, methods: &[MethodStats]) -> Vec<Check> {
         }
     }
     out
+}
+
+/// What the headline judges a method of target `own` against: what the surface receives
+/// (`Target::upper`: `line` → `line_upper`, `cylinder` → `cylinder_upper`, …) where the target
+/// has such a view, else `own` (docs/statistics.md).
+pub fn headline_target(own: Target) -> Target {
+    own.upper().unwrap_or(own)
 }
 
 /// How much of `line` lies below the horizon, per family, while a sweep runs: configurations

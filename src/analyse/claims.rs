@@ -103,7 +103,7 @@ impl Facts {
         which: &BinStatsRef,
         f: &dyn Fn(&BinStats) -> Option<f64>,
     ) -> Result<f64, Fail> {
-        if let BinStatsRef::Bin { axis, .. } = which {
+        if let BinStatsRef::Bin { axis, .. } | BinStatsRef::OwnBin { axis, .. } = which {
             self.check_axis(axis)?;
         }
         let Some(mat) = self.material(label, material)? else {
@@ -320,28 +320,81 @@ fn engine(facts: Rc<Facts>) -> Engine {
             f.stat(&m, &mat, &BinStatsRef::All, &|s| Some(s.within[t]))
         });
     }
-    // A `line` method judged against `line_upper` (what a real surface receives).
+    // Input rounding: |reference at the f32-rounded inputs − reference| / |reference|.
+    both!(
+        "rounding_median",
+        "bin_rounding_median",
+        |s: &BinStats| q(|q| q.median)(s.input_rounding)
+    );
+    both!("rounding_p99", "bin_rounding_p99", |s: &BinStats| q(|q| q.p99)(
+        s.input_rounding
+    ));
+    both!("rounding_max", "bin_rounding_max", |s: &BinStats| q(|q| q.max)(
+        s.input_rounding
+    ));
+    // A method with a surface view (`line`, `cylinder`, `caps`, `tube`, `rectangle`): `upper_*`
+    // read the headline, judged against what a real surface receives; `own_*` the same results
+    // against the method's own target (the lobe as the LTC defines it, leak included: the
+    // formula's own error); `below_*` the lights wholly below the surface.
     for (name, get) in [
         (
             "upper_p99",
             (|s: &BinStats| q(|q| q.p99)(s.rel)) as fn(&BinStats) -> Option<f64>,
         ),
+        ("upper_median", |s| q(|q| q.median)(s.rel)),
+        ("upper_max", |s| q(|q| q.max)(s.rel)),
+        ("upper_f64_p99", |s| q(|q| q.p99)(s.rel_f64)),
+        ("upper_count", |s| Some(s.lit_configurations() as f64)),
+        ("upper_dark", |s| Some(s.dark as f64)),
+        ("upper_dark_f64", |s| Some(s.dark_f64 as f64)),
         ("upper_zero", |s| Some(s.false_light.configurations as f64)),
         ("upper_false_lit", |s| Some(s.false_light.lit as f64)),
         ("upper_false_lit_f64", |s| Some(s.false_light.lit_f64 as f64)),
         ("upper_false_max", |s| q(|q| q.max)(s.false_light.value)),
     ] {
+        for (prefix, which) in [
+            ("upper_", BinStatsRef::Upper),
+            ("own_", BinStatsRef::Own),
+            ("below_", BinStatsRef::WhollyBelow),
+        ] {
+            let name = name.replacen("upper_", prefix, 1);
+            let f = facts.clone();
+            e.register_fn(name.as_str(), move |m: S, mat: S| -> Result<f64, Fail> {
+                f.stat(&m, &mat, &which, &get)
+            });
+        }
+        // The own-target view per bin: `bin_own_p99(method, material, axis, lo)`.
+        let binned = format!("bin_{}", name.replacen("upper_", "own_", 1));
         let f = facts.clone();
-        e.register_fn(name, move |m: S, mat: S| -> Result<f64, Fail> {
-            f.stat(&m, &mat, &BinStatsRef::LineUpper, &get)
-        });
-        // The same over the lights wholly below the surface (both end points at z <= 0): a
-        // subset of `upper_zero`, which also holds lights above the surface only outside the lobe.
-        let below = name.replacen("upper_", "below_", 1);
+        e.register_fn(
+            binned.as_str(),
+            move |m: S, mat: S, axis: S, lo: f64| -> Result<f64, Fail> {
+                f.stat(
+                    &m,
+                    &mat,
+                    &BinStatsRef::OwnBin {
+                        axis: axis.to_string(),
+                        lo,
+                    },
+                    &get,
+                )
+            },
+        );
         let f = facts.clone();
-        e.register_fn(below, move |m: S, mat: S| -> Result<f64, Fail> {
-            f.stat(&m, &mat, &BinStatsRef::WhollyBelow, &get)
-        });
+        e.register_fn(
+            binned.as_str(),
+            move |m: S, mat: S, axis: S, lo: i64| -> Result<f64, Fail> {
+                f.stat(
+                    &m,
+                    &mat,
+                    &BinStatsRef::OwnBin {
+                        axis: axis.to_string(),
+                        lo: lo as f64,
+                    },
+                    &get,
+                )
+            },
+        );
     }
     // Compared pairs: |a − b| / reference.
     for (name, get) in [

@@ -26,12 +26,10 @@ pub struct ShipBudget {
 }
 
 /// The surface-clipped target of a method's own target (what a real surface receives), where
-/// the analysis has that view.
+/// the target has one other than itself (`line` → `line_upper`, `cylinder` →
+/// `cylinder_upper`, …): the headline's target (`analysis::headline_target`).
 pub fn surface_target(own: Target) -> Option<Target> {
-    match own {
-        Target::Line => Some(Target::LineUpper),
-        _ => None,
-    }
+    own.upper().filter(|&u| u != own)
 }
 
 /// Whether a method of target `own` is judged against `target`: its own, or its surface view.
@@ -40,13 +38,10 @@ pub fn judged_against(own: Target, target: Target) -> bool {
 }
 
 impl ShipBudget {
-    /// `budget` with its target resolved: the stated one, or else the first method's target
-    /// clipped to the surface where it can be. None when there is no method.
+    /// `budget` with its target resolved: the stated one, or else the first method's headline
+    /// target (clipped to the surface where it can be). None when there is no method.
     pub fn resolve(budget: &Budget, stated: bool, analysis: &Analysis) -> Option<ShipBudget> {
-        let target = budget.target.or_else(|| {
-            let first = analysis.methods.first()?;
-            Some(surface_target(first.target).unwrap_or(first.target))
-        })?;
+        let target = budget.target.or_else(|| Some(analysis.methods.first()?.judged))?;
         Some(ShipBudget {
             statistic: budget.statistic.clone(),
             quantile: budget.quantile,
@@ -74,23 +69,24 @@ pub struct JudgedView<'a> {
     pub axes: &'a [AxisStats],
 }
 
-/// The one place that says which of a method's views the budget reads: its own target's when
-/// that is the budget's, its surface-clipped view when that is. None when the method is judged
-/// against neither (it computes something else, and is not a candidate).
+/// The one place that says which of a method's views the budget reads: the headline (its
+/// surface view, or its own target where it has none) when that is the budget's target, its
+/// own-target view when that is. None when the method is judged against neither (it computes
+/// something else, and is not a candidate).
 pub fn judged_view<'a>(method: &'a MethodStats, material: usize, budget: &ShipBudget) -> Option<JudgedView<'a>> {
     let mat = method.materials.get(material)?;
-    if method.target == budget.target {
+    if method.judged == budget.target {
         return Some(JudgedView {
-            target: method.target,
+            target: method.judged,
             all: &mat.all,
             axes: &mat.axes,
         });
     }
-    if surface_target(method.target) == Some(budget.target) && method.target == Target::Line {
+    if method.target == budget.target {
         return Some(JudgedView {
-            target: budget.target,
-            all: mat.against_line_upper.as_ref()?,
-            axes: &mat.against_line_upper_axes,
+            target: method.target,
+            all: mat.own_target.as_ref()?,
+            axes: &mat.own_axes,
         });
     }
     None
@@ -131,6 +127,12 @@ pub fn judge(stats: &BinStats, budget: &ShipBudget) -> Judgement {
         Meets::Breaks
     };
     Judgement { n, bound, point, meets }
+}
+
+/// Input rounding alone breaks the budget in a region: its quantile at the budget's exceeds
+/// the budget's value, so no f32 kernel fed the configuration rounded to f32 can meet it.
+pub fn unattainable_in_f32(stats: &BinStats, budget: &ShipBudget) -> bool {
+    stats.input_rounding_at_budget.is_some_and(|x| x > budget.value)
 }
 
 /// What a method costs: the op count of the cost model (`eval::cost`, `total`), which ranks,
@@ -179,6 +181,12 @@ pub struct Region {
     pub shipped: Judgement,
     /// The first candidate (in the ranking's order) that meets the budget there, if any.
     pub instead: Option<Instead>,
+    /// The input rounding there (|reference at f32 inputs − reference| / |reference|) at the
+    /// budget's quantile, where measured.
+    pub input_rounding: Option<f64>,
+    /// Input rounding alone breaks the budget there: no f32 kernel can meet it ("unattainable
+    /// in f32").
+    pub unattainable_in_f32: bool,
 }
 
 /// The answer for one material.
@@ -303,12 +311,15 @@ fn choose_material(budget: &ShipBudget, analysis: &Analysis, costs: &[Cost], k: 
                         judgement: j,
                     })
                 });
+                let input_rounding = bin.stats.input_rounding_at_budget;
                 regions.push(Region {
                     axis: axis.axis.clone(),
                     lo: bin.lo,
                     hi: bin.hi,
                     shipped,
                     instead,
+                    input_rounding,
+                    unattainable_in_f32: unattainable_in_f32(&bin.stats, budget),
                 });
             }
         }
@@ -366,6 +377,7 @@ mod tests {
             describe: label.into(),
             id: label.into(),
             target,
+            judged: target,
             source: String::new(),
             kernel: String::new(),
             has_f64: true,
@@ -375,8 +387,8 @@ mod tests {
                 all,
                 axes,
                 maps: Vec::new(),
-                against_line_upper: None,
-                against_line_upper_axes: Vec::new(),
+                own_target: None,
+                own_axes: Vec::new(),
                 wholly_below: None,
             }],
         }
@@ -547,10 +559,17 @@ mod tests {
     #[test]
     fn the_budget_reads_the_surface_view_of_a_line_method() {
         let mut a = run();
-        // Against `line_upper`, `cheap` lights 200 configurations the surface receives nothing
-        // from: an infinite error past the p99.
+        // `cheap` as a method with a surface view: its headline against `line_upper`, where it
+        // lights 200 configurations the surface receives nothing from (an infinite error past
+        // the p99); the view run() gave it becomes its own-target view (against `line`).
         let q = 0.99;
-        a.methods[0].materials[0].against_line_upper = Some({
+        let m = &mut a.methods[0];
+        m.judged = Target::LineUpper;
+        let mat = &mut m.materials[0];
+        mat.own_target = Some(mat.all.clone());
+        // Its surface view has no bins in this constructed run: it meets the budget nowhere.
+        mat.own_axes = std::mem::take(&mut mat.axes);
+        mat.all = {
             let mut acc = BinAccumulator::default();
             for _ in 0..9800 {
                 acc.push_gpu(Outcome::of_f32(1.0, 1.0, 1e-6));
@@ -559,7 +578,11 @@ mod tests {
                 acc.push_zero(0.1, Some(0.1));
             }
             acc.finish_bounded(q)
-        });
+        };
+        // A budget stated against `line` reads the own-target view: the answer is unchanged.
+        let own = &choose(&budget(true), &a, &costs()).materials[0];
+        assert_eq!(own.ship.as_deref(), Some("cheap"));
+        assert_eq!(own.candidates[1].judged_against, Target::Line);
         let mut b = budget(true);
         b.target = Target::LineUpper;
         let m = &choose(&b, &a, &costs()).materials[0];
@@ -571,11 +594,50 @@ mod tests {
         // The others have no `line_upper` view in this constructed run: not candidates.
         assert_eq!(m.candidates.len(), 1);
         assert_eq!(m.ship, None);
-        // The default target: the first method's, clipped to the surface.
+        // The default target: the first method's headline, clipped to the surface.
         let d = ShipBudget::resolve(&Budget::default(), false, &a).unwrap();
         assert_eq!(
             (d.target, d.quantile_name().as_str(), d.stated),
             (Target::LineUpper, "p99", false)
         );
+    }
+
+    #[test]
+    fn a_region_where_input_rounding_alone_breaks_the_budget_is_unattainable_in_f32() {
+        let mut a = run();
+        a.methods.truncate(1);
+        let q = 0.99;
+        // `cheap` breaks p99 <= 1e-2 in [10, 100); there the reference at the f32-rounded
+        // inputs is 5 % away from the exact one on 10 % of the lights (above the budget at p99),
+        // and 1e-4 away in [0, 10).
+        let bin = |errors: &[(usize, f64)], rounding: &[(usize, f64)]| {
+            let mut acc = BinAccumulator::default();
+            for &(n, e) in errors {
+                for _ in 0..n {
+                    acc.push_gpu(Outcome::of_f32((1.0 + e) as f32, 1.0, 1e-6));
+                }
+            }
+            for &(n, r) in rounding {
+                for _ in 0..n {
+                    acc.push_input_rounding(r);
+                }
+            }
+            acc.finish_bounded(q)
+        };
+        let axes = &mut a.methods[0].materials[0].axes[0].bins;
+        axes[0].stats = bin(&[(9980, 1e-3)], &[(9980, 1e-4)]);
+        axes[1].stats = bin(&[(500, 0.5)], &[(450, 1e-6), (50, 0.05)]);
+        assert_eq!(axes[1].stats.input_rounding.unwrap().max, 0.05);
+        let m = &choose(&budget(true), &a, &costs()).materials[0];
+        let r = m.regions.iter().find(|r| r.lo == 10.0).unwrap();
+        assert_eq!(r.shipped.meets, Meets::Breaks);
+        assert_eq!((r.input_rounding, r.unattainable_in_f32), (Some(0.05), true));
+        // Where input rounding is within the budget the region is not so labelled, and where it
+        // was not measured there is no input-rounding figure at all.
+        let few = m.regions.iter().find(|r| r.lo == 100.0).unwrap();
+        assert_eq!((few.input_rounding, few.unattainable_in_f32), (None, false));
+        let near = &a.methods[0].materials[0].axes[0].bins[0].stats;
+        assert!(!unattainable_in_f32(near, &budget(true)));
+        assert_eq!(near.input_rounding_at_budget, Some(1e-4));
     }
 }

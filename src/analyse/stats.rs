@@ -470,6 +470,23 @@ impl Distribution {
         }
     }
 
+    /// The nearest-rank `p`-quantile (the ⌈p·n⌉-th smallest); None when empty. From a sketch,
+    /// within α of the exact one at the same rank.
+    pub fn quantile_at(&self, p: f64) -> Option<f64> {
+        let n = self.len();
+        if n == 0 {
+            return None;
+        }
+        let k = ((p * n as f64).ceil() as usize).clamp(1, n);
+        Some(match self {
+            Distribution::Exact(v) => {
+                let mut v = v.clone();
+                *v.select_nth_unstable_by(k - 1, f64::total_cmp).1
+            }
+            Distribution::Sketch(s) => Self::sketch_at(s, k - 1),
+        })
+    }
+
     /// Median, p90, p99 and max; None when empty. Exact nearest-rank while exact; from the
     /// sketch after (clamped to the observed range, which the sketch keeps exactly).
     pub fn quantiles(&self) -> Option<Quantiles> {
@@ -560,6 +577,16 @@ pub struct BinStats {
     /// |reference| over the configurations with a non-zero reference: how bright the lights
     /// of the bin are (a worst case is dim or typical against these).
     pub reference: Option<Quantiles>,
+    /// Input rounding: |reference at the f32-rounded configuration − reference| / |reference|
+    /// over the non-zero references, where the sweep measured it. No f32 kernel can do better
+    /// than this; the f32 columns (`rel`, `rel_cpu_f32`) are judged against the rounded one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub input_rounding: Option<Quantiles>,
+    /// The input rounding's nearest-rank quantile at the budget's quantile, where the analysis
+    /// asked for it (`finish_bounded`): above the budget's value, the bin is "unattainable in
+    /// f32" (docs/statistics.md).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub input_rounding_at_budget: Option<f64>,
 }
 
 impl BinStats {
@@ -608,9 +635,17 @@ pub struct BinAccumulator {
     rel_lit: Distribution,
     rel_f64_lit: Distribution,
     reference: Distribution,
+    /// |reference at f32 inputs − reference| / |reference| (docs/statistics.md).
+    #[serde(default)]
+    input_rounding: Distribution,
 }
 
 impl BinAccumulator {
+    /// The input rounding of one configuration with a non-zero reference.
+    pub fn push_input_rounding(&mut self, rel: f64) {
+        self.input_rounding.push(rel);
+    }
+
     /// A test's configuration: only the GPU result, against a reference of 1 known exactly.
     #[cfg(test)]
     pub(crate) fn push_gpu(&mut self, gpu: Outcome) {
@@ -701,6 +736,7 @@ impl BinAccumulator {
             (&mut self.rel_lit, &o.rel_lit),
             (&mut self.rel_f64_lit, &o.rel_f64_lit),
             (&mut self.reference, &o.reference),
+            (&mut self.input_rounding, &o.input_rounding),
         ] {
             a.merge(b);
         }
@@ -777,6 +813,7 @@ impl BinAccumulator {
     pub fn finish_bounded(&self, p: f64) -> BinStats {
         BinStats {
             bound: Some(self.quantile_bound(p)),
+            input_rounding_at_budget: self.input_rounding.quantile_at(p),
             ..self.finish()
         }
     }
@@ -820,6 +857,8 @@ impl BinAccumulator {
             rel_lit: self.rel_lit.quantiles(),
             rel_f64_lit: self.rel_f64_lit.quantiles(),
             reference: self.reference.quantiles(),
+            input_rounding: self.input_rounding.quantiles(),
+            input_rounding_at_budget: None,
         }
     }
 }

@@ -106,12 +106,28 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
                 })
                 .collect();
             crate::measure::eval_rows::check_references(&input, &configs, &references)?;
+            // The same targets at the configuration rounded to f32 (input rounding apart).
+            let references_f32: Vec<_> = configs
+                .par_iter()
+                .zip(&references)
+                .map(|(c, exact)| {
+                    let targets = exact.keys().copied().collect();
+                    crate::measure::eval_rows::references_f32_inputs(c, &targets, exact)
+                })
+                .collect();
             for (block, part) in configs.chunks(crate::measure::eval_rows::ROW_BLOCK).enumerate() {
                 let at = block * crate::measure::eval_rows::ROW_BLOCK
                     ..block * crate::measure::eval_rows::ROW_BLOCK + part.len();
                 let values: Vec<&[f32]> = f32s.iter().map(|v| &v[at.clone()]).collect();
-                let rows =
-                    crate::measure::eval_rows::rows(part, &methods, &values, &references[at], attribution, envelope)?;
+                let rows = crate::measure::eval_rows::rows(
+                    part,
+                    &methods,
+                    &values,
+                    &references[at.clone()],
+                    Some(&references_f32[at]),
+                    attribution,
+                    envelope,
+                )?;
                 w.write_all(&crate::io::to_jsonl(&rows))
                     .with_context(|| format!("cannot write {}", output.display()))?;
             }

@@ -851,6 +851,41 @@ min_per_bin = 30
     }
 
     #[test]
+    fn a_shape_is_wholly_below_when_all_of_it_is() {
+        use crate::input::scene::Rect;
+        use crate::input::target::Target;
+        // A horizontal tube of radius 0.3 whose axis is 0.2 below the surface: both end points
+        // are below, but its top reaches 0.1 above, so neither the tube nor its caps are
+        // wholly below; 0.4 down they are. A vertical tube reaches no higher than its ends.
+        let tube = |z: f64, p2: [f64; 3]| Config {
+            id: String::new(),
+            p1: [1.0, 0.0, z],
+            p2,
+            radius: Some(0.3),
+            rect: None,
+            material: Material::Diffuse,
+        };
+        let high = tube(-0.2, [2.0, 0.0, -0.2]);
+        assert!(high.wholly_below());
+        for t in [Target::Cylinder, Target::Caps, Target::Tube, Target::CylinderUpper] {
+            assert!(!high.shape_wholly_below(t), "{t}");
+            assert!(tube(-0.4, [2.0, 0.0, -0.4]).shape_wholly_below(t), "{t}");
+        }
+        // The line targets look at the segment only.
+        assert!(high.shape_wholly_below(Target::Line));
+        assert!(tube(-0.2, [1.0, 0.0, -1.0]).shape_wholly_below(Target::Tube));
+        // A rectangle of width 0.6 standing upright (normal along y) reaches 0.3 above its
+        // centre line; lying flat (normal along z) no higher than it.
+        let rect = |normal: [f64; 3]| Config {
+            rect: Some(Rect { normal, width: 0.6 }),
+            radius: None,
+            ..tube(-0.2, [2.0, 0.0, -0.2])
+        };
+        assert!(!rect([0.0, 1.0, 0.0]).shape_wholly_below(Target::Rectangle));
+        assert!(rect([0.0, 0.0, 1.0]).shape_wholly_below(Target::RectangleUpper));
+    }
+
+    #[test]
     fn same_seed_same_configurations() {
         let a = sample_case(&case());
         let b = sample_case(&case());

@@ -245,6 +245,63 @@ impl Config {
         self.p1[2] <= 0.0 && self.p2[2] <= 0.0
     }
 
+    /// The configuration as an f32 kernel receives it: every input number rounded to f32 as
+    /// given (end points, radius, the rectangle's normal and width, M⁻¹, α and the view), with
+    /// nothing renormalised. Its reference is the best an f32 kernel could return; the gap to
+    /// the exact reference is input rounding (docs/statistics.md). A `ggx` material keeps its
+    /// fed LTC (references read only α and the view).
+    pub fn rounded_to_f32(&self) -> Config {
+        let r = |x: f64| x as f32 as f64;
+        let r3 = |v: Vec3| v.map(r);
+        let material = match &self.material {
+            Material::Diffuse => Material::Diffuse,
+            Material::Ltc { minv } => Material::Ltc { minv: minv.map(r3) },
+            Material::Ggx { alpha, view, ltc, fed } => Material::Ggx {
+                alpha: match *alpha {
+                    Roughness::Iso(a) => Roughness::Iso(r(a)),
+                    Roughness::Aniso(a) => Roughness::Aniso(a.map(r)),
+                },
+                view: r3(*view),
+                ltc: ltc.clone(),
+                fed: *fed,
+            },
+        };
+        Config {
+            id: self.id.clone(),
+            p1: r3(self.p1),
+            p2: r3(self.p2),
+            radius: self.radius.map(r),
+            rect: self.rect.as_ref().map(|rect| Rect {
+                normal: r3(rect.normal),
+                width: r(rect.width),
+            }),
+            material,
+        }
+    }
+
+    /// The light of `target` lies wholly below the surface: every point of the shape it
+    /// integrates at z <= 0, so its surface view (`Target::upper`) is 0 whatever the material.
+    /// For the line targets that is [`Config::wholly_below`]; a tube (side or caps) reaches
+    /// `R·sqrt(1 − ω_t.z²)` above its axis, a rectangle `W/2·|ω_b.z|` above its centre line.
+    pub fn shape_wholly_below(&self, target: crate::input::target::Target) -> bool {
+        use crate::input::target::Target;
+        let t = (v3(self.p2) - v3(self.p1)).normalize();
+        let reach = match target {
+            Target::Cylinder
+            | Target::Caps
+            | Target::Tube
+            | Target::CylinderUpper
+            | Target::CapsUpper
+            | Target::TubeUpper => self.radius.map_or(0.0, |r| r * (1.0 - t.z * t.z).max(0.0).sqrt()),
+            Target::Rectangle | Target::RectangleUpper => self.rect.as_ref().map_or(0.0, |rect| {
+                let b = v3(rect.normal).cross(t).normalize_or_zero();
+                0.5 * rect.width * b.z.abs()
+            }),
+            _ => 0.0,
+        };
+        self.p1[2].max(self.p2[2]) + reach <= 0.0
+    }
+
     /// What an LTC method evaluates: for a `ggx` material, the configuration rotated about
     /// z into the frame of its fed M⁻¹, as an `ltc` material, and the magnitude the result
     /// is multiplied by; otherwise the configuration itself and 1.

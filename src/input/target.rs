@@ -26,10 +26,19 @@ pub enum Target {
     Tube,
     /// Thin two-sided rectangle centred on the segment.
     Rectangle,
+    /// `cylinder` with `D(ω)·[ω.z > 0]`: what a real surface receives from the tube's side
+    /// (as `line_upper` is to `line`).
+    CylinderUpper,
+    /// `caps` with `D(ω)·[ω.z > 0]`.
+    CapsUpper,
+    /// `cylinder_upper + caps_upper`.
+    TubeUpper,
+    /// `rectangle` with `D(ω)·[ω.z > 0]`.
+    RectangleUpper,
 }
 
 impl Target {
-    pub const ALL: [Target; 9] = [
+    pub const ALL: [Target; 13] = [
         Target::Line,
         Target::LineUpper,
         Target::LineIsotropic,
@@ -39,6 +48,10 @@ impl Target {
         Target::Caps,
         Target::Tube,
         Target::Rectangle,
+        Target::CylinderUpper,
+        Target::CapsUpper,
+        Target::TubeUpper,
+        Target::RectangleUpper,
     ];
 
     pub fn name(self) -> &'static str {
@@ -52,6 +65,36 @@ impl Target {
             Target::Caps => "caps",
             Target::Tube => "tube",
             Target::Rectangle => "rectangle",
+            Target::CylinderUpper => "cylinder_upper",
+            Target::CapsUpper => "caps_upper",
+            Target::TubeUpper => "tube_upper",
+            Target::RectangleUpper => "rectangle_upper",
+        }
+    }
+
+    /// What a real surface receives of this target: `D(ω)·[ω.z > 0]` (`line` → `line_upper`,
+    /// `cylinder` → `cylinder_upper`, …). None for targets that have no clipped variant.
+    pub fn upper(self) -> Option<Target> {
+        match self {
+            Target::Line | Target::LineUpper => Some(Target::LineUpper),
+            Target::Cylinder | Target::CylinderUpper => Some(Target::CylinderUpper),
+            Target::Caps | Target::CapsUpper => Some(Target::CapsUpper),
+            Target::Tube | Target::TubeUpper => Some(Target::TubeUpper),
+            Target::Rectangle | Target::RectangleUpper => Some(Target::RectangleUpper),
+            Target::LineIsotropic | Target::LineSum | Target::LineIsotropicSum => None,
+        }
+    }
+
+    /// The target whose lobe is not clipped at the surface (`line_upper` → `line`, …); itself
+    /// for the others.
+    pub fn own(self) -> Target {
+        match self {
+            Target::LineUpper => Target::Line,
+            Target::CylinderUpper => Target::Cylinder,
+            Target::CapsUpper => Target::Caps,
+            Target::TubeUpper => Target::Tube,
+            Target::RectangleUpper => Target::Rectangle,
+            t => t,
         }
     }
 

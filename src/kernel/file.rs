@@ -357,7 +357,7 @@ impl KernelFile {
                         err(
                             lineno,
                             format!(
-                                "unknown target `{value_shown}` (line, line_upper, line_isotropic, line_sum, line_isotropic_sum, cylinder, caps, tube, rectangle)"
+                                "unknown target `{value_shown}` (line, line_upper, line_isotropic, line_sum, line_isotropic_sum, cylinder, caps, tube, rectangle, cylinder_upper, caps_upper, tube_upper, rectangle_upper)"
                             ),
                         )
                     })?)

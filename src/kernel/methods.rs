@@ -65,8 +65,13 @@ impl Method {
             Target::Line | Target::LineUpper | Target::LineIsotropic | Target::LineSum | Target::LineIsotropicSum => {
                 true
             }
-            Target::Cylinder | Target::Caps | Target::Tube => config.radius.is_some(),
-            Target::Rectangle => config.rect.is_some(),
+            Target::Cylinder
+            | Target::Caps
+            | Target::Tube
+            | Target::CylinderUpper
+            | Target::CapsUpper
+            | Target::TubeUpper => config.radius.is_some(),
+            Target::Rectangle | Target::RectangleUpper => config.rect.is_some(),
         }
     }
 

@@ -241,7 +241,7 @@ pub fn check_references(
 }
 
 /// The targets whose references apply to a configuration: the line targets, the surfaces it
-/// has, and the summed targets (`line_sum`, `line_isotropic_sum`) when a method evaluated is
+/// has (each with its `_upper` view), and the summed targets (`line_sum`, `line_isotropic_sum`) when a method evaluated is
 /// judged against one (each costs its parts' integrals again, so only then).
 pub fn targets_of(c: &Config, methods: &[Method]) -> BTreeSet<Target> {
     let mut t = BTreeSet::from([Target::Line, Target::LineUpper, Target::LineIsotropic]);
@@ -252,18 +252,55 @@ pub fn targets_of(c: &Config, methods: &[Method]) -> BTreeSet<Target> {
             .filter(|m| matches!(m, Target::LineSum | Target::LineIsotropicSum)),
     );
     if c.radius.is_some() {
-        t.extend([Target::Cylinder, Target::Caps, Target::Tube]);
+        t.extend([
+            Target::Cylinder,
+            Target::Caps,
+            Target::Tube,
+            Target::CylinderUpper,
+            Target::CapsUpper,
+            Target::TubeUpper,
+        ]);
     }
     if c.rect.is_some() {
-        t.insert(Target::Rectangle);
+        t.extend([Target::Rectangle, Target::RectangleUpper]);
     }
     t
 }
 
-/// One output line: references with their error estimates and every applicable method.
+/// The references of `targets` at the configuration rounded to f32 ([`Config::rounded_to_f32`]):
+/// what an f32 kernel could at best return. A configuration already in f32 gets `exact`'s
+/// values (copied, not recomputed). One that rounding makes degenerate (`validate` refuses it:
+/// the rounded shading point inside the tube, say), or a reference there that is not finite,
+/// gets none: its f32 columns are then judged against the exact reference.
+pub fn references_f32_inputs(
+    c: &Config,
+    targets: &BTreeSet<Target>,
+    exact: &BTreeMap<Target, Estimate>,
+) -> BTreeMap<Target, Estimate> {
+    let rounded = c.rounded_to_f32();
+    if rounded == *c {
+        return targets.iter().filter_map(|t| Some((*t, *exact.get(t)?))).collect();
+    }
+    if rounded.validate().is_err() {
+        return BTreeMap::new();
+    }
+    targets
+        .iter()
+        .filter_map(|&t| crate::reference::reference(&rounded, t).map(|e| (t, e)))
+        .filter(|(_, e)| e.value.is_finite() && e.error.is_finite())
+        .collect()
+}
+
+/// The version of the eval output format (docs/eval-format.md): 2 added
+/// `reference_f32_inputs` and `reference_f32_inputs_error`, and `version` itself.
+pub const EVAL_FORMAT_VERSION: u32 = 2;
+
+/// One output line: references with their error estimates (and, where computed, those at the
+/// configuration rounded to f32) and every applicable method.
 pub fn result_row(
     c: &Config,
     references: &BTreeMap<Target, Estimate>,
+    references_f32: Option<&BTreeMap<Target, Estimate>>,
     methods: &[Method],
     f32_values: &[f32],
     f64_values: &[Option<f64>],
@@ -290,7 +327,18 @@ pub fn result_row(
         }
         values.insert(m.label.clone(), Value::Object(entry));
     }
-    let mut row = json!({"id": c.id, "reference": reference, "reference_error": reference_error, "methods": values});
+    let mut row = json!({"version": EVAL_FORMAT_VERSION, "id": c.id, "reference": reference,
+        "reference_error": reference_error, "methods": values});
+    if let Some(references_f32) = references_f32 {
+        let mut value = Map::new();
+        let mut error = Map::new();
+        for (t, e) in references_f32 {
+            value.insert(t.name().into(), number(e.value));
+            error.insert(t.name().into(), number(e.error));
+        }
+        row["reference_f32_inputs"] = Value::Object(value);
+        row["reference_f32_inputs_error"] = Value::Object(error);
+    }
     if let Some(rect) = &c.rect {
         // The rectangle as evaluated: its normal made perpendicular to the segment.
         row["rect"] = json!({"normal": rect.normal, "width": rect.width});
@@ -306,6 +354,7 @@ pub fn rows(
     methods: &[Method],
     f32s: &[&[f32]],
     references: &[BTreeMap<Target, Estimate>],
+    references_f32: Option<&[BTreeMap<Target, Estimate>]>,
     attribution: bool,
     envelope: bool,
 ) -> anyhow::Result<Vec<Value>> {
@@ -327,7 +376,15 @@ pub fn rows(
             let v32: Vec<f32> = f32s.iter().map(|v| v[i]).collect();
             let v64: Vec<Option<f64>> = f64s.iter().map(|v| v[i]).collect();
             let c32: Vec<Option<f64>> = cpu32s.iter().map(|v| v[i]).collect();
-            let mut row = result_row(c, &references[i], methods, &v32, &v64, &c32);
+            let mut row = result_row(
+                c,
+                &references[i],
+                references_f32.map(|r| &r[i]),
+                methods,
+                &v32,
+                &v64,
+                &c32,
+            );
             if attribution {
                 let mut per = Map::new();
                 for (m, a) in methods.iter().zip(&attributions) {

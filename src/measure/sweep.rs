@@ -36,6 +36,9 @@ pub struct MeasuredChunk<'a> {
     /// Each configuration's global index (natural sample first, then top-ups).
     pub global: &'a [usize],
     pub references: &'a References,
+    /// The same targets at each configuration rounded to f32 (`eval_rows::references_f32_inputs`):
+    /// what the f32 columns are judged against.
+    pub references_f32: &'a References,
     /// One per method, in the setup's order; this chunk's values only.
     pub runs: &'a [MethodRun],
 }
@@ -69,6 +72,12 @@ pub struct Timing {
     pub attribution_seconds: f64,
     pub references_seconds: f64,
     pub references_evaluated: usize,
+    /// The references again at the configurations rounded to f32 (input rounding apart):
+    /// seconds, and references computed (those of configurations already in f32 are copied).
+    #[serde(default)]
+    pub references_f32_seconds: f64,
+    #[serde(default)]
+    pub references_f32_evaluated: usize,
     pub search_seconds: f64,
     /// The disagreement search between compared pairs, and the candidates it evaluated.
     pub disagree_seconds: f64,
@@ -164,6 +173,8 @@ impl Timing {
         }
         self.references_seconds += o.references_seconds;
         self.references_evaluated += o.references_evaluated;
+        self.references_f32_seconds += o.references_f32_seconds;
+        self.references_f32_evaluated += o.references_f32_evaluated;
         self.statistics_seconds += o.statistics_seconds;
         self.sampling_seconds += o.sampling_seconds;
         self.chunks += o.chunks;
@@ -214,13 +225,14 @@ fn bar(len: usize, what: &str) -> ProgressBar {
     crate::measure::progress::bar(len as u64, what)
 }
 
-/// The targets whose references a sweep needs: every method's, plus `line_upper`
-/// beside `line` (the leak below the horizon is reported from their difference).
+/// The targets whose references a sweep needs: every method's, plus its surface view
+/// (`line_upper` beside `line`, `cylinder_upper` beside `cylinder`, …): the headline judges
+/// every method against what the surface receives, and the leak below the horizon is
+/// reported from the two apart.
 pub fn needed_targets(methods: &[Method]) -> BTreeSet<Target> {
     let mut t: BTreeSet<Target> = methods.iter().map(Method::target).collect();
-    if t.contains(&Target::Line) {
-        t.insert(Target::LineUpper);
-    }
+    let upper: Vec<Target> = t.iter().filter_map(|t| t.upper()).collect();
+    t.extend(upper);
     t
 }
 
@@ -455,10 +467,24 @@ pub fn measure_chunks(
             &configs,
             &references,
         )?;
+        let t = Instant::now();
+        let references_f32: References = configs
+            .par_iter()
+            .zip(&references)
+            .map(|(c, exact)| crate::measure::eval_rows::references_f32_inputs(c, &targets, exact))
+            .collect();
+        timing.references_f32_seconds += t.elapsed().as_secs_f64();
+        timing.references_f32_evaluated += configs
+            .iter()
+            .zip(&references_f32)
+            .filter(|(c, _)| c.rounded_to_f32() != **c)
+            .map(|(_, r)| r.len())
+            .sum::<usize>();
         fold(&MeasuredChunk {
             samples: &samples,
             global: &global,
             references: &references,
+            references_f32: &references_f32,
             runs: &runs,
         })?;
         keep(
@@ -471,7 +497,7 @@ pub fn measure_chunks(
             (attribution_step, per_family_cost),
         );
         if let Some(w) = raw.as_mut() {
-            write_raw(*w, setup, &samples, &references, &runs)?;
+            write_raw(*w, setup, &samples, (&references, &references_f32), &runs)?;
         }
         timing.configurations += samples.len();
         pb.inc(samples.len() as u64);
@@ -698,7 +724,7 @@ fn write_raw(
     w: &mut dyn std::io::Write,
     setup: &Setup,
     samples: &[Sample],
-    references: &References,
+    (references, references_f32): (&References, &References),
     runs: &[MethodRun],
 ) -> anyhow::Result<()> {
     let rows: Vec<_> = samples
@@ -708,8 +734,15 @@ fn write_raw(
             let f32s: Vec<f32> = runs.iter().map(|r| r.f32[i]).collect();
             let f64s: Vec<Option<f64>> = runs.iter().map(|r| r.f64[i]).collect();
             let c32s: Vec<Option<f64>> = runs.iter().map(|r| r.f32_cpu[i].map(f64::from)).collect();
-            let mut row =
-                crate::measure::eval_rows::result_row(&s.config, &references[i], &setup.methods, &f32s, &f64s, &c32s);
+            let mut row = crate::measure::eval_rows::result_row(
+                &s.config,
+                &references[i],
+                Some(&references_f32[i]),
+                &setup.methods,
+                &f32s,
+                &f64s,
+                &c32s,
+            );
             row["material"] = setup.case.materials[s.material].name.clone().into();
             row["axes"] = serde_json::to_value(&s.axes).expect("axes serialise");
             // Empty for the natural sample; a top-up lists the (axis, bin) it fills.

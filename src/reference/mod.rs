@@ -26,7 +26,8 @@ pub struct Estimate {
 }
 
 /// The reference value of `target` for `config` (already validated), or None when the target
-/// needs data the config lacks (`radius` for cylinder, caps and tube; `rect` for rectangle).
+/// needs data the config lacks (`radius` for cylinder, caps and tube; `rect` for rectangle;
+/// and the same for their `_upper` variants).
 pub fn reference(config: &Config, target: Target) -> Option<Estimate> {
     let lobe = Lobe::new(&config.material);
     let (p1, p2, radius) = (config.p1, config.p2, config.radius);
@@ -44,10 +45,25 @@ pub fn reference(config: &Config, target: Target) -> Option<Estimate> {
             line::line_isotropic(&lobe, p1, p2),
             line::line_isotropic(&Lobe::new(&Material::Diffuse), p1, p2),
         )),
-        Target::Cylinder => radius.map(|r| surface::cylinder(&lobe, p1, p2, r)),
-        Target::Caps => radius.map(|r| surface::caps(&lobe, p1, p2, r)),
-        Target::Tube => radius.map(|r| sum(surface::cylinder(&lobe, p1, p2, r), surface::caps(&lobe, p1, p2, r))),
-        Target::Rectangle => config.rect.as_ref().map(|rect| surface::rectangle(&lobe, p1, p2, rect)),
+        Target::Cylinder | Target::CylinderUpper => {
+            radius.map(|r| surface::cylinder(&lobe, p1, p2, r, target == Target::CylinderUpper))
+        }
+        Target::Caps | Target::CapsUpper => {
+            radius.map(|r| surface::caps(&lobe, p1, p2, r, target == Target::CapsUpper))
+        }
+        Target::Tube | Target::TubeUpper => {
+            let upper = target == Target::TubeUpper;
+            radius.map(|r| {
+                sum(
+                    surface::cylinder(&lobe, p1, p2, r, upper),
+                    surface::caps(&lobe, p1, p2, r, upper),
+                )
+            })
+        }
+        Target::Rectangle | Target::RectangleUpper => config
+            .rect
+            .as_ref()
+            .map(|rect| surface::rectangle(&lobe, p1, p2, rect, target == Target::RectangleUpper)),
     }
 }
 

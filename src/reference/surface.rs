@@ -2,6 +2,10 @@
 //! `rectangle`. Each is a nested integral whose inner integral runs along a straight line
 //! (`integrate_chord`), and whose outer variable is chosen so that the integrand is smooth
 //! over only the part of the surface that faces the origin.
+//!
+//! With `upper`, D is replaced by `D(ω)·[ω.z > 0]` (targets `cylinder_upper`, `caps_upper`,
+//! `rectangle_upper`): each inner integral stops at the horizon (`integrate_chord`), and the
+//! outer one is cut where the horizon crosses the surface's edges, as it is for D's support.
 
 use super::line::{graded, halves, integrate_chord, split, split_halves, trig_zeros, Chord};
 use super::lobe::Lobe;
@@ -63,7 +67,7 @@ impl Axis {
 /// `ω_n(δ) = −cos δ·x + sin δ·y`, the side faces the origin where
 /// `−p·ω_n = d cos δ − R > 0`, i.e. |δ| < acos(R/d), for every l. Along each generator
 /// line (fixed δ), `∫ D max(0, −ω_p·ω_n)/‖p‖² R dl = R(d cos δ − R)·∫ D/‖p‖³ dl`.
-pub(crate) fn cylinder(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64) -> Estimate {
+pub(crate) fn cylinder(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64, upper: bool) -> Estimate {
     let axis = Axis::new(p1, p2);
     let d = length(axis.foot);
     let gap = d - radius;
@@ -73,19 +77,20 @@ pub(crate) fn cylinder(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64) -> Estimate
     }
     let (x, y) = axis.frame();
     let beta = (radius / d).acos();
-    let support = lobe.support();
     let mut cuts = Vec::new();
     // R·(d cos δ − R)/‖q‖² is a peak of width gap/sqrt(dR) at δ = 0 when the origin is
     // close to the side.
     graded(0.0, gap / (d * radius).sqrt(), &mut cuts);
-    // Where the support plane of D passes through a rim (l = 0 or L) the generator's inner
-    // integral has a kink.
-    for end in [p1, p2] {
-        cuts.extend(trig_zeros(
-            dot(support, end),
-            -radius * dot(support, x),
-            radius * dot(support, y),
-        ));
+    // Where the support plane of D (or, for `upper`, the horizon) passes through a rim
+    // (l = 0 or L) the generator's inner integral has a kink.
+    for plane in planes(lobe, upper) {
+        for end in [p1, p2] {
+            cuts.extend(trig_zeros(
+                dot(plane, end),
+                -radius * dot(plane, x),
+                radius * dot(plane, y),
+            ));
+        }
     }
     // A sharp GGX lobe lights the generators its mirror direction reaches: in the
     // cross-section, where the ray (r·x, r·y) meets the circle of centre (d, 0), or the
@@ -122,7 +127,7 @@ pub(crate) fn cylinder(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64) -> Estimate
                 s0: axis.s0,
                 len: axis.len,
             };
-            let inner = integrate_chord(lobe, &chord, false, INNER_RTOL, INNER_MAX_PANELS);
+            let inner = integrate_chord(lobe, &chord, upper, INNER_RTOL, INNER_MAX_PANELS);
             inner.scale(radius * facing / dot(foot, foot))
         },
         &panels,
@@ -134,13 +139,13 @@ pub(crate) fn cylinder(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64) -> Estimate
 
 /// Eq. 1.29 for both end disks, one-sided as in Listing 1.8: the disk at p1 (outward normal
 /// −ω_t) weighs `max(0, ω_p·ω_t)`, the one at p2 `max(0, −ω_p·ω_t)`.
-pub(crate) fn caps(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64) -> Estimate {
+pub(crate) fn caps(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64, upper: bool) -> Estimate {
     let axis = Axis::new(p1, p2);
     let mut q = Quad::default();
     let mut near = f64::INFINITY;
     for (height, centre) in [(axis.s0, p1), (-(axis.s0 + axis.len), p2)] {
         if height > 0.0 {
-            q += disk(lobe, &axis, centre, height, radius);
+            q += disk(lobe, &axis, centre, height, radius, upper);
             near = near.min(height);
         }
     }
@@ -152,11 +157,10 @@ pub(crate) fn caps(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64) -> Estimate {
 /// origin's foot on the plane as 0 and the centre at X = d along x, the chord at
 /// `X = d + R sin t` spans `Y ∈ [−R cos t, R cos t]`, so `dA = R cos t dt dY` has no square
 /// root at the rim, and each chord is an `integrate_chord` at distance sqrt(h² + X²).
-fn disk(lobe: &Lobe, axis: &Axis, centre: Vec3, height: f64, radius: f64) -> Quad {
+fn disk(lobe: &Lobe, axis: &Axis, centre: Vec3, height: f64, radius: f64, upper: bool) -> Quad {
     let (x, y) = axis.frame();
     let d = length(axis.foot);
     let plane_foot = mul(axis.dir, dot(centre, axis.dir));
-    let support = lobe.support();
     // h/(h² + X²) peaks where the chord passes the foot (X = 0, or the nearest chord if the
     // foot is outside the disk); the peak is as wide as the t over which h² + X² doubles.
     let t_of = |xx: f64| ((xx - d) / radius).clamp(-1.0, 1.0).asin();
@@ -164,10 +168,12 @@ fn disk(lobe: &Lobe, axis: &Axis, centre: Vec3, height: f64, radius: f64) -> Qua
     let reach = (height * height + 2.0 * nearest * nearest).sqrt();
     let mut cuts = Vec::new();
     graded(t_of(0.0), 0.5 * (t_of(reach) - t_of(-reach)), &mut cuts);
-    // Where the support plane of D crosses the rim at angle θ (from x), the chord at
-    // t = π/2 − |θ| has a kink.
-    for theta in trig_zeros(dot(support, centre), radius * dot(support, x), radius * dot(support, y)) {
-        cuts.push(FRAC_PI_2 - theta.abs());
+    // Where the support plane of D (or, for `upper`, the horizon) crosses the rim at angle θ
+    // (from x), the chord at t = π/2 − |θ| has a kink.
+    for plane in planes(lobe, upper) {
+        for theta in trig_zeros(dot(plane, centre), radius * dot(plane, x), radius * dot(plane, y)) {
+            cuts.push(FRAC_PI_2 - theta.abs());
+        }
     }
     // A sharp GGX lobe: the chord through the point its mirror direction hits, the angle w
     // spanning ‖q‖·w/|r·ω_t| across the chords there.
@@ -193,7 +199,7 @@ fn disk(lobe: &Lobe, axis: &Axis, centre: Vec3, height: f64, radius: f64) -> Qua
                 s0: -radius * cos,
                 len: 2.0 * radius * cos,
             };
-            let inner = integrate_chord(lobe, &chord, false, INNER_RTOL, INNER_MAX_PANELS);
+            let inner = integrate_chord(lobe, &chord, upper, INNER_RTOL, INNER_MAX_PANELS);
             inner.scale(radius * cos * height / (height * height + xx * xx))
         },
         &panels,
@@ -208,7 +214,7 @@ fn disk(lobe: &Lobe, axis: &Axis, centre: Vec3, height: f64, radius: f64) -> Qua
 /// ω_t, x = ±|h| cot ψ from the origin's foot turns `|h| dx/(h² + x²)` into dψ, and each
 /// line along ω_b is an `integrate_chord` at distance sqrt(h² + x²) = |h|/sin ψ:
 /// the integral is `∫ integrate_chord dψ`.
-pub(crate) fn rectangle(lobe: &Lobe, p1: Vec3, p2: Vec3, rect: &Rect) -> Estimate {
+pub(crate) fn rectangle(lobe: &Lobe, p1: Vec3, p2: Vec3, rect: &Rect, upper: bool) -> Estimate {
     let axis = Axis::new(p1, p2);
     let across = cross(rect.normal, axis.dir);
     let across = mul(across, 1.0 / length(across));
@@ -222,8 +228,7 @@ pub(crate) fn rectangle(lobe: &Lobe, p1: Vec3, p2: Vec3, rect: &Rect) -> Estimat
     }
     let plane_foot = mul(normal, h);
     let y0 = dot(p1, across) - 0.5 * rect.width;
-    let support = lobe.support();
-    let along = dot(support, axis.dir);
+    let planes = planes(lobe, upper);
     let panels = split_halves(
         &halves(dist, axis.s0, axis.len),
         |half| {
@@ -240,9 +245,13 @@ pub(crate) fn rectangle(lobe: &Lobe, p1: Vec3, p2: Vec3, rect: &Rect) -> Estimat
                     }
                 }
             }
-            if along != 0.0 {
+            for &plane in &planes {
+                let along = dot(plane, axis.dir);
+                if along == 0.0 {
+                    continue;
+                }
                 for y in [y0, y0 + rect.width] {
-                    let xx = -(dot(support, plane_foot) + y * dot(support, across)) / along;
+                    let xx = -(dot(plane, plane_foot) + y * dot(plane, across)) / along;
                     if xx * half.side > 0.0 {
                         cuts.push(dist.atan2(xx.abs()));
                     }
@@ -262,13 +271,23 @@ pub(crate) fn rectangle(lobe: &Lobe, p1: Vec3, p2: Vec3, rect: &Rect) -> Estimat
                 s0: y0,
                 len: rect.width,
             };
-            integrate_chord(lobe, &chord, false, INNER_RTOL, INNER_MAX_PANELS)
+            integrate_chord(lobe, &chord, upper, INNER_RTOL, INNER_MAX_PANELS)
         },
         &panels,
         OUTER_RTOL,
         OUTER_MAX_PANELS,
     );
     estimate(q, lobe, far, dist)
+}
+
+/// The planes through the origin where the integrand has a kink: D's support plane and, for
+/// `upper`, the horizon z = 0.
+fn planes(lobe: &Lobe, upper: bool) -> Vec<Vec3> {
+    let mut planes = vec![lobe.support()];
+    if upper && lobe.support() != [0.0, 0.0, 1.0] {
+        planes.push([0.0, 0.0, 1.0]);
+    }
+    planes
 }
 
 #[cfg(test)]
@@ -297,7 +316,7 @@ mod tests {
             assert!(i_line > 0.0);
             let mut last = f64::INFINITY;
             for r in [1e-2, 1e-3, 1e-4] {
-                let est = cylinder(&lobe, p1, p2, r);
+                let est = cylinder(&lobe, p1, p2, r, false);
                 let gap = rel(est.value / r, i_line);
                 assert!(gap < last, "{material:?} R={r}: {gap:e}");
                 assert!(est.error <= 1e-9 * est.value, "{est:?}");
@@ -313,7 +332,7 @@ mod tests {
         // spans |φ| < asin(R/h) in the cross-section, so by the 2D crossed-strings form factor
         // E = (sin φ₂ − sin φ₁)/2 = R/h. Ends at ±10⁴h change that by O((h/L)³).
         for r in [0.1, 0.5, 0.9] {
-            let est = cylinder(&diffuse(), [-1e4, 0.0, 1.0], [1e4, 0.0, 1.0], r);
+            let est = cylinder(&diffuse(), [-1e4, 0.0, 1.0], [1e4, 0.0, 1.0], r, false);
             assert!(rel(est.value, r) < 1e-10, "R={r}: {est:?}");
             assert!(est.error < 1e-9 * r, "R={r}: {est:?}");
         }
@@ -336,7 +355,7 @@ mod tests {
             let limit = point(p1, 1.0) + point(p2, -1.0);
             assert!(limit > 0.0);
             let r = 1e-3;
-            let est = caps(&lobe, p1, p2, r);
+            let est = caps(&lobe, p1, p2, r, false);
             assert!(rel(est.value / (PI * r * r), limit) < 1e-4, "{est:?} {limit}");
         }
     }
@@ -346,14 +365,14 @@ mod tests {
         // E = (1/π)∫ cos θ dω over a cone of half-angle θm = sin²θm = R²/(h² + R²).
         for (h, r) in [(1.0, 1.0), (2.0, 0.01), (0.01, 3.0), (1.0, 1e-4)] {
             let exact = r * r / (h * h + r * r);
-            let est = caps(&diffuse(), [0.0, 0.0, h], [0.0, 0.0, h + 1.0], r);
+            let est = caps(&diffuse(), [0.0, 0.0, h], [0.0, 0.0, h + 1.0], r, false);
             assert!(rel(est.value, exact) < 1e-10, "h={h} R={r}: {est:?} vs {exact}");
             assert!((est.value - exact).abs() <= est.error, "{est:?} vs {exact}");
         }
         // Off axis but with the foot inside the disk, and seen from beside the tube.
-        let est = caps(&diffuse(), [0.3, 0.0, 0.5], [0.3, 0.0, 1.5], 1.0);
+        let est = caps(&diffuse(), [0.3, 0.0, 0.5], [0.3, 0.0, 1.5], 1.0, false);
         assert!(est.value > 0.0 && est.value < 1.0);
-        let side = cylinder(&diffuse(), [0.3, 0.0, 0.5], [0.3, 0.0, 1.5], 1.0);
+        let side = cylinder(&diffuse(), [0.3, 0.0, 0.5], [0.3, 0.0, 1.5], 1.0, false);
         assert_eq!(side.value, 0.0);
     }
 
@@ -369,11 +388,11 @@ mod tests {
             for normal in [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]] {
                 let rect = Rect { normal, width: w };
                 // Centred above the origin: four corner rectangles.
-                let est = rectangle(&diffuse(), [-len / 2.0, 0.0, h], [len / 2.0, 0.0, h], &rect);
+                let est = rectangle(&diffuse(), [-len / 2.0, 0.0, h], [len / 2.0, 0.0, h], &rect, false);
                 let exact = 4.0 * corner(len / 2.0 / h, w / 2.0 / h);
                 assert!(rel(est.value, exact) < 1e-10, "{h} {len} {w}: {est:?} vs {exact}");
                 // A corner above the origin.
-                let est = rectangle(&diffuse(), [0.0, w / 2.0, h], [len, w / 2.0, h], &rect);
+                let est = rectangle(&diffuse(), [0.0, w / 2.0, h], [len, w / 2.0, h], &rect, false);
                 let exact = corner(len / h, w / h);
                 assert!(rel(est.value, exact) < 1e-10, "{h} {len} {w}: {est:?} vs {exact}");
                 assert!((est.value - exact).abs() <= est.error, "{est:?} vs {exact}");
@@ -394,9 +413,9 @@ mod tests {
             let (a, b) = (mul(p1, s), mul(p2, s));
             let rect = Rect { normal, width: 0.2 * s };
             [
-                cylinder(&lobe, a, b, 0.1 * s).value,
-                caps(&lobe, a, b, 0.1 * s).value,
-                rectangle(&lobe, a, b, &rect).value,
+                cylinder(&lobe, a, b, 0.1 * s, false).value,
+                caps(&lobe, a, b, 0.1 * s, false).value,
+                rectangle(&lobe, a, b, &rect, false).value,
             ]
         };
         let base = all(1.0);

@@ -20,8 +20,11 @@ use std::path::Path;
 /// JUnit XML of the checks and the gate's rules.
 mod junit;
 
-/// Version of the on-disk format; a baseline of another version is bad input.
-pub const FORMAT: u32 = 1;
+/// Version of the on-disk format; a baseline of another version is bad input. 2: every method
+/// is judged against what the surface receives (`line_upper`, `cylinder_upper`, …, the
+/// headline's target) and its f32 result against the reference at the f32-rounded
+/// configuration; format 1 judged against the method's own target and the exact reference.
+pub const FORMAT: u32 = 2;
 
 /// One natural configuration of one method, as the gate sees it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -184,10 +187,21 @@ pub fn observe_chunk(obs: &mut Observations, case: &crate::input::case::Case, ch
             if list.is_empty() {
                 *supported = run.method.supports(c);
             }
-            let target = run.method.target();
+            // The headline's target (the surface view), the f32 result against the reference
+            // at the f32-rounded inputs where it is measured and not 0 (as the analysis does).
+            let target = crate::analyse::analysis::headline_target(run.method.target());
             let reference = chunk.references[i].get(&target).copied();
+            let rounded = chunk
+                .references_f32
+                .get(i)
+                .and_then(|r| r.get(&target).copied())
+                .filter(|r| r.value != 0.0);
+            let judged = match (reference, rounded) {
+                (Some(exact), Some(r32)) if exact.value != 0.0 => Some(r32),
+                _ => reference,
+            };
             list.push(if run.method.applies(c) {
-                observe(run.f32[i], reference)
+                observe(run.f32[i], judged)
             } else {
                 Obs::NotApplicable
             });
@@ -353,7 +367,10 @@ pub fn load(dir: &Path, setup: &Setup) -> anyhow::Result<Loaded> {
         return Err(here(format!(
             "baseline format {} (this linelight reads format {FORMAT}): save it again on this \
              linelight with the same case and kernels, `linelight sweep {} --kernel … \
-             --save-baseline {}` (or `scripts/ci-gate --save …`), and commit the new folder",
+             --save-baseline {}` (or `scripts/ci-gate --save …`), and commit the new folder.\n\
+             Why: format 2 judges every method against what the surface receives (`line_upper`, \
+             `cylinder_upper`, …) and f32 results against the reference at the f32-rounded \
+             inputs, so errors saved before are not comparable.",
             baseline.format,
             setup.case.name,
             dir.display()

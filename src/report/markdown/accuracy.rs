@@ -15,6 +15,17 @@ pub(super) fn error_tables(w: &mut String, input: &Summary) {
     let _ = writeln!(w, "## Error against the reference\n");
     let _ = writeln!(
         w,
+        "Each method is judged against what the surface receives: its target's surface view (`line_upper` \
+         for `line`, `cylinder_upper` for `cylinder`, `caps_upper`, `tube_upper`, `rectangle_upper`; \
+         column \"judged\"), where a quit test's 0 for a light wholly below the surface is right and a \
+         lobe's leak below the horizon is an error. The f32 columns (GPU, CPU f32, bits) are judged against \
+         the reference at the configuration rounded to f32 (what an f32 kernel could at best return), the \
+         f64 columns against the exact reference; \"input rounding p99\" is the gap between the two \
+         references (no f32 kernel can do better). The formula's own error (against its own target, leak \
+         included) is in *The formula's own error*.\n"
+    );
+    let _ = writeln!(
+        w,
         "Relative error of each method's f32 GPU result, no floor, over the configurations whose reference \
          is not 0 (n); its absolute error (units where d = 1); the relative error of the same formula in \
          f32 on the CPU (correctly rounded libm: the gap to the GPU column is the driver's arithmetic) and \
@@ -28,12 +39,12 @@ pub(super) fn error_tables(w: &mut String, input: &Summary) {
         let _ = writeln!(w, "### Material `{}`\n", family.name);
         let _ = writeln!(
             w,
-            "| method | n | NaN | inf | median | p90 | p99 | max | abs p99 | abs max | CPU f32 p99 | f64 median | f64 p99 | f64 max | bits med | bits p99 | ≤1e-3 % | ≤1e-2 % | floored p99 (floor {}) | below floor | |",
+            "| method | judged | n | NaN | inf | median | p90 | p99 | max | abs p99 | abs max | CPU f32 p99 | f64 median | f64 p99 | f64 max | input rounding p99 | bits med | bits p99 | ≤1e-3 % | ≤1e-2 % | floored p99 (floor {}) | below floor | |",
             sci(Some(case.floor(a.methods.first().map_or(crate::input::target::Target::Line, |m| m.target))))
         );
         let _ = writeln!(
             w,
-            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
+            "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
         );
         for ms in &a.methods {
             let mat = &ms.materials[k];
@@ -43,6 +54,7 @@ pub(super) fn error_tables(w: &mut String, input: &Summary) {
             let [_, _, cp99, _] = q3(s, |s| s.rel_cpu_f32);
             let [fm, _, fp99, fmax] = q3(s, |s| s.rel_f64);
             let [_, _, flp99, _] = q3(s, |s| s.rel_floored);
+            let [_, _, rp99, _] = q3(s, |s| s.input_rounding);
             let [bm, bp99] = s.bits.map_or(["—".into(), "—".into()], |q| {
                 [q.median, q.p99].map(|b| format!("{b:.1}"))
             });
@@ -55,8 +67,9 @@ pub(super) fn error_tables(w: &mut String, input: &Summary) {
             }
             let _ = writeln!(
                 w,
-                "| `{}` | {} | {} | {} | {med} | {p90} | {p99} | {max} | {ap99} | {amax} | {cp99} | {fm} | {fp99} | {fmax} | {bm} | {bp99} | {} | {} | {flp99} | {} ({}) | {mark} |",
+                "| `{}` | `{}` | {} | {} | {} | {med} | {p90} | {p99} | {max} | {ap99} | {amax} | {cp99} | {fm} | {fp99} | {fmax} | {rp99} | {bm} | {bp99} | {} | {} | {flp99} | {} ({}) | {mark} |",
                 ms.label,
+                ms.judged,
                 s.count,
                 s.nan,
                 s.inf,
@@ -74,6 +87,8 @@ pub(super) fn error_tables(w: &mut String, input: &Summary) {
 /// Material `k`, per axis: p99 (f32 / f64) of every method in every bin.
 fn axis_tables(w: &mut String, input: &Summary, k: usize) {
     let (case, a) = (&input.case, &input.analysis);
+    let budget = case.budget();
+    let quantile = format!("p{}", (budget.quantile * 1e8).round() / 1e6);
     let family = &case.materials[k];
     for (ax, axis) in case.bins.iter().enumerate() {
         let populated = a.methods.first().is_some_and(|ms| {
@@ -88,14 +103,26 @@ fn axis_tables(w: &mut String, input: &Summary, k: usize) {
         let min = axis.min_per_bin(case.min_per_bin);
         let _ = writeln!(
             w,
-            "p99 relative error by `{}` (f32 / f64), material `{}`; n counts every configuration in the \
-             bin, \"ref 0\" those whose reference is 0 (left out of the quantiles); a bin below {} \
-             configurations is marked thin:\n",
-            axis.axis, family.name, min
+            "p99 relative error by `{}` (f32 / f64; the headline view, as above), material `{}`; n counts \
+             every configuration in the bin, \"ref 0\" those whose reference is 0 (left out of the \
+             quantiles); \"input rounding\" is the gap between the reference at the f32-rounded inputs \
+             and the exact one ({} over the bin), and a bin where it alone breaks the budget ({} ≤ {}) is \
+             marked **unattainable in f32**; a bin below {} configurations is marked thin:\n",
+            axis.axis,
+            family.name,
+            quantile,
+            quantile,
+            sci(Some(budget.value)),
+            min
         );
         let head: Vec<String> = a.methods.iter().map(|ms| format!("`{}`", ms.label)).collect();
-        let _ = writeln!(w, "| {} | n | ref 0 | {} |", axis.axis, head.join(" | "));
-        let _ = writeln!(w, "|---|---:|---:|{}", "---:|".repeat(head.len()));
+        let _ = writeln!(
+            w,
+            "| {} | n | ref 0 | input rounding | {} |",
+            axis.axis,
+            head.join(" | ")
+        );
+        let _ = writeln!(w, "|---|---:|---:|---:|{}", "---:|".repeat(head.len()));
         for (b, (lo, hi)) in axis.edges.windows(2).map(|e| (e[0], e[1])).enumerate() {
             // Configurations in the bin, reference 0 included (the same for every method).
             let (n, zero) = a.methods.first().map_or((0, 0), |ms| {
@@ -105,6 +132,17 @@ fn axis_tables(w: &mut String, input: &Summary, k: usize) {
             if n == 0 {
                 continue;
             }
+            // Input rounding of the first method's headline target (the same configurations).
+            let rounding = a
+                .methods
+                .first()
+                .and_then(|ms| ms.materials[k].axes[ax].bins[b].stats.input_rounding_at_budget);
+            let unattainable = rounding.is_some_and(|x| x > budget.value);
+            let rounding = format!(
+                "{}{}",
+                sci(rounding),
+                if unattainable { " **unattainable in f32**" } else { "" }
+            );
             let cells: Vec<String> = a
                 .methods
                 .iter()
@@ -122,7 +160,11 @@ fn axis_tables(w: &mut String, input: &Summary, k: usize) {
                 })
                 .collect();
             let thin = if n < min { " thin" } else { "" };
-            let _ = writeln!(w, "| [{lo}, {hi}){thin} | {n} | {zero} | {} |", cells.join(" | "));
+            let _ = writeln!(
+                w,
+                "| [{lo}, {hi}){thin} | {n} | {zero} | {rounding} | {} |",
+                cells.join(" | ")
+            );
         }
         let _ = writeln!(w);
     }
@@ -271,8 +313,8 @@ pub(super) fn missed_light(w: &mut String, input: &Summary) {
     let _ = writeln!(w);
 }
 
-/// `line` against `line_upper`: the share of light from below the horizon, and the `line`
-/// methods judged against `line_upper`.
+/// `line` against `line_upper`: the share of light from below the horizon; and every method
+/// with a surface view judged against its own target (the formula's own error).
 pub(super) fn below_horizon(w: &mut String, input: &Summary) {
     let a = &input.analysis;
     let leaks = &input.leak;
@@ -300,32 +342,47 @@ pub(super) fn below_horizon(w: &mut String, input: &Summary) {
             );
         }
         let _ = writeln!(w);
+    }
+    let rows: Vec<_> = a
+        .methods
+        .iter()
+        .flat_map(|ms| ms.materials.iter().map(move |mat| (ms, mat)))
+        .filter(|(_, mat)| mat.own_target.is_some())
+        .collect();
+    if !rows.is_empty() {
+        let _ = writeln!(w, "## The formula's own error (against its own target)\n");
         let _ = writeln!(
             w,
-            "The `line` methods judged against `line_upper` instead (p99 / max relative error), and how \
-             many configurations with the light wholly below the horizon (`line_upper` = 0) get a \
-             non-zero value from them:\n"
+            "The headline judges each method against what the surface receives. Here the same results \
+             are judged against the method's own target (`line`, `cylinder`, `caps`, `tube`, `rectangle`: \
+             the lobe as the LTC defines it, leak below the horizon included), which is what the formula \
+             models: p99 / max relative error, and its configurations whose own target is 0. Beside them, \
+             against the surface view: how many lights are wholly below the surface (both end points, and \
+             for a tube or rectangle the whole shape, at z ≤ 0), of the configurations the surface receives \
+             nothing from, and how many of those wholly below the method lights.\n"
         );
         let _ = writeln!(
             w,
-            "| method | material | p99 vs line_upper | max vs line_upper | false light: lit of wholly below | largest value there |"
+            "| method | material | own target | p99 vs own | max vs own | own = 0 (lit) | surface receives nothing | wholly below (lit) |"
         );
-        let _ = writeln!(w, "|---|---|---:|---:|---:|---:|");
-        for ms in &a.methods {
-            for mat in &ms.materials {
-                let Some(up) = &mat.against_line_upper else { continue };
-                let _ = writeln!(
-                    w,
-                    "| `{}` | `{}` | {} | {} | {} of {} | {} |",
-                    ms.label,
-                    mat.material,
-                    sci(up.rel.map(|q| q.p99)),
-                    sci(up.rel.map(|q| q.max)),
-                    up.false_light.lit,
-                    up.false_light.configurations,
-                    sci(up.false_light.value.map(|q| q.max)),
-                );
-            }
+        let _ = writeln!(w, "|---|---|---|---:|---:|---:|---:|---:|");
+        for (ms, mat) in rows {
+            let Some(own) = &mat.own_target else { continue };
+            let below = mat.wholly_below.as_ref().map_or("—".to_string(), |b| {
+                format!("{} ({})", b.false_light.configurations, b.false_light.lit)
+            });
+            let _ = writeln!(
+                w,
+                "| `{}` | `{}` | `{}` | {} | {} | {} ({}) | {} | {below} |",
+                ms.label,
+                mat.material,
+                ms.target,
+                sci(own.rel.map(|q| q.p99)),
+                sci(own.rel.map(|q| q.max)),
+                own.false_light.configurations,
+                own.false_light.lit,
+                mat.all.false_light.configurations,
+            );
         }
         let _ = writeln!(w);
     }

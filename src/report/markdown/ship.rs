@@ -27,7 +27,8 @@ pub(super) fn what_to_ship(w: &mut String, input: &Summary) {
 /// The budget in one sentence, and how "meets" and "cheapest" are decided.
 fn budget_line(b: &ShipBudget, adapter: &str) -> String {
     format!(
-        "Budget{}: {} of the relative error (f32) ≤ {}, against `{}`, in every region with at least {} \
+        "Budget{}: {} of the relative error (f32, against the reference at the configuration rounded \
+         to f32) ≤ {}, against `{}`, in every region with at least {} \
          configurations. A method meets it where the {:.0} % upper confidence bound of the {} is within it \
          (a reference of 0 counts as exact when the method returns 0, as an infinite error when it lights \
          it; NaN counts infinite). {} † ns per evaluation measured in this run on {adapter}{}.",
@@ -118,17 +119,22 @@ fn material(w: &mut String, ship: &Ship, m: &ShipMaterial) {
         let s = m.ship.as_deref().unwrap_or_default();
         let _ = writeln!(
             w,
-            "| except in | `{s}` {q} | meets it there instead | its {q} | its cost |"
+            "| except in | `{s}` {q} | meets it there instead | its {q} | its cost | input rounding {q} |"
         );
-        let _ = writeln!(w, "|---|---:|---|---:|---:|");
+        let _ = writeln!(w, "|---|---:|---|---:|---:|---:|");
         for r in broken.iter().take(REGIONS_SHOWN) {
             let (who, b, cost) = match &r.instead {
                 Some(i) => (format!("`{}`", i.label), bound(&i.judgement), price(&i.price)),
                 None => ("none".to_string(), "—".to_string(), "—".to_string()),
             };
+            let rounding = match (r.input_rounding, r.unattainable_in_f32) {
+                (Some(x), true) => format!("{} **unattainable in f32**", sci(Some(x))),
+                (x, false) => sci(x),
+                (None, true) => unreachable!("unattainable only where input rounding is measured"),
+            };
             let _ = writeln!(
                 w,
-                "| `{}` [{}, {}) | {} | {who} | {b} | {cost} |",
+                "| `{}` [{}, {}) | {} | {who} | {b} | {cost} | {rounding} |",
                 r.axis,
                 r.lo,
                 r.hi,
