@@ -161,7 +161,15 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
     for (block, part) in configs.chunks(eval_rows::ROW_BLOCK).enumerate() {
         let at = block * eval_rows::ROW_BLOCK..block * eval_rows::ROW_BLOCK + part.len();
         let values: Vec<&[f32]> = f32s.iter().map(|v| &v[at.clone()]).collect();
-        rows.extend(eval_rows::rows(part, &methods, &values, &references[at], None, false, false)?);
+        rows.extend(eval_rows::rows(
+            part,
+            &methods,
+            &values,
+            &references[at],
+            None,
+            false,
+            false,
+        )?);
     }
     let time_cpu = secs(started);
 

@@ -183,7 +183,7 @@ pub fn bench_methods_with(
                     let ns = time_cpu_column(&methods[i], &probe);
                     let per = ns / probe.len() as f64;
                     let want = cpu_run_seconds.unwrap_or(0.0) * 1e9 / per.max(1.0);
-                    cpu_configs[i] = Some(spread(configs, (want.ceil() as usize).clamp(CPU_PROBE, n)));
+                    cpu_configs[i] = Some(spread(configs, (want.ceil() as usize).clamp(CPU_PROBE.min(n), n)));
                     (ns, probe.len())
                 }
                 (Some(subset), false) => (time_cpu_column(&methods[i], subset), subset.len()),
@@ -371,6 +371,9 @@ mod tests {
             (1, 2000),
             "fixed rounds time every configuration"
         );
+        // Fewer configurations than the probe: the probe is all of them, and so is every run.
+        let few = bench_methods_with(gpu(), &methods[1..], &configs[..100], rounds, &mut |_, _| {}).unwrap();
+        assert_eq!((few[0].configurations, few[0].cpu_configurations), (100, 100));
         let sub = spread(&configs, 4);
         assert_eq!(
             sub,
