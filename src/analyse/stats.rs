@@ -844,6 +844,61 @@ mod tests {
     }
 
     #[test]
+    fn merging_two_exact_parts_past_the_limit_sketches_as_one_pass_would() {
+        let (mut a, mut b, mut one) = (
+            Distribution::default(),
+            Distribution::default(),
+            Distribution::default(),
+        );
+        assert!(a.is_empty());
+        for i in 0..3000 {
+            let v = 1.0 + i as f64;
+            if i < 1500 {
+                a.push(v)
+            } else {
+                b.push(v)
+            }
+            one.push(v);
+        }
+        assert!(!a.is_empty() && matches!(a, Distribution::Exact(_)));
+        a.merge(&b);
+        assert!(matches!(a, Distribution::Sketch(_)), "{a:?}");
+        assert_eq!(a.len(), 3000);
+        assert_eq!(a.quantiles(), one.quantiles());
+    }
+
+    #[test]
+    fn order_statistics_by_rank_exact_and_never_below_when_sketched() {
+        let mut d = Distribution::default();
+        for v in [5.0, 1.0, 3.0, 2.0, 4.0] {
+            d.push(v);
+        }
+        let exact: Vec<f64> = (1..=5).map(|k| d.order_statistic_upper(k)).collect();
+        assert_eq!(exact, [1.0, 2.0, 3.0, 4.0, 5.0]);
+        // A sketch of one repeated value reads it exactly (clamped to the observed range), so
+        // its upper bound is the value itself: dividing by (1 + α) would put it below.
+        let mut same = Distribution::default();
+        for _ in 0..3000 {
+            same.push(0.75);
+        }
+        assert!(matches!(same, Distribution::Sketch(_)));
+        for k in [1, 1500, 3000] {
+            assert_eq!(same.order_statistic_upper(k), 0.75, "rank {k}");
+        }
+        // Distinct values: the bound of rank k is the sketch's reading there, within α each way
+        // of the k-th value, over (1 − α): not the reading of a higher rank.
+        let mut spread = Distribution::default();
+        for v in 1..=3000 {
+            spread.push(f64::from(v));
+        }
+        for k in [10, 100, 1000, 2999] {
+            let b = spread.order_statistic_upper(k);
+            let most = k as f64 * (1.0 + SKETCH_ALPHA) / (1.0 - SKETCH_ALPHA);
+            assert!(b >= k as f64 && b <= most, "rank {k}: {b} outside [{k}, {most}]");
+        }
+    }
+
+    #[test]
     fn bits_count_ulps() {
         assert_eq!(bits_of_error(1.0, 1.0), 0.0);
         let next = f32::from_bits(1.0f32.to_bits() + 1);
