@@ -690,3 +690,36 @@ const ROWS: &[Row] = &[
     row("rectangle.ltc_sphere",           THIN,           Model,   1.00e0,  1.00e0,   -2.1192e-1),
     row("rectangle.ltc_sphere",           THICK,          Model,   1.00e0,  1.00e0,   -8.4819e-2),
 ];
+
+/// Listing 1.5 + 1.9 clamp the tube's sum at 1 (`min(1, R·I_line + disks)`): a faithful port
+/// keeps it. The fixed set never reaches 1 (a mutation pass changed the clamp to 2 unnoticed,
+/// docs/mutation.md), so one configuration that does: a sharp lobe under a long tube of R = d/2,
+/// whose unclamped sum is 1.687 (reference 0.889).
+#[test]
+fn the_published_tube_clamp_at_1_is_kept() {
+    let m = resolve("tube.line", &builtin_kernels()).unwrap();
+    let c = Config {
+        id: "clamped".to_string(),
+        p1: [-5.0, 0.0, 0.1],
+        p2: [5.0, 0.0, 0.1],
+        radius: Some(0.05),
+        rect: None,
+        material: Material::Ltc {
+            minv: [[4.0, 0.0, -1.5], [0.0, 3.5, 0.0], [0.1, 0.0, 1.0]],
+        },
+    };
+    let (reference, _) = reference_value(&c, &m);
+    assert!((0.88..0.9).contains(&reference), "{reference}");
+    let gpu = common::gpu();
+    let pipeline = gpu.pipeline(&m).unwrap();
+    let v = gpu
+        .run(&pipeline, &[GpuScene::from(&c)], 0, &mut |_| {})
+        .unwrap()
+        .values[0];
+    assert_eq!(v, 1.0, "GPU");
+    assert_eq!(
+        m.cpu_column(std::slice::from_ref(&c), Mode::F64).unwrap()[0],
+        Some(1.0),
+        "f64"
+    );
+}

@@ -5,7 +5,7 @@
 mod common;
 use common::CONFIG;
 
-use common::snapshot::{only_changed, s, snapshot};
+use common::snapshot::{only_changed, refused, s, snapshot};
 use common::{stderr, write};
 use std::process::{Command, Output};
 
@@ -465,4 +465,330 @@ fn a_killed_sweep_leaves_the_earlier_outputs_whole() {
         .filter(|p| p.to_string_lossy().contains(".tmp-"))
         .collect();
     assert!(left.is_empty(), "temporaries left: {left:?}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// An output that cannot be written. The tests run as root, whom permission bits do not stop:
+// a file made immutable (`chattr +i`, which stops root too) is refused before any work; a path
+// where nothing can be created (procfs, mounted on every Linux machine and container) fails
+// with exit 2 when it is created.
+
+/// `chattr +i` on `path` for as long as the guard lives; None where the file system or the
+/// missing capability (CAP_LINUX_IMMUTABLE, which a default container lacks) does not allow it.
+struct Immutable(std::path::PathBuf);
+
+impl Immutable {
+    fn set(path: &std::path::Path) -> Result<Immutable, String> {
+        let o = Command::new("chattr").arg("+i").arg(path).output();
+        match o {
+            Ok(o) if o.status.success() => Ok(Immutable(path.to_path_buf())),
+            Ok(o) => Err(format!("chattr +i: {}", String::from_utf8_lossy(&o.stderr).trim())),
+            Err(e) => Err(format!("chattr: {e}")),
+        }
+    }
+}
+
+impl Drop for Immutable {
+    fn drop(&mut self) {
+        // The temporary folder could not be removed otherwise.
+        let _ = Command::new("chattr").arg("-i").arg(&self.0).status();
+    }
+}
+
+#[test]
+fn an_output_that_cannot_be_written_is_refused_before_any_work() {
+    let t = tempfile::tempdir().unwrap();
+    let d = t.path();
+    let input = write(d, "in.jsonl", &format!("{CONFIG}\n"));
+    let case = write(d, "case.toml", CASE);
+    // procfs: no file can be created in /proc, root or not. access(2) lets root through, so
+    // this is found when the file is created, after the run (not before any work, as for the
+    // immutable file below): still exit 2 naming the path, and nothing changed.
+    let proc_out = "/proc/linelight-promises-out.jsonl";
+    let before = snapshot(d);
+    let o = linelight_with(
+        &[],
+        &[
+            "eval",
+            "--input",
+            s(&input),
+            "--output",
+            proc_out,
+            "--methods",
+            "line.ltc2017",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(&format!("cannot write {proc_out}")),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!std::path::Path::new(proc_out).exists());
+    only_changed(&before, &snapshot(d), &[]);
+
+    // An immutable file, for root as for anyone: refused by the output plan, nothing run.
+    let old = write(d, "old.jsonl", "old\n");
+    let raw = write(d, "raw.jsonl", "old raw\n");
+    let guard = match Immutable::set(&old) {
+        Ok(g) => g,
+        Err(why) => {
+            return common::skip_or_fail(
+                "an_output_that_cannot_be_written_is_refused_before_any_work (immutable file)",
+                &why,
+            )
+        }
+    };
+    let before = snapshot(d);
+    let o = linelight_with(
+        &[],
+        &[
+            "eval",
+            "--input",
+            s(&input),
+            "--output",
+            s(&old),
+            "--methods",
+            "line.ltc2017",
+        ],
+    );
+    refused(
+        &o,
+        &[&format!("--output {}: permission denied (not writable)", s(&old))],
+    );
+    // A sweep whose --raw cannot be written writes no report either.
+    let o = linelight_with(
+        &[],
+        &["sweep", s(&case), "--out", s(&d.join("reports")), "--raw", s(&old)],
+    );
+    refused(&o, &[&format!("--raw {}: permission denied (not writable)", s(&old))]);
+    only_changed(&before, &snapshot(d), &[]);
+    assert!(!d.join("reports").exists());
+    drop(guard);
+    // Writable again, the same eval replaces it.
+    let o = linelight_with(
+        &[],
+        &[
+            "eval",
+            "--input",
+            s(&input),
+            "--output",
+            s(&raw),
+            "--methods",
+            "line.ltc2017",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+// ---------------------------------------------------------------------------------------------
+// The memory budget: a kernel's private memory in `check`, and the default limit.
+
+/// MemTotal of /proc/meminfo in bytes, read here, apart from src/limits.rs.
+fn mem_total() -> u64 {
+    let m = std::fs::read_to_string("/proc/meminfo").unwrap();
+    let kib: u64 = m
+        .lines()
+        .find_map(|l| l.strip_prefix("MemTotal:"))
+        .and_then(|v| v.trim().strip_suffix("kB"))
+        .map(|v| v.trim().parse().unwrap())
+        .expect("MemTotal in /proc/meminfo");
+    kib * 1024
+}
+
+/// The invocations in flight docs/robustness.md counts: a 64-wide workgroup per core.
+fn in_flight() -> u64 {
+    64 * std::thread::available_parallelism().map_or(1, |n| n.get() as u64)
+}
+
+/// A kernel holding `private` f32s in a `var<private>` array and `local` in a local array.
+fn big_kernel(id: &str, private: u64, local: u64) -> String {
+    format!(
+        "//! id: {id}\n//! target: line\nvar<private> big: array<f32, {private}>;\n\
+         fn method(scene: Scene) -> f32 {{\n    var near: array<f32, {local}>;\n    \
+         big[0] = scene.p1.z;\n    near[0] = scene.p2.z;\n    return big[0] + near[0];\n}}\n"
+    )
+}
+
+#[test]
+fn check_counts_a_kernels_private_and_local_memory_against_the_limit() {
+    let t = tempfile::tempdir().unwrap();
+    let d = t.path();
+    // 512 KiB private + 512 KiB local = 1 MiB per invocation.
+    let kernel = write(d, "big.wgsl", &big_kernel("user.big", 1 << 17, 1 << 17));
+    let n = in_flight();
+    let before = snapshot(d);
+    // The two arrays are 1 MiB; the prelude's and the entry point's own locals add a few bytes.
+    // At 1 MiB per invocation in flight: refused, naming the file, the parts and the limit.
+    let limit = n << 20;
+    let o = linelight_with(&[], &["check", s(&kernel), "--max-memory", &limit.to_string()]);
+    refused(
+        &o,
+        &[
+            &format!(
+                "big.wgsl: its private and local variables (1.0 MiB per invocation, × {n} invocations in \
+                 flight) needs an estimated {}",
+                linelight::limits::Bytes(n << 20)
+            ),
+            "more than --max-memory",
+        ],
+    );
+    assert!(String::from_utf8_lossy(&o.stdout).trim().is_empty());
+    // With 4 KiB per invocation to spare: the kernel is fine.
+    let o = linelight_with(
+        &[],
+        &[
+            "check",
+            s(&kernel),
+            "--max-memory",
+            &(n * ((1 << 20) + 4096)).to_string(),
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("big.wgsl: ok (user.big → line)"),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    // The private array alone is half as much: within the limit the whole kernel exceeds.
+    let half = write(d, "half.wgsl", &big_kernel("user.half", 1 << 17, 1));
+    let o = linelight_with(&[], &["check", s(&half), "--max-memory", &limit.to_string()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // eval applies the same rule to a --kernel file, before any input is read.
+    let input = write(d, "in.jsonl", &format!("{CONFIG}\n"));
+    let before_eval = snapshot(d);
+    let o = linelight_with(
+        &[],
+        &[
+            "eval",
+            "--input",
+            s(&input),
+            "--output",
+            s(&d.join("out.jsonl")),
+            "--kernel",
+            s(&kernel),
+            "--max-memory",
+            &limit.to_string(),
+        ],
+    );
+    refused(
+        &o,
+        &["big.wgsl: its private and local variables (1.0 MiB per invocation"],
+    );
+    only_changed(&before_eval, &snapshot(d), &[]);
+    only_changed(&before, &snapshot(d), &["half.wgsl", "in.jsonl"]);
+}
+
+#[test]
+fn the_default_memory_limit_is_half_of_memtotal_and_refuses_above_it() {
+    let half = mem_total() / 2;
+    assert_eq!(linelight::limits::default_max_memory().0, half);
+    let named = format!(
+        "more than the default limit {} (half of this machine's memory)",
+        linelight::limits::Bytes(half)
+    );
+    let t = tempfile::tempdir().unwrap();
+    let d = t.path();
+    // A kernel whose private array times the invocations in flight exceeds the default, with
+    // no --max-memory: refused by `check`, naming the default.
+    // 1 GiB private and 1 GiB local (naga lays out no type of 2 GiB or more).
+    let per = 2u64 << 30;
+    let kernel = write(d, "huge.wgsl", &big_kernel("user.huge", 1 << 28, 1 << 28));
+    let before = snapshot(d);
+    let o = linelight_with(&[], &["check", s(&kernel)]);
+    if per * in_flight() > half {
+        refused(&o, &["huge.wgsl: its private and local variables", &named]);
+    } else {
+        // A machine with more memory than 2 GiB × the invocations in flight × 2.
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    }
+    // A sweep whose statistics exceed it: a 2000 × 2000 map is 4,000,000 cells of 8 KiB
+    // (32 GiB) per method and material.
+    let edges = |n: usize, lo: f64, hi: f64| {
+        (0..=n)
+            .map(|i| format!("{}", lo + (hi - lo) * i as f64 / n as f64))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let map = write(
+        d,
+        "map.toml",
+        &format!(
+            "{}[[maps]]\nx = {{ axis = \"elevation\", edges = [{}] }}\ny = {{ axis = \"tilt\", edges = [{}] }}\n",
+            common::CASE,
+            edges(2000, 10.0, 90.0),
+            edges(2000, 0.0, 180.0)
+        ),
+    );
+    // (Run only where it is refused: elsewhere it would measure 4,000,000 cells.)
+    if 4_000_000u64 * (8 << 10) > half {
+        let before_map = snapshot(d);
+        let o = linelight_with(&[], &["sweep", s(&map), "--out", s(&d.join("r"))]);
+        refused(&o, &["4000000 map cells", &named]);
+        only_changed(&before_map, &snapshot(d), &[]);
+    }
+    only_changed(&before, &snapshot(d), &["map.toml"]);
+    // Given, the limit is named as --max-memory, not as the default.
+    let o = linelight_with(&[], &["check", s(&kernel), "--max-memory", "1M"]);
+    refused(&o, &["more than --max-memory 1.0 MiB"]);
+    assert!(!stderr(&o).contains("default"), "{}", stderr(&o));
+}
+
+// ---------------------------------------------------------------------------------------------
+// A reference that cannot be computed: exit 2 naming the configuration, never a NaN row.
+
+#[test]
+fn a_reference_that_is_not_finite_is_exit_2_naming_the_configuration() {
+    let t = tempfile::tempdir().unwrap();
+    let d = t.path();
+    // Extreme but valid: every entry of M⁻¹ within 2^60, its determinant 1e-264 (not 0), the
+    // segment crossing the horizon. The lobe's condition number ‖M⁻¹‖·‖adj M⁻¹‖/det overflows
+    // and D underflows to 0, so the reference's error estimate is 0 × ∞ = NaN. No test hook:
+    // this is what a user can send.
+    let bad = r#"{"id":"cond","p1":[0.3,-0.2,0.001],"p2":[0.9,0.4,-0.002],"material":{"kind":"ltc","minv":[[1e18,0,0],[0,1e18,0],[0,0,1e-300]]}}"#;
+    let input = write(d, "in.jsonl", &format!("{CONFIG}\n{bad}\n"));
+    let output = write(d, "out.jsonl", "old\n");
+    let before = snapshot(d);
+    let o = linelight_with(
+        &[],
+        &[
+            "eval",
+            "--input",
+            s(&input),
+            "--output",
+            s(&output),
+            "--methods",
+            "line.ltc2017",
+        ],
+    );
+    refused(
+        &o,
+        &[
+            "in.jsonl: 3 reference(s) not finite",
+            "configuration `cond`: the line reference cannot be computed (value 0, error NaN)",
+            "configuration `cond`: the line_upper reference",
+            "configuration `cond`: the line_isotropic reference",
+        ],
+    );
+    // The good first line is not written either: the output is replaced only once complete.
+    assert!(!stderr(&o).contains("`a`"), "{}", stderr(&o));
+    only_changed(&before, &snapshot(d), &[]);
+    // Its determinant 1e6 times larger and the references are numbers again (exactly 0).
+    let fine = bad.replace("1e-300", "1e-290");
+    let input = write(d, "in.jsonl", &format!("{fine}\n"));
+    let o = linelight_with(
+        &[],
+        &[
+            "eval",
+            "--input",
+            s(&input),
+            "--output",
+            s(&output),
+            "--methods",
+            "line.ltc2017",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let row = std::fs::read_to_string(&output).unwrap();
+    assert!(row.contains(r#""reference":{"line":0.0,"#), "{row}");
 }

@@ -905,6 +905,127 @@ mod tests {
     }
     use super::*;
 
+    // Written for the mutants a cargo-mutants pass found unkilled (docs/mutation.md).
+    #[test]
+    fn floored_errors_and_outcomes_by_hand() {
+        // |reference| above the floor: the plain relative error; below: over the floor.
+        assert_eq!(relative_error_floored(1.5, 1.0, 0.25), 0.5);
+        assert!((relative_error_floored(0.3, 0.1, 0.5) - 0.4).abs() < 1e-15);
+        assert!((relative_error_floored(-0.1, 0.1, 0.5) - 0.4).abs() < 1e-15);
+        let f32_outcome = Outcome::of_f32(1.5, 1.0, 2.0);
+        assert_eq!(
+            f32_outcome,
+            Outcome::Finite {
+                rel: 0.5,
+                rel_floored: 0.25,
+                abs: 0.5,
+                bits: bits_of_error(1.5, 1.0),
+            }
+        );
+        match Outcome::of_f64(0.25, 1.0, 2.0) {
+            Outcome::Finite {
+                rel,
+                rel_floored,
+                abs,
+                bits,
+            } => {
+                assert_eq!((rel, rel_floored, abs), (0.75, 0.375, 0.75));
+                assert!(bits.is_nan());
+            }
+            o => panic!("{o:?}"),
+        }
+        assert_eq!(Outcome::of_f64(f64::NAN, 1.0, 0.0), Outcome::Nan);
+        assert_eq!(Outcome::of_f32(f32::NEG_INFINITY, 1.0, 0.0), Outcome::Inf);
+        assert_eq!(
+            (QuantileKind::Exact.name(), QuantileKind::Sketch.name()),
+            ("exact", "sketch")
+        );
+    }
+
+    #[test]
+    fn median_is_nearest_rank_with_nan_last() {
+        assert_eq!(median(&[]), None);
+        assert_eq!(median(&[7.0]), Some(7.0));
+        // Four values: rank ⌈0.5·4⌉ = 2 of the sorted values, NaN sorting last.
+        assert_eq!(median(&[f64::NAN, 3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(&[5.0, -1.0, 4.0]), Some(4.0));
+    }
+
+    #[test]
+    fn log_add_is_exact_far_apart_in_either_order() {
+        assert_eq!(log_add(f64::NEG_INFINITY, -3.0), -3.0);
+        assert_eq!(log_add(-3.0, f64::NEG_INFINITY), -3.0);
+        // e^1000 overflows: the larger term must be factored out, whichever comes first.
+        assert_eq!(log_add(1000.0, 0.0), 1000.0);
+        assert_eq!(log_add(0.0, 1000.0), 1000.0);
+        assert!((log_add(0.0, 0.0) - 2f64.ln()).abs() < 1e-15);
+        assert!((log_add(2.0, 1.0) - (2f64.exp() + 1f64.exp()).ln()).abs() < 1e-14);
+    }
+
+    #[test]
+    fn bounds_are_within_a_limit_only_when_finite_and_sort_last_otherwise() {
+        assert!(Bound::At { value: 0.5 }.within(0.5) && !Bound::At { value: 0.6 }.within(0.5));
+        assert!(!Bound::Infinite.within(1e300) && !Bound::TooFew.within(1e300));
+        assert_eq!(Bound::At { value: 0.25 }.sort_key(), 0.25);
+        assert_eq!(Bound::TooFew.sort_key(), f64::INFINITY);
+        assert_eq!(Bound::Infinite.sort_key(), f64::INFINITY);
+    }
+
+    #[test]
+    fn merging_two_exact_parts_past_the_limit_sketches_as_one_pass_would() {
+        let (mut a, mut b, mut one) = (
+            Distribution::default(),
+            Distribution::default(),
+            Distribution::default(),
+        );
+        assert!(a.is_empty());
+        for i in 0..3000 {
+            let v = 1.0 + i as f64;
+            if i < 1500 {
+                a.push(v)
+            } else {
+                b.push(v)
+            }
+            one.push(v);
+        }
+        assert!(!a.is_empty() && matches!(a, Distribution::Exact(_)));
+        a.merge(&b);
+        assert!(matches!(a, Distribution::Sketch(_)), "{a:?}");
+        assert_eq!(a.len(), 3000);
+        assert_eq!(a.quantiles(), one.quantiles());
+    }
+
+    #[test]
+    fn order_statistics_by_rank_exact_and_never_below_when_sketched() {
+        let mut d = Distribution::default();
+        for v in [5.0, 1.0, 3.0, 2.0, 4.0] {
+            d.push(v);
+        }
+        let exact: Vec<f64> = (1..=5).map(|k| d.order_statistic_upper(k)).collect();
+        assert_eq!(exact, [1.0, 2.0, 3.0, 4.0, 5.0]);
+        // A sketch of one repeated value reads it exactly (clamped to the observed range), so
+        // its upper bound is the value itself: dividing by (1 + α) would put it below.
+        let mut same = Distribution::default();
+        for _ in 0..3000 {
+            same.push(0.75);
+        }
+        assert!(matches!(same, Distribution::Sketch(_)));
+        for k in [1, 1500, 3000] {
+            assert_eq!(same.order_statistic_upper(k), 0.75, "rank {k}");
+        }
+        // Distinct values: the bound of rank k is the sketch's reading there, within α each way
+        // of the k-th value, over (1 − α): not the reading of a higher rank.
+        let mut spread = Distribution::default();
+        for v in 1..=3000 {
+            spread.push(f64::from(v));
+        }
+        for k in [10, 100, 1000, 2999] {
+            let b = spread.order_statistic_upper(k);
+            let most = k as f64 * (1.0 + SKETCH_ALPHA) / (1.0 - SKETCH_ALPHA);
+            assert!(b >= k as f64 && b <= most, "rank {k}: {b} outside [{k}, {most}]");
+        }
+    }
+
     #[test]
     fn accumulating_in_parts_and_merging_is_one_pass() {
         // Past the exact limit, so the sketch's merge is exercised too.

@@ -117,7 +117,9 @@ pub(crate) fn graded(centre: f64, width: f64, cuts: &mut Vec<f64>) {
     if width >= GRADE_BELOW {
         return;
     }
-    let mut t = width;
+    // A width that underflowed to 0 (or a subnormal) would never grow past π: start the
+    // grading at the smallest normal width, a few hundred cuts at most.
+    let mut t = width.max(f64::MIN_POSITIVE);
     while t < PI {
         cuts.extend([centre - t, centre + t]);
         t *= 4.0;
