@@ -146,19 +146,10 @@ fn gallery(g: &Gallery, files: &[(String, Vec<u8>)]) -> String {
     s
 }
 
-/// Text for an HTML element or a quoted attribute.
+/// Text for an HTML element or a quoted attribute (`&`, `<`, `>`, `"` and `'` escaped).
 pub fn escape(s: &str) -> String {
     let mut o = String::with_capacity(s.len());
-    for c in s.chars() {
-        match c {
-            '&' => o += "&amp;",
-            '<' => o += "&lt;",
-            '>' => o += "&gt;",
-            '"' => o += "&quot;",
-            '\'' => o += "&#39;",
-            c => o.push(c),
-        }
-    }
+    pulldown_cmark_escape::escape_html(&mut o, s).expect("writing to a String cannot fail");
     o
 }
 
