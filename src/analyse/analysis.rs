@@ -335,6 +335,19 @@ impl Accumulate<Judged> for BinAccumulator {
     }
 }
 
+/// The reference an f32 column is judged against at configuration `i` of a chunk: the one at
+/// the f32-rounded inputs where it is measured and not 0 (and the exact one is not 0), else the
+/// exact one (docs/statistics.md). None without an exact reference. The analysis and the gate
+/// both judge through it.
+pub fn f32_reference(chunk: &Chunk, i: usize, target: Target) -> Option<crate::reference::Estimate> {
+    let exact = *chunk.references[i].get(&target)?;
+    let rounded = chunk.references_f32.get(i).and_then(|r| r.get(&target));
+    Some(match rounded {
+        Some(r32) if r32.value != 0.0 && exact.value != 0.0 => *r32,
+        _ => exact,
+    })
+}
+
 /// Configuration `i` of a chunk judged against target `judged`, or None when it has no such
 /// reference or the method does not apply.
 fn judge(case: &Case, chunk: &Chunk, run: &MethodRun, i: usize, judged: Target) -> Option<Judged> {
@@ -354,7 +367,7 @@ fn judge(case: &Case, chunk: &Chunk, run: &MethodRun, i: usize, judged: Target) 
     // at best return; the exact one where that is missing or 0), the f64 column against the
     // exact reference (docs/statistics.md).
     let rounded = chunk.references_f32.get(i).and_then(|refs| refs.get(&judged));
-    let r32 = rounded.map(|e| e.value).filter(|&v| v != 0.0).unwrap_or(r.value);
+    let r32 = f32_reference(chunk, i, judged).map_or(r.value, |e| e.value);
     Some(Judged::Lit {
         gpu: Outcome::of_f32(run.f32[i], r32, floor),
         cpu: run.f32_cpu[i].map(|v| Outcome::of_f32(v, r32, floor)),

@@ -191,15 +191,7 @@ pub fn observe_chunk(obs: &mut Observations, case: &crate::input::case::Case, ch
             // at the f32-rounded inputs where it is measured and not 0 (as the analysis does).
             let target = crate::analyse::analysis::headline_target(run.method.target());
             let reference = chunk.references[i].get(&target).copied();
-            let rounded = chunk
-                .references_f32
-                .get(i)
-                .and_then(|r| r.get(&target).copied())
-                .filter(|r| r.value != 0.0);
-            let judged = match (reference, rounded) {
-                (Some(exact), Some(r32)) if exact.value != 0.0 => Some(r32),
-                _ => reference,
-            };
+            let judged = crate::analyse::analysis::f32_reference(chunk, i, target);
             list.push(if run.method.applies(c) {
                 observe(run.f32[i], judged)
             } else {
