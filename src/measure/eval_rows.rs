@@ -295,6 +295,16 @@ pub fn references_f32_inputs(
 /// `reference_f32_inputs` and `reference_f32_inputs_error`, and `version` itself.
 pub const EVAL_FORMAT_VERSION: u32 = 2;
 
+/// References by target name as eval writes them: the values, and their error estimates.
+fn value_and_error(references: &BTreeMap<Target, Estimate>) -> (Value, Value) {
+    let (mut value, mut error) = (Map::new(), Map::new());
+    for (t, e) in references {
+        value.insert(t.name().into(), number(e.value));
+        error.insert(t.name().into(), number(e.error));
+    }
+    (Value::Object(value), Value::Object(error))
+}
+
 /// One output line: references with their error estimates (and, where computed, those at the
 /// configuration rounded to f32) and every applicable method.
 pub fn result_row(
@@ -306,12 +316,7 @@ pub fn result_row(
     f64_values: &[Option<f64>],
     cpu_f32_values: &[Option<f64>],
 ) -> Value {
-    let mut reference = Map::new();
-    let mut reference_error = Map::new();
-    for (t, e) in references {
-        reference.insert(t.name().into(), number(e.value));
-        reference_error.insert(t.name().into(), number(e.error));
-    }
+    let (reference, reference_error) = value_and_error(references);
     let mut values = Map::new();
     for (((m, &v32), &v64), &c32) in methods.iter().zip(f32_values).zip(f64_values).zip(cpu_f32_values) {
         if !m.applies(c) {
@@ -330,14 +335,9 @@ pub fn result_row(
     let mut row = json!({"version": EVAL_FORMAT_VERSION, "id": c.id, "reference": reference,
         "reference_error": reference_error, "methods": values});
     if let Some(references_f32) = references_f32 {
-        let mut value = Map::new();
-        let mut error = Map::new();
-        for (t, e) in references_f32 {
-            value.insert(t.name().into(), number(e.value));
-            error.insert(t.name().into(), number(e.error));
-        }
-        row["reference_f32_inputs"] = Value::Object(value);
-        row["reference_f32_inputs_error"] = Value::Object(error);
+        let (value, error) = value_and_error(references_f32);
+        row["reference_f32_inputs"] = value;
+        row["reference_f32_inputs_error"] = error;
     }
     if let Some(rect) = &c.rect {
         // The rectangle as evaluated: its normal made perpendicular to the segment.
