@@ -18,6 +18,13 @@ struct Scene {
     float alpha_x;
     vec3 tangent;
     float alpha_y;
+    // Contract 3: Fresnel and the textured emitter (prelude.wgsl).
+    vec3 tex_origin;
+    float f0;
+    uint tex_kind;
+    uint tex_offset;
+    uint tex_nu;
+    uint tex_nv;
 };
 
 const uint FLAG_LTC = 1u;

@@ -19,6 +19,13 @@ struct Scene {
     float alpha_x;
     float3 tangent;
     float alpha_y;
+    // Contract 3: Fresnel and the textured emitter (prelude.wgsl).
+    float3 tex_origin;
+    float f0;
+    uint tex_kind;
+    uint tex_offset;
+    uint tex_nu;
+    uint tex_nv;
 };
 
 static const uint FLAG_LTC = 1u;

@@ -6,7 +6,7 @@
 const PI: f32 = 3.14159265358979323846;
 
 // One configuration in the shading frame (origin = shading point, normal = +z).
-// std430, 128 bytes: must match `GpuScene` in src/scene.rs. Members are only ever added at
+// std430, 160 bytes: must match `GpuScene` in src/scene.rs. Members are only ever added at
 // the end, so a kernel written to an older contract reads what it always read.
 struct Scene {
     p1: vec3<f32>,
@@ -23,6 +23,13 @@ struct Scene {
     alpha_x: f32,         // GGX roughness along `tangent`
     tangent: vec3<f32>,   // unit, ⟂ +z: the material's x axis; alpha_y is along cross(+z, tangent)
     alpha_y: f32,         // GGX roughness along cross(+z, tangent)
+    // Contract 3 (160 bytes): Fresnel and the textured emitter.
+    tex_origin: vec3<f32>, // textured light: the unit vector ⟂ the light where φ = 0; 0 untextured
+    f0: f32,              // ggx: Schlick's F0, F = f0 + (1 − f0)(1 − v·h)⁵; 1 (so F = 1) otherwise
+    tex_kind: u32,        // 0 untextured, 1 cylindrical, 2 cubemap (kernels/README.md)
+    tex_offset: u32,      // this scene's first texel in the harness's texel buffer
+    tex_nu: u32,          // texels along u (cubemap: the face size)
+    tex_nv: u32,          // texels along v (cubemap: the face size)
 }
 
 const FLAG_LTC: u32 = 1u;

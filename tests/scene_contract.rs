@@ -143,7 +143,8 @@ fn an_old_contract_kernel_gives_the_values_recorded_before_the_scene_grew() {
 
 /// A kernel that returns Scene member component `K` (a float param, so one kernel reads
 /// them all): 0–2 p1, 3 radius, 4–6 p2, 7 rect_width, 8–10 rect_normal, 11 flags, 12–20 minv
-/// column by column, 21–23 view, 24 alpha_x, 25–27 tangent, 28 alpha_y. `minv: ggx`, so no
+/// column by column, 21–23 view, 24 alpha_x, 25–27 tangent, 28 alpha_y, and contract 3's
+/// 29–31 tex_origin, 32 f0, 33 tex_kind, 34 tex_offset, 35 tex_nu, 36 tex_nv. `minv: ggx`, so no
 /// fed magnitude multiplies what it reads (the harness runs it on every material here).
 const PROBE: &str = "//! id: user.scene_probe
 //! target: line
@@ -153,7 +154,7 @@ const PROBE: &str = "//! id: user.scene_probe
 override K: f32 = 0.0;
 fn method(scene: Scene) -> f32 {
     let k = i32(K);
-    var v = array<f32, 29>(
+    var v = array<f32, 37>(
         scene.p1.x, scene.p1.y, scene.p1.z, scene.radius,
         scene.p2.x, scene.p2.y, scene.p2.z, scene.rect_width,
         scene.rect_normal.x, scene.rect_normal.y, scene.rect_normal.z, f32(scene.flags),
@@ -161,7 +162,9 @@ fn method(scene: Scene) -> f32 {
         scene.minv[1].x, scene.minv[1].y, scene.minv[1].z,
         scene.minv[2].x, scene.minv[2].y, scene.minv[2].z,
         scene.view.x, scene.view.y, scene.view.z, scene.alpha_x,
-        scene.tangent.x, scene.tangent.y, scene.tangent.z, scene.alpha_y);
+        scene.tangent.x, scene.tangent.y, scene.tangent.z, scene.alpha_y,
+        scene.tex_origin.x, scene.tex_origin.y, scene.tex_origin.z, scene.f0,
+        f32(scene.tex_kind), f32(scene.tex_offset), f32(scene.tex_nu), f32(scene.tex_nv));
     return v[k];
 }
 ";
@@ -172,7 +175,7 @@ fn every_scene_member_reads_back_on_the_gpu_and_in_the_evaluator() {
     let cs = configs();
     let mut kernels = builtin_kernels();
     kernels.push(KernelFile::parse("probe.wgsl", PROBE).unwrap());
-    for k in 0..29 {
+    for k in 0..37 {
         let m = resolve(&format!("user.scene_probe@{k}"), &kernels).unwrap();
         let raw = gpu_values(gpu, &m, &cs);
         let cpu = m.cpu_column(&cs, Mode::F32).unwrap();
@@ -190,6 +193,12 @@ fn every_scene_member_reads_back_on_the_gpu_and_in_the_evaluator() {
                 "alpha_x",
                 "tangent",
                 "alpha_y",
+                "tex_origin",
+                "f0",
+                "tex_kind",
+                "tex_offset",
+                "tex_nu",
+                "tex_nv",
             ]
             .iter()
             .flat_map(|n| input.member(n).unwrap())

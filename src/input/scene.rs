@@ -504,6 +504,18 @@ pub struct SceneInput {
     /// `alpha_y` along `cross(+z, tangent)`. The material's x axis, rotated with the scene.
     pub tangent: Vec3,
     pub alpha_y: f64,
+    /// Contract 3. A textured light: the unit vector ⟂ the light where φ = 0; 0 untextured.
+    pub tex_origin: Vec3,
+    /// `ggx`: Schlick's F0 (F = f0 + (1 − f0)(1 − v·h)⁵); 1, so F = 1, when the material has
+    /// none and for other materials.
+    pub f0: f64,
+    /// 0 untextured, 1 cylindrical, 2 cubemap.
+    pub tex_kind: u32,
+    /// This scene's first texel in the harness's texel buffer.
+    pub tex_offset: u32,
+    /// Texels along u and v (a cubemap: the face size, twice).
+    pub tex_nu: u32,
+    pub tex_nv: u32,
     /// Host-side only, not a `Scene` member.
     pub magnitude: f64,
 }
@@ -542,6 +554,12 @@ impl SceneInput {
             alpha_x: alpha[0],
             tangent,
             alpha_y: alpha[1],
+            tex_origin: [0.0; 3],
+            f0: 1.0,
+            tex_kind: 0,
+            tex_offset: 0,
+            tex_nu: 0,
+            tex_nv: 0,
             magnitude,
         }
     }
@@ -561,16 +579,23 @@ impl SceneInput {
             "alpha_x" => vec![self.alpha_x],
             "tangent" => self.tangent.to_vec(),
             "alpha_y" => vec![self.alpha_y],
+            "tex_origin" => self.tex_origin.to_vec(),
+            "f0" => vec![self.f0],
+            "tex_kind" => vec![f64::from(self.tex_kind)],
+            "tex_offset" => vec![f64::from(self.tex_offset)],
+            "tex_nu" => vec![f64::from(self.tex_nu)],
+            "tex_nv" => vec![f64::from(self.tex_nv)],
             _ => return None,
         })
     }
 }
 
 /// The configuration as a compute kernel reads it: std430 layout of the WGSL `Scene`
-/// in `kernels/prelude.wgsl` (128 bytes). `minv` is stored column-major as WGSL's
+/// in `kernels/prelude.wgsl` (160 bytes). `minv` is stored column-major as WGSL's
 /// `mat3x3<f32>` is, each column padded to 16 bytes. Members are only ever added at the
-/// end (the first 96 bytes are the contract before the ggx members), so a kernel written
-/// to an older contract reads what it always read (tests/scene_contract.rs).
+/// end (the first 96 bytes are contract 1, before the ggx members; the first 128 contract 2,
+/// before Fresnel and textures), so a kernel written to an older contract reads what it
+/// always read (tests/scene_contract.rs).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuScene {
@@ -585,7 +610,18 @@ pub struct GpuScene {
     pub alpha_x: f32,
     pub tangent: [f32; 3],
     pub alpha_y: f32,
+    pub tex_origin: [f32; 3],
+    pub f0: f32,
+    pub tex_kind: u32,
+    pub tex_offset: u32,
+    pub tex_nu: u32,
+    pub tex_nv: u32,
 }
+
+/// The kernel contract's version: which `Scene` members exist (kernels/README.md). 1: the
+/// geometry and M⁻¹ (96 bytes); 2: + the ggx view and roughness (128); 3: + `tex_origin`, `f0`,
+/// `tex_kind`, `tex_offset`, `tex_nu`, `tex_nv` (160).
+pub const SCENE_CONTRACT: u32 = 3;
 
 pub const FLAG_LTC: u32 = 1;
 pub const FLAG_RADIUS: u32 = 2;
@@ -624,6 +660,12 @@ impl From<&SceneInput> for GpuScene {
             alpha_x: s.alpha_x as f32,
             tangent: f(s.tangent),
             alpha_y: s.alpha_y as f32,
+            tex_origin: f(s.tex_origin),
+            f0: s.f0 as f32,
+            tex_kind: s.tex_kind,
+            tex_offset: s.tex_offset,
+            tex_nu: s.tex_nu,
+            tex_nv: s.tex_nv,
         };
         if s.flags & FLAG_GGX != 0 {
             scene.minv_cols[0][3] = s.magnitude as f32;
@@ -693,12 +735,16 @@ mod tests {
     }
 
     #[test]
-    fn gpu_layout_is_128_bytes_column_major() {
-        assert_eq!(std::mem::size_of::<GpuScene>(), 128);
+    fn gpu_layout_is_160_bytes_column_major() {
+        assert_eq!(std::mem::size_of::<GpuScene>(), 160);
         // The contract's first 96 bytes are where they were before the ggx members.
         assert_eq!(std::mem::offset_of!(GpuScene, minv_cols), 48);
         assert_eq!(std::mem::offset_of!(GpuScene, view), 96);
         assert_eq!(std::mem::offset_of!(GpuScene, tangent), 112);
+        // Contract 3 starts where contract 2 ended.
+        assert_eq!(std::mem::offset_of!(GpuScene, tex_origin), 128);
+        assert_eq!(std::mem::offset_of!(GpuScene, f0), 140);
+        assert_eq!(std::mem::offset_of!(GpuScene, tex_nv), 156);
         let mut c = base();
         c.material = Material::Ltc {
             minv: [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.0]],
