@@ -24,7 +24,6 @@ use std::path::{Path, PathBuf};
 
 pub use crate::analyse::summary::Stages;
 pub use crate::input::names::{chart_file, map_file};
-pub use crate::io::write_atomic;
 
 /// Formats a non-negative statistic compactly: `3.1e-07`, `0`, or `—` when absent.
 pub fn sci(x: Option<f64>) -> String {
