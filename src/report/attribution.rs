@@ -3,6 +3,7 @@
 //! `markdown/`, which only calls [`render`].
 
 use crate::analyse::summary::Attribution;
+use crate::report::markup::{Align, Table};
 use std::fmt::Write;
 
 /// Lines shown per method.
@@ -25,20 +26,21 @@ pub fn render(methods: &[Attribution]) -> String {
     );
     for m in methods {
         let _ = writeln!(o, "`{}` ({} configurations):\n", m.label, m.configurations);
-        let _ = writeln!(o, "| file:line | source | mean bits | p99 bits |");
-        let _ = writeln!(o, "|---|---|---:|---:|");
+        let mut table = Table::new(&[
+            ("file:line", Align::Left),
+            ("source", Align::Left),
+            ("mean bits", Align::Right),
+            ("p99 bits", Align::Right),
+        ]);
         for l in m.lines.iter().take(TOP) {
-            let _ = writeln!(
-                o,
-                "| `{}:{}` | `{}` | {:.2} | {:.2} |",
-                l.path,
-                l.line,
-                l.text.trim().replace('|', "\\|"),
-                l.mean,
-                l.p99
-            );
+            table.row(vec![
+                format!("`{}:{}`", l.path, l.line),
+                format!("`{}`", l.text.trim().replace('|', "\\|")),
+                format!("{:.2}", l.mean),
+                format!("{:.2}", l.p99),
+            ]);
         }
-        let _ = writeln!(o);
+        let _ = writeln!(o, "{}", table.markdown());
     }
     o
 }

@@ -17,10 +17,20 @@ pub struct Table {
 
 impl Table {
     pub fn new(columns: &[(&str, Align)]) -> Table {
+        Table::with_columns(columns.iter().map(|(n, a)| (n.to_string(), *a)).collect())
+    }
+
+    /// A table whose column names are computed (one column per method, per material, ...).
+    pub fn with_columns(columns: Vec<(String, Align)>) -> Table {
         Table {
-            columns: columns.iter().map(|(n, a)| (n.to_string(), *a)).collect(),
+            columns,
             rows: Vec::new(),
         }
+    }
+
+    /// No rows yet.
+    pub fn is_empty(&self) -> bool {
+        self.rows.is_empty()
     }
 
     /// Adds a row; it must have one cell per column (a mismatch is a bug in the caller).
@@ -37,7 +47,19 @@ impl Table {
 
     /// The header, the alignment line and every row, each line ending in a newline.
     pub fn markdown(&self) -> String {
-        let line = |cells: &[String]| format!("| {} |\n", cells.join(" | "));
+        // `| a | b |`; an empty cell is `| |`.
+        let line = |cells: &[String]| {
+            let mut l = String::from("|");
+            for c in cells {
+                if !c.is_empty() {
+                    l.push(' ');
+                    l.push_str(c);
+                }
+                l.push_str(" |");
+            }
+            l.push('\n');
+            l
+        };
         let names: Vec<String> = self.columns.iter().map(|c| c.0.clone()).collect();
         let mut out = line(&names);
         out.push('|');
@@ -64,6 +86,10 @@ mod tests {
         let mut t = Table::new(&[("method", Align::Left), ("n", Align::Right)]);
         t.row(vec!["`a`".into(), "3".into()]);
         assert_eq!(t.markdown(), "| method | n |\n|---|---:|\n| `a` | 3 |\n");
+        let mut t = Table::with_columns(vec![("x".into(), Align::Right), (String::new(), Align::Left)]);
+        assert!(t.is_empty());
+        t.row(vec!["1".into(), String::new()]);
+        assert_eq!(t.markdown(), "| x | |\n|---:|---|\n| 1 | |\n");
     }
 
     #[test]

@@ -5,6 +5,7 @@
 use super::{pct, q3, share};
 use crate::analyse::stats::ACCURACY_MARGIN;
 use crate::analyse::summary::Summary;
+use crate::report::markup::{Align, Table};
 use crate::report::sci;
 use std::fmt::Write;
 
@@ -37,15 +38,43 @@ pub(super) fn error_tables(w: &mut String, input: &Summary) {
     );
     for (k, family) in case.materials.iter().enumerate() {
         let _ = writeln!(w, "### Material `{}`\n", family.name);
-        let _ = writeln!(
-            w,
-            "| method | judged | n | NaN | inf | median | p90 | p99 | max | abs p99 | abs max | CPU f32 p99 | f64 median | f64 p99 | f64 max | input rounding p99 | bits med | bits p99 | ≤1e-3 % | ≤1e-2 % | floored p99 (floor {}) | below floor | |",
-            sci(Some(case.floor(a.methods.first().map_or(crate::input::target::Target::Line, |m| m.target))))
+        let floored = format!(
+            "floored p99 (floor {})",
+            sci(Some(
+                case.floor(
+                    a.methods
+                        .first()
+                        .map_or(crate::input::target::Target::Line, |m| m.target)
+                )
+            ))
         );
-        let _ = writeln!(
-            w,
-            "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
-        );
+        let mut columns: Vec<(String, Align)> = ["method", "judged"].map(|c| (c.to_string(), Align::Left)).to_vec();
+        for c in [
+            "n",
+            "NaN",
+            "inf",
+            "median",
+            "p90",
+            "p99",
+            "max",
+            "abs p99",
+            "abs max",
+            "CPU f32 p99",
+            "f64 median",
+            "f64 p99",
+            "f64 max",
+            "input rounding p99",
+            "bits med",
+            "bits p99",
+            "≤1e-3 %",
+            "≤1e-2 %",
+            floored.as_str(),
+            "below floor",
+        ] {
+            columns.push((c.to_string(), Align::Right));
+        }
+        columns.push((String::new(), Align::Left));
+        let mut table = Table::with_columns(columns);
         for ms in &a.methods {
             let mat = &ms.materials[k];
             let s = &mat.all;
@@ -65,21 +94,33 @@ pub(super) fn error_tables(w: &mut String, input: &Summary) {
             if s.reference_flag {
                 mark += "ref!";
             }
-            let _ = writeln!(
-                w,
-                "| `{}` | `{}` | {} | {} | {} | {med} | {p90} | {p99} | {max} | {ap99} | {amax} | {cp99} | {fm} | {fp99} | {fmax} | {rp99} | {bm} | {bp99} | {} | {} | {flp99} | {} ({}) | {mark} |",
-                ms.label,
-                ms.judged,
-                s.count,
-                s.nan,
-                s.inf,
+            table.row(vec![
+                format!("`{}`", ms.label),
+                format!("`{}`", ms.judged),
+                s.count.to_string(),
+                s.nan.to_string(),
+                s.inf.to_string(),
+                med,
+                p90,
+                p99,
+                max,
+                ap99,
+                amax,
+                cp99,
+                fm,
+                fp99,
+                fmax,
+                rp99,
+                bm,
+                bp99,
                 pct(s.within[0]),
                 pct(s.within[1]),
-                s.below_floor,
-                share(s.below_floor, s.lit_configurations()),
-            );
+                flp99,
+                format!("{} ({})", s.below_floor, share(s.below_floor, s.lit_configurations())),
+                mark,
+            ]);
         }
-        let _ = writeln!(w);
+        let _ = writeln!(w, "{}", table.markdown());
         axis_tables(w, input, k);
     }
 }
@@ -115,14 +156,10 @@ fn axis_tables(w: &mut String, input: &Summary, k: usize) {
             sci(Some(budget.value)),
             min
         );
-        let head: Vec<String> = a.methods.iter().map(|ms| format!("`{}`", ms.label)).collect();
-        let _ = writeln!(
-            w,
-            "| {} | n | ref 0 | input rounding | {} |",
-            axis.axis,
-            head.join(" | ")
-        );
-        let _ = writeln!(w, "|---|---:|---:|---:|{}", "---:|".repeat(head.len()));
+        let mut columns = vec![(axis.axis.clone(), Align::Left)];
+        columns.extend(["n", "ref 0", "input rounding"].map(|c| (c.to_string(), Align::Right)));
+        columns.extend(a.methods.iter().map(|ms| (format!("`{}`", ms.label), Align::Right)));
+        let mut table = Table::with_columns(columns);
         for (b, (lo, hi)) in axis.edges.windows(2).map(|e| (e[0], e[1])).enumerate() {
             // Configurations in the bin, reference 0 included (the same for every method).
             let (n, zero) = a.methods.first().map_or((0, 0), |ms| {
@@ -160,13 +197,11 @@ fn axis_tables(w: &mut String, input: &Summary, k: usize) {
                 })
                 .collect();
             let thin = if n < min { " thin" } else { "" };
-            let _ = writeln!(
-                w,
-                "| [{lo}, {hi}){thin} | {n} | {zero} | {rounding} | {} |",
-                cells.join(" | ")
-            );
+            let mut row = vec![format!("[{lo}, {hi}){thin}"), n.to_string(), zero.to_string(), rounding];
+            row.extend(cells);
+            table.row(row);
         }
-        let _ = writeln!(w);
+        let _ = writeln!(w, "{}", table.markdown());
     }
 }
 
@@ -190,15 +225,15 @@ pub(super) fn convergence(w: &mut String, input: &Summary) {
             "Relative error against the reference as the sample count grows: median / p99 / max of the GPU \
              f32 result, and p99 of the same rule in f64 (its discretisation error alone).\n"
         );
-        let names: Vec<String> = case
-            .materials
-            .iter()
-            .map(|f| format!("`{}` (f32 median / p99 / max; f64 p99)", f.name))
-            .collect();
-        let _ = writeln!(w, "| method | {} |", names.join(" | "));
-        let _ = writeln!(w, "|---|{}", "---:|".repeat(names.len()));
+        let mut columns = vec![("method".to_string(), Align::Left)];
+        columns.extend(
+            case.materials
+                .iter()
+                .map(|f| (format!("`{}` (f32 median / p99 / max; f64 p99)", f.name), Align::Right)),
+        );
+        let mut table = Table::with_columns(columns);
         for ms in runs {
-            let cells: Vec<String> = ms
+            let cells = ms
                 .materials
                 .iter()
                 .map(|mat| {
@@ -211,10 +246,10 @@ pub(super) fn convergence(w: &mut String, input: &Summary) {
                         sci(mat.all.rel_f64.map(|q| q.p99))
                     )
                 })
-                .collect();
-            let _ = writeln!(w, "| `{}` | {} |", ms.label, cells.join(" | "));
+                .collect::<Vec<String>>();
+            table.row([vec![format!("`{}`", ms.label)], cells].concat());
         }
-        let _ = writeln!(w);
+        let _ = writeln!(w, "{}", table.markdown());
     }
 }
 
@@ -237,33 +272,35 @@ pub(super) fn false_light(w: &mut String, input: &Summary) {
          there anyway (f32 GPU, and the same formula in f64), how much (|value|, units where d = 1), and \
          its NaN/inf there.\n"
     );
-    let _ = writeln!(
-        w,
-        "| method | material | reference 0 | lit (f32) | lit (f64) | median lit value | max lit value | NaN/inf |"
-    );
-    let _ = writeln!(w, "|---|---|---:|---:|---:|---:|---:|---:|");
+    let mut table = Table::new(&[
+        ("method", Align::Left),
+        ("material", Align::Left),
+        ("reference 0", Align::Right),
+        ("lit (f32)", Align::Right),
+        ("lit (f64)", Align::Right),
+        ("median lit value", Align::Right),
+        ("max lit value", Align::Right),
+        ("NaN/inf", Align::Right),
+    ]);
     for ms in &a.methods {
         for mat in &ms.materials {
             let f = &mat.all.false_light;
             if f.configurations == 0 {
                 continue;
             }
-            let _ = writeln!(
-                w,
-                "| `{}` | `{}` | {} | {} ({}) | {} | {} | {} | {} |",
-                ms.label,
-                mat.material,
-                f.configurations,
-                f.lit,
-                share(f.lit, f.configurations),
-                f.lit_f64,
+            table.row(vec![
+                format!("`{}`", ms.label),
+                format!("`{}`", mat.material),
+                f.configurations.to_string(),
+                format!("{} ({})", f.lit, share(f.lit, f.configurations)),
+                f.lit_f64.to_string(),
                 sci(f.value.map(|q| q.median)),
                 sci(f.value.map(|q| q.max)),
-                f.nonfinite
-            );
+                f.nonfinite.to_string(),
+            ]);
         }
     }
-    let _ = writeln!(w);
+    let _ = writeln!(w, "{}", table.markdown());
 }
 
 /// Missed light: configurations whose reference is not 0 where a method returns exactly 0.
@@ -291,26 +328,25 @@ pub(super) fn missed_light(w: &mut String, input: &Summary) {
          that reads exactly 1.0 is usually them. \"0 in f64\" counts those where the same formula in \
          f64 returns 0 too: the light is lost by the formula, not by rounding.\n"
     );
-    let _ = writeln!(
-        w,
-        "| method | material | lit configurations | 0 (f32, GPU) | 0 in f64 |"
-    );
-    let _ = writeln!(w, "|---|---|---:|---:|---:|");
+    let mut table = Table::new(&[
+        ("method", Align::Left),
+        ("material", Align::Left),
+        ("lit configurations", Align::Right),
+        ("0 (f32, GPU)", Align::Right),
+        ("0 in f64", Align::Right),
+    ]);
     for (ms, mat) in rows {
         let s = &mat.all;
         let lit = s.lit_configurations();
-        let _ = writeln!(
-            w,
-            "| `{}` | `{}` | {} | {} ({}) | {} |",
-            ms.label,
-            mat.material,
-            lit,
-            s.dark,
-            share(s.dark, lit),
-            s.dark_f64
-        );
+        table.row(vec![
+            format!("`{}`", ms.label),
+            format!("`{}`", mat.material),
+            lit.to_string(),
+            format!("{} ({})", s.dark, share(s.dark, lit)),
+            s.dark_f64.to_string(),
+        ]);
     }
-    let _ = writeln!(w);
+    let _ = writeln!(w, "{}", table.markdown());
 }
 
 /// `line` against `line_upper`: the share of light from below the horizon; and every method
@@ -325,23 +361,23 @@ pub(super) fn below_horizon(w: &mut String, input: &Summary) {
             "`line` integrates the whole lobe; a real surface receives only `line_upper`. The share of \
              `line` that comes from below the horizon is what every `line` method leaks.\n"
         );
-        let _ = writeln!(
-            w,
-            "| material | configurations | leaking > 1e-6 | median share (leaking) | max share |"
-        );
-        let _ = writeln!(w, "|---|---:|---:|---:|---:|");
+        let mut table = Table::new(&[
+            ("material", Align::Left),
+            ("configurations", Align::Right),
+            ("leaking > 1e-6", Align::Right),
+            ("median share (leaking)", Align::Right),
+            ("max share", Align::Right),
+        ]);
         for l in leaks {
-            let _ = writeln!(
-                w,
-                "| `{}` | {} | {} | {} | {} |",
-                l.material,
-                l.configurations,
-                l.leaking,
+            table.row(vec![
+                format!("`{}`", l.material),
+                l.configurations.to_string(),
+                l.leaking.to_string(),
                 sci(Some(l.median_fraction)),
-                sci(Some(l.max_fraction))
-            );
+                sci(Some(l.max_fraction)),
+            ]);
         }
-        let _ = writeln!(w);
+        let _ = writeln!(w, "{}", table.markdown());
     }
     let rows: Vec<_> = a
         .methods
@@ -361,29 +397,32 @@ pub(super) fn below_horizon(w: &mut String, input: &Summary) {
              for a tube or rectangle the whole shape, at z ≤ 0), of the configurations the surface receives \
              nothing from, and how many of those wholly below the method lights.\n"
         );
-        let _ = writeln!(
-            w,
-            "| method | material | own target | p99 vs own | max vs own | own = 0 (lit) | surface receives nothing | wholly below (lit) |"
-        );
-        let _ = writeln!(w, "|---|---|---|---:|---:|---:|---:|---:|");
+        let mut table = Table::new(&[
+            ("method", Align::Left),
+            ("material", Align::Left),
+            ("own target", Align::Left),
+            ("p99 vs own", Align::Right),
+            ("max vs own", Align::Right),
+            ("own = 0 (lit)", Align::Right),
+            ("surface receives nothing", Align::Right),
+            ("wholly below (lit)", Align::Right),
+        ]);
         for (ms, mat) in rows {
             let Some(own) = &mat.own_target else { continue };
             let below = mat.wholly_below.as_ref().map_or("—".to_string(), |b| {
                 format!("{} ({})", b.false_light.configurations, b.false_light.lit)
             });
-            let _ = writeln!(
-                w,
-                "| `{}` | `{}` | `{}` | {} | {} | {} ({}) | {} | {below} |",
-                ms.label,
-                mat.material,
-                ms.target,
+            table.row(vec![
+                format!("`{}`", ms.label),
+                format!("`{}`", mat.material),
+                format!("`{}`", ms.target),
                 sci(own.rel.map(|q| q.p99)),
                 sci(own.rel.map(|q| q.max)),
-                own.false_light.configurations,
-                own.false_light.lit,
-                mat.all.false_light.configurations,
-            );
+                format!("{} ({})", own.false_light.configurations, own.false_light.lit),
+                mat.all.false_light.configurations.to_string(),
+                below,
+            ]);
         }
-        let _ = writeln!(w);
+        let _ = writeln!(w, "{}", table.markdown());
     }
 }

@@ -3,6 +3,7 @@
 
 use crate::analyse::gate::Change;
 use crate::analyse::summary::Summary;
+use crate::report::markup::{Align, Table};
 use std::fmt::Write;
 
 pub(super) fn against_baseline(w: &mut String, input: &Summary) {
@@ -29,51 +30,58 @@ pub(super) fn against_baseline(w: &mut String, input: &Summary) {
         o.alpha,
         o.min_worse
     );
-    let _ = writeln!(w, "| method | material | rule | verdict | numbers |");
-    let _ = writeln!(w, "|---|---|---|---|---|");
+    let mut table = Table::new(&[
+        ("method", Align::Left),
+        ("material", Align::Left),
+        ("rule", Align::Left),
+        ("verdict", Align::Left),
+        ("numbers", Align::Left),
+    ]);
     for r in &g.rules {
         let verdict = match r.change {
             Change::Regressed => "**regressed**",
             c => c.name(),
         };
-        let _ = writeln!(
-            w,
-            "| {} | {} | {} | {} | {} |",
-            r.method,
-            r.material,
-            r.rule,
-            verdict,
-            r.message.replace('|', "\\|")
-        );
+        table.row(vec![
+            r.method.to_string(),
+            r.material.to_string(),
+            r.rule.to_string(),
+            verdict.to_string(),
+            r.message.replace('|', "\\|"),
+        ]);
     }
-    let _ = writeln!(w);
+    let _ = writeln!(w, "{}", table.markdown());
     let _ = writeln!(
         w,
         "Configurations worse and better than the baseline, per material and bin (the share rule):\n"
     );
-    let _ = writeln!(
-        w,
-        "| method | material | scope | paired | worse | share worse | better | P | verdict |"
-    );
-    let _ = writeln!(w, "|---|---|---|---:|---:|---:|---:|---:|---|");
+    let mut table = Table::new(&[
+        ("method", Align::Left),
+        ("material", Align::Left),
+        ("scope", Align::Left),
+        ("paired", Align::Right),
+        ("worse", Align::Right),
+        ("share worse", Align::Right),
+        ("better", Align::Right),
+        ("P", Align::Right),
+        ("verdict", Align::Left),
+    ]);
     for s in &g.shares {
         for t in &s.tests {
-            let _ = writeln!(
-                w,
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-                s.method,
-                s.material,
-                t.scope,
-                t.pairs,
-                t.worse,
+            table.row(vec![
+                s.method.to_string(),
+                s.material.to_string(),
+                t.scope.to_string(),
+                t.pairs.to_string(),
+                t.worse.to_string(),
                 super::share(t.worse, t.pairs),
-                t.better,
+                t.better.to_string(),
                 t.p_text(),
-                if t.regressed { "**regressed**" } else { "within" }
-            );
+                (if t.regressed { "**regressed**" } else { "within" }).to_string(),
+            ]);
         }
     }
-    let _ = writeln!(w);
+    let _ = writeln!(w, "{}", table.markdown());
     if g.replay.is_empty() {
         let _ = writeln!(
             w,

@@ -2,6 +2,7 @@
 //! per compared pair, and the search for where compared methods disagree most.
 
 use crate::analyse::summary::Summary;
+use crate::report::markup::{Align, Table};
 use crate::report::sci;
 use std::fmt::Write;
 
@@ -31,23 +32,22 @@ pub(super) fn comparison_tables(w: &mut String, input: &Summary) {
         for mat in &c.materials {
             for axis in &mat.axes {
                 let _ = writeln!(w, "Material `{}`, by `{}`:\n", mat.material, axis.axis);
-                let _ = writeln!(w, "| {} | n | f32 p99 | f32 max | f64 p99 | f64 max |", axis.axis);
-                let _ = writeln!(w, "|---|---:|---:|---:|---:|---:|");
+                let mut columns = vec![(axis.axis.to_string(), Align::Left)];
+                columns
+                    .extend(["n", "f32 p99", "f32 max", "f64 p99", "f64 max"].map(|c| (c.to_string(), Align::Right)));
+                let mut table = Table::with_columns(columns);
                 for b in &axis.bins {
                     let s = &b.stats;
-                    let _ = writeln!(
-                        w,
-                        "| [{}, {}) | {} | {} | {} | {} | {} |",
-                        b.lo,
-                        b.hi,
-                        s.count,
+                    table.row(vec![
+                        format!("[{}, {})", b.lo, b.hi),
+                        s.count.to_string(),
                         sci(s.diff_f32.map(|q| q.p99)),
                         sci(s.diff_f32.map(|q| q.max)),
                         sci(s.diff_f64.map(|q| q.p99)),
                         sci(s.diff_f64.map(|q| q.max)),
-                    );
+                    ]);
                 }
-                let _ = writeln!(w);
+                let _ = writeln!(w, "{}", table.markdown());
             }
         }
     }
@@ -82,37 +82,49 @@ pub(super) fn disagreements(w: &mut String, input: &Summary) {
                 let _ = writeln!(w, "Nowhere found: in no family does `{a}` lose to `{b}`.\n");
                 continue;
             }
-            let _ = writeln!(
-                w,
-                "| family | ratio | in sample | err A (f32) | err B (f32) | A f64 | B f64 | reference | × typical | subtended | reach_near_o | reach_o | subtended_o | height_o | tilt_o |"
+            let mut columns = vec![("family".to_string(), Align::Left)];
+            columns.extend(
+                [
+                    "ratio",
+                    "in sample",
+                    "err A (f32)",
+                    "err B (f32)",
+                    "A f64",
+                    "B f64",
+                    "reference",
+                    "× typical",
+                    "subtended",
+                    "reach_near_o",
+                    "reach_o",
+                    "subtended_o",
+                    "height_o",
+                    "tilt_o",
+                ]
+                .map(|c| (c.to_string(), Align::Right)),
             );
-            let _ = writeln!(
-                w,
-                "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
-            );
+            let mut table = Table::with_columns(columns);
             for d in found.iter().take(6) {
                 let f = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.6e}"));
                 let x = &d.axes;
-                let _ = writeln!(
-                    w,
-                    "| `{}` | {} | {} | {} | {} | {} | {} | {:.6e} | {} | {} | {} | {} | {} | {:.2} | {:.3} |",
-                    d.family,
+                table.row(vec![
+                    format!("`{}`", d.family),
                     sci(Some(d.ratio)),
                     sci(Some(d.sample_ratio)),
                     sci(Some(d.err_a)),
                     sci(Some(d.err_b)),
                     f(d.f64_a),
                     f(d.f64_b),
-                    d.reference.value,
+                    format!("{:.6e}", d.reference.value),
                     super::brightness(input, a, &d.family, d.reference.value),
                     sci(Some(x.subtended)),
                     sci(Some(x.reach_near_o)),
                     sci(Some(x.reach_o)),
                     sci(Some(x.subtended_o)),
-                    x.height_o,
-                    x.tilt_o,
-                );
+                    format!("{:.2}", x.height_o),
+                    format!("{:.3}", x.tilt_o),
+                ]);
             }
+            w.push_str(&table.markdown());
             if found.len() > 6 {
                 let _ = writeln!(w, "\n{} more in `disagreements.jsonl`.", found.len() - 6);
             }

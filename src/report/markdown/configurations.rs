@@ -3,6 +3,7 @@
 
 use super::share;
 use crate::analyse::summary::Summary;
+use crate::report::markup::{Align, Table};
 use crate::report::sci;
 use std::fmt::Write;
 
@@ -34,11 +35,14 @@ pub(super) fn sampling(w: &mut String, input: &Summary) {
         case.min_per_bin,
         own_minimum(case)
     );
-    let _ = writeln!(
-        w,
-        "| family | natural | top-up draws | kept | acceptance | bins still thin |"
-    );
-    let _ = writeln!(w, "|---|---:|---:|---:|---:|---|");
+    let mut table = Table::new(&[
+        ("family", Align::Left),
+        ("natural", Align::Right),
+        ("top-up draws", Align::Right),
+        ("kept", Align::Right),
+        ("acceptance", Align::Right),
+        ("bins still thin", Align::Left),
+    ]);
     for (k, family) in case.materials.iter().enumerate() {
         let natural = input.natural[k];
         let t = input.topups.iter().find(|t| t.family == family.name);
@@ -49,19 +53,20 @@ pub(super) fn sampling(w: &mut String, input: &Summary) {
                 .map(|(axis, lo, hi, n)| format!("`{axis}` [{lo}, {hi}): {n}"))
                 .collect()
         });
-        let _ = writeln!(
-            w,
-            "| `{}` | {natural} | {draws} | {kept} | {} | {} |",
-            family.name,
+        table.row(vec![
+            format!("`{}`", family.name),
+            natural.to_string(),
+            draws.to_string(),
+            kept.to_string(),
             share(kept, draws),
             if thin.is_empty() {
                 "none".to_string()
             } else {
                 thin.join(", ")
-            }
-        );
+            },
+        ]);
     }
-    let _ = writeln!(w);
+    let _ = writeln!(w, "{}", table.markdown());
 }
 
 /// The worst-case search: worst error in the sample and after refinement, per method and family.
@@ -76,29 +81,33 @@ pub(super) fn worst_cases(w: &mut String, input: &Summary) {
              reference of the family's lit configurations (× typical). Every configuration is in \
              `worst.jsonl`; replay with `linelight eval --input worst.jsonl --output out.jsonl`.\n"
         );
-        let _ = writeln!(
-            w,
-            "| method | family | worst in sample | worst found | evaluations | value (f32) | reference | subtended | × typical | id |"
-        );
-        let _ = writeln!(w, "|---|---|---:|---:|---:|---:|---:|---:|---:|---|");
+        let mut table = Table::new(&[
+            ("method", Align::Left),
+            ("family", Align::Left),
+            ("worst in sample", Align::Right),
+            ("worst found", Align::Right),
+            ("evaluations", Align::Right),
+            ("value (f32)", Align::Right),
+            ("reference", Align::Right),
+            ("subtended", Align::Right),
+            ("× typical", Align::Right),
+            ("id", Align::Left),
+        ]);
         for f in &input.found {
-            let _ = writeln!(
-                w,
-                "| `{}` | `{}` | {} | {} | {} | {:e} | {:e} ± {:.0e} | {} | {} | `{}` |",
-                f.method,
-                f.family,
+            table.row(vec![
+                format!("`{}`", f.method),
+                format!("`{}`", f.family),
                 sci(Some(f.sample_worst)),
                 sci(Some(f.worst)),
-                f.evaluations,
-                f.value,
-                f.reference.value,
-                f.reference.error,
+                f.evaluations.to_string(),
+                format!("{:e}", f.value),
+                format!("{:e} ± {:.0e}", f.reference.value, f.reference.error),
                 sci(Some(crate::input::sampler::line_axes(f.config.p1, f.config.p2).2)),
                 super::brightness(input, &f.method, &f.family, f.reference.value),
-                f.config.id
-            );
+                format!("`{}`", f.config.id),
+            ]);
         }
-        let _ = writeln!(w);
+        let _ = writeln!(w, "{}", table.markdown());
     }
 }
 
@@ -118,15 +127,17 @@ pub(super) fn nonfinite(w: &mut String, input: &Summary) {
                 format!("the first {}", nonfinite.len())
             }
         );
-        let _ = writeln!(w, "| configuration | methods |");
-        let _ = writeln!(w, "|---|---|");
+        let mut table = Table::new(&[("configuration", Align::Left), ("methods", Align::Left)]);
         for (c, methods) in nonfinite.iter().take(40) {
             let names: Vec<String> = methods.iter().map(|m| format!("`{m}`")).collect();
-            let _ = writeln!(w, "| `{}` | {} |", c.id, names.join(", "));
+            table.row(vec![format!("`{}`", c.id), names.join(", ")]);
         }
         if nonfinite.len() > 40 {
-            let _ = writeln!(w, "| … {} more in `nonfinite.jsonl` | |", nonfinite.len() - 40);
+            table.row(vec![
+                format!("… {} more in `nonfinite.jsonl`", nonfinite.len() - 40),
+                String::new(),
+            ]);
         }
-        let _ = writeln!(w);
+        let _ = writeln!(w, "{}", table.markdown());
     }
 }

@@ -2,6 +2,7 @@
 //! ratios and Pareto fronts, and the wall-clock split of this sweep.
 
 use crate::analyse::summary::Summary;
+use crate::report::markup::{Align, Table};
 use std::fmt::Write;
 
 /// Cost per evaluation and speed against accuracy (nothing when costs were not measured).
@@ -33,27 +34,30 @@ pub(super) fn speed_against_accuracy(w: &mut String, input: &Summary) {
             format!("{cpu_min}–{cpu_max}")
         }
     );
-    let _ = writeln!(
-        w,
-        "| method | GPU ns/eval | Mconfigs/s | CPU f32 ns/eval | ops arith / transc / total |"
-    );
-    let _ = writeln!(w, "|---|---:|---:|---:|---:|");
+    let mut table = Table::new(&[
+        ("method", Align::Left),
+        ("GPU ns/eval", Align::Right),
+        ("Mconfigs/s", Align::Right),
+        ("CPU f32 ns/eval", Align::Right),
+        ("ops arith / transc / total", Align::Right),
+    ]);
     for c in &input.costs {
         let ops = c.ops.as_ref().map_or("—".to_string(), |o| {
             format!("{} / {} / {}", o.arithmetic, o.transcendental, o.total)
         });
         let cpu = c.cpu_f32_ns_per_eval.map_or("—".to_string(), |v| format!("{v:.0}"));
-        let _ = writeln!(
-            w,
-            "| `{}` | {:.0} [{:.0}–{:.0}] | {:.2} | {cpu} | {ops} |",
-            c.label,
-            c.ns_per_eval_median,
-            c.ns_per_eval_min,
-            c.ns_per_eval_max,
-            c.configs_per_second / 1e6
-        );
+        table.row(vec![
+            format!("`{}`", c.label),
+            format!(
+                "{:.0} [{:.0}–{:.0}]",
+                c.ns_per_eval_median, c.ns_per_eval_min, c.ns_per_eval_max
+            ),
+            format!("{:.2}", c.configs_per_second / 1e6),
+            cpu,
+            ops,
+        ]);
     }
-    let _ = writeln!(w);
+    let _ = writeln!(w, "{}", table.markdown());
     speed_notes(w, input);
 }
 
@@ -103,18 +107,25 @@ pub(super) fn timing(w: &mut String, input: &Summary) {
          is `linelight bench`'s job; these numbers say what the sweep itself spent.\n",
         t.adapter, t.configurations
     );
-    let _ = writeln!(
-        w,
-        "| method | GPU s | configs/s (GPU) | CPU f32 evaluator s (all cores) | CPU f32 / GPU | f64 evaluator s |"
-    );
-    let _ = writeln!(w, "|---|---:|---:|---:|---:|---:|");
+    let mut table = Table::new(&[
+        ("method", Align::Left),
+        ("GPU s", Align::Right),
+        ("configs/s (GPU)", Align::Right),
+        ("CPU f32 evaluator s (all cores)", Align::Right),
+        ("CPU f32 / GPU", Align::Right),
+        ("f64 evaluator s", Align::Right),
+    ]);
     for (((label, s, rate), (_, f)), (_, c)) in t.gpu.iter().zip(&t.cpu_f64_seconds).zip(&t.cpu_f32_seconds) {
-        let _ = writeln!(
-            w,
-            "| `{label}` | {s:.3} | {rate:.3e} | {c:.3} | {:.2} | {f:.3} |",
-            c / s
-        );
+        table.row(vec![
+            format!("`{label}`"),
+            format!("{s:.3}"),
+            format!("{rate:.3e}"),
+            format!("{c:.3}"),
+            format!("{:.2}", c / s),
+            format!("{f:.3}"),
+        ]);
     }
+    w.push_str(&table.markdown());
     let _ = writeln!(
         w,
         "\nReferences: {} integrals in {:.2} s ({:.0} per second).\n",

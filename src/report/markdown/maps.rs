@@ -2,6 +2,7 @@
 //! relative error stays under each threshold.
 
 use crate::analyse::summary::Summary;
+use crate::report::markup::{Align, Table};
 use std::fmt::Write;
 
 /// Every validity map of the case, for the methods it shows.
@@ -24,12 +25,12 @@ pub(super) fn validity_maps(w: &mut String, input: &Summary) {
                      of configurations (p99), and for half of them (median):\n",
                     map.x.axis
                 );
-                let _ = writeln!(
-                    w,
-                    "| {} | n | p99 ≤ 1 % | p99 ≤ 5 % | p99 ≤ 10 % | median ≤ 1 % | median ≤ 10 % |",
-                    map.y.axis
+                let mut columns = vec![(map.y.axis.to_string(), Align::Left), ("n".to_string(), Align::Right)];
+                columns.extend(
+                    ["p99 ≤ 1 %", "p99 ≤ 5 %", "p99 ≤ 10 %", "median ≤ 1 %", "median ≤ 10 %"]
+                        .map(|c| (c.to_string(), Align::Left)),
                 );
-                let _ = writeln!(w, "|---|---:|---|---|---|---|---|");
+                let mut table = Table::with_columns(columns);
                 let p99 = |q: &crate::analyse::stats::Quantiles| q.p99;
                 let median = |q: &crate::analyse::stats::Quantiles| q.median;
                 let limits = [
@@ -47,15 +48,11 @@ pub(super) fn validity_maps(w: &mut String, input: &Summary) {
                         Some(x) => format!("{} < {x}", map.x.axis),
                         None => "nowhere".into(),
                     });
-                    let _ = writeln!(
-                        w,
-                        "| [{}, {}) | {n} | {} |",
-                        map.y.edges[ky],
-                        map.y.edges[ky + 1],
-                        cells.collect::<Vec<_>>().join(" | ")
-                    );
+                    let mut row = vec![format!("[{}, {})", map.y.edges[ky], map.y.edges[ky + 1]), n.to_string()];
+                    row.extend(cells);
+                    table.row(row);
                 }
-                let _ = writeln!(w);
+                let _ = writeln!(w, "{}", table.markdown());
             }
         }
     }

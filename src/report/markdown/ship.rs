@@ -5,6 +5,7 @@
 use crate::analyse::ship::{Judgement, Meets, Price, Ship, ShipBudget, ShipMaterial};
 use crate::analyse::stats::Bound;
 use crate::analyse::summary::Summary;
+use crate::report::markup::{Align, Table};
 use crate::report::sci;
 use std::fmt::Write;
 
@@ -117,11 +118,14 @@ fn material(w: &mut String, ship: &Ship, m: &ShipMaterial) {
     let _ = writeln!(w, ".\n");
     if !broken.is_empty() {
         let s = m.ship.as_deref().unwrap_or_default();
-        let _ = writeln!(
-            w,
-            "| except in | `{s}` {q} | meets it there instead | its {q} | its cost | input rounding {q} |"
-        );
-        let _ = writeln!(w, "|---|---:|---|---:|---:|---:|");
+        let mut table = Table::with_columns(vec![
+            ("except in".to_string(), Align::Left),
+            (format!("`{s}` {q}"), Align::Right),
+            ("meets it there instead".to_string(), Align::Left),
+            (format!("its {q}"), Align::Right),
+            ("its cost".to_string(), Align::Right),
+            (format!("input rounding {q}"), Align::Right),
+        ]);
         for r in broken.iter().take(REGIONS_SHOWN) {
             let (who, b, cost) = match &r.instead {
                 Some(i) => (format!("`{}`", i.label), bound(&i.judgement), price(&i.price)),
@@ -132,15 +136,16 @@ fn material(w: &mut String, ship: &Ship, m: &ShipMaterial) {
                 (x, false) => sci(x),
                 (None, true) => unreachable!("unattainable only where input rounding is measured"),
             };
-            let _ = writeln!(
-                w,
-                "| `{}` [{}, {}) | {} | {who} | {b} | {cost} | {rounding} |",
-                r.axis,
-                r.lo,
-                r.hi,
-                bound(&r.shipped)
-            );
+            table.row(vec![
+                format!("`{}` [{}, {})", r.axis, r.lo, r.hi),
+                bound(&r.shipped),
+                who,
+                b,
+                cost,
+                rounding,
+            ]);
         }
+        w.push_str(&table.markdown());
         if broken.len() > REGIONS_SHOWN {
             let _ = writeln!(
                 w,

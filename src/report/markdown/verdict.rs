@@ -3,6 +3,7 @@
 
 use crate::analyse::analysis::Verdict;
 use crate::analyse::summary::Summary;
+use crate::report::markup::{Align, Table};
 use crate::report::sci;
 use std::fmt::Write;
 
@@ -134,43 +135,40 @@ pub(super) fn at_a_glance(w: &mut String, input: &Summary) {
          lobe's missing tail does not read as the formula's rounding (every quantile with them is in *Error \
          against the reference*).\n"
     );
-    let names: Vec<String> = case
-        .materials
-        .iter()
-        .map(|f| format!("`{0}` error | `{0}` missed", f.name))
-        .collect();
-    let _ = writeln!(w, "| method | target | {} |", names.join(" | "));
-    let _ = writeln!(w, "|---|---|{}", "---:|---:|".repeat(names.len()));
-    for ms in &a.methods {
-        let cells: Vec<String> = ms
-            .materials
-            .iter()
-            .map(|mat| {
-                let s = &mat.all;
-                let mut c = format!(
-                    "{} / {}",
-                    sci(s.rel_lit.map(|q| q.p99)),
-                    sci(s.rel_f64_lit.map(|q| q.p99))
-                );
-                let nonfinite = s.nan + s.inf + s.false_light.nonfinite;
-                if nonfinite > 0 {
-                    c += &format!(" ({nonfinite} NaN/inf)");
-                }
-                if s.false_light.lit > 0 {
-                    c += &format!(" (lit 0: {} of {})", s.false_light.lit, s.false_light.configurations);
-                }
-                if !mat.supported {
-                    c += " †";
-                }
-                let missed = if s.dark == 0 && s.dark_f64 == 0 {
-                    "0".to_string()
-                } else {
-                    format!("{} of {} (f64 {})", s.dark, s.lit_configurations(), s.dark_f64)
-                };
-                format!("{c} | {missed}")
-            })
-            .collect();
-        let _ = writeln!(w, "| `{}` | {} | {} |", ms.label, ms.target, cells.join(" | "));
+    let mut columns = vec![("method".to_string(), Align::Left), ("target".to_string(), Align::Left)];
+    for f in &case.materials {
+        columns.push((format!("`{}` error", f.name), Align::Right));
+        columns.push((format!("`{}` missed", f.name), Align::Right));
     }
-    let _ = writeln!(w);
+    let mut table = Table::with_columns(columns);
+    for ms in &a.methods {
+        let mut row = vec![format!("`{}`", ms.label), ms.target.to_string()];
+        let cells = ms.materials.iter().map(|mat| {
+            let s = &mat.all;
+            let mut c = format!(
+                "{} / {}",
+                sci(s.rel_lit.map(|q| q.p99)),
+                sci(s.rel_f64_lit.map(|q| q.p99))
+            );
+            let nonfinite = s.nan + s.inf + s.false_light.nonfinite;
+            if nonfinite > 0 {
+                c += &format!(" ({nonfinite} NaN/inf)");
+            }
+            if s.false_light.lit > 0 {
+                c += &format!(" (lit 0: {} of {})", s.false_light.lit, s.false_light.configurations);
+            }
+            if !mat.supported {
+                c += " †";
+            }
+            let missed = if s.dark == 0 && s.dark_f64 == 0 {
+                "0".to_string()
+            } else {
+                format!("{} of {} (f64 {})", s.dark, s.lit_configurations(), s.dark_f64)
+            };
+            [c, missed]
+        });
+        row.extend(cells.flatten());
+        table.row(row);
+    }
+    let _ = writeln!(w, "{}", table.markdown());
 }
