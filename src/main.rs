@@ -112,6 +112,19 @@ enum Command {
         /// The render goes to OUT/<scene name>/.
         #[arg(long, default_value = "reports/render")]
         out: PathBuf,
+        /// Save this render as a render baseline in DIR (render-baseline.json + images/), for a
+        /// later --baseline.
+        #[arg(long, value_name = "DIR")]
+        save_baseline: Option<PathBuf>,
+        /// Compare with the render baseline in DIR, pixel by pixel: any regression exits 1.
+        #[arg(long, value_name = "DIR")]
+        baseline: Option<PathBuf>,
+        /// Write the render gate's rules as JUnit XML (with --baseline).
+        #[arg(long, value_name = "FILE")]
+        junit: Option<PathBuf>,
+        /// A change of a method's mean FLIP against the reference within ±X is no change (0 to 1).
+        #[arg(long, value_name = "X", default_value_t = app::render::FLIP_NOISE, value_parser = app::options::fraction)]
+        flip_noise: f64,
         #[command(flatten)]
         gpu: GpuArgs,
     },
@@ -320,9 +333,25 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             &gpu.options(),
         ),
         Command::Merge { shards, out, gpu } => app::sweep::merge(&shards, &out, &gpu.options()),
-        Command::Render { scene, out, gpu } => {
-            app::render::render(app::render::RenderOptions { scene, out }, &gpu.options())
-        }
+        Command::Render {
+            scene,
+            out,
+            save_baseline,
+            baseline,
+            junit,
+            flip_noise,
+            gpu,
+        } => app::render::render(
+            app::render::RenderOptions {
+                scene,
+                out,
+                save_baseline,
+                baseline,
+                junit,
+                flip_noise,
+            },
+            &gpu.options(),
+        ),
         Command::Eval {
             input,
             output,
