@@ -175,6 +175,10 @@ enum Command {
         /// Also write the costs (one object per method) as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// Also time each method's envelope (docs/envelope.md) on N configurations spread over
+        /// the dispatch's, beside the CPU f32 column, in the same rounds.
+        #[arg(long, value_name = "N")]
+        envelope: Option<usize>,
     },
     /// Stability scan on the GPU: configurations generated on the device from the case's seed,
     /// only the counts of NaN, inf, negative and above-bound values read back; the first
@@ -378,6 +382,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             adapter,
             kernels,
             json,
+            envelope,
         } => {
             let options = app::BenchOptions {
                 case,
@@ -388,6 +393,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
                 adapter,
                 kernels,
                 json,
+                envelope,
             };
             app::bench(&options)?;
             Ok(Status::Ok)
