@@ -610,7 +610,13 @@ pub fn search_and_cost(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<M
     let envelope = match &case.envelope {
         Some(spec) => {
             let material_of = |g: usize| setup.samples.get(g).map_or(0, |s| s.material);
-            crate::measure::envelope::any_driver(methods, &kept.attribution, &material_of, spec.sample)?
+            crate::measure::envelope::any_driver(
+                methods,
+                &kept.attribution,
+                &material_of,
+                spec.sample,
+                (gpu, &pipelines),
+            )?
         }
         None => Vec::new(),
     };
