@@ -104,15 +104,18 @@ pub enum SetKind {
     Baseline,
     /// `render`: OUT/<scene>/.
     Render,
+    /// `render --save-baseline DIR`: a render baseline (src/app/gate/render.rs).
+    RenderBaseline,
 }
 
 impl SetKind {
-    pub const ALL: [SetKind; 5] = [
+    pub const ALL: [SetKind; 6] = [
         SetKind::Sweep,
         SetKind::Scan,
         SetKind::Chain,
         SetKind::Baseline,
         SetKind::Render,
+        SetKind::RenderBaseline,
     ];
 
     /// The name written in the folder's [`KIND_MARKER`].
@@ -123,6 +126,7 @@ impl SetKind {
             SetKind::Chain => "chain",
             SetKind::Baseline => "baseline",
             SetKind::Render => "render",
+            SetKind::RenderBaseline => "render-baseline",
         }
     }
 
@@ -134,6 +138,7 @@ impl SetKind {
             SetKind::Chain => "chain report folder",
             SetKind::Baseline => "baseline folder",
             SetKind::Render => "render folder",
+            SetKind::RenderBaseline => "render baseline folder",
         }
     }
 
@@ -145,6 +150,7 @@ impl SetKind {
             SetKind::Chain => "linelight chain",
             SetKind::Baseline => "linelight sweep --save-baseline",
             SetKind::Render => "linelight render",
+            SetKind::RenderBaseline => "linelight render --save-baseline",
         }
     }
 
@@ -155,6 +161,7 @@ impl SetKind {
     fn owns(self, name: &str) -> bool {
         match self {
             SetKind::Baseline => [KIND_MARKER, "baseline.json", "timings.json", "errors"].contains(&name),
+            SetKind::RenderBaseline => [KIND_MARKER, "render-baseline.json", "images"].contains(&name),
             _ => true,
         }
     }
@@ -201,6 +208,8 @@ fn enclosing_set(path: &Path) -> Option<(PathBuf, SetKind)> {
             SetKind::Baseline => a.join("errors").is_dir(),
             SetKind::Chain => false,
             SetKind::Render => true,
+            // Written with its marker from the start.
+            SetKind::RenderBaseline => false,
         };
         (marked || paired).then(|| (a.to_path_buf(), kind))
     })

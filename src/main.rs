@@ -112,6 +112,19 @@ enum Command {
         /// The render goes to OUT/<scene name>/.
         #[arg(long, default_value = "reports/render")]
         out: PathBuf,
+        /// Save this render as a render baseline in DIR (render-baseline.json + images/), for a
+        /// later --baseline.
+        #[arg(long, value_name = "DIR")]
+        save_baseline: Option<PathBuf>,
+        /// Compare with the render baseline in DIR, pixel by pixel: any regression exits 1.
+        #[arg(long, value_name = "DIR")]
+        baseline: Option<PathBuf>,
+        /// Write the render gate's rules as JUnit XML (with --baseline).
+        #[arg(long, value_name = "FILE")]
+        junit: Option<PathBuf>,
+        /// A change of a method's mean FLIP against the reference within ±X is no change (0 to 1).
+        #[arg(long, value_name = "X", default_value_t = app::render::FLIP_NOISE, value_parser = app::options::fraction)]
+        flip_noise: f64,
         #[command(flatten)]
         gpu: GpuArgs,
     },
@@ -162,6 +175,10 @@ enum Command {
         /// Also write the costs (one object per method) as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// Also time each method's envelope (docs/envelope.md) on N configurations spread over
+        /// the dispatch's, beside the CPU f32 column, in the same rounds.
+        #[arg(long, value_name = "N")]
+        envelope: Option<usize>,
     },
     /// Stability scan on the GPU: configurations generated on the device from the case's seed,
     /// only the counts of NaN, inf, negative and above-bound values read back; the first
@@ -320,9 +337,25 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             &gpu.options(),
         ),
         Command::Merge { shards, out, gpu } => app::sweep::merge(&shards, &out, &gpu.options()),
-        Command::Render { scene, out, gpu } => {
-            app::render::render(app::render::RenderOptions { scene, out }, &gpu.options())
-        }
+        Command::Render {
+            scene,
+            out,
+            save_baseline,
+            baseline,
+            junit,
+            flip_noise,
+            gpu,
+        } => app::render::render(
+            app::render::RenderOptions {
+                scene,
+                out,
+                save_baseline,
+                baseline,
+                junit,
+                flip_noise,
+            },
+            &gpu.options(),
+        ),
         Command::Eval {
             input,
             output,
@@ -349,6 +382,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             adapter,
             kernels,
             json,
+            envelope,
         } => {
             let options = app::BenchOptions {
                 case,
@@ -359,6 +393,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
                 adapter,
                 kernels,
                 json,
+                envelope,
             };
             app::bench(&options)?;
             Ok(Status::Ok)

@@ -105,3 +105,76 @@ fn bench_refuses_bad_input_before_measuring() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--repeats must be at least 1"));
 }
+
+/// `bench --envelope N` (issue 22): the envelope's ns per configuration per method beside the
+/// CPU f32 column, in the same rounds, printed and in the JSON; without it, the JSON has no
+/// envelope keys (a bench's output is unchanged).
+#[test]
+fn bench_times_the_envelope_beside_the_cpu_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("costs.json");
+    let o = linelight(&[
+        "bench",
+        "--count",
+        "512",
+        "--repeats",
+        "3",
+        "--warmup",
+        "0",
+        "--methods",
+        "line.ltc2017,line.ltc2023",
+        "--envelope",
+        "16",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        stdout.contains("Envelope (docs/envelope.md)") && stdout.contains("on 16 configurations"),
+        "{stdout}"
+    );
+    for label in ["line.ltc2017", "line.ltc2023"] {
+        let line = stdout
+            .lines()
+            .find(|l| l.trim_start().starts_with(&format!("{label}: ")))
+            .unwrap_or_else(|| panic!("no envelope line for {label}:\n{stdout}"));
+        assert!(
+            line.contains("ns per configuration") && line.contains("× the CPU f32 column"),
+            "{line}"
+        );
+    }
+    let costs: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    for c in costs.as_array().unwrap() {
+        assert_eq!(c["envelope_configurations"], 16, "{c}");
+        assert_eq!(
+            c["envelope_ns_per_config_runs"].as_array().map(Vec::len),
+            Some(3),
+            "{c}"
+        );
+        let [median, min, max] = [0, 1, 2].map(|i| c["envelope_ns_per_config"][i].as_f64().unwrap());
+        assert!(min <= median && median <= max, "{c}");
+        // A time, not only a number: an interval walk per configuration of at least 1 ns and
+        // at most a second.
+        assert!((1.0..1e9).contains(&median), "{c}");
+        assert!(c["envelope_over_cpu_f32"].as_f64().is_some_and(|r| r > 0.0), "{c}");
+    }
+
+    let o = linelight(&["bench", "--count", "64", "--repeats", "1", "--envelope", "65"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--envelope 65"));
+    let o = linelight(&[
+        "bench",
+        "--count",
+        "64",
+        "--repeats",
+        "1",
+        "--methods",
+        "line.ltc2017",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success());
+    let text = std::fs::read_to_string(&json).unwrap();
+    assert!(!text.contains("envelope"), "{text}");
+}

@@ -298,3 +298,85 @@ fn on_the_dimmest_lights_the_2023_listings_envelope_is_wider_than_2017s() {
     );
     assert!(w2023 > w2017, "2023 {w2023:e} not wider than 2017 {w2017:e}");
 }
+
+/// The opt-in gate checks on the envelope (docs/envelope.md, "In the gate"), through a sweep:
+/// `gate = true` checks every sampled GPU value against its envelope and the run passes on
+/// lavapipe (which stays inside, as the test above finds); `max_past_budget` fails the sweep
+/// (exit 1, a failed check in the report and the JUnit file) when more of a method's envelopes
+/// reach past the budget than it allows, though every GPU value met the tolerances.
+#[test]
+fn the_envelope_gate_checks_fail_a_sweep_only_where_they_should() {
+    let t = tempfile::tempdir().unwrap();
+    let d = t.path();
+    let case = |envelope: &str, budget: f64| {
+        format!(
+            r#"
+name = "envelope_gate"
+title = "envelope gate"
+seed = 31
+methods = ["line.ltc2017", "line.ltc2023"]
+envelope = {{ {envelope} }}
+[budget]
+quantile = 0.99
+value = {budget}
+target = "line_upper"
+min_count = 10
+[geometry]
+elevation = {{ dist = "uniform", min = 10.0, max = 90.0 }}
+tilt_angle = {{ dist = "uniform", min = 0.0, max = 180.0 }}
+length = {{ dist = "log_uniform", min = 0.1, max = 10.0 }}
+center = {{ dist = "uniform", min = -1.0, max = 1.0 }}
+[[materials]]
+name = "diffuse"
+kind = "diffuse"
+count = 200
+"#
+        )
+    };
+    let sweep = |name: &str, text: &str| {
+        let path = d.join(format!("{name}.toml"));
+        std::fs::write(&path, text).unwrap();
+        let junit = d.join(format!("{name}.xml"));
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_linelight"))
+            .args(["sweep", path.to_str().unwrap(), "--out"])
+            .arg(d.join(name))
+            .arg("--junit")
+            .arg(&junit)
+            .output()
+            .unwrap();
+        let report = std::fs::read_to_string(d.join(name).join("envelope_gate/report.md")).unwrap_or_default();
+        let xml = std::fs::read_to_string(&junit).unwrap_or_default();
+        (o, report, xml)
+    };
+    // Every GPU value inside its envelope: the gate check passes (one per method and material).
+    let (o, report, xml) = sweep("inside", &case("sample = 24, gate = true", 0.5));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}\n{report}");
+    assert_eq!(
+        xml.matches("/ GPU values outside the envelope (of ").count(),
+        2,
+        "one check per method: {xml}"
+    );
+    assert!(!xml.contains("<failure"), "{xml}");
+    assert!(
+        report.contains("| GPU outside |") && report.contains("Verdict: PASS"),
+        "{report}"
+    );
+    // The same envelopes against a budget of 1e-7 with none allowed past it: the envelope is
+    // wider than that (at least the final rounding's two neighbours, ~6e-8 each way, plus every
+    // atan's 4096 ULP), so the sweep fails on the envelope alone, with its numbers.
+    let (o, report, xml) = sweep("past", &case("sample = 24, max_past_budget = 0.0", 1e-7));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}\n{report}");
+    assert!(xml.contains("share of envelopes past the budget 0.0000001"), "{xml}");
+    assert!(xml.contains("<failure") && xml.contains("limit 0e0"), "{xml}");
+    assert!(report.contains("Verdict: FAIL"), "{report}");
+    // Without the keys, the section is reported and nothing is checked.
+    let (o, _, xml) = sweep("plain", &case("sample = 24", 1e-7));
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!xml.contains("envelope"), "{xml}");
+    // A share outside 0..1 is bad input.
+    let (o, _, _) = sweep("bad", &case("sample = 24, max_past_budget = 1.5", 0.5));
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("max_past_budget = 1.5"));
+}

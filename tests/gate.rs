@@ -23,32 +23,7 @@ fn gate(args: &[&str], dir: &Path) -> Output {
         .expect("scripts/ci-gate runs")
 }
 
-/// Validates a JUnit file against the Ant JUnit schema with `xmllint --schema` (libxml2-utils;
-/// .ci/run installs it): absent, a failure under CI and a visible skip elsewhere.
-fn validate_junit(path: &Path) {
-    let schema = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/junit/JUnit.xsd");
-    let o = match Command::new("xmllint")
-        .args(["--noout", "--schema", schema])
-        .arg(path)
-        .output()
-    {
-        Ok(o) => o,
-        Err(e) => {
-            common::skip_or_fail(
-                "validate_junit",
-                &format!("xmllint cannot run ({e}): install libxml2-utils"),
-            );
-            return;
-        }
-    };
-    assert!(
-        o.status.success(),
-        "{} does not validate against {schema}:\n{}\n{}",
-        path.display(),
-        String::from_utf8_lossy(&o.stderr),
-        std::fs::read_to_string(path).unwrap_or_default()
-    );
-}
+use common::validate_junit;
 
 fn text(o: &Output) -> String {
     format!(

@@ -39,6 +39,23 @@ pub struct Cost {
     pub gpu_ns_per_eval: Vec<f64>,
     /// CPU f32 ns per evaluation of each timed repeat (empty without a CPU column).
     pub cpu_f32_ns_per_eval_runs: Vec<f64>,
+    /// The envelope's cost (`bench --envelope N`, docs/envelope.md): ns per configuration,
+    /// median [min, max] over the timed rounds, on all cores; absent when not timed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub envelope_ns_per_config: Option<[f64; 3]>,
+    /// How many times the envelope costs the CPU f32 column: the median of the per-round ratios
+    /// envelope ns / CPU f32 ns (each per configuration).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub envelope_over_cpu_f32: Option<f64>,
+    /// Configurations per timed envelope run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub envelope_configurations: Option<usize>,
+    /// The envelope's ns per configuration of each timed repeat.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub envelope_ns_per_config_runs: Vec<f64>,
+    /// Why the envelope was asked for and not timed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub envelope_error: Option<String>,
 }
 
 impl Cost {
@@ -62,6 +79,14 @@ impl Cost {
             ops_error: t.ops_error.clone(),
             gpu_ns_per_eval: t.gpu_ns_per_eval.clone(),
             cpu_f32_ns_per_eval_runs: cpu.clone(),
+            envelope_ns_per_config: (!t.envelope_ns_per_config_runs.is_empty()).then(|| {
+                let s = Spread::of(&t.envelope_ns_per_config_runs);
+                [s.median, s.min, s.max]
+            }),
+            envelope_over_cpu_f32: Ratio::per_round(&t.envelope_ns_per_config_runs, cpu).map(|r| r.median),
+            envelope_configurations: (t.envelope_configurations > 0).then_some(t.envelope_configurations),
+            envelope_ns_per_config_runs: t.envelope_ns_per_config_runs.clone(),
+            envelope_error: t.envelope_error.clone(),
         }
     }
 }

@@ -150,6 +150,18 @@ pub enum Change {
 }
 
 impl Change {
+    /// The verdict of a set of rules: regressed if any rule regressed, else improved if any
+    /// improved, else unchanged.
+    pub fn overall(rules: &[RuleResult]) -> Change {
+        if rules.iter().any(|r| r.change == Change::Regressed) {
+            Change::Regressed
+        } else if rules.iter().any(|r| r.change == Change::Improved) {
+            Change::Improved
+        } else {
+            Change::Unchanged
+        }
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Change::Regressed => "regressed",

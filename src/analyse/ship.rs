@@ -414,6 +414,11 @@ mod tests {
             ops_error: None,
             gpu_ns_per_eval: vec![ns],
             cpu_f32_ns_per_eval_runs: Vec::new(),
+            envelope_ns_per_config: None,
+            envelope_over_cpu_f32: None,
+            envelope_configurations: None,
+            envelope_ns_per_config_runs: Vec::new(),
+            envelope_error: None,
         }
     }
 

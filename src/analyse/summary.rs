@@ -137,7 +137,7 @@ impl Summary {
         setup: &Setup,
         measured: &Measured,
         leak: Vec<Leak>,
-        analysis: Analysis,
+        mut analysis: Analysis,
         claims: Vec<ClaimResult>,
     ) -> Result<Summary, serde_json::Error> {
         let case = &setup.case;
@@ -165,6 +165,14 @@ impl Summary {
             )),
             _ => None,
         };
+        // The envelope's opt-in gate checks join the case's tolerance checks and its verdict.
+        if let (Some(spec), Some(a)) = (&case.envelope, &any_driver) {
+            let extra = crate::analyse::envelope::checks(a, spec);
+            if !extra.is_empty() {
+                analysis.checks.extend(extra);
+                analysis.verdict = crate::analyse::analysis::Verdict::of(&analysis.checks);
+            }
+        }
         let charts = (0..case.materials.len())
             .map(|k| chart_points(&analysis, &costs, k))
             .collect();

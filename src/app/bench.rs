@@ -18,6 +18,9 @@ pub struct BenchOptions {
     pub kernels: Vec<PathBuf>,
     /// Also write the costs as JSON here.
     pub json: Option<PathBuf>,
+    /// `--envelope N`: also time each method's envelope on N configurations spread over the
+    /// dispatch's (docs/envelope.md).
+    pub envelope: Option<usize>,
 }
 
 /// `linelight bench`: samples the case's configurations, measures, prints the report to
@@ -27,6 +30,13 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::analyse::bench::Be
     check_count("--count", options.count as u64).map_err(anyhow::Error::msg)?;
     check_rounds("--repeats", options.repeats as u64, MAX_ROUNDS, false).map_err(anyhow::Error::msg)?;
     check_rounds("--warmup", options.warmup as u64, MAX_ROUNDS, true).map_err(anyhow::Error::msg)?;
+    if let Some(n) = options.envelope {
+        anyhow::ensure!(
+            (1..=options.count).contains(&n),
+            "--envelope {n}: configurations for the envelope's timing, from 1 to --count ({})",
+            options.count
+        );
+    }
     if let Some(json) = &options.json {
         // Refused before any work: the case file or a kernel as the output.
         let mut plan = crate::io::OutputPlan::new();
@@ -68,7 +78,10 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::analyse::bench::Be
         &gpu,
         &setup.methods,
         &configs,
-        crate::measure::bench::Rounds::fixed(options.warmup, options.repeats),
+        crate::measure::bench::Rounds {
+            envelope: options.envelope,
+            ..crate::measure::bench::Rounds::fixed(options.warmup, options.repeats)
+        },
         &mut |done, total| {
             pb.set_length(total as u64);
             pb.set_position(done as u64);

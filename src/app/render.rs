@@ -21,7 +21,19 @@ use std::time::Instant;
 pub struct RenderOptions {
     pub scene: PathBuf,
     pub out: PathBuf,
+    /// `--save-baseline DIR`: save this render as a render baseline (src/app/gate/render.rs).
+    pub save_baseline: Option<PathBuf>,
+    /// `--baseline DIR`: compare with a render baseline; a regression exits 1.
+    pub baseline: Option<PathBuf>,
+    /// `--junit FILE`: the gate's rules as JUnit XML.
+    pub junit: Option<PathBuf>,
+    /// `--flip-noise X`: a change of a method's mean FLIP against the reference within ±X is
+    /// no change.
+    pub flip_noise: f64,
 }
+
+/// The default of `--flip-noise`.
+pub const FLIP_NOISE: f64 = 0.001;
 
 /// FLIP thresholds whose share of pixels above is reported.
 pub const FLIP_THRESHOLDS: [f64; 4] = [0.05, 0.1, 0.2, 0.5];
@@ -100,7 +112,22 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
     for k in &gpu.kernels {
         plan.input("--kernel", k);
     }
-    plan.set("--out", &dir, crate::io::SetKind::Render).check()?;
+    if let Some(b) = &options.baseline {
+        plan.input("--baseline", b);
+    }
+    plan.set("--out", &dir, crate::io::SetKind::Render);
+    if let Some(save) = &options.save_baseline {
+        plan.set("--save-baseline", save, crate::io::SetKind::RenderBaseline);
+    }
+    if let Some(junit) = &options.junit {
+        plan.file("--junit", junit);
+    }
+    plan.check()?;
+    crate::app::options::check_float("--flip-noise", options.flip_noise, crate::app::options::FRACTION)
+        .map_err(anyhow::Error::msg)?;
+    if options.junit.is_some() && options.baseline.is_none() {
+        anyhow::bail!("--junit writes the render gate's rules: it needs --baseline DIR");
+    }
     let started = Instant::now();
     let pixels = scene.floor_pixels().map_err(|e| anyhow::anyhow!("{at}: {e}"))?;
     if pixels.is_empty() {
@@ -122,6 +149,31 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
         }
     }
     let time_pixels = secs(started);
+    let configs: Vec<_> = pixels.iter().map(|p| p.config.clone()).collect();
+    let configurations = configs
+        .iter()
+        .map(serde_json::to_value)
+        .collect::<Result<Vec<_>, _>>()?;
+    let configurations_jsonl = crate::io::to_jsonl(&configurations);
+    // What the render is: its configurations (a comment in the scene file changes nothing).
+    let scene_entry = crate::app::gate::render::SceneEntry {
+        name: scene.name.clone(),
+        file_sha256: crate::io::read_regular(&options.scene, "scene file", crate::limits::MAX_RECORD_BYTES)
+            .map_or_else(
+                |_| "unknown (not a regular file)".into(),
+                |b| crate::app::shard::sha256(&b),
+            ),
+        configurations_sha256: crate::app::shard::sha256(&configurations_jsonl),
+        width: scene.width,
+        height: scene.height,
+        floor_pixels: pixels.len(),
+    };
+    // A baseline that does not fit this scene is bad input, found before the render.
+    let baseline = options
+        .baseline
+        .as_deref()
+        .map(|b| crate::app::gate::render::load(b, &scene_entry))
+        .transpose()?;
     crate::limits::check(
         &format!("render of {at} ({} floor pixels)", pixels.len()),
         crate::limits::Bytes(
@@ -134,7 +186,6 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
     .map_err(anyhow::Error::msg)?;
 
     let device = open_gpu(gpu.adapter.as_deref())?;
-    let configs: Vec<_> = pixels.iter().map(|p| p.config.clone()).collect();
     let started = Instant::now();
     let scenes: Vec<_> = configs.iter().map(crate::input::scene::GpuScene::from).collect();
     let mut f32s = Vec::new();
@@ -187,6 +238,54 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
         "total_s": secs(total),
         "adapter": device.adapter.to_string(),
     });
+    // The gate: this render against its baseline, pixel by pixel (src/app/gate/render.rs).
+    let gate_options = crate::analyse::render_gate::RenderGateOptions {
+        flip_noise: options.flip_noise,
+        visible_flip: VISIBLE_FLIP,
+        visible_share: VISIBLE_SHARE,
+    };
+    let floor: Vec<(u32, u32)> = pixels.iter().map(|p| (p.x, p.y)).collect();
+    let retone = |label: &str, exposure: f64| -> Option<Rgb> {
+        let k = methods.iter().position(|m| m.label == label)?;
+        let samples = method_samples(&pixels, &f32s[k], &references, received(methods[k].target()));
+        Some(image::radiance_image(
+            scene.width,
+            scene.height,
+            &samples,
+            exposure,
+            false,
+        ))
+    };
+    let run = crate::app::gate::render::RenderRun {
+        scene: scene_entry,
+        adapter: device.adapter.to_string(),
+        exposure: outcome.exposure_value,
+        floor: &floor,
+        references: outcome.ref_images.iter().map(|(t, img)| (t.to_string(), img)).collect(),
+        methods: methods
+            .iter()
+            .map(|m| {
+                let r = &outcome.per_method[&m.label];
+                let f = &r["flip_floor"];
+                crate::app::gate::render::MethodRun {
+                    label: &m.label,
+                    kernel: &m.kernel.path,
+                    kernel_sha256: crate::app::shard::source_sha256(m),
+                    judged_against: received(m.target()).to_string(),
+                    image: &outcome.method_images[&m.label],
+                    flip: &outcome.flips[&m.label],
+                    flip_mean: f["mean"].as_f64().unwrap_or(0.0),
+                    flip_p99: f["p99"].as_f64().unwrap_or(0.0),
+                    flip_visible_pixels: f["above"][format!("{VISIBLE_FLIP}")]["pixels"].as_u64().unwrap_or(0) as usize,
+                    nonfinite: (r["nan"].as_u64().unwrap_or(0) + r["inf"].as_u64().unwrap_or(0)) as usize,
+                }
+            })
+            .collect(),
+        retone: &retone,
+    };
+    let gate = baseline
+        .as_ref()
+        .map(|b| crate::app::gate::render::compare(b, &run, gate_options));
     let stale = outcome
         .claims
         .iter()
@@ -217,10 +316,22 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
         "claims": outcome.claims,
         "timing": timing,
     });
-    let configurations = configs
-        .iter()
-        .map(serde_json::to_value)
-        .collect::<Result<Vec<_>, _>>()?;
+    let mut summary = summary;
+    let mut regressed_rows = Vec::new();
+    if let (Some((report, regressed)), Some(b)) = (&gate, &baseline) {
+        summary["baseline"] = json!({
+            "folder": b.dir.display().to_string(),
+            "format": crate::app::gate::render::FORMAT,
+            "change": report.change,
+            "summary": report.summary(),
+            "options": gate_options,
+            "baseline_adapter": report.baseline_adapter,
+            "rules": report.rules,
+            "new_methods": report.new_methods,
+            "regressed_pixels": regressed.len(),
+        });
+        regressed_rows = regressed.iter().map(|&i| configurations[i].clone()).collect();
+    }
     let md = markdown(&summary, &outcome.image_names);
     let mut outputs: Vec<Box<dyn Format>> = vec![
         Box::new(Json::new("render.json", &summary, Layout::Pretty)),
@@ -232,6 +343,10 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
         )),
         Box::new(Markdown::new("render.md", md.concat())),
     ];
+    if gate.is_some() {
+        // The pixels that regressed against the baseline, replayable with `linelight eval`.
+        outputs.push(Box::new(Jsonl::new("regressed.jsonl", regressed_rows)));
+    }
     for (name, bytes) in outcome.images {
         outputs.push(Box::new(Bytes { name, bytes }));
     }
@@ -263,16 +378,70 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
     for line in verdict_lines(&summary) {
         eprintln!("{line}");
     }
-    Ok(if stale { Status::StaleClaim } else { Status::Ok })
+    if let Some(dir) = &options.save_baseline {
+        for path in crate::app::gate::render::save(dir, &run)? {
+            eprintln!("wrote {}", path.display());
+        }
+    }
+    let mut regressed = false;
+    if let Some((report, pixels)) = &gate {
+        eprint!("{}", report.details());
+        if let Some(path) = &options.junit {
+            let xml = crate::app::gate::render::junit(&scene.name, report);
+            crate::report::format::write_file(path, &crate::report::format::Junit::new("JUnit report", xml))?;
+            eprintln!("wrote {}", path.display());
+        }
+        if !pixels.is_empty() {
+            eprintln!(
+                "{} floor pixels regressed against the baseline: {} (replay with linelight eval)",
+                pixels.len(),
+                dir.join("regressed.jsonl").display()
+            );
+        }
+        println!("{}", report.summary());
+        regressed = report.regressed();
+    }
+    Ok(if stale {
+        Status::StaleClaim
+    } else if regressed {
+        Status::ToleranceFail
+    } else {
+        Status::Ok
+    })
 }
 
 struct Outcome {
     exposure: Value,
+    exposure_value: f64,
+    ref_images: BTreeMap<Target, Rgb>,
+    method_images: BTreeMap<String, Rgb>,
+    /// Per method: FLIP against its reference image, per image pixel.
+    flips: BTreeMap<String, Vec<f32>>,
     per_method: serde_json::Map<String, Value>,
     claims: Vec<Value>,
     images: Vec<(String, Vec<u8>)>,
     /// (method label or "reference…", file names) in display order.
     image_names: Vec<(String, Vec<String>)>,
+}
+
+/// A method's values on the floor pixels beside the reference of its received target `t`.
+fn method_samples(
+    pixels: &[FloorPixel],
+    values: &[f32],
+    references: &[BTreeMap<Target, crate::reference::Estimate>],
+    t: Target,
+) -> Vec<Sample> {
+    pixels
+        .iter()
+        .zip(references)
+        .zip(values)
+        .map(|((p, r), v)| Sample {
+            x: p.x,
+            y: p.y,
+            value: f64::from(*v),
+            reference: r[&t].value,
+        })
+        .collect()
 }
 
 fn images_and_stats(
@@ -350,19 +519,10 @@ fn images_and_stats(
     let mut per_method = serde_json::Map::new();
     let mut means = BTreeMap::new();
     let mut method_images = BTreeMap::new();
+    let mut flips = BTreeMap::new();
     for (k, m) in methods.iter().enumerate() {
         let t = received(m.target());
-        let samples: Vec<Sample> = pixels
-            .iter()
-            .zip(references)
-            .enumerate()
-            .map(|(i, (p, r))| Sample {
-                x: p.x,
-                y: p.y,
-                value: f64::from(f32s[k][i]),
-                reference: r[&t].value,
-            })
-            .collect();
+        let samples = method_samples(pixels, &f32s[k], references, t);
         let img: Rgb = image::radiance_image(w, h, &samples, exposure, false);
         let flip = image::flip(&ref_images[&t], &img);
         let stem = crate::input::names::clip(&m.label).replace(['/', '[', ']', '~', '@'], "_");
@@ -450,6 +610,7 @@ fn images_and_stats(
             .as_u64()
             .unwrap_or(0);
         let visible = visible_pixels > 0 && visible_pixels as f64 >= VISIBLE_SHARE * pixels.len() as f64;
+        flips.insert(m.label.clone(), flip);
         per_method.insert(
             m.label.clone(),
             json!({
@@ -508,6 +669,10 @@ fn images_and_stats(
     }
     Outcome {
         exposure: exposure_json,
+        exposure_value: exposure,
+        ref_images,
+        method_images,
+        flips,
         per_method,
         claims,
         images,
@@ -599,6 +764,40 @@ fn verdict_lines(s: &Value) -> Vec<String> {
     out
 }
 
+/// "Against the baseline": the render gate's verdict and every rule.
+fn gate_markdown(b: &serde_json::Map<String, Value>) -> String {
+    let o = &b["options"];
+    let mut md = format!(
+        "## Against the baseline\n\n`{}` (render baseline format {}, saved on {}). Per method: `flip`, the \
+         mean FLIP against the reference now against the baseline's (a rise beyond ±{} fails); `image`, \
+         FLIP between the baseline's image and this run's (a change is visible above {} on at least {} % \
+         of the floor pixels, and fails when at least that many of the changed pixels moved away from \
+         the reference); `nan`, floor pixels NaN/inf new since the baseline. The pixels that regressed \
+         are in `regressed.jsonl` ({}).\n\n**{}**\n\n| method | rule | outcome | numbers |\n|---|---|---|---|\n",
+        b["folder"].as_str().unwrap_or(""),
+        b["format"],
+        b["baseline_adapter"].as_str().unwrap_or(""),
+        o["flip_noise"],
+        o["visible_flip"],
+        o["visible_share"].as_f64().unwrap_or(0.0) * 100.0,
+        b["regressed_pixels"],
+        b["summary"].as_str().unwrap_or(""),
+    );
+    for r in b["rules"].as_array().into_iter().flatten() {
+        md += &format!(
+            "| `{}` | {} | {} | {} |\n",
+            r["method"].as_str().unwrap_or(""),
+            r["rule"].as_str().unwrap_or(""),
+            r["change"].as_str().unwrap_or(""),
+            r["message"].as_str().unwrap_or("").replace('|', "\\|")
+        );
+    }
+    for m in b["new_methods"].as_array().into_iter().flatten() {
+        md += &format!("\nNew since the baseline (not gated): `{}`\n", m.as_str().unwrap_or(""));
+    }
+    md + "\n"
+}
+
 /// render.md, in four parts that concatenate to it: the numbers; the images' heading; the
 /// images; the timing. report.html shows the same parts, the images as a grid.
 fn markdown(s: &Value, images: &[(String, Vec<String>)]) -> [String; 4] {
@@ -652,6 +851,9 @@ fn markdown(s: &Value, images: &[(String, Vec<String>)]) -> [String; 4] {
         s["exposure"]["from"].as_str().unwrap_or(""),
         s["tone_map"].as_str().unwrap_or("")
     );
+    if let Some(b) = s["baseline"].as_object() {
+        md += &gate_markdown(b);
+    }
     let heading = "## Images\n\nPer method: radiance, relative error (legend: `relative_error_legend.svg`), FLIP (magma, 0 black to 1 light yellow).\n\n".to_string();
     let mut list = String::new();
     for (label, files) in images {

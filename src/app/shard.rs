@@ -419,7 +419,7 @@ fn short(hash: &str) -> &str {
 
 /// SHA-256 of what a method's values come from: its kernel's text (every part of a derived
 /// kernel, the GLSL a kernel was translated from) and its inner method's, paths left out.
-fn source_sha256(m: &Method) -> String {
+pub(crate) fn source_sha256(m: &Method) -> String {
     let mut h = sha2::Sha256::new();
     for k in std::iter::once(&m.kernel).chain(m.inner.as_deref().map(|i| &i.kernel)) {
         for (_, text) in k.parts() {

@@ -320,12 +320,19 @@ pub struct Case {
     pub envelope: Option<EnvelopeSpec>,
 }
 
-/// `envelope = { sample = N }`: each method's envelope on N configurations spread over those
-/// it applies to (the attribution's spread subset, at most 2048).
+/// `envelope = { sample = N [, gate = true] [, max_past_budget = S] }`: each method's envelope
+/// on N configurations spread over those it applies to (the attribution's spread subset, at
+/// most 2048). The gate checks are opt-in (docs/envelope.md, "In the gate"): `gate = true`
+/// fails the sweep when a GPU value leaves its envelope; `max_past_budget` when more than that
+/// share of a method's envelopes reach past the budget.
 #[derive(Clone, Debug, PartialEq, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct EnvelopeSpec {
     pub sample: usize,
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub gate: bool,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_past_budget: Option<f64>,
 }
 
 /// What a user of the scene would accept (docs/statistics.md, "What to ship"): a method meets
@@ -532,6 +539,13 @@ impl Case {
                     "envelope: sample = {} (configurations per method, from 1 to 2048: the spread subset's size)",
                     e.sample
                 ));
+            }
+            if let Some(s) = e.max_past_budget {
+                if !(0.0..=1.0).contains(&s) {
+                    return Err(format!(
+                        "envelope: max_past_budget = {s} (a share of the envelopes, from 0 to 1)"
+                    ));
+                }
             }
         }
         for m in &self.materials {

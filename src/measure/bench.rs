@@ -56,6 +56,13 @@ pub struct Times {
     pub gpu_ns_per_eval: Vec<f64>,
     /// CPU f32 ns per evaluation of each timed repeat (empty without a CPU column).
     pub cpu_f32_ns_per_eval_runs: Vec<f64>,
+    /// Configurations per timed envelope run (0: the envelope is not timed).
+    pub envelope_configurations: usize,
+    /// The envelope's ns per configuration of each timed repeat, on all cores (empty when not
+    /// timed, or when the envelope cannot walk this method).
+    pub envelope_ns_per_config_runs: Vec<f64>,
+    /// Why the envelope is not timed for this method although asked.
+    pub envelope_error: Option<String>,
 }
 
 /// Whether the CPU evaluator runs `method` (every kernel it can compose and evaluate:
@@ -81,6 +88,9 @@ pub struct Rounds {
     /// subset of [`CPU_PROBE`] configurations; the rest of the rounds time it on a spread subset
     /// sized from that probe (at least `CPU_PROBE`, at most all). None: every configuration.
     pub cpu_run_seconds: Option<f64>,
+    /// Also time the envelope (docs/envelope.md) on this many configurations spread over
+    /// them, in every round after the CPU columns (`bench --envelope N`). None: not timed.
+    pub envelope: Option<usize>,
 }
 
 /// Configurations of the CPU column's first warm-up run, which sizes the timed runs.
@@ -95,6 +105,7 @@ impl Rounds {
             min_repeats: repeats,
             budget: None,
             cpu_run_seconds: None,
+            envelope: None,
         }
     }
 }
@@ -136,6 +147,7 @@ pub fn bench_methods_with(
         min_repeats,
         budget,
         cpu_run_seconds,
+        envelope,
     } = rounds;
     anyhow::ensure!(repeats > 0, "bench: at least one timed repeat is needed");
     anyhow::ensure!(!configs.is_empty(), "bench: no configurations to time");
@@ -153,12 +165,31 @@ pub fn bench_methods_with(
     let sized = cpu_run_seconds.is_some() && warmup > 0;
     let probe = spread(configs, CPU_PROBE);
     let mut cpu_configs: Vec<Option<Vec<Config>>> = vec![None; methods.len()];
+    // The envelope's configurations, and per method whether its walk runs (an error here is
+    // the method's, reported beside its row, never timed).
+    let envelope_configs = envelope.map(|k| spread(configs, k.max(1)));
+    let envelope_error: Vec<Option<String>> = methods
+        .iter()
+        .map(|m| {
+            let subset = envelope_configs.as_ref()?;
+            match crate::eval::interp::envelope(m, &subset[0]) {
+                Ok(_) => None,
+                Err(e) => Some(format!("{e:#}")),
+            }
+        })
+        .collect();
+    let enveloped: Vec<bool> = envelope_error
+        .iter()
+        .map(|e| envelope_configs.is_some() && e.is_none())
+        .collect();
 
-    let steps_per_round = methods.len() + evaluated.iter().filter(|&&p| p).count();
+    let steps_per_round =
+        methods.len() + evaluated.iter().filter(|&&p| p).count() + enveloped.iter().filter(|&&p| p).count();
     let mut total = (warmup + repeats) * steps_per_round;
     let mut done = 0;
     let mut gpu_ns = vec![Vec::with_capacity(repeats); methods.len()];
     let mut cpu_ns = vec![Vec::with_capacity(repeats); methods.len()];
+    let mut envelope_ns = vec![Vec::with_capacity(repeats); methods.len()];
     for round in 0..warmup + repeats {
         let timed = round >= warmup;
         if timed && round - warmup >= min_repeats && budget.is_some_and(|b| start.elapsed() >= b) {
@@ -195,31 +226,48 @@ pub fn bench_methods_with(
             done += 1;
             progress(done, total);
         }
+        if let Some(subset) = &envelope_configs {
+            for &i in order.iter().filter(|&&i| enveloped[i]) {
+                let ns = time_envelope(&methods[i], subset);
+                if timed {
+                    envelope_ns[i].push(ns / subset.len() as f64);
+                }
+                done += 1;
+                progress(done, total);
+            }
+        }
     }
     let cpu_counts: Vec<usize> = cpu_configs.iter().map(|c| c.as_ref().map_or(n, Vec::len)).collect();
 
     let clock = timer.clock().name().to_string();
+    let envelope_count = envelope_configs.as_ref().map_or(0, Vec::len);
     let times = methods
         .iter()
         .zip(gpu_ns.into_iter().zip(cpu_ns))
         .zip(cpu_counts)
-        .map(|((m, (gpu_runs, cpu_runs)), cpu_configurations)| {
-            let (ops, ops_error) = match crate::eval::cost::method_cost_of(m) {
-                Ok(ops) => (Some(ops), None),
-                Err(e) => (None, Some(format!("{e:#}"))),
-            };
-            Times {
-                label: m.label.clone(),
-                clock: clock.clone(),
-                configurations: n,
-                cpu_configurations,
-                repeats: gpu_runs.len(),
-                ops,
-                ops_error,
-                gpu_ns_per_eval: gpu_runs,
-                cpu_f32_ns_per_eval_runs: cpu_runs,
-            }
-        })
+        .zip(envelope_ns.into_iter().zip(envelope_error))
+        .map(
+            |(((m, (gpu_runs, cpu_runs)), cpu_configurations), (envelope_runs, envelope_error))| {
+                let (ops, ops_error) = match crate::eval::cost::method_cost_of(m) {
+                    Ok(ops) => (Some(ops), None),
+                    Err(e) => (None, Some(format!("{e:#}"))),
+                };
+                Times {
+                    label: m.label.clone(),
+                    clock: clock.clone(),
+                    configurations: n,
+                    cpu_configurations,
+                    repeats: gpu_runs.len(),
+                    ops,
+                    ops_error,
+                    gpu_ns_per_eval: gpu_runs,
+                    cpu_f32_ns_per_eval_runs: cpu_runs,
+                    envelope_configurations: envelope_count,
+                    envelope_ns_per_config_runs: envelope_runs,
+                    envelope_error,
+                }
+            },
+        )
         .collect();
     Ok(times)
 }
@@ -233,6 +281,19 @@ fn time_cpu_column(method: &Method, configs: &[Config]) -> f64 {
             .cpu_column(black_box(configs), crate::eval::interp::Mode::F32)
             .ok(),
     );
+    start.elapsed().as_nanos() as f64
+}
+
+/// Wall-clock ns of the method's envelope (docs/envelope.md) over `configs`, one interval walk
+/// per configuration, on all cores (rayon), as the sweep's "Any conforming driver" pass runs it.
+fn time_envelope(method: &Method, configs: &[Config]) -> f64 {
+    use rayon::prelude::*;
+    let start = Instant::now();
+    let walked = configs
+        .par_iter()
+        .filter(|c| crate::eval::interp::envelope(method, black_box(c)).is_ok_and(|o| o.is_some()))
+        .count();
+    black_box(walked);
     start.elapsed().as_nanos() as f64
 }
 
@@ -347,6 +408,7 @@ mod tests {
             min_repeats: 2,
             budget: Some(std::time::Duration::ZERO),
             cpu_run_seconds: Some(1e-9),
+            envelope: None,
         };
         let mut last = (0, 0);
         let times = bench_methods_with(gpu(), &methods, &configs, rounds, &mut |d, t| last = (d, t)).unwrap();

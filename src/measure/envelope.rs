@@ -3,9 +3,10 @@
 //! with the references it is judged against, and on a smaller part of it where the freedom goes.
 
 use crate::eval::interp::{EnvelopeStop, Line};
-use crate::input::scene::Config;
+use crate::input::scene::{Config, GpuScene};
 use crate::input::target::Target;
 use crate::kernel::methods::Method;
+use crate::measure::gpu::{Gpu, MethodPipeline};
 use std::collections::BTreeMap;
 
 /// Configurations per method on which "where the freedom goes" re-evaluates the envelope once
@@ -17,6 +18,9 @@ pub const FREEDOM_CONFIGURATIONS: usize = 32;
 pub struct EnvelopeRow {
     /// Index into the case's materials.
     pub material: usize,
+    pub config: Config,
+    /// The GPU's f32 value on this configuration (the envelope's gate check).
+    pub gpu: f32,
     /// The method's own target and its `_upper` view where there is one.
     pub references: BTreeMap<Target, f64>,
     /// `[lo, hi]`, or why there is no finite bound (and the line, when one is named).
@@ -43,25 +47,35 @@ fn targets(t: Target) -> Vec<Target> {
     out
 }
 
-/// Every method's envelopes on at most `sample` of its spread subset (evenly spaced).
+/// Every method's envelopes on at most `sample` of its spread subset (evenly spaced), with the
+/// GPU's values there (one dispatch per method, `pipelines` in method order).
 pub fn any_driver(
     methods: &[Method],
     subsets: &[Vec<(usize, Config)>],
     material_of: &(dyn Fn(usize) -> usize + Sync),
     sample: usize,
+    (gpu, pipelines): (&Gpu, &[MethodPipeline]),
 ) -> anyhow::Result<Vec<MethodEnvelope>> {
     use rayon::prelude::*;
     methods
         .iter()
         .zip(subsets)
-        .map(|(m, subset)| {
+        .zip(pipelines)
+        .map(|((m, subset), pipeline)| {
             let t = std::time::Instant::now();
             let step = subset.len().div_ceil(sample.max(1)).max(1);
             let picked: Vec<&(usize, Config)> = subset.iter().step_by(step).take(sample).collect();
             let program = crate::eval::interp::program(m)?;
+            let scenes: Vec<GpuScene> = picked.iter().map(|(_, c)| GpuScene::from(c)).collect();
+            let values = if scenes.is_empty() {
+                Vec::new()
+            } else {
+                gpu.run(pipeline, &scenes, scenes.len(), &mut |_| {})?.values
+            };
             let rows = picked
                 .par_iter()
-                .map(|(g, c)| -> anyhow::Result<EnvelopeRow> {
+                .zip(&values)
+                .map(|((g, c), &value)| -> anyhow::Result<EnvelopeRow> {
                     let out =
                         crate::eval::interp::envelope(m, c)?.expect("the subset holds configurations it applies to");
                     let interval = match out.value {
@@ -84,6 +98,8 @@ pub fn any_driver(
                         .collect();
                     Ok(EnvelopeRow {
                         material: material_of(*g),
+                        config: c.clone(),
+                        gpu: value,
                         references,
                         interval,
                     })

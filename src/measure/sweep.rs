@@ -591,6 +591,7 @@ pub fn search_and_cost(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<M
         min_repeats: COST_MIN_REPEATS,
         budget: Some(std::time::Duration::from_secs_f64(so_far * COST_SHARE)),
         cpu_run_seconds: Some(COST_CPU_RUN_SECONDS),
+        envelope: None,
     };
     let costs = crate::measure::bench::bench_methods_with(gpu, methods, &cost_configs, rounds, &mut |done, total| {
         pb.set_length(total as u64);
@@ -609,7 +610,13 @@ pub fn search_and_cost(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<M
     let envelope = match &case.envelope {
         Some(spec) => {
             let material_of = |g: usize| setup.samples.get(g).map_or(0, |s| s.material);
-            crate::measure::envelope::any_driver(methods, &kept.attribution, &material_of, spec.sample)?
+            crate::measure::envelope::any_driver(
+                methods,
+                &kept.attribution,
+                &material_of,
+                spec.sample,
+                (gpu, &pipelines),
+            )?
         }
         None => Vec::new(),
     };

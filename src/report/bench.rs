@@ -120,6 +120,38 @@ pub fn render(bench: &BenchRun) -> String {
         );
     }
 
+    if let Some(n) = bench.costs.iter().find_map(|c| c.envelope_configurations) {
+        let _ = writeln!(
+            out,
+            "\nEnvelope (docs/envelope.md): one interval walk of the kernel's IR per configuration, on {n} \
+             configurations spread over the dispatch's, all cores (rayon), timed in the same rounds; ns per \
+             configuration, median [min–max], and its cost over the CPU f32 column's (median of the per-round \
+             ratios):"
+        );
+        for c in &bench.costs {
+            match (c.envelope_ns_per_config, &c.envelope_error) {
+                (Some([median, min, max]), _) => {
+                    let _ = writeln!(
+                        out,
+                        "  {}: {} [{}–{}] ns per configuration{}",
+                        c.label,
+                        sig(median),
+                        sig(min),
+                        sig(max),
+                        c.envelope_over_cpu_f32
+                            .map_or(String::new(), |r| format!(", {}× the CPU f32 column", sig(r)))
+                    );
+                }
+                (None, Some(e)) => {
+                    let _ = writeln!(out, "  {}: not timed ({e})", c.label);
+                }
+                (None, None) => {
+                    let _ = writeln!(out, "  {}: not timed", c.label);
+                }
+            }
+        }
+    }
+
     let pairs: Vec<(&Cost, &Cost)> = bench
         .pairs
         .iter()

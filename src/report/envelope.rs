@@ -27,7 +27,9 @@ pub fn render(a: &AnyDriver) -> String {
          its own; \"past the budget\": envelopes whose worst relative error exceeds the budget's \
          value {}. \"No finite envelope\": an intermediate may be Inf or NaN (undefined on a \
          driver that assumes finite math), an operation leaves the range the spec bounds, or the \
-         interval is too wide to inform.\n",
+         interval is too wide to inform. \"GPU outside\": configurations whose GPU value (this run's \
+         adapter) lies outside its finite envelope, of those with one: the driver left the written \
+         order or broke the spec (a finding, listed below).\n",
         a.sample,
         a.seconds,
         a.budget_target,
@@ -35,9 +37,9 @@ pub fn render(a: &AnyDriver) -> String {
     );
     let _ = writeln!(
         o,
-        "| method | material | target | n | p50 | p90 | p99 | max | past the budget | no finite envelope |"
+        "| method | material | target | n | p50 | p90 | p99 | max | past the budget | no finite envelope | GPU outside |"
     );
-    let _ = writeln!(o, "|---|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(o, "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &a.rows {
         let q = |i: usize| r.quantiles.map_or("—".to_string(), |q| sig(q[i]));
         let past = match r.breaks {
@@ -47,7 +49,7 @@ pub fn render(a: &AnyDriver) -> String {
         };
         let _ = writeln!(
             o,
-            "| `{}` | {} | `{}` | {} | {} | {} | {} | {} | {} | {} |",
+            "| `{}` | {} | `{}` | {} | {} | {} | {} | {} | {} | {} | {}/{} |",
             r.label,
             r.material,
             r.target,
@@ -57,10 +59,33 @@ pub fn render(a: &AnyDriver) -> String {
             q(2),
             q(3),
             past,
-            r.undefined
+            r.undefined,
+            r.gpu_outside,
+            r.gpu_checked
         );
     }
     let _ = writeln!(o);
+    let outside: Vec<_> = a.rows.iter().filter(|r| r.gpu_outside > 0).collect();
+    if !outside.is_empty() {
+        let _ = writeln!(
+            o,
+            "GPU values outside their envelope (the first {} per method and material; each line \
+             replayable with `linelight eval`):\n",
+            crate::analyse::envelope::OUTSIDE_SHOWN
+        );
+        for r in outside {
+            for (config, value, lo, hi) in &r.outside {
+                let _ = writeln!(
+                    o,
+                    "- `{}` ({}): GPU {value:e} outside [{lo:e}, {hi:e}]: `{}`",
+                    r.label,
+                    r.material,
+                    serde_json::to_string(config).unwrap_or_default()
+                );
+            }
+        }
+        let _ = writeln!(o);
+    }
     let named: Vec<_> = a.rows.iter().filter(|r| !r.lines.is_empty()).collect();
     if !named.is_empty() {
         let _ = writeln!(

@@ -45,6 +45,34 @@ impl Rgb {
         [self.data[i], self.data[i + 1], self.data[i + 2]]
     }
 
+    /// An 8-bit RGB PNG read back (a render baseline's images), or why it is not one.
+    pub fn from_png(bytes: &[u8]) -> Result<Rgb, String> {
+        let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+        let mut reader = decoder.read_info().map_err(|e| format!("not a PNG image: {e}"))?;
+        let size = reader
+            .output_buffer_size()
+            .ok_or_else(|| "PNG image too large".to_string())?;
+        let mut data = vec![0; size];
+        let info = reader
+            .next_frame(&mut data)
+            .map_err(|e| format!("not a PNG image: {e}"))?;
+        if info.color_type != png::ColorType::Rgb || info.bit_depth != png::BitDepth::Eight {
+            return Err(format!(
+                "a {:?} {:?}-bit PNG, not the 8-bit RGB linelight writes",
+                info.color_type, info.bit_depth
+            ));
+        }
+        data.truncate(info.line_size * info.height as usize);
+        if info.line_size != 3 * info.width as usize {
+            return Err("PNG rows are not packed 8-bit RGB".into());
+        }
+        Ok(Rgb {
+            width: info.width,
+            height: info.height,
+            data,
+        })
+    }
+
     /// PNG bytes.
     pub fn png(&self) -> Vec<u8> {
         let mut out = Vec::new();
@@ -290,5 +318,8 @@ mod tests {
         assert!(flip(&a, &b).iter().any(|&e| e > 0.1));
         let png = a.png();
         assert_eq!(&png[1..4], b"PNG");
+        assert_eq!(Rgb::from_png(&b.png()), Ok(b.clone()));
+        assert!(Rgb::from_png(&png[..png.len() / 2]).is_err());
+        assert!(Rgb::from_png(b"not a png").is_err());
     }
 }

@@ -73,3 +73,30 @@ pub fn skip_or_fail(test: &str, why: &str) {
     assert!(!ci, "{test}: not checked under CI: {why}");
     eprintln!("SKIPPED (a failure under CI=true) {test}: {why}");
 }
+
+/// Validates a JUnit file against the Ant JUnit schema with `xmllint --schema` (libxml2-utils;
+/// .ci/run installs it): absent, a failure under CI and a visible skip elsewhere.
+pub fn validate_junit(path: &Path) {
+    let schema = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/junit/JUnit.xsd");
+    let o = match Command::new("xmllint")
+        .args(["--noout", "--schema", schema])
+        .arg(path)
+        .output()
+    {
+        Ok(o) => o,
+        Err(e) => {
+            skip_or_fail(
+                "validate_junit",
+                &format!("xmllint cannot run ({e}): install libxml2-utils"),
+            );
+            return;
+        }
+    };
+    assert!(
+        o.status.success(),
+        "{} does not validate against {schema}:\n{}\n{}",
+        path.display(),
+        String::from_utf8_lossy(&o.stderr),
+        std::fs::read_to_string(path).unwrap_or_default()
+    );
+}

@@ -19,6 +19,8 @@ use std::path::Path;
 
 /// JUnit XML of the checks and the gate's rules.
 mod junit;
+/// Render baselines: `render --save-baseline` and `render --baseline` (docs/render.md).
+pub mod render;
 
 /// Version of the on-disk format; a baseline of another version is bad input. 2: every method
 /// is judged against what the surface receives (`line_upper`, `cylinder_upper`, …, the
@@ -800,13 +802,7 @@ pub fn compare(
         .filter(|o| !loaded.baseline.methods.iter().any(|m| m.label == o.label))
         .map(|o| o.label.clone())
         .collect();
-    let change = if rules.iter().any(|r| r.change == Change::Regressed) {
-        Change::Regressed
-    } else if rules.iter().any(|r| r.change == Change::Improved) {
-        Change::Improved
-    } else {
-        Change::Unchanged
-    };
+    let change = Change::overall(&rules);
     GateReport {
         baseline_adapter: loaded.baseline.adapter.clone(),
         adapter: measured.timing.adapter.clone(),
