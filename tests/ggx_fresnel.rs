@@ -324,7 +324,8 @@ fn f0_absent_and_f0_one_are_the_same_bit_for_bit() {
 
 /// What an LTC method is multiplied by: `f0·magnitude + (1 − f0)·fresnel` of the feed's two
 /// channels, in f32 for a table (as the shader combines its texels), in f64 for the exact
-/// fit; within a few percent of the exact ∫D·F (an independent quadrature over directions).
+/// fit; within 3 % of the exact ∫D·F (an independent quadrature over directions; measured at
+/// most 5.2e-3, the f0 = 0 table look-ups at α = 0.1, where ∫D·F is all Schlick tail).
 #[test]
 fn the_fed_magnitude_is_the_fresnel_weighted_channels() {
     for (alpha, theta) in [(0.1, 20.0), (0.4, 60.0), (0.8, 80.0)] {
@@ -356,6 +357,7 @@ fn the_fed_magnitude_is_the_fresnel_weighted_channels() {
                 }
                 exact *= 2.0 * std::f64::consts::PI / (n * n) as f64;
                 let rel = (want - exact).abs() / exact;
+                eprintln!("α {alpha} θ {theta}° f0 {f0} {ltc}: fed {want:.6e}, ∫D·F {exact:.6e}, relative {rel:.1e}");
                 assert!(
                     rel < 0.03,
                     "{alpha} {theta} {f0} {ltc}: fed {want:e}, ∫D·F {exact:e}, {rel:e}"

@@ -46,6 +46,9 @@ pub struct Row {
     /// integral of the lobe with F. Not one of [`LINKS`]: it is part of the table link (the
     /// look-up's magnitude), shown apart because it is the only place F enters an LTC method.
     pub fresnel: f64,
+    /// The exact ∫D·F's own relative error estimate: a Fresnel link not far above it is the
+    /// quadrature's, not the feed's.
+    pub fresnel_reference: f64,
     /// Angle (degrees) between the mirror direction of the view and the segment's nearest
     /// direction: how close the light comes to the lobe's peak.
     pub miss: f64,
@@ -87,6 +90,7 @@ impl Row {
             table_fit: rel(p.table, truth, truth),
             f0: p.f0,
             fresnel: rel(p.fed_norm, p.exact_norm, p.exact_norm),
+            fresnel_reference: p.exact_norm_error / p.exact_norm.abs(),
             miss: p.miss,
         })
     }
@@ -130,6 +134,8 @@ pub struct FresnelLink {
     pub f0: [f64; 2],
     pub n: usize,
     pub link: Option<Quantiles>,
+    /// The exact ∫D·F's relative error estimate over the same configurations.
+    pub reference: Option<Quantiles>,
 }
 
 /// Everything the chain report shows.
@@ -215,6 +221,7 @@ fn fresnel_links(rows: &[Row]) -> Vec<FresnelLink> {
                 f0,
                 n: configs.len(),
                 link: quantiles(configs.values().map(|r| r.fresnel)),
+                reference: quantiles(configs.values().map(|r| r.fresnel_reference)),
             }
         })
         .collect()
@@ -232,9 +239,20 @@ fn fresnel_findings(links: &[FresnelLink]) -> Vec<String> {
             } else {
                 format!("F0 in [{}, {}]", l.f0[0], l.f0[1])
             };
+            let r = l.reference.map_or(String::new(), |r| {
+                let verdict = if r.median * 10.0 <= q.median {
+                    "far below the link: the link is the feed's"
+                } else {
+                    "not far below the link: the link is partly the quadrature's"
+                };
+                format!(
+                    " The exact value's own error estimate has median {:.2e} ({verdict}).",
+                    r.median
+                )
+            });
             Some(format!(
                 "Fresnel link on `{}` ({f0}, {} configurations): our feed's f0·magnitude + (1 − f0)·fresnel \
-                 against the exact ∫D·F has median {:.2e}, p90 {:.2e}, max {:.2e}.",
+                 against the exact ∫D·F has median {:.2e}, p90 {:.2e}, max {:.2e}.{r}",
                 l.family, l.n, q.median, q.p90, q.max
             ))
         })
