@@ -1,7 +1,8 @@
 //! The GGX error chain, measured (`linelight chain`; docs in src/app/chain.rs): per
 //! configuration and method, the GGX truth T, the exact LTC integrals of every feed (the exact
 //! fit, our table's f32 and binary16 look-ups, the published table's), and the method's GPU,
-//! CPU f32 and f64 values on our feed. The links between them are the analyse stage's
+//! CPU f32 and f64 values on our feed, and the Fresnel link's two sides (the fed
+//! f0·magnitude + (1 − f0)·fresnel and the exact ∫D·F). The links between them are the analyse stage's
 //! (`analyse::chain`).
 
 use crate::eval::interp::CpuColumns;
