@@ -435,3 +435,65 @@ fn bad_f0_is_refused_naming_the_field() {
     let ok = case("f0 = { dist = \"uniform\", min = 0.02, max = 0.05 }", "ggx");
     linelight::input::case::Case::parse("t.toml", &ok).unwrap();
 }
+
+/// Render scenes: every floor pixel's `ggx` material carries the scene's f0; f0 on another
+/// material or with the published table is refused, naming the field.
+#[test]
+fn render_scenes_carry_f0() {
+    use linelight::input::render_scene::RenderScene;
+    let scene = |material: &str| {
+        format!(
+            "name = \"f\"\nmethods = [\"line.ltc2017\"]\n[render]\nwidth = 8\nheight = 6\n\
+             camera = {{ position = [0.0, -3.0, 1.5], look_at = [0.0, 0.0, 0.0], fov_deg = 50.0 }}\n\
+             light = {{ p1 = [-0.5, 0.5, 1.0], p2 = [0.5, 0.5, 1.0] }}\nmaterial = {material}\n"
+        )
+    };
+    let s = RenderScene::parse(
+        "s.toml",
+        &scene("{ kind = \"ggx\", alpha_ramp = [0.2, 0.8], f0 = 0.04 }"),
+    )
+    .unwrap();
+    let pixels = s.floor_pixels().unwrap();
+    assert!(!pixels.is_empty());
+    for p in &pixels {
+        assert_eq!(p.config.material.f0(), 0.04, "pixel {} {}", p.x, p.y);
+        assert_eq!(linelight::input::scene::SceneInput::new(&p.config).f0, 0.04);
+    }
+    for (material, want) in [
+        ("{ kind = \"diffuse\", f0 = 0.04 }", "render.material.f0"),
+        ("{ kind = \"ggx\", alpha = 0.3, f0 = 1.2 }", "render.material.f0"),
+        (
+            "{ kind = \"ggx\", alpha = 0.3, f0 = 0.5, ltc = \"published\" }",
+            "no Fresnel channel",
+        ),
+    ] {
+        let e = RenderScene::parse("s.toml", &scene(material)).unwrap_err().to_string();
+        assert!(e.contains(want), "{material}: {e}");
+    }
+}
+
+/// A case family's f0 is drawn into every material, and a family without it draws what it drew
+/// before f0 existed (appending an f0 family leaves the others' configurations unchanged).
+#[test]
+fn case_families_draw_f0_and_leave_the_others_unchanged() {
+    use linelight::input::case::Case;
+    use linelight::input::sampler::sample_case;
+    let base = common::CASE.replace("methods = [\"line.ltc2023\"]", "methods = [\"line.ltc2017\"]")
+        + "[[materials]]\nname = \"g\"\nkind = \"ggx\"\ncount = 20\nalpha = { dist = \"log_uniform\", min = 0.05, max = 1.0 }\n\
+           view_angle = { dist = \"uniform\", min = 0.0, max = 80.0 }\n";
+    let with = base.clone()
+        + "[[materials]]\nname = \"metal\"\nkind = \"ggx\"\ncount = 20\nalpha = { dist = \"log_uniform\", min = 0.05, max = 1.0 }\n\
+           view_angle = { dist = \"uniform\", min = 0.0, max = 80.0 }\nf0 = { dist = \"uniform\", min = 0.5, max = 0.9 }\n";
+    let (a, b) = (
+        sample_case(&Case::parse("a.toml", &base).unwrap()),
+        sample_case(&Case::parse("b.toml", &with).unwrap()),
+    );
+    let old: Vec<_> = a.iter().map(|s| &s.config).collect();
+    let new: Vec<_> = b.iter().map(|s| &s.config).take(old.len()).collect();
+    assert_eq!(old, new, "the families before the f0 family are unchanged");
+    let metal: Vec<f64> = b[old.len()..].iter().map(|s| s.config.material.f0()).collect();
+    assert_eq!(metal.len(), 20);
+    assert!(metal.iter().all(|f| (0.5..=0.9).contains(f)), "{metal:?}");
+    assert!(metal.windows(2).any(|w| w[0] != w[1]), "a range draws different values");
+    assert!(old.iter().all(|c| c.material.f0() == 1.0));
+}
