@@ -70,6 +70,9 @@ enum Family {
     /// Wide rectangles seen nearly edge-on from beyond an end: the shading point 0.005–0.05 d off
     /// the rectangle's plane, inside its width band (the line passes within W/2 of it).
     NearPlane,
+    /// [`AboveThin`]'s geometry on the `ggx` materials with Schlick's F0 (issue 24): the
+    /// `minv: ggx` kernels that apply F themselves.
+    Fresnel,
 }
 
 use Family::*;
@@ -102,6 +105,14 @@ fn materials() -> Vec<(&'static str, Material)> {
             "ggx_0.6",
             Material::ggx(Roughness::Iso(0.6), view(60.0), Some("table")).unwrap(),
         ),
+        (
+            "ggx_0.3_f0.04",
+            Material::ggx_fresnel(Roughness::Iso(0.3), view(30.0), Some(0.04), Some("table")).unwrap(),
+        ),
+        (
+            "ggx_0.6_f0.9",
+            Material::ggx_fresnel(Roughness::Iso(0.6), view(60.0), Some(0.9), Some("table")).unwrap(),
+        ),
     ]
 }
 
@@ -111,6 +122,7 @@ fn family_materials(f: Family) -> std::ops::Range<usize> {
         SmallAngle | FarAlong | NearPlane => 0..4,
         FwtFar => 0..1,
         BelowLeak => 1..4,
+        Fresnel => 6..8,
     }
 }
 
@@ -159,7 +171,7 @@ fn family(f: Family, mi: usize) -> Vec<Config> {
         };
         let along = |c: Vec3, t: Vec3, a: f64| [0, 1, 2].map(|k| c[k] + a * t[k]);
         let (p1, p2) = match f {
-            AboveThin | AboveThick | CrossingThin | CrossingThick => {
+            AboveThin | AboveThick | CrossingThin | CrossingThick | Fresnel => {
                 // The centre at distance 1 and elevation 10°–80°, any tangent, L/d in [0.1, 4].
                 let c = centre(&mut rng, 10.0);
                 let t = random_unit(&mut rng);
@@ -208,13 +220,13 @@ fn family(f: Family, mi: usize) -> Vec<Config> {
         };
         let margin = 0.05;
         let keep = match f {
-            AboveThin | AboveThick | NearPlane => p1[2] > margin && p2[2] > margin,
+            AboveThin | AboveThick | NearPlane | Fresnel => p1[2] > margin && p2[2] > margin,
             CrossingThin | CrossingThick => p1[2].min(p2[2]) < -margin && p1[2].max(p2[2]) > margin,
             _ => true,
         };
         // Drawn even when unused, so that every family keeps one stream of draws.
         let ratio = match f {
-            AboveThin | CrossingThin => 10f64.powf(rng.random_range(-4.0..-3.0f64)),
+            AboveThin | CrossingThin | Fresnel => 10f64.powf(rng.random_range(-4.0..-3.0f64)),
             _ => 10f64.powf(rng.random_range(-1.7..-0.7f64)),
         };
         let mut normal = random_unit(&mut rng);
@@ -652,6 +664,13 @@ const ROWS: &[Row] = &[
     row("line.mrp_sum",                   CROSSING,       Model,   3.71e0,  3.71e0,   1.0979e0),
     row("line.mrp_sum_energy",            ABOVE,          Model,   3.58e-1, 3.58e-1,  8.2546e-3),
     row("line.mrp_sum_energy",            CROSSING,       Model,   1.97e0,  1.97e0,   6.7118e-1),
+    // Issue 24: the `minv: ggx` kernels apply the material's Schlick F (F0 0.04 and 0.9).
+    row("line.mrp_specular",              &[Fresnel],     Model,   1.25e0,  1.25e0,   2.9013e-1),
+    row("line.mrp_specular_widened",      &[Fresnel],     Model,   2.40e0,  2.40e0,   4.2909e-1),
+    row("line.mrp_specular_energy",       &[Fresnel],     Model,   7.03e-1, 7.03e-1,  -1.8231e-1),
+    row("line.mrp_specular_energy_line",  &[Fresnel],     Model,   6.51e-1, 6.51e-1,  8.3572e-3),
+    row("line.mrp_sum",                   &[Fresnel],     Model,   4.34e-1, 4.34e-1,  1.0980e-1),
+    row("line.mrp_sum_energy",            &[Fresnel],     Model,   4.12e-1, 4.12e-1,  6.0236e-2),
     row("line_isotropic.karis2013",       ABOVE,          Exact,   3.01e-7, 7.50e-16, -3.4218e-17),
     row("line_isotropic.karis2013",       CROSSING,       Model,   1.00e0,  1.00e0,   -3.0764e-1),
     row("line_isotropic.karis2013_clip",  ALL,            Exact,   3.01e-7, 1.10e-15, 3.5738e-17),

@@ -169,10 +169,35 @@ fn method(scene: Scene) -> f32 {
 }
 ";
 
+/// [`configs`] and ggx materials with Schlick's F0 ≠ 1 (isotropic from our table, anisotropic
+/// from the exact fit): contract 3's `f0` set from the material. (Not in [`configs`]: the old
+/// contract's recorded values are of those configurations.)
+fn configs_with_fresnel() -> Vec<Config> {
+    let mut out = configs();
+    for (i, (alpha, f0)) in [(Roughness::Iso(0.25), 0.04), (Roughness::Aniso([0.3, 0.6]), 0.9)]
+        .into_iter()
+        .enumerate()
+    {
+        let view = [0.3f64, 0.4, 0.0];
+        let view = [view[0], view[1], (1.0 - view[0] * view[0] - view[1] * view[1]).sqrt()];
+        let c = Config {
+            id: format!("fresnel{i}"),
+            p1: [0.3, -0.2, 1.0],
+            p2: [0.9, 0.4, 1.6],
+            radius: Some(0.01),
+            rect: None,
+            material: Material::ggx_fresnel(alpha, view, Some(f0), None).unwrap(),
+        };
+        c.validate().unwrap();
+        out.push(c);
+    }
+    out
+}
+
 #[test]
 fn every_scene_member_reads_back_on_the_gpu_and_in_the_evaluator() {
     let gpu = gpu();
-    let cs = configs();
+    let cs = configs_with_fresnel();
     let mut kernels = builtin_kernels();
     kernels.push(KernelFile::parse("probe.wgsl", PROBE).unwrap());
     for k in 0..37 {
@@ -204,6 +229,14 @@ fn every_scene_member_reads_back_on_the_gpu_and_in_the_evaluator() {
             .flat_map(|n| input.member(n).unwrap())
             .collect();
             let want = flat[k] as f32;
+            if k == 32 {
+                // f0: the material's F0, or 1 (F = 1) without one.
+                let f0 = match &c.material {
+                    Material::Ggx { f0: Some(f), .. } => *f as f32,
+                    _ => 1.0,
+                };
+                assert_eq!(want, f0, "{}: f0 in the scene", c.id);
+            }
             assert_eq!(g, want, "{}: GPU member component {k}", c.id);
             assert_eq!(cpu.unwrap() as f32, want, "{}: evaluator member component {k}", c.id);
         }
@@ -212,7 +245,7 @@ fn every_scene_member_reads_back_on_the_gpu_and_in_the_evaluator() {
 
 #[test]
 fn ggx_scenes_carry_the_view_and_roughness_in_the_kernels_frame() {
-    for c in configs() {
+    for c in configs_with_fresnel() {
         let s = linelight::input::scene::SceneInput::new(&c);
         let Material::Ggx { alpha, view, .. } = &c.material else {
             assert_eq!(

@@ -43,15 +43,16 @@ fn mrp_specular_point(A: vec3<f32>, B: vec3<f32>, R: vec3<f32>) -> vec3<f32> {
     return A + AB * t;
 }
 
-// The ggx lobe of docs/conventions.md, the cosine-weighted BRDF a point light is shaded with (F = 1):
-// D(ω) = NDF(h)·G2(v, ω)/(4 v.z) for ω.z > 0, height-correlated Smith, roughness ax along
-// `tangent` and ay along cross(+z, tangent), in the scene's frame.
+// The ggx lobe of docs/conventions.md, the cosine-weighted BRDF a point light is shaded with:
+// D(ω) = NDF(h)·G2(v, ω)·F(v·h)/(4 v.z) for ω.z > 0, Schlick's F with the scene's f0,
+// height-correlated Smith, roughness ax along `tangent` and ay along cross(+z, tangent), in
+// the scene's frame.
 fn mrp_lambda(w: vec3<f32>, ax: f32, ay: f32) -> f32 {
     let s = (ax * ax * w.x * w.x + ay * ay * w.y * w.y) / (w.z * w.z);
     return 0.5 * (-1.0 + sqrt(1.0 + s));
 }
 
-fn mrp_ggx(view: vec3<f32>, dir: vec3<f32>, tangent: vec3<f32>, ax: f32, ay: f32) -> f32 {
+fn mrp_ggx(view: vec3<f32>, dir: vec3<f32>, tangent: vec3<f32>, ax: f32, ay: f32, f0: f32) -> f32 {
     if (dir.z <= 0.0) {
         return 0.0;
     }
@@ -62,7 +63,12 @@ fn mrp_ggx(view: vec3<f32>, dir: vec3<f32>, tangent: vec3<f32>, ax: f32, ay: f32
     let e = (h.x / ax) * (h.x / ax) + (h.y / ay) * (h.y / ay) + h.z * h.z;
     let ndf = 1.0 / (PI * ax * ay * e * e);
     let g2 = 1.0 / (1.0 + mrp_lambda(v, ax, ay) + mrp_lambda(w, ax, ay));
-    return ndf * g2 / (4.0 * v.z);
+    // Schlick's F of the material (the BRDF the point is shaded with includes it); f0 = 1
+    // without one, so F = 1 + 0·x⁵ = 1 exactly.
+    let x = 1.0 - dot(v, h);
+    let x2 = x * x;
+    let F = f0 + (1.0 - f0) * (x2 * x2 * x);
+    return ndf * g2 * F / (4.0 * v.z);
 }
 
 fn method(scene: Scene) -> f32 {
@@ -72,6 +78,6 @@ fn method(scene: Scene) -> f32 {
     let R = vec3<f32>(-scene.view.x, -scene.view.y, scene.view.z);
     let X = mrp_specular_point(A, B, R);
     let d2 = dot(X, X);
-    let f = mrp_ggx(scene.view, X * inverseSqrt(d2), scene.tangent, scene.alpha_x, scene.alpha_y);
+    let f = mrp_ggx(scene.view, X * inverseSqrt(d2), scene.tangent, scene.alpha_x, scene.alpha_y, scene.f0);
     return length(scene.p2 - scene.p1) * f / d2;
 }

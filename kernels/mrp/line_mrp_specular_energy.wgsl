@@ -22,6 +22,6 @@ fn method(scene: Scene) -> f32 {
     let ay = scene.alpha_y;
     // (α/α')² for one α; for two, the product of the per-axis ratios (the NDF's 1/(ax·ay)).
     let energy = (ax / saturate(ax + w)) * (ay / saturate(ay + w));
-    let f = mrp_ggx(scene.view, X * inverseSqrt(d2), scene.tangent, ax, ay);
+    let f = mrp_ggx(scene.view, X * inverseSqrt(d2), scene.tangent, ax, ay, scene.f0);
     return length(scene.p2 - scene.p1) * f * energy / d2;
 }

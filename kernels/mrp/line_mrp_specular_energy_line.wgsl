@@ -19,6 +19,6 @@ fn method(scene: Scene) -> f32 {
     let ay = scene.alpha_y;
     // α/α' for one α: the square root of the sphere's (α/α')².
     let energy = sqrt((ax / saturate(ax + w)) * (ay / saturate(ay + w)));
-    let f = mrp_ggx(scene.view, X * inverseSqrt(d2), scene.tangent, ax, ay);
+    let f = mrp_ggx(scene.view, X * inverseSqrt(d2), scene.tangent, ax, ay, scene.f0);
     return length(scene.p2 - scene.p1) * f * energy / d2;
 }

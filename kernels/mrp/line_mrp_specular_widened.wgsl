@@ -22,6 +22,6 @@ fn method(scene: Scene) -> f32 {
     let w = 0.5 * sin_half;
     let ax = saturate(scene.alpha_x + w);
     let ay = saturate(scene.alpha_y + w);
-    let f = mrp_ggx(scene.view, X * inverseSqrt(d2), scene.tangent, ax, ay);
+    let f = mrp_ggx(scene.view, X * inverseSqrt(d2), scene.tangent, ax, ay, scene.f0);
     return length(scene.p2 - scene.p1) * f / d2;
 }

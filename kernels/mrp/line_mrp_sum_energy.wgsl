@@ -21,6 +21,6 @@ fn method(scene: Scene) -> f32 {
     let sin_half = 0.5 * length(normalize(A) - normalize(B));
     let w = 0.5 * sin_half;
     let energy = (scene.alpha_x / saturate(scene.alpha_x + w)) * (scene.alpha_y / saturate(scene.alpha_y + w));
-    let f = energy * mrp_ggx(scene.view, Xs * inverseSqrt(ds2), scene.tangent, scene.alpha_x, scene.alpha_y);
+    let f = energy * mrp_ggx(scene.view, Xs * inverseSqrt(ds2), scene.tangent, scene.alpha_x, scene.alpha_y, scene.f0);
     return diffuse + L * f / ds2;
 }

@@ -39,6 +39,16 @@ pub struct Row {
     pub published_fit: f64,
     /// Our table's look-up (isotropic or anisotropic), exact LTC integral against T.
     pub table_fit: f64,
+    /// Schlick's F0 (1 without one).
+    pub f0: f64,
+    /// The Fresnel link: |f0·magnitude + (1 − f0)·fresnel − ∫D·F| / ∫D·F, our feed's
+    /// Fresnel-weighted magnitude (what an LTC method is multiplied by) against the exact
+    /// integral of the lobe with F. Not one of [`LINKS`]: it is part of the table link (the
+    /// look-up's magnitude), shown apart because it is the only place F enters an LTC method.
+    pub fresnel: f64,
+    /// The exact ∫D·F's own relative error estimate: a Fresnel link not far above it is the
+    /// quadrature's, not the feed's.
+    pub fresnel_reference: f64,
     /// Angle (degrees) between the mirror direction of the view and the segment's nearest
     /// direction: how close the light comes to the lobe's peak.
     pub miss: f64,
@@ -78,6 +88,9 @@ impl Row {
             published_total: p.published_gpu.map_or(f64::NAN, |v| rel(v, truth, truth)),
             published_fit: rel(p.published_exact, truth, truth),
             table_fit: rel(p.table, truth, truth),
+            f0: p.f0,
+            fresnel: rel(p.fed_norm, p.exact_norm, p.exact_norm),
+            fresnel_reference: p.exact_norm_error / p.exact_norm.abs(),
             miss: p.miss,
         })
     }
@@ -113,9 +126,22 @@ pub struct Aniso {
     pub methods: Vec<(String, Vec<Bin2>, Vec<Bin2>)>,
 }
 
+/// The Fresnel link over one family's configurations (each counted once, whatever the methods).
+#[derive(Clone, Debug, Serialize)]
+pub struct FresnelLink {
+    pub family: String,
+    /// The smallest and largest F0 of the family.
+    pub f0: [f64; 2],
+    pub n: usize,
+    pub link: Option<Quantiles>,
+    /// The exact ∫D·F's relative error estimate over the same configurations.
+    pub reference: Option<Quantiles>,
+}
+
 /// Everything the chain report shows.
 pub struct Chain {
     pub rows: Vec<Row>,
+    pub fresnel: Vec<FresnelLink>,
     pub cells: Vec<Cell>,
     pub findings: Vec<String>,
     pub published: Vec<Published>,
@@ -161,7 +187,11 @@ pub fn analyse(run: &ChainRun) -> Chain {
         }
     }
     let aniso = aniso(&rows);
+    let fresnel = fresnel_links(&rows);
+    let mut findings = findings;
+    findings.extend(fresnel_findings(&fresnel));
     Chain {
+        fresnel,
         rows,
         cells,
         findings,
@@ -172,6 +202,61 @@ pub fn analyse(run: &ChainRun) -> Chain {
         adapter: run.adapter.clone(),
         seconds: run.seconds,
     }
+}
+
+/// The Fresnel link per family, each configuration once (the link does not depend on the method).
+fn fresnel_links(rows: &[Row]) -> Vec<FresnelLink> {
+    let mut by_family: BTreeMap<&str, BTreeMap<usize, &Row>> = BTreeMap::new();
+    for r in rows {
+        by_family.entry(&r.family).or_default().entry(r.config).or_insert(r);
+    }
+    by_family
+        .into_iter()
+        .map(|(family, configs)| {
+            let f0 = configs.values().fold([f64::INFINITY, f64::NEG_INFINITY], |a, r| {
+                [a[0].min(r.f0), a[1].max(r.f0)]
+            });
+            FresnelLink {
+                family: family.to_string(),
+                f0,
+                n: configs.len(),
+                link: quantiles(configs.values().map(|r| r.fresnel)),
+                reference: quantiles(configs.values().map(|r| r.fresnel_reference)),
+            }
+        })
+        .collect()
+}
+
+/// One sentence per family with a Fresnel term, from its link's quantiles.
+fn fresnel_findings(links: &[FresnelLink]) -> Vec<String> {
+    links
+        .iter()
+        .filter(|l| l.f0[0] < 1.0)
+        .filter_map(|l| {
+            let q = l.link?;
+            let f0 = if l.f0[0] == l.f0[1] {
+                format!("F0 = {}", l.f0[0])
+            } else {
+                format!("F0 in [{}, {}]", l.f0[0], l.f0[1])
+            };
+            let r = l.reference.map_or(String::new(), |r| {
+                let verdict = if r.median * 10.0 <= q.median {
+                    "far below the link: the link is the feed's"
+                } else {
+                    "not far below the link: the link is partly the quadrature's"
+                };
+                format!(
+                    " The exact value's own error estimate has median {:.2e} ({verdict}).",
+                    r.median
+                )
+            });
+            Some(format!(
+                "Fresnel link on `{}` ({f0}, {} configurations): our feed's f0·magnitude + (1 − f0)·fresnel \
+                 against the exact ∫D·F has median {:.2e}, p90 {:.2e}, max {:.2e}.{r}",
+                l.family, l.n, q.median, q.p90, q.max
+            ))
+        })
+        .collect()
 }
 
 /// The anisotropic rows (r < 1) binned by r against the view angle and against α, per method.

@@ -13,7 +13,11 @@
 //! | rounding | the method in f32 on the CPU | the method in f64 |
 //! | driver | the GPU | the CPU f32 |
 //!
-//! each as |a − b|/T. The look-up is our isotropic table for isotropic roughness and our
+//! each as |a − b|/T. Beside them, the Fresnel link (issue 24): our feed's
+//! f0·magnitude + (1 − f0)·fresnel (what an LTC method is multiplied by) against the exact ∫D·F
+//! of the configuration's lobe, |a − b|/(∫D·F), with that value's own error estimate; it is the
+//! magnitude part of the table link, shown apart. The published table, which has no Fresnel
+//! channel, is not fed to configurations with F0 < 1. The look-up is our isotropic table for isotropic roughness and our
 //! anisotropic table (seed 004, `data/ltc_ggx_aniso.csv`, quadrilinear) for anisotropic
 //! roughness. The published table (Heitz et al. 2016, shipped in data/ltc_code/) is run through
 //! the same look-up beside ours on isotropic configurations.

@@ -154,6 +154,10 @@ pub struct MaterialFamily {
     /// `ggx`: αy/αx, with αx·αy = α² (default 1: isotropic).
     #[serde(default)]
     pub anisotropy: Option<Dist>,
+    /// `ggx`: Schlick's F0, in [0, 1] (absent: F = 1, and nothing is drawn, so the family's
+    /// other draws are as without it). A fixed value or a range.
+    #[serde(default)]
+    pub f0: Option<Dist>,
     /// `ggx`: where the LTC methods' M⁻¹ comes from (`table`, `table_f16`, `published`,
     /// `published_f16`, `fit`, `aniso`, `aniso_f16`; default `table`, or `fit` when
     /// anisotropic). See docs/ggx.md.
@@ -570,9 +574,9 @@ impl Case {
                 ("anisotropy", &m.anisotropy),
             ];
             let ggx = matches!(m.kind, MaterialKind::Ggx | MaterialKind::LtcGgx);
-            if !ggx && (ggx_keys.iter().any(|(_, d)| d.is_some()) || m.ltc.is_some()) {
+            if !ggx && (ggx_keys.iter().any(|(_, d)| d.is_some()) || m.ltc.is_some() || m.f0.is_some()) {
                 return Err(format!(
-                    "{name}: view_angle, view_azimuth, anisotropy and ltc are for kind = \"ggx\" or \"ltc_ggx\""
+                    "{name}: view_angle, view_azimuth, anisotropy, f0 and ltc are for kind = \"ggx\" or \"ltc_ggx\""
                 ));
             }
             match m.kind {
@@ -608,8 +612,34 @@ impl Case {
                             d.check(&format!("{name}.{key}"))?;
                         }
                     }
+                    if let Some(f0) = &m.f0 {
+                        if m.kind == MaterialKind::LtcGgx {
+                            return Err(format!(
+                                "{name}.f0: an ltc_ggx material is an LTC (no Fresnel term); f0 is for kind = \"ggx\""
+                            ));
+                        }
+                        f0.check(&format!("{name}.f0"))?;
+                        let (lo, hi) = f0.bounds();
+                        if !(lo >= 0.0 && hi <= 1.0) {
+                            return Err(format!("{name}.f0: Schlick's F0 must be in [0, 1], got [{lo}, {hi}]"));
+                        }
+                    }
                     if let Some(feed) = &m.ltc {
                         let feed = crate::input::ltc::Feed::parse(feed).map_err(|e| format!("{name}.ltc: {e}"))?;
+                        let fresnel = m.f0.as_ref().is_some_and(|d| d.bounds() != (1.0, 1.0));
+                        if fresnel
+                            && matches!(
+                                feed,
+                                crate::input::ltc::Feed::Published | crate::input::ltc::Feed::PublishedF16
+                            )
+                        {
+                            return Err(format!(
+                                "{name}.f0: ltc = \"{}\" has no Fresnel channel (the published table stores M⁻¹ and \
+                                 the magnitude only); use ltc = \"table\", \"table_f16\", \"fit\", \"aniso\" or \
+                                 \"aniso_f16\" with f0, or leave f0 out",
+                                feed.name()
+                            ));
+                        }
                         let aniso = m.anisotropy.as_ref().is_some_and(|d| d.bounds() != (1.0, 1.0));
                         use crate::input::ltc::Feed;
                         if aniso && !matches!(feed, Feed::Fit | Feed::Aniso | Feed::AnisoF16) {

@@ -90,9 +90,20 @@ pub struct Failure {
 #[derive(Clone, Debug, PartialEq)]
 pub enum FloorMaterial {
     Diffuse,
-    Ltc { minv: [[f64; 3]; 3] },
-    Ggx { alpha: Roughness, ltc: Option<String> },
-    GgxRamp { left: f64, right: f64, ltc: Option<String> },
+    Ltc {
+        minv: [[f64; 3]; 3],
+    },
+    Ggx {
+        alpha: Roughness,
+        f0: Option<f64>,
+        ltc: Option<String>,
+    },
+    GgxRamp {
+        left: f64,
+        right: f64,
+        f0: Option<f64>,
+        ltc: Option<String>,
+    },
 }
 
 /// A checked scene.
@@ -237,10 +248,14 @@ impl RenderScene {
             }
         }
         let m = &r.material;
-        if m.f0.is_some() {
-            return Err(
-                "render.material.f0: Fresnel is not implemented by this harness's ggx material (docs/render.md)".into(),
-            );
+        if m.f0.is_some() && m.kind != "ggx" {
+            return Err(format!(
+                "render.material.f0: Schlick's F0 is for a ggx material, not `{}`",
+                m.kind
+            ));
+        }
+        if let Some(f0) = m.f0 {
+            crate::input::scene::check_f0(f0).map_err(|e| format!("render.material.f0: {e}"))?;
         }
         let material = match m.kind.as_str() {
             "diffuse" => {
@@ -266,7 +281,16 @@ impl RenderScene {
                 }
                 let ok = |a: f64| a.is_finite() && a > 0.0 && a <= 1.0;
                 if let Some(feed) = &m.ltc {
-                    crate::input::ltc::Feed::parse(feed).map_err(|e| format!("render.material.ltc: {e}"))?;
+                    let feed = crate::input::ltc::Feed::parse(feed).map_err(|e| format!("render.material.ltc: {e}"))?;
+                    use crate::input::ltc::Feed;
+                    if m.f0.is_some_and(|f| f != 1.0) && matches!(feed, Feed::Published | Feed::PublishedF16) {
+                        return Err(format!(
+                            "render.material.f0: ltc = \"{}\" has no Fresnel channel (the published table stores \
+                             M⁻¹ and the magnitude only); use ltc = \"table\", \"table_f16\", \"fit\", \"aniso\" \
+                             or \"aniso_f16\" with f0, or leave f0 out",
+                            feed.name()
+                        ));
+                    }
                 }
                 match (m.alpha, m.alpha_ramp) {
                     (Some(_), Some(_)) => {
@@ -282,6 +306,7 @@ impl RenderScene {
                         }
                         FloorMaterial::Ggx {
                             alpha,
+                            f0: m.f0,
                             ltc: m.ltc.clone(),
                         }
                     }
@@ -294,6 +319,7 @@ impl RenderScene {
                         FloorMaterial::GgxRamp {
                             left,
                             right,
+                            f0: m.f0,
                             ltc: m.ltc.clone(),
                         }
                     }
@@ -354,10 +380,10 @@ impl RenderScene {
         match &self.material {
             FloorMaterial::Diffuse => Ok(Material::Diffuse),
             FloorMaterial::Ltc { minv } => Ok(Material::Ltc { minv: *minv }),
-            FloorMaterial::Ggx { alpha, ltc } => Material::ggx(*alpha, view, ltc.as_deref()),
-            FloorMaterial::GgxRamp { left, right, ltc } => {
+            FloorMaterial::Ggx { alpha, f0, ltc } => Material::ggx_fresnel(*alpha, view, *f0, ltc.as_deref()),
+            FloorMaterial::GgxRamp { left, right, f0, ltc } => {
                 let a = left + (right - left) * (f64::from(x) + 0.5) / f64::from(self.width);
-                Material::ggx(Roughness::Iso(a), view, ltc.as_deref())
+                Material::ggx_fresnel(Roughness::Iso(a), view, *f0, ltc.as_deref())
             }
         }
     }

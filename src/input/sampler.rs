@@ -665,7 +665,9 @@ fn sample_material(source: &mut dyn Uniforms, family: &MaterialFamily) -> (Mater
             };
             let (st, ct) = (libm::sin(deg(theta)), libm::cos(deg(theta)));
             let view = [st * libm::cos(phi), st * libm::sin(phi), ct];
-            let material = Material::ggx(roughness, view, family.ltc.as_deref()).unwrap_or_else(|e| {
+            // Drawn last and only when given, so a family without f0 draws what it always drew.
+            let f0 = family.f0.as_ref().map(|d| draw(source, d));
+            let material = Material::ggx_fresnel(roughness, view, f0, family.ltc.as_deref()).unwrap_or_else(|e| {
                 panic!(
                     "materials `{}`: {e} (the case check admits only valid ones)",
                     family.name

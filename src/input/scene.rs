@@ -16,12 +16,15 @@ pub enum Material {
     Diffuse,
     /// Linearly transformed cosine; `minv` is M⁻¹, row-major, `ω_o = M⁻¹·ω`.
     Ltc { minv: Mat3 },
-    /// The GGX lobe of docs/conventions.md (height-correlated Smith, F = 1). References integrate it;
-    /// LTC methods are given `fed`: the LTC of `ltc` (a table look-up or an exact fit) in the
-    /// frame rotated about z so that the view lies in the xz-plane, and its magnitude.
+    /// The GGX lobe of docs/conventions.md (height-correlated Smith; Schlick's F with `f0`, F = 1
+    /// without). References integrate it; LTC methods are given `fed`: the LTC of `ltc` (a table
+    /// look-up or an exact fit) in the frame rotated about z so that the view lies in the
+    /// xz-plane, and its magnitude (Fresnel-weighted with `f0`: [`Material::fed_magnitude`]).
     Ggx {
         alpha: Roughness,
         view: Vec3,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        f0: Option<f64>,
         #[serde(skip_serializing_if = "Option::is_none")]
         ltc: Option<String>,
         #[serde(skip)]
@@ -51,8 +54,17 @@ pub type Fed = crate::input::ltc::Fed;
 
 impl Material {
     /// A `ggx` material with its LTC fed from `ltc` (None: our table for isotropic
-    /// roughness, an exact fit for anisotropic). Checks α and the view (docs/conventions.md).
+    /// roughness, an exact fit for anisotropic), F = 1. Checks α and the view (docs/conventions.md).
     pub fn ggx(alpha: Roughness, view: Vec3, ltc: Option<&str>) -> Result<Material, String> {
+        Material::ggx_fresnel(alpha, view, None, ltc)
+    }
+
+    /// [`Material::ggx`] with Schlick's F0 (`None`: F = 1). `f0` must be finite and in [0, 1];
+    /// a feed without a Fresnel channel (the published table) is refused for f0 < 1.
+    pub fn ggx_fresnel(alpha: Roughness, view: Vec3, f0: Option<f64>, ltc: Option<&str>) -> Result<Material, String> {
+        if let Some(f) = f0 {
+            check_f0(f)?;
+        }
         let a = alpha.xy();
         if !a.iter().all(|x| x.is_finite() && *x > 0.0 && *x <= 1.0) {
             return Err(format!("ggx alpha must be in (0, 1], got {a:?}"));
@@ -76,12 +88,69 @@ impl Material {
             None => crate::input::ltc::Feed::Fit,
         };
         let fed = crate::input::ltc::feed(a, view, feed)?;
+        if let Some(f) = f0.filter(|&f| f != 1.0) {
+            if !fed.fresnel.is_finite() {
+                return Err(format!(
+                    "ggx f0 = {f}: ltc `{}` has no Fresnel channel (the published table stores M⁻¹ and the \
+                     magnitude only), so its feed cannot weight the magnitude by F; use ltc = \"table\", \
+                     \"table_f16\", \"fit\", \"aniso\" or \"aniso_f16\", or leave f0 out (F = 1)",
+                    feed.name()
+                ));
+            }
+        }
         Ok(Material::Ggx {
             alpha,
             view,
+            f0,
             ltc: ltc.map(str::to_string),
             fed,
         })
+    }
+
+    /// What an LTC method's result is multiplied by for a `ggx` material (None otherwise): the
+    /// fed magnitude ∫D, or with `f0` < 1 the Fresnel-weighted `f0·magnitude + (1 − f0)·fresnel`
+    /// = ∫D·F (seed 003 §2.3), from the feed's two channels. A table feed combines them in f32,
+    /// as the shader does (`res *= F0 * schlick.x + (1.0 - F0) * schlick.y`); the exact fit in
+    /// f64. f0 absent or 1 gives the magnitude itself, bit for bit.
+    pub fn fed_magnitude(&self) -> Option<f64> {
+        let Material::Ggx { fed, f0, .. } = self else {
+            return None;
+        };
+        Some(match f0 {
+            // An exact fit (the only feed with a fit error) is combined in f64.
+            Some(f) if *f != 1.0 => fresnel_weighted(fed.magnitude, fed.fresnel, *f, fed.fit_l1.is_some()),
+            _ => fed.magnitude,
+        })
+    }
+
+    /// Schlick's F0 of a `ggx` material (1 when absent and for other materials: F = 1).
+    pub fn f0(&self) -> f64 {
+        match self {
+            Material::Ggx { f0: Some(f), .. } => *f,
+            _ => 1.0,
+        }
+    }
+}
+
+/// `f0·magnitude + (1 − f0)·fresnel` (∫D·F from the two channels), in f32 as a shader
+/// computes it from its texture, or in f64 for an exact fit.
+pub fn fresnel_weighted(magnitude: f64, fresnel: f64, f0: f64, exact: bool) -> f64 {
+    if exact {
+        f0 * magnitude + (1.0 - f0) * fresnel
+    } else {
+        let f = f0 as f32;
+        f64::from(f * magnitude as f32 + (1.0 - f) * fresnel as f32)
+    }
+}
+
+/// `f0` of a `ggx` material: Schlick's F0, a finite number in [0, 1].
+pub fn check_f0(f0: f64) -> Result<(), String> {
+    if f0.is_finite() && (0.0..=1.0).contains(&f0) {
+        Ok(())
+    } else {
+        Err(format!(
+            "ggx f0 must be a finite number in [0, 1] (Schlick's F0), got {f0}"
+        ))
     }
 }
 
@@ -97,6 +166,8 @@ struct RawMaterial {
     alpha: Option<Roughness>,
     #[serde(default)]
     view: Option<Vec3>,
+    #[serde(default)]
+    f0: Option<f64>,
     #[serde(default)]
     ltc: Option<String>,
 }
@@ -131,10 +202,10 @@ fn mat3_opt<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Mat3>, D::E
 impl TryFrom<RawMaterial> for Material {
     type Error = String;
     fn try_from(raw: RawMaterial) -> Result<Material, String> {
-        let ggx_fields = raw.alpha.is_some() || raw.view.is_some() || raw.ltc.is_some();
+        let ggx_fields = raw.alpha.is_some() || raw.view.is_some() || raw.ltc.is_some() || raw.f0.is_some();
         match (raw.kind.as_str(), raw.minv) {
             ("diffuse" | "ltc", _) if ggx_fields => Err(format!(
-                "a {} material takes no `alpha`, `view` or `ltc` (those are ggx fields)",
+                "a {} material takes no `alpha`, `view`, `f0` or `ltc` (those are ggx fields)",
                 raw.kind
             )),
             ("diffuse", None) => Ok(Material::Diffuse),
@@ -143,7 +214,7 @@ impl TryFrom<RawMaterial> for Material {
             ("ltc", None) => Err("an ltc material needs `minv` (3×3, row-major)".into()),
             ("ggx", Some(_)) => Err("a ggx material takes no `minv` (its LTC is fitted: see `ltc`)".into()),
             ("ggx", None) => match (raw.alpha, raw.view) {
-                (Some(alpha), Some(view)) => Material::ggx(alpha, view, raw.ltc.as_deref()),
+                (Some(alpha), Some(view)) => Material::ggx_fresnel(alpha, view, raw.f0, raw.ltc.as_deref()),
                 _ => Err("a ggx material needs `alpha` (a or [ax, ay]) and `view` ([vx, vy, vz])".into()),
             },
             (other, _) => Err(format!("unknown material kind `{other}` (diffuse, ltc, ggx)")),
@@ -246,8 +317,8 @@ impl Config {
     }
 
     /// The configuration as an f32 kernel receives it: every input number rounded to f32 as
-    /// given (end points, radius, the rectangle's normal and width, M⁻¹, α and the view), with
-    /// nothing renormalised. Its reference is the best an f32 kernel could return; the gap to
+    /// given (end points, radius, the rectangle's normal and width, M⁻¹, α, the view and f0),
+    /// with nothing renormalised. Its reference is the best an f32 kernel could return; the gap to
     /// the exact reference is input rounding (docs/statistics.md). A `ggx` material keeps its
     /// fed LTC (references read only α and the view).
     pub fn rounded_to_f32(&self) -> Config {
@@ -256,12 +327,19 @@ impl Config {
         let material = match &self.material {
             Material::Diffuse => Material::Diffuse,
             Material::Ltc { minv } => Material::Ltc { minv: minv.map(r3) },
-            Material::Ggx { alpha, view, ltc, fed } => Material::Ggx {
+            Material::Ggx {
+                alpha,
+                view,
+                f0,
+                ltc,
+                fed,
+            } => Material::Ggx {
                 alpha: match *alpha {
                     Roughness::Iso(a) => Roughness::Iso(r(a)),
                     Roughness::Aniso(a) => Roughness::Aniso(a.map(r)),
                 },
                 view: r3(*view),
+                f0: f0.map(r),
                 ltc: ltc.clone(),
                 fed: *fed,
             },
@@ -304,7 +382,8 @@ impl Config {
 
     /// What an LTC method evaluates: for a `ggx` material, the configuration rotated about
     /// z into the frame of its fed M⁻¹, as an `ltc` material, and the magnitude the result
-    /// is multiplied by; otherwise the configuration itself and 1.
+    /// is multiplied by (Fresnel-weighted with `f0`: [`Material::fed_magnitude`]); otherwise
+    /// the configuration itself and 1.
     pub fn fed(&self) -> (std::borrow::Cow<'_, Config>, f64) {
         let Some(fed) = self.material.fed() else {
             return (std::borrow::Cow::Borrowed(self), 1.0);
@@ -321,7 +400,8 @@ impl Config {
             rect,
             material: Material::Ltc { minv: fed.minv },
         };
-        (std::borrow::Cow::Owned(c), fed.magnitude)
+        let magnitude = self.material.fed_magnitude().unwrap_or(fed.magnitude);
+        (std::borrow::Cow::Owned(c), magnitude)
     }
 
     /// Distance from the shading point (origin) to the closest point of the segment.
@@ -555,7 +635,7 @@ impl SceneInput {
             tangent,
             alpha_y: alpha[1],
             tex_origin: [0.0; 3],
-            f0: 1.0,
+            f0: config.material.f0(),
             tex_kind: 0,
             tex_offset: 0,
             tex_nu: 0,

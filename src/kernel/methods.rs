@@ -83,10 +83,10 @@ impl Method {
     }
 
     /// The factor the method's value on `config` is multiplied by: a `ggx` configuration's
-    /// fed magnitude when [`Method::scaled_by_magnitude`], else 1.
+    /// fed magnitude (Fresnel-weighted with `f0`) when [`Method::scaled_by_magnitude`], else 1.
     pub fn magnitude(&self, config: &Config) -> f64 {
-        match config.material.fed() {
-            Some(fed) if self.scaled_by_magnitude() => fed.magnitude,
+        match config.material.fed_magnitude() {
+            Some(m) if self.scaled_by_magnitude() => m,
             _ => 1.0,
         }
     }

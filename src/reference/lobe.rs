@@ -22,12 +22,14 @@ pub(crate) struct LtcLobe {
     scale: f64,
 }
 
-/// D(ω) = NDF(h)·G2(v, ω)/(4 v.z) for ω.z > 0 (docs/conventions.md, `ggx`).
+/// D(ω) = NDF(h)·G2(v, ω)·F(v·h)/(4 v.z) for ω.z > 0 (docs/conventions.md, `ggx`), with
+/// Schlick's F = f0 + (1 − f0)(1 − v·h)⁵ (f0 = 1: F = 1).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct GgxLobe {
     ax: f64,
     ay: f64,
     view: Vec3,
+    f0: f64,
     /// 1 + Λ(v).
     one_lambda_v: f64,
     /// 1/(4π ax ay v.z).
@@ -35,11 +37,12 @@ pub(crate) struct GgxLobe {
 }
 
 impl GgxLobe {
-    fn new(alpha: [f64; 2], view: Vec3) -> GgxLobe {
+    fn new(alpha: [f64; 2], view: Vec3, f0: f64) -> GgxLobe {
         let mut g = GgxLobe {
             ax: alpha[0],
             ay: alpha[1],
             view,
+            f0,
             one_lambda_v: 1.0,
             scale: 1.0 / (4.0 * PI * alpha[0] * alpha[1] * view[2]),
         };
@@ -63,7 +66,24 @@ impl GgxLobe {
         let h = [v[0] + w[0], v[1] + w[1], v[2] + w[2]];
         let hh = dot(h, h);
         let q = (h[0] / self.ax).powi(2) + (h[1] / self.ay).powi(2) + h[2] * h[2];
-        self.scale * (hh / q) * (hh / q) / (self.one_lambda_v + self.lambda(w))
+        let d = self.scale * (hh / q) * (hh / q) / (self.one_lambda_v + self.lambda(w));
+        if self.f0 == 1.0 {
+            return d;
+        }
+        d * self.schlick(w)
+    }
+
+    /// Schlick's F at h = normalize(v + ω) for unit v, ω: with c = v·ω, v·h = sqrt((1 + c)/2),
+    /// and 1 − v·h = (1 − c)/(2(1 + v·h)) with 1 − c = |v − ω|²/2, free of the cancellation of
+    /// 1 − v·h near the retro-reflection direction.
+    fn schlick(&self, w: Vec3) -> f64 {
+        let v = self.view;
+        let c = dot(v, w);
+        let vh = (0.5 * (1.0 + c)).max(0.0).sqrt();
+        let e = [v[0] - w[0], v[1] - w[1], v[2] - w[2]];
+        let x = 0.25 * dot(e, e) / (1.0 + vh);
+        let x2 = x * x;
+        self.f0 + (1.0 - self.f0) * (x2 * x2 * x)
     }
 
     /// The mirror direction of the view, where the lobe peaks (its peak is there, or close to
@@ -74,6 +94,19 @@ impl GgxLobe {
 
     /// The lobe's narrowest angular width: ω turns by 2·(v·h) per radian of h across the
     /// plane of reflection, and h spreads over α.
+    /// How many ε a direction rounded by ε moves F by, relatively: v·h = cos(∠(v, ω)/2) turns
+    /// at most ½ per radian, so |d ln F| ≤ 2.5(1 − f0)x⁴/(f0 + (1 − f0)x⁵) with x = 1 − v·h,
+    /// largest at x⁵ = 4f0/(1 − f0) (or x = 1). f0 is floored at 1e-6: below it F ≈ x⁵ is
+    /// unbounded in relative terms only where F itself, and its share of the integral, vanishes.
+    fn fresnel_condition(&self) -> f64 {
+        if self.f0 == 1.0 {
+            return 0.0;
+        }
+        let f0 = self.f0.max(1e-6);
+        let x = (4.0 * f0 / (1.0 - f0)).powf(0.2).min(1.0);
+        2.5 * (1.0 - f0) * x.powi(4) / (f0 + (1.0 - f0) * x.powi(5))
+    }
+
     fn width(&self) -> f64 {
         (2.0 * self.ax.min(self.ay) * self.view[2]).max(1e-6)
     }
@@ -82,7 +115,7 @@ impl GgxLobe {
 impl Lobe {
     pub fn new(material: &Material) -> Lobe {
         match material {
-            Material::Ggx { alpha, view, .. } => Lobe::Ggx(GgxLobe::new(alpha.xy(), *view)),
+            Material::Ggx { alpha, view, f0, .. } => Lobe::Ggx(GgxLobe::new(alpha.xy(), *view, f0.unwrap_or(1.0))),
             _ => {
                 let minv = material.minv();
                 Lobe::Ltc(LtcLobe {
@@ -105,7 +138,8 @@ impl Lobe {
     /// How many ε a direction rounded by ε moves D by, relatively. For an LTC
     /// ‖M⁻¹‖_F·‖M‖_F, at most 3× the condition number of M⁻¹: the lobe is that much narrower
     /// than a cosine. For GGX, D falls as 1/(1 + θ²/w²)², whose log-slope is at most 2/w
-    /// for a lobe of width w; 4/w + 3 covers the rest of the formula.
+    /// for a lobe of width w; 4/w + 3 covers the rest of the formula, and Schlick's F adds
+    /// its own log-slope (`GgxLobe::fresnel_condition`).
     pub fn condition(&self) -> f64 {
         match self {
             Lobe::Ltc(l) => {
@@ -115,7 +149,7 @@ impl Lobe {
                 let adjugate = [cross(m[1], m[2]), cross(m[2], m[0]), cross(m[0], m[1])];
                 frobenius(*m) * frobenius(adjugate) / det3(m).abs()
             }
-            Lobe::Ggx(g) => 4.0 / g.width() + 3.0,
+            Lobe::Ggx(g) => 4.0 / g.width() + 3.0 + g.fresnel_condition(),
         }
     }
 
