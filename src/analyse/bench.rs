@@ -39,6 +39,15 @@ pub struct Cost {
     pub gpu_ns_per_eval: Vec<f64>,
     /// CPU f32 ns per evaluation of each timed repeat (empty without a CPU column).
     pub cpu_f32_ns_per_eval_runs: Vec<f64>,
+    /// Which CPU evaluator ran that column: `compiled`, or `interpreter (why)`.
+    pub cpu_engine: String,
+    /// The interpreter's ns per evaluation of the same column beside the compiled one
+    /// (median over the same rounds); None where it was not timed beside.
+    pub interp_f32_ns_per_eval: Option<f64>,
+    /// How many times faster the compiled evaluator is than the interpreter: the median of
+    /// the per-round ratios interpreter ns / compiled ns, with their range.
+    pub compiled_speedup: Option<Ratio>,
+    pub interp_f32_ns_per_eval_runs: Vec<f64>,
 }
 
 impl Cost {
@@ -62,6 +71,11 @@ impl Cost {
             ops_error: t.ops_error.clone(),
             gpu_ns_per_eval: t.gpu_ns_per_eval.clone(),
             cpu_f32_ns_per_eval_runs: cpu.clone(),
+            cpu_engine: t.cpu_engine.clone(),
+            interp_f32_ns_per_eval: (!t.interp_f32_ns_per_eval_runs.is_empty())
+                .then(|| Spread::of(&t.interp_f32_ns_per_eval_runs).median),
+            compiled_speedup: Ratio::per_round(&t.interp_f32_ns_per_eval_runs, cpu),
+            interp_f32_ns_per_eval_runs: t.interp_f32_ns_per_eval_runs.clone(),
         }
     }
 }

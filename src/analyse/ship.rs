@@ -414,6 +414,10 @@ mod tests {
             ops_error: None,
             gpu_ns_per_eval: vec![ns],
             cpu_f32_ns_per_eval_runs: Vec::new(),
+            cpu_engine: String::new(),
+            interp_f32_ns_per_eval: None,
+            compiled_speedup: None,
+            interp_f32_ns_per_eval_runs: Vec::new(),
         }
     }
 

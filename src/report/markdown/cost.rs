@@ -99,20 +99,28 @@ pub(super) fn timing(w: &mut String, input: &Summary) {
     let _ = writeln!(
         w,
         "Wall-clock time of one run on {} ({} configurations): GPU time includes upload, dispatch \
-         and readback; the CPU evaluator (the kernel's f32 and f64 columns) runs on all CPU cores. Cost per method as measured by GPU timestamps \
-         is `linelight bench`'s job; these numbers say what the sweep itself spent.\n",
+         and readback; the CPU evaluator (the kernel's f32 and f64 columns: compiled to native code, or \
+         interpreted where the compiler does not handle the kernel, as the last column says) runs on all CPU \
+         cores. Cost per method as measured by GPU timestamps is `linelight bench`'s job; these numbers say \
+         what the sweep itself spent.\n",
         t.adapter, t.configurations
     );
     let _ = writeln!(
         w,
-        "| method | GPU s | configs/s (GPU) | CPU f32 evaluator s (all cores) | CPU f32 / GPU | f64 evaluator s |"
+        "| method | GPU s | configs/s (GPU) | CPU f32 evaluator s (all cores) | CPU f32 / GPU | f64 evaluator s | CPU evaluator |"
     );
-    let _ = writeln!(w, "|---|---:|---:|---:|---:|---:|");
+    let _ = writeln!(w, "|---|---:|---:|---:|---:|---:|---|");
     for (((label, s, rate), (_, f)), (_, c)) in t.gpu.iter().zip(&t.cpu_f64_seconds).zip(&t.cpu_f32_seconds) {
+        let engine = t
+            .cpu_engines
+            .iter()
+            .find(|(l, _)| l == label)
+            .map_or("–", |(_, e)| e.as_str());
         let _ = writeln!(
             w,
-            "| `{label}` | {s:.3} | {rate:.3e} | {c:.3} | {:.2} | {f:.3} |",
-            c / s
+            "| `{label}` | {s:.3} | {rate:.3e} | {c:.3} | {:.2} | {f:.3} | {} |",
+            c / s,
+            engine.replace('|', "\\|")
         );
     }
     let _ = writeln!(
