@@ -93,6 +93,7 @@ pub(super) fn compile(p: &Program, mode: Mode) -> Result<Native, String> {
             fail: None,
             sigs: HashMap::new(),
             depth: 0,
+            memo: HashMap::new(),
             ptr,
             cc: frontend.default_call_conv,
         };
@@ -162,6 +163,9 @@ struct Lower<'p, 'b> {
     fail: Option<Block>,
     sigs: HashMap<(usize, Type), SigRef>,
     depth: usize,
+    /// Shim results in the current block by function and arguments: the shims are pure, so
+    /// a repeated call (`cos(phi)` written twice) is the same value (cleared at each block).
+    memo: HashMap<(F, Vec<Value>), Value>,
     ptr: Type,
     /// The platform's C calling convention (the shims are `extern "C"`).
     cc: CallConv,
@@ -275,8 +279,68 @@ impl<'p> Lower<'p, '_> {
         s
     }
 
-    /// A call of the shim of `f` in the mode's precision.
+    /// Continues in block `b` (which no shim result of another block dominates).
+    fn switch(&mut self, b: Block) {
+        self.b.switch_to_block(b);
+        self.memo.clear();
+    }
+
+    /// A call of the shim of `f` in the mode's precision (once per block and arguments).
     fn call_shim(&mut self, f: F, args: &[Value]) -> Value {
+        if let Some(&v) = self.memo.get(&(f, args.to_vec())) {
+            return v;
+        }
+        let v = if self.targets.iter().any(|t| t.1.is_some()) {
+            self.cached_call(f, args)
+        } else {
+            self.raw_call(f, args)
+        };
+        self.memo.insert((f, args.to_vec()), v);
+        v
+    }
+
+    /// Inside a loop: a one-entry cache per call site, keyed by the arguments' bits. A pure
+    /// function of the same bits returns the same bits, so a call whose arguments did not
+    /// change since the site's last call (`cos(phi)` in an inner loop over `r`) is not made
+    /// again. The cache's variables are never defined before the loop: cranelift-frontend
+    /// reads them as zero there, so the first call always misses.
+    fn cached_call(&mut self, f: F, args: &[Value]) -> Value {
+        let t = self.fty();
+        let it = if t == types::F32 { types::I32 } else { types::I64 };
+        let valid = self.b.declare_var(types::I8);
+        let last: Vec<Variable> = args.iter().map(|_| self.b.declare_var(it)).collect();
+        let (res, out) = (self.b.declare_var(t), self.b.declare_var(t));
+        let bits: Vec<Value> = args
+            .iter()
+            .map(|&a| self.b.ins().bitcast(it, MemFlagsData::new(), a))
+            .collect();
+        let mut same = self.b.use_var(valid);
+        for (k, &b) in bits.iter().enumerate() {
+            let l = self.b.use_var(last[k]);
+            let eq = self.b.ins().icmp(IntCC::Equal, b, l);
+            same = self.b.ins().band(same, eq);
+        }
+        let (hit, miss, join) = (self.b.create_block(), self.b.create_block(), self.b.create_block());
+        self.b.ins().brif(same, hit, &[], miss, &[]);
+        self.switch(hit);
+        let r = self.b.use_var(res);
+        self.b.def_var(out, r);
+        self.b.ins().jump(join, &[]);
+        self.switch(miss);
+        let r = self.raw_call(f, args);
+        self.b.def_var(res, r);
+        for (k, &b) in bits.iter().enumerate() {
+            self.b.def_var(last[k], b);
+        }
+        let one = self.b.ins().iconst(types::I8, 1);
+        self.b.def_var(valid, one);
+        self.b.def_var(out, r);
+        self.b.ins().jump(join, &[]);
+        self.switch(join);
+        self.b.use_var(out)
+    }
+
+    fn raw_call(&mut self, f: F, args: &[Value]) -> Value {
         let wide = self.mode == Mode::F64;
         let s = shim(f, wide);
         debug_assert_eq!(s.args, args.len());
@@ -338,7 +402,7 @@ impl<'p> Lower<'p, '_> {
         let p = self.p;
         let start = self.b.create_block();
         self.b.append_block_params_for_function_params(start);
-        self.b.switch_to_block(start);
+        self.switch(start);
         let (scene_ptr, out_ptr) = (self.b.block_params(start)[0], self.b.block_params(start)[1]);
         let f = &p.module.functions[p.method];
         let scene_ty = f.arguments.first().ok_or("`method` takes no scene")?.ty;
@@ -397,7 +461,7 @@ impl<'p> Lower<'p, '_> {
         let ok = self.b.ins().iconst(types::I32, 0);
         self.b.ins().return_(&[ok]);
         if let Some(fail) = self.fail {
-            self.b.switch_to_block(fail);
+            self.switch(fail);
             let one = self.b.ins().iconst(types::I32, 1);
             self.b.ins().return_(&[one]);
         }
@@ -479,7 +543,7 @@ impl<'p> Lower<'p, '_> {
         if self.open {
             self.b.ins().jump(exit, &[]);
         }
-        self.b.switch_to_block(exit);
+        self.switch(exit);
         self.open = true;
         self.depth -= 1;
         Ok(fr.ret.map(|s| self.read(s, 0, self.stores[s].len())))
@@ -594,14 +658,14 @@ impl<'p> Lower<'p, '_> {
                     let (yes, no, merge) = (self.b.create_block(), self.b.create_block(), self.b.create_block());
                     self.b.ins().brif(c, yes, &[], no, &[]);
                     for (blk, body) in [(yes, accept), (no, reject)] {
-                        self.b.switch_to_block(blk);
+                        self.switch(blk);
                         self.open = true;
                         self.block(fr, body)?;
                         if self.open {
                             self.b.ins().jump(merge, &[]);
                         }
                     }
-                    self.b.switch_to_block(merge);
+                    self.switch(merge);
                     self.open = true;
                 }
                 S::Switch { selector, cases } => {
@@ -621,12 +685,12 @@ impl<'p> Lower<'p, '_> {
                         let next = self.b.create_block();
                         let hit = self.b.ins().icmp_imm_s(IntCC::Equal, sel, v);
                         self.b.ins().brif(hit, body, &[], next, &[]);
-                        self.b.switch_to_block(next);
+                        self.switch(next);
                     }
                     self.b.ins().jump(default.unwrap_or(merge), &[]);
                     self.targets.push((merge, None));
                     for (i, case) in cases.iter().enumerate() {
-                        self.b.switch_to_block(bodies[i]);
+                        self.switch(bodies[i]);
                         self.open = true;
                         self.block(fr, &case.body)?;
                         if self.open {
@@ -638,7 +702,7 @@ impl<'p> Lower<'p, '_> {
                         }
                     }
                     self.targets.pop();
-                    self.b.switch_to_block(merge);
+                    self.switch(merge);
                     self.open = true;
                 }
                 S::Loop {
@@ -656,21 +720,21 @@ impl<'p> Lower<'p, '_> {
                         self.b.create_block(),
                     );
                     self.b.ins().jump(head, &[]);
-                    self.b.switch_to_block(head);
+                    self.switch(head);
                     let n = self.b.use_var(count);
                     let n = self.b.ins().iadd_imm_s(n, 1);
                     self.b.def_var(count, n);
                     let over = self.b.ins().icmp_imm_s(IntCC::SignedGreaterThan, n, LOOP_LIMIT);
                     let fail = self.fail_block();
                     self.b.ins().brif(over, fail, &[], first, &[]);
-                    self.b.switch_to_block(first);
+                    self.switch(first);
                     self.open = true;
                     self.targets.push((exit, Some(cont)));
                     self.block(fr, body)?;
                     if self.open {
                         self.b.ins().jump(cont, &[]);
                     }
-                    self.b.switch_to_block(cont);
+                    self.switch(cont);
                     self.open = true;
                     self.block(fr, continuing)?;
                     if self.open {
@@ -685,7 +749,7 @@ impl<'p> Lower<'p, '_> {
                         }
                     }
                     self.targets.pop();
-                    self.b.switch_to_block(exit);
+                    self.switch(exit);
                     self.open = true;
                 }
                 S::Break => {
