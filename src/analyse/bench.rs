@@ -56,6 +56,15 @@ pub struct Cost {
     /// Why the envelope was asked for and not timed.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub envelope_error: Option<String>,
+    /// Which CPU evaluator ran that column: `compiled`, or `interpreter (why)`.
+    pub cpu_engine: String,
+    /// The interpreter's ns per evaluation of the same column beside the compiled one
+    /// (median over the same rounds); None where it was not timed beside.
+    pub interp_f32_ns_per_eval: Option<f64>,
+    /// How many times faster the compiled evaluator is than the interpreter: the median of
+    /// the per-round ratios interpreter ns / compiled ns, with their range.
+    pub compiled_speedup: Option<Ratio>,
+    pub interp_f32_ns_per_eval_runs: Vec<f64>,
 }
 
 impl Cost {
@@ -87,6 +96,11 @@ impl Cost {
             envelope_configurations: (t.envelope_configurations > 0).then_some(t.envelope_configurations),
             envelope_ns_per_config_runs: t.envelope_ns_per_config_runs.clone(),
             envelope_error: t.envelope_error.clone(),
+            cpu_engine: t.cpu_engine.clone(),
+            interp_f32_ns_per_eval: (!t.interp_f32_ns_per_eval_runs.is_empty())
+                .then(|| Spread::of(&t.interp_f32_ns_per_eval_runs).median),
+            compiled_speedup: Ratio::per_round(&t.interp_f32_ns_per_eval_runs, cpu),
+            interp_f32_ns_per_eval_runs: t.interp_f32_ns_per_eval_runs.clone(),
         }
     }
 }

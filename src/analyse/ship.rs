@@ -419,6 +419,10 @@ mod tests {
             envelope_configurations: None,
             envelope_ns_per_config_runs: Vec::new(),
             envelope_error: None,
+            cpu_engine: String::new(),
+            interp_f32_ns_per_eval: None,
+            compiled_speedup: None,
+            interp_f32_ns_per_eval_runs: Vec::new(),
         }
     }
 

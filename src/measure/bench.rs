@@ -26,7 +26,7 @@
 //! with the evaluator of the same kernel's naga IR, not two pieces of hardware.
 
 use crate::eval::cost::OpCount;
-use crate::eval::interp::CpuColumns;
+use crate::eval::interp::{CpuColumns, Engine, Mode};
 use crate::input::scene::{Config, GpuScene};
 use crate::kernel::methods::Method;
 use crate::measure::gpu::Gpu;
@@ -63,6 +63,11 @@ pub struct Times {
     pub envelope_ns_per_config_runs: Vec<f64>,
     /// Why the envelope is not timed for this method although asked.
     pub envelope_error: Option<String>,
+    /// Which evaluator ran the CPU column (`Program::engines`), empty without one.
+    pub cpu_engine: String,
+    /// The interpreter's ns per evaluation of the same f32 column, timed in the same rounds
+    /// beside the compiled evaluator ([`Rounds::beside_interpreter`]; empty otherwise).
+    pub interp_f32_ns_per_eval_runs: Vec<f64>,
 }
 
 /// Whether the CPU evaluator runs `method` (every kernel it can compose and evaluate:
@@ -91,6 +96,9 @@ pub struct Rounds {
     /// Also time the envelope (docs/envelope.md) on this many configurations spread over
     /// them, in every round after the CPU columns (`bench --envelope N`). None: not timed.
     pub envelope: Option<usize>,
+    /// Also time the interpreter on the same CPU column in every round, where the compiled
+    /// evaluator runs the method (`bench`: the two side by side, their ratio from one run).
+    pub beside_interpreter: bool,
 }
 
 /// Configurations of the CPU column's first warm-up run, which sizes the timed runs.
@@ -106,6 +114,7 @@ impl Rounds {
             budget: None,
             cpu_run_seconds: None,
             envelope: None,
+            beside_interpreter: true,
         }
     }
 }
@@ -148,6 +157,7 @@ pub fn bench_methods_with(
         budget,
         cpu_run_seconds,
         envelope,
+        beside_interpreter,
     } = rounds;
     anyhow::ensure!(repeats > 0, "bench: at least one timed repeat is needed");
     anyhow::ensure!(!configs.is_empty(), "bench: no configurations to time");
@@ -161,6 +171,19 @@ pub fn bench_methods_with(
         .map(|m| timer.pipeline(m))
         .collect::<Result<Vec<_>, _>>()?;
     let evaluated: Vec<bool> = methods.iter().map(has_cpu_column).collect();
+    let engines: Vec<(Engine, String)> = methods
+        .iter()
+        .map(|m| match crate::eval::interp::program(m) {
+            Ok(p) => (p.engine(Mode::F32), p.engines()),
+            Err(_) => (Engine::Interpreter, String::new()),
+        })
+        .collect();
+    // The interpreter beside the compiled evaluator, on the same configurations each round.
+    let beside: Vec<bool> = evaluated
+        .iter()
+        .zip(&engines)
+        .map(|(&e, (engine, _))| beside_interpreter && e && *engine == Engine::Compiled)
+        .collect();
     // The CPU column's configurations per method: all, or a probe first (sized below).
     let sized = cpu_run_seconds.is_some() && warmup > 0;
     let probe = spread(configs, CPU_PROBE);
@@ -183,13 +206,16 @@ pub fn bench_methods_with(
         .map(|e| envelope_configs.is_some() && e.is_none())
         .collect();
 
-    let steps_per_round =
-        methods.len() + evaluated.iter().filter(|&&p| p).count() + enveloped.iter().filter(|&&p| p).count();
+    let steps_per_round = methods.len()
+        + evaluated.iter().filter(|&&p| p).count()
+        + enveloped.iter().filter(|&&p| p).count()
+        + beside.iter().filter(|&&p| p).count();
     let mut total = (warmup + repeats) * steps_per_round;
     let mut done = 0;
     let mut gpu_ns = vec![Vec::with_capacity(repeats); methods.len()];
     let mut cpu_ns = vec![Vec::with_capacity(repeats); methods.len()];
     let mut envelope_ns = vec![Vec::with_capacity(repeats); methods.len()];
+    let mut interp_ns = vec![Vec::with_capacity(repeats); methods.len()];
     for round in 0..warmup + repeats {
         let timed = round >= warmup;
         if timed && round - warmup >= min_repeats && budget.is_some_and(|b| start.elapsed() >= b) {
@@ -209,22 +235,37 @@ pub fn bench_methods_with(
             progress(done, total);
         }
         for &i in order.iter().filter(|&&i| evaluated[i]) {
+            let engine = engines[i].0;
             let (ns, used) = match (&cpu_configs[i], sized && round == 0) {
                 (_, true) => {
-                    let ns = time_cpu_column(&methods[i], &probe);
+                    let ns = time_cpu_column(&methods[i], &probe, engine);
                     let per = ns / probe.len() as f64;
                     let want = cpu_run_seconds.unwrap_or(0.0) * 1e9 / per.max(1.0);
                     cpu_configs[i] = Some(spread(configs, (want.ceil() as usize).clamp(CPU_PROBE.min(n), n)));
                     (ns, probe.len())
                 }
-                (Some(subset), false) => (time_cpu_column(&methods[i], subset), subset.len()),
-                (None, false) => (time_cpu_column(&methods[i], configs), n),
+                (Some(subset), false) => (time_cpu_column(&methods[i], subset, engine), subset.len()),
+                (None, false) => (time_cpu_column(&methods[i], configs, engine), n),
             };
             if timed {
                 cpu_ns[i].push(ns / used as f64);
             }
             done += 1;
             progress(done, total);
+            if beside[i] {
+                let same = cpu_configs[i].as_deref().filter(|_| !(sized && round == 0));
+                let (set, used) = match (sized && round == 0, same) {
+                    (true, _) => (&probe[..], probe.len()),
+                    (false, Some(s)) => (s, s.len()),
+                    (false, None) => (configs, n),
+                };
+                let ns = time_cpu_column(&methods[i], set, Engine::Interpreter);
+                if timed {
+                    interp_ns[i].push(ns / used as f64);
+                }
+                done += 1;
+                progress(done, total);
+            }
         }
         if let Some(subset) = &envelope_configs {
             for &i in order.iter().filter(|&&i| enveloped[i]) {
@@ -246,8 +287,12 @@ pub fn bench_methods_with(
         .zip(gpu_ns.into_iter().zip(cpu_ns))
         .zip(cpu_counts)
         .zip(envelope_ns.into_iter().zip(envelope_error))
+        .zip(interp_ns.into_iter().zip(engines))
         .map(
-            |(((m, (gpu_runs, cpu_runs)), cpu_configurations), (envelope_runs, envelope_error))| {
+            |(
+                (((m, (gpu_runs, cpu_runs)), cpu_configurations), (envelope_runs, envelope_error)),
+                (interp_runs, (_, engine)),
+            )| {
                 let (ops, ops_error) = match crate::eval::cost::method_cost_of(m) {
                     Ok(ops) => (Some(ops), None),
                     Err(e) => (None, Some(format!("{e:#}"))),
@@ -260,11 +305,13 @@ pub fn bench_methods_with(
                     repeats: gpu_runs.len(),
                     ops,
                     ops_error,
-                    gpu_ns_per_eval: gpu_runs,
-                    cpu_f32_ns_per_eval_runs: cpu_runs,
                     envelope_configurations: envelope_count,
                     envelope_ns_per_config_runs: envelope_runs,
                     envelope_error,
+                    cpu_engine: if cpu_runs.is_empty() { String::new() } else { engine },
+                    gpu_ns_per_eval: gpu_runs,
+                    cpu_f32_ns_per_eval_runs: cpu_runs,
+                    interp_f32_ns_per_eval_runs: interp_runs,
                 }
             },
         )
@@ -272,15 +319,11 @@ pub fn bench_methods_with(
     Ok(times)
 }
 
-/// Wall-clock ns of the method's kernel in f32 on the CPU evaluator over every
+/// Wall-clock ns of the method's kernel in f32 on the CPU evaluator `engine` over every
 /// configuration, on all cores.
-fn time_cpu_column(method: &Method, configs: &[Config]) -> f64 {
+fn time_cpu_column(method: &Method, configs: &[Config], engine: Engine) -> f64 {
     let start = Instant::now();
-    black_box(
-        method
-            .cpu_column(black_box(configs), crate::eval::interp::Mode::F32)
-            .ok(),
-    );
+    black_box(method.cpu_column_on(black_box(configs), Mode::F32, engine).ok());
     start.elapsed().as_nanos() as f64
 }
 
@@ -409,6 +452,7 @@ mod tests {
             budget: Some(std::time::Duration::ZERO),
             cpu_run_seconds: Some(1e-9),
             envelope: None,
+            beside_interpreter: true,
         };
         let mut last = (0, 0);
         let times = bench_methods_with(gpu(), &methods, &configs, rounds, &mut |d, t| last = (d, t)).unwrap();
@@ -419,6 +463,9 @@ mod tests {
                 (t.repeats, t.gpu_ns_per_eval.len(), t.cpu_f32_ns_per_eval_runs.len()),
                 (2, 2, 2)
             );
+            // The interpreter is timed beside the compiled evaluator in the same rounds.
+            assert_eq!(t.cpu_engine, "compiled", "{}", t.label);
+            assert_eq!(t.interp_f32_ns_per_eval_runs.len(), 2, "{}", t.label);
             // A 1 ns run asks for less than the probe: the probe's count is the floor.
             assert_eq!(
                 (t.configurations, t.cpu_configurations),

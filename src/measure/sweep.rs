@@ -68,6 +68,10 @@ pub struct Timing {
     /// (method label, seconds of the CPU evaluator's f32 column on all cores): beside the
     /// GPU seconds, the same kernel on the CPU, measured in the same run.
     pub cpu_f32_seconds: Vec<(String, f64)>,
+    /// (method label, which CPU evaluator ran its f32 and f64 columns: `compiled`, or
+    /// `interpreter (why)`; [`crate::eval::interp::Program::engines`]).
+    #[serde(default)]
+    pub cpu_engines: Vec<(String, String)>,
     /// Seconds of the "where the bits go" attribution (a subset, `ATTRIBUTION_CONFIGURATIONS`).
     pub attribution_seconds: f64,
     pub references_seconds: f64,
@@ -508,6 +512,8 @@ pub fn measure_chunks(
         timing.gpu.push((m.label.clone(), gpu_seconds[j], 0.0));
         timing.cpu_f64_seconds.push((m.label.clone(), f64_seconds[j]));
         timing.cpu_f32_seconds.push((m.label.clone(), f32_seconds[j]));
+        let engines = crate::eval::interp::program(m).map_or_else(|e| format!("none ({e:#})"), |p| p.engines());
+        timing.cpu_engines.push((m.label.clone(), engines));
     }
     timing.total_seconds = start.elapsed().as_secs_f64();
     Ok(Part {
@@ -592,6 +598,7 @@ pub fn search_and_cost(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<M
         budget: Some(std::time::Duration::from_secs_f64(so_far * COST_SHARE)),
         cpu_run_seconds: Some(COST_CPU_RUN_SECONDS),
         envelope: None,
+        beside_interpreter: false,
     };
     let costs = crate::measure::bench::bench_methods_with(gpu, methods, &cost_configs, rounds, &mut |done, total| {
         pb.set_length(total as u64);

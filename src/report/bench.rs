@@ -24,7 +24,8 @@ pub fn render(bench: &BenchRun) -> String {
     };
     let _ = writeln!(
         out,
-        "GPU: {clock}; CPU: the kernel in f32 on the CPU evaluator (src/eval/interp), {} thread(s) (rayon)\n",
+        "GPU: {clock}; CPU: the kernel in f32 on the CPU evaluator (src/eval/interp: compiled to native code where \
+         the compiler handles the kernel, else interpreted), {} thread(s) (rayon)\n",
         bench.cpu_threads
     );
 
@@ -34,9 +35,12 @@ pub fn render(bench: &BenchRun) -> String {
         "Mconfigs/s",
         "CPU f32 ns/eval median [min–max]",
         "GPU/CPU speed",
+        "CPU evaluator",
+        "interpreter f32 ns/eval",
+        "compiled/interpreter speed",
         "ops arith / transc / total",
     ];
-    let mut rows: Vec<[String; 6]> = Vec::new();
+    let mut rows: Vec<[String; 9]> = Vec::new();
     let mut open_loops = false;
     for c in &bench.costs {
         let cpu = match c.cpu_f32_ns_per_eval {
@@ -72,6 +76,15 @@ pub fn render(bench: &BenchRun) -> String {
             cpu,
             c.gpu_cpu_speed_ratio
                 .map_or("–".to_string(), |r| format!("{}×", sig(r))),
+            if c.cpu_engine.is_empty() {
+                "–".to_string()
+            } else {
+                c.cpu_engine.clone()
+            },
+            c.interp_f32_ns_per_eval.map_or("–".to_string(), sig),
+            c.compiled_speedup.as_ref().map_or("–".to_string(), |r| {
+                format!("{}× [{}–{}]", sig(r.median), sig(r.min), sig(r.max))
+            }),
             ops,
         ]);
     }
@@ -104,6 +117,9 @@ pub fn render(bench: &BenchRun) -> String {
     let _ = writeln!(
         out,
         "\nGPU/CPU speed: median of the per-round CPU ns / GPU ns (above 1: the dispatch is faster).\n\
+         compiled/interpreter speed: median [min–max] of the per-round interpreter ns / compiled ns, the \
+         interpreter timed on the same configurations in the same rounds (the values are bit-identical: \
+         tests/compiled.rs).\n\
          ops: one invocation's operation count from the naga IR (src/eval/cost.rs); \
          total = arithmetic + other math + {}×transcendental + branches.",
         crate::eval::cost::TRANSCENDENTAL_WEIGHT

@@ -17,6 +17,7 @@
 //! Configurations run in chunks, one IR operation over a whole chunk at a time
 //! (`exec.rs`), chunks in parallel with rayon.
 
+mod compiled;
 mod digits;
 mod envelope;
 mod exec;
@@ -41,6 +42,31 @@ const NO_LINE: u32 = u32::MAX;
 pub enum Mode {
     F32,
     F64,
+}
+
+/// Which evaluator runs a kernel's values: this interpreter (the specification) or the
+/// same kernel compiled to native code (`compiled/`, bit-identical, much faster).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Engine {
+    Interpreter,
+    Compiled,
+}
+
+impl Engine {
+    pub fn name(self) -> &'static str {
+        match self {
+            Engine::Interpreter => "interpreter",
+            Engine::Compiled => "compiled",
+        }
+    }
+}
+
+/// `LINELIGHT_EVALUATOR=interpreter` runs every value on the interpreter (to compare
+/// timings, or to rule the compiler out); otherwise the compiled evaluator runs every
+/// kernel it compiles.
+fn interpreter_forced() -> bool {
+    static FORCED: OnceLock<bool> = OnceLock::new();
+    *FORCED.get_or_init(|| std::env::var("LINELIGHT_EVALUATOR").is_ok_and(|v| v == "interpreter"))
 }
 
 /// A flattened constant: its f32 values and its written digits in f64.
@@ -82,6 +108,8 @@ pub struct Program {
     /// Constants of a translated kernel (GLSL, HLSL) whose written digits are lost: the f64
     /// evaluation is refused (src/kernel/written.rs).
     lost_digits: Vec<String>,
+    /// The compiled kernel per mode (f32, f64), made on first use, or why it cannot be.
+    compiled: [OnceLock<Result<compiled::Compiled, String>>; 2],
 }
 
 /// The evaluator's program for `method` (composed once, then cached for the process).
@@ -107,6 +135,9 @@ pub fn program(method: &Method) -> Result<Arc<Program>> {
 /// A method's `f64` and `cpu_f32` columns from its own kernel on the CPU evaluator. A trait
 /// of this module, so that the method (src/methods) does not depend on the evaluator.
 pub trait CpuColumns {
+    /// [`CpuColumns::cpu_column`] on the given evaluator (an error where `Compiled` is asked
+    /// for and the kernel is not compiled).
+    fn cpu_column_on(&self, configs: &[Config], mode: Mode, engine: Engine) -> Result<Vec<Option<f64>>>;
     /// The kernel's `f64` (or `cpu_f32`) column on `configs`: None where the method does not
     /// apply to a configuration. For a `ggx` configuration the kernel sees the fed (rotated)
     /// configuration, and an LTC method's result is multiplied by the fed magnitude in the
@@ -126,10 +157,15 @@ pub trait CpuColumns {
 
 impl CpuColumns for Method {
     fn cpu_column(&self, configs: &[Config], mode: Mode) -> Result<Vec<Option<f64>>> {
+        let engine = program(self)?.engine(mode);
+        self.cpu_column_on(configs, mode, engine)
+    }
+
+    fn cpu_column_on(&self, configs: &[Config], mode: Mode, engine: Engine) -> Result<Vec<Option<f64>>> {
         let program = program(self)?;
         let inputs: Vec<&Config> = configs.iter().filter(|c| self.applies(c)).collect();
         let magnitudes = inputs.iter().map(|c| self.magnitude(c));
-        let mut values = program.eval(&inputs, mode)?.into_iter().zip(magnitudes);
+        let mut values = program.eval_on(&inputs, mode, engine)?.into_iter().zip(magnitudes);
         let scaled = |(v, magnitude): (f64, f64)| match mode {
             Mode::F32 => f64::from(v as f32 * magnitude as f32),
             _ => v * magnitude,
@@ -460,6 +496,7 @@ impl Program {
             scene,
             scene_minv,
             lost_digits: Vec::new(),
+            compiled: Default::default(),
         })
     }
 
@@ -537,16 +574,67 @@ impl Program {
         ex.run(self.scene_lanes(configs, n, split, false))
     }
 
-    /// `method` on every configuration, in `mode`. The kernel reads each configuration as the
-    /// GPU does (`SceneInput`: a `ggx` one fed and rotated); an LTC method's fed magnitude is
-    /// the caller's to apply (`Method::cpu_column`).
+    /// The compiled kernel in `mode` (compiled on first use), or why there is none.
+    fn compiled(&self, mode: Mode) -> Result<&compiled::Compiled, &str> {
+        let slot = &self.compiled[usize::from(mode == Mode::F64)];
+        slot.get_or_init(|| compiled::Compiled::new(self, mode))
+            .as_ref()
+            .map_err(String::as_str)
+    }
+
+    /// Why this kernel is not compiled in `mode` (it is then interpreted), or None.
+    pub fn not_compiled(&self, mode: Mode) -> Option<String> {
+        self.compiled(mode).err().map(str::to_string)
+    }
+
+    /// The evaluator [`Program::eval`] uses in `mode`: the compiled one where the kernel
+    /// compiles (and `LINELIGHT_EVALUATOR=interpreter` is not set), else the interpreter.
+    pub fn engine(&self, mode: Mode) -> Engine {
+        if interpreter_forced() || self.compiled(mode).is_err() {
+            Engine::Interpreter
+        } else {
+            Engine::Compiled
+        }
+    }
+
+    /// Which evaluator runs the f32 and f64 values, and why not the compiled one where it
+    /// does not (the sweep's timing and `bench` print it).
+    pub fn engines(&self) -> String {
+        let one = |mode| match (self.engine(mode), self.not_compiled(mode)) {
+            (Engine::Compiled, _) => Engine::Compiled.name().to_string(),
+            (Engine::Interpreter, Some(why)) => format!("interpreter ({why})"),
+            (Engine::Interpreter, None) => "interpreter (LINELIGHT_EVALUATOR=interpreter)".to_string(),
+        };
+        let (a, b) = (one(Mode::F32), one(Mode::F64));
+        if a == b {
+            a
+        } else {
+            format!("f32 {a}; f64 {b}")
+        }
+    }
+
+    /// `method` on every configuration, in `mode`, on [`Program::engine`]. The kernel reads
+    /// each configuration as the GPU does (`SceneInput`: a `ggx` one fed and rotated); an LTC
+    /// method's fed magnitude is the caller's to apply (`Method::cpu_column`).
     pub fn eval(&self, configs: &[&Config], mode: Mode) -> Result<Vec<f64>> {
+        self.eval_on(configs, mode, self.engine(mode))
+    }
+
+    /// [`Program::eval`] on the given evaluator (`Compiled` where the kernel does not
+    /// compile is an error naming why).
+    pub fn eval_on(&self, configs: &[&Config], mode: Mode, engine: Engine) -> Result<Vec<f64>> {
         if mode == Mode::F64 && !self.lost_digits.is_empty() {
             anyhow::bail!(
                 "no f64 evaluation: constants of the kernel went through f32 and their written digits \
                  cannot be recovered: {}",
                 self.lost_digits.join("; ")
             );
+        }
+        if engine == Engine::Compiled {
+            let c = self
+                .compiled(mode)
+                .map_err(|e| anyhow!("the kernel is not compiled: {e}"))?;
+            return c.eval(self, configs);
         }
         let parts = configs
             .par_chunks(CHUNK)

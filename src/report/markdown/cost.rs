@@ -103,8 +103,10 @@ pub(super) fn timing(w: &mut String, input: &Summary) {
     let _ = writeln!(
         w,
         "Wall-clock time of one run on {} ({} configurations): GPU time includes upload, dispatch \
-         and readback; the CPU evaluator (the kernel's f32 and f64 columns) runs on all CPU cores. Cost per method as measured by GPU timestamps \
-         is `linelight bench`'s job; these numbers say what the sweep itself spent.\n",
+         and readback; the CPU evaluator (the kernel's f32 and f64 columns: compiled to native code, or \
+         interpreted where the compiler does not handle the kernel, as the last column says) runs on all CPU \
+         cores. Cost per method as measured by GPU timestamps is `linelight bench`'s job; these numbers say \
+         what the sweep itself spent.\n",
         t.adapter, t.configurations
     );
     let mut table = Table::new(&[
@@ -114,8 +116,14 @@ pub(super) fn timing(w: &mut String, input: &Summary) {
         ("CPU f32 evaluator s (all cores)", Align::Right),
         ("CPU f32 / GPU", Align::Right),
         ("f64 evaluator s", Align::Right),
+        ("CPU evaluator", Align::Left),
     ]);
     for (((label, s, rate), (_, f)), (_, c)) in t.gpu.iter().zip(&t.cpu_f64_seconds).zip(&t.cpu_f32_seconds) {
+        let engine = t
+            .cpu_engines
+            .iter()
+            .find(|(l, _)| l == label)
+            .map_or("–", |(_, e)| e.as_str());
         table.row(vec![
             format!("`{label}`"),
             format!("{s:.3}"),
@@ -123,6 +131,7 @@ pub(super) fn timing(w: &mut String, input: &Summary) {
             format!("{c:.3}"),
             format!("{:.2}", c / s),
             format!("{f:.3}"),
+            engine.replace('|', "\\|"),
         ]);
     }
     w.push_str(&table.markdown());

@@ -1,0 +1,289 @@
+//! The compiled CPU evaluator (src/eval/interp/compiled/) against the interpreter, the
+//! specification: the same bits in f32 and in f64 on every built-in kernel and composite,
+//! over every case's seeded sample (all materials), on non-finite and degenerate inputs, and
+//! on a user kernel that exercises the WGSL rules the interpreter implements (integer
+//! division by zero, min/max of NaN, select, switch fall-through, dynamic indices, the loop
+//! limit).
+
+use linelight::eval::interp::{program, CpuColumns, Engine, Mode};
+use linelight::input::case::Case;
+use linelight::input::scene::{Config, Material};
+use linelight::kernel::methods::{resolve, Method};
+use linelight::kernel::{builtin_kernels, KernelFile};
+
+/// Configurations per material of each case: every case's seeded sample, cut down.
+const PER_CASE: usize = 1200;
+
+fn case_configs() -> Vec<Config> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
+    let mut paths: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    paths.sort();
+    let mut out = Vec::new();
+    for path in paths {
+        let case = Case::load(&path).unwrap_or_else(|e| panic!("{}: {e:#}", path.display()));
+        let setup = linelight::app::sweep::prepare(case, &[], Some(PER_CASE)).unwrap();
+        out.extend(setup.samples.into_iter().map(|s| s.config));
+    }
+    out
+}
+
+/// Inputs no sampler draws: zero-length and huge segments, points on the surface,
+/// infinities and NaNs, in each of the three material kinds.
+fn odd_configs(like: &[Config]) -> Vec<Config> {
+    let coords = [
+        [0.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [1e-30, -1e-30, 1e-20],
+        [3e19, -2e19, 1e19],
+        [f64::INFINITY, 0.0, 1.0],
+        [0.0, f64::NEG_INFINITY, 1.0],
+        [f64::NAN, 0.5, 1.0],
+        [0.3, -0.2, -1e-7],
+    ];
+    let mut out = Vec::new();
+    let mut kinds: Vec<&Config> = Vec::new();
+    for c in like {
+        let same = |k: &&Config| std::mem::discriminant(&k.material) == std::mem::discriminant(&c.material);
+        if !kinds.iter().any(same) {
+            kinds.push(c);
+        }
+    }
+    for base in kinds {
+        for a in coords {
+            for b in coords {
+                let mut c = base.clone();
+                c.p1 = a;
+                c.p2 = b;
+                out.push(c);
+            }
+        }
+    }
+    out
+}
+
+fn same_bits(a: &[Option<f64>], b: &[Option<f64>]) -> Option<usize> {
+    a.iter().zip(b).position(|(x, y)| match (x, y) {
+        (Some(x), Some(y)) => !(x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan())),
+        (None, None) => false,
+        _ => true,
+    })
+}
+
+/// Every built-in id, and every composite with every plain line method that resolves as
+/// its inner.
+fn every_builtin() -> Vec<Method> {
+    let kernels = builtin_kernels();
+    let mut out = Vec::new();
+    for k in &kernels {
+        out.push(resolve(&k.id, &kernels).unwrap_or_else(|e| panic!("{}: {e:#}", k.id)));
+        if k.uses_line {
+            for inner in kernels.iter().filter(|i| !i.uses_line) {
+                if let Ok(m) = resolve(&format!("{}[{}]", k.id, inner.id), &kernels) {
+                    out.push(m);
+                }
+            }
+        }
+    }
+    out
+}
+
+fn compare(m: &Method, configs: &[Config]) -> usize {
+    let p = program(m).unwrap_or_else(|e| panic!("{}: {e:#}", m.label));
+    let mut compared = 0;
+    for mode in [Mode::F32, Mode::F64] {
+        let interp = m.cpu_column_on(configs, mode, Engine::Interpreter);
+        if let Some(why) = p.not_compiled(mode) {
+            // A kernel the compiler does not handle is interpreted; only constructs it
+            // does not know yet may send a built-in there.
+            assert!(
+                why.contains("outside the private space"),
+                "{} is not compiled in {mode:?}: {why}",
+                m.label
+            );
+            continue;
+        }
+        assert_eq!(p.engine(mode), Engine::Compiled, "{}", m.label);
+        let native = m.cpu_column_on(configs, mode, Engine::Compiled);
+        match (interp, native) {
+            (Ok(a), Ok(b)) => {
+                if let Some(i) = same_bits(&a, &b) {
+                    panic!(
+                        "{} {mode:?}: interpreter {:?} ≠ compiled {:?} on {:?}",
+                        m.label, a[i], b[i], configs[i]
+                    );
+                }
+                compared += a.iter().filter(|v| v.is_some()).count();
+            }
+            (Err(a), Err(b)) => assert_eq!(format!("{a:#}"), format!("{b:#}"), "{}", m.label),
+            (a, b) => panic!(
+                "{} {mode:?}: interpreter {:?}, compiled {:?}",
+                m.label,
+                a.err(),
+                b.err()
+            ),
+        }
+    }
+    compared
+}
+
+#[test]
+fn every_builtin_kernel_gives_the_interpreters_bits_in_f32_and_f64() {
+    let configs = case_configs();
+    let materials: Vec<&str> = configs
+        .iter()
+        .map(|c| match c.material {
+            Material::Diffuse => "diffuse",
+            Material::Ltc { .. } => "ltc",
+            Material::Ggx { .. } => "ggx",
+        })
+        .collect();
+    for kind in ["diffuse", "ltc", "ggx"] {
+        assert!(materials.contains(&kind), "the sample has no {kind} configuration");
+    }
+    let odd = odd_configs(&configs);
+    let methods = every_builtin();
+    assert!(methods.len() > 40, "{} methods", methods.len());
+    let mut total = 0;
+    for m in &methods {
+        let n = compare(m, &configs) + compare(m, &odd);
+        assert!(n > 0, "{}: no configuration compared", m.label);
+        total += n;
+    }
+    eprintln!("{} methods, {total} values compared bit for bit", methods.len());
+}
+
+/// A user kernel that goes through the WGSL rules the interpreter implements.
+const RULES: &str = "\
+//! id: test.rules
+//! target: line
+
+fn pick(a: array<f32, 5>, i: i32) -> f32 {
+    return a[i];
+}
+
+fn method(scene: Scene) -> f32 {
+    let x = scene.p1.x;
+    let k = i32(floor(x * 7.0));
+    let u = u32(abs(x) * 5.0);
+    var acc = 0.0;
+    // Integer division and remainder by zero, the signed overflow, shifts.
+    acc += f32(k / (k - k)) + f32(k % (k - k)) + f32(u / (u - u)) + f32(u % (u - u));
+    acc += f32((-2147483647 - 1) / select(1, -1, x > -100.0)) * 1e-9;
+    acc += f32((k << 3u) >> 1u) + f32(u >> 2u) + f32(k & 5) + f32(u ^ 3u);
+    // min/max/clamp of NaN and infinities, step, sign, saturate, fract, round.
+    let nan = (scene.p2.y - scene.p2.y) / (scene.p2.y - scene.p2.y);
+    acc += min(nan, x) + max(x, nan) + clamp(x, -0.5, 0.5) + step(0.1, x) + sign(x) + saturate(x);
+    acc += fract(x * 3.3) + round(x * 2.5) + trunc(-x) + ceil(x);
+    acc += select(1.0, 2.0, nan != nan) + f32(all(vec2<bool>(x > 0.0, k > 0))) + f32(any(vec2<bool>(x > 0.0, k > 0)));
+    // A dynamic index into a local array, clamped out of range as the interpreter does.
+    var a = array<f32, 5>(1.0, 2.0, 3.0, 4.0, 5.0);
+    a[k] = x;
+    acc += a[k + 1] + pick(a, k - 9) + pick(a, 99);
+    var v = vec3<f32>(x, 2.0 * x, 3.0);
+    v[u] += 1.0;
+    acc += v[u % 3u] + dot(v, v) + length(v) + distance(v, scene.p2) + cross(v, scene.p2).z;
+    // switch with fall-through and default; a loop with continue and break.
+    switch (k) {
+        case 0, 1: { acc += 10.0; }
+        case 2: { acc -= 3.0; }
+        case 3: { acc *= 1.5; }
+        default: { acc += 0.25; }
+    }
+    var i = 0;
+    loop {
+        i += 1;
+        if (i % 3 == 0) { continue; }
+        acc += sin(f32(i) * x) * exp2(-f32(i)) + atan2(x, f32(i)) + pow(abs(x) + 0.5, 1.3);
+        if (i > 7) { break; }
+        continuing { break if i >= 20; }
+    }
+    let m = mat3x3<f32>(scene.p1, scene.p2, v);
+    acc += determinant(m) + (m * v).y + (v * m).z + (transpose(m) * m)[1].x + normalize(v).x + inverseSqrt(abs(x) + 1.0);
+    return acc + fma(x, 1.0 + x, -x) + mix(x, 2.0, 0.3) + tan(x) + acos(clamp(x, -1.0, 1.0)) + log2(abs(x) + 1.0);
+}
+";
+
+fn user(text: &str, id: &str) -> Method {
+    Method {
+        label: id.to_string(),
+        kernel: KernelFile::parse(&format!("user/{id}.wgsl"), text).unwrap_or_else(|e| panic!("{e}")),
+        params: Vec::new(),
+        inner: None,
+        judged: None,
+    }
+}
+
+#[test]
+fn a_kernel_of_many_rules_gives_the_interpreters_bits() {
+    let m = user(RULES, "test.rules");
+    let mut configs = case_configs();
+    configs.truncate(4000);
+    configs.extend(odd_configs(&configs));
+    for x in [-3.0, -1.0, -0.0, 0.0, 0.1, 0.3, 0.45, 1.0, 2.9, 1e10, -1e10] {
+        let mut c = configs[0].clone();
+        c.p1[0] = x;
+        configs.push(c);
+    }
+    let p = program(&m).unwrap();
+    for mode in [Mode::F32, Mode::F64] {
+        assert_eq!(p.not_compiled(mode), None);
+    }
+    assert!(compare(&m, &configs) > 0);
+}
+
+const LOOPS: &str = "\
+//! id: test.loops
+//! target: line
+//! params: N=1
+override N: u32 = 1u;
+fn method(scene: Scene) -> f32 {
+    var s = 0.0;
+    for (var i = 0u; i < N; i++) { s += 1.0; }
+    return s * scene.p1.z;
+}
+";
+
+#[test]
+fn the_loop_limit_is_an_error_on_both_never_a_value() {
+    let configs = &case_configs()[..1];
+    let loops = |n: u32| {
+        let mut m = user(LOOPS, "test.loops");
+        m.params = vec![f64::from(n)];
+        m
+    };
+    // `for` runs its header once more than its body: N = 2^24 − 1 is 2^24 passes, the most
+    // the interpreter allows. (The interpreter runs it in f32 only: 2^24 passes take it ~30 s.)
+    let most = loops((1 << 24) - 1);
+    let a = most.cpu_column_on(configs, Mode::F32, Engine::Interpreter).unwrap();
+    let b = most.cpu_column_on(configs, Mode::F32, Engine::Compiled).unwrap();
+    assert_eq!(a[0].map(f64::to_bits), b[0].map(f64::to_bits));
+    let z = configs[0].p1[2] as f32;
+    assert_eq!(b[0], Some(f64::from(16777215.0f32 * z)));
+    let wide = most.cpu_column_on(configs, Mode::F64, Engine::Compiled).unwrap();
+    assert_eq!(wide[0], Some(16777215.0 * configs[0].p1[2]));
+    // One more pass: the interpreter's error, word for word, in both modes; never a value.
+    let over = loops(1 << 24);
+    for mode in [Mode::F32, Mode::F64] {
+        let e = over.cpu_column_on(configs, mode, Engine::Compiled).unwrap_err();
+        assert_eq!(format!("{e:#}"), "CPU evaluator: a loop ran more than 2^24 iterations");
+    }
+    let e = over.cpu_column_on(configs, Mode::F32, Engine::Interpreter).unwrap_err();
+    assert_eq!(format!("{e:#}"), "CPU evaluator: a loop ran more than 2^24 iterations");
+}
+
+#[test]
+fn an_unknown_construct_falls_back_to_the_interpreter_with_its_reason() {
+    let text = "//! id: test.bits\n//! target: line\nfn method(scene: Scene) -> f32 { return bitcast<f32>(bitcast<u32>(scene.p1.z)); }\n";
+    let m = user(text, "test.bits");
+    let p = program(&m).unwrap();
+    let why = p.not_compiled(Mode::F32).expect("bitcast is not compiled");
+    assert!(why.contains("bitcast"), "{why}");
+    assert_eq!(p.engine(Mode::F32), Engine::Interpreter);
+    // The interpreter has no bitcast either: the column is an error naming it, as before.
+    let configs = &case_configs()[..2];
+    assert!(m.cpu_column(configs, Mode::F32).is_err());
+}
