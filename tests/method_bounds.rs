@@ -240,6 +240,7 @@ fn family(f: Family, mi: usize) -> Vec<Config> {
             radius: None,
             rect: Some(Rect { normal, width: 1.0 }),
             material: material.clone(),
+            texture: None,
         };
         let d = c.distance_to_segment();
         if d < 0.25 || c.orthonormalize_rect().is_none() {
@@ -280,6 +281,7 @@ fn fwt_far() -> Vec<Config> {
         radius: None,
         rect: None,
         material: Material::Diffuse,
+        texture: None,
     })
     .collect()
 }
@@ -707,6 +709,7 @@ fn the_published_tube_clamp_at_1_is_kept() {
         material: Material::Ltc {
             minv: [[4.0, 0.0, -1.5], [0.0, 3.5, 0.0], [0.1, 0.0, 1.0]],
         },
+        texture: None,
     };
     let (reference, _) = reference_value(&c, &m);
     assert!((0.88..0.9).contains(&reference), "{reference}");

@@ -69,6 +69,7 @@ fn configs() -> Vec<Config> {
                     width: 0.02,
                 }),
                 material: material.clone(),
+                texture: None,
             };
             if c.rect.is_some() {
                 c.orthonormalize_rect().unwrap();

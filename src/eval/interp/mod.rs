@@ -442,6 +442,7 @@ impl Program {
             radius: None,
             rect: None,
             material: crate::input::scene::Material::Diffuse,
+            texture: None,
         });
         for (name, _, len) in &scene {
             if dummy.member(name).map(|v| v.len()) != Some(*len) {
