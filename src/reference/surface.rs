@@ -353,7 +353,7 @@ mod tests {
             assert!(i_line > 0.0);
             let mut last = f64::INFINITY;
             for r in [1e-2, 1e-3, 1e-4] {
-                let est = cylinder(&lobe, p1, p2, r, false);
+                let est = cylinder(&lobe, p1, p2, r, false, None);
                 let gap = rel(est.value / r, i_line);
                 assert!(gap < last, "{material:?} R={r}: {gap:e}");
                 assert!(est.error <= 1e-9 * est.value, "{est:?}");
@@ -369,7 +369,7 @@ mod tests {
         // spans |φ| < asin(R/h) in the cross-section, so by the 2D crossed-strings form factor
         // E = (sin φ₂ − sin φ₁)/2 = R/h. Ends at ±10⁴h change that by O((h/L)³).
         for r in [0.1, 0.5, 0.9] {
-            let est = cylinder(&diffuse(), [-1e4, 0.0, 1.0], [1e4, 0.0, 1.0], r, false);
+            let est = cylinder(&diffuse(), [-1e4, 0.0, 1.0], [1e4, 0.0, 1.0], r, false, None);
             assert!(rel(est.value, r) < 1e-10, "R={r}: {est:?}");
             assert!(est.error < 1e-9 * r, "R={r}: {est:?}");
         }
@@ -392,7 +392,7 @@ mod tests {
             let limit = point(p1, 1.0) + point(p2, -1.0);
             assert!(limit > 0.0);
             let r = 1e-3;
-            let est = caps(&lobe, p1, p2, r, false);
+            let est = caps(&lobe, p1, p2, r, false, None);
             assert!(rel(est.value / (PI * r * r), limit) < 1e-4, "{est:?} {limit}");
         }
     }
@@ -402,14 +402,14 @@ mod tests {
         // E = (1/π)∫ cos θ dω over a cone of half-angle θm = sin²θm = R²/(h² + R²).
         for (h, r) in [(1.0, 1.0), (2.0, 0.01), (0.01, 3.0), (1.0, 1e-4)] {
             let exact = r * r / (h * h + r * r);
-            let est = caps(&diffuse(), [0.0, 0.0, h], [0.0, 0.0, h + 1.0], r, false);
+            let est = caps(&diffuse(), [0.0, 0.0, h], [0.0, 0.0, h + 1.0], r, false, None);
             assert!(rel(est.value, exact) < 1e-10, "h={h} R={r}: {est:?} vs {exact}");
             assert!((est.value - exact).abs() <= est.error, "{est:?} vs {exact}");
         }
         // Off axis but with the foot inside the disk, and seen from beside the tube.
-        let est = caps(&diffuse(), [0.3, 0.0, 0.5], [0.3, 0.0, 1.5], 1.0, false);
+        let est = caps(&diffuse(), [0.3, 0.0, 0.5], [0.3, 0.0, 1.5], 1.0, false, None);
         assert!(est.value > 0.0 && est.value < 1.0);
-        let side = cylinder(&diffuse(), [0.3, 0.0, 0.5], [0.3, 0.0, 1.5], 1.0, false);
+        let side = cylinder(&diffuse(), [0.3, 0.0, 0.5], [0.3, 0.0, 1.5], 1.0, false, None);
         assert_eq!(side.value, 0.0);
     }
 
@@ -450,8 +450,8 @@ mod tests {
             let (a, b) = (mul(p1, s), mul(p2, s));
             let rect = Rect { normal, width: 0.2 * s };
             [
-                cylinder(&lobe, a, b, 0.1 * s, false).value,
-                caps(&lobe, a, b, 0.1 * s, false).value,
+                cylinder(&lobe, a, b, 0.1 * s, false, None).value,
+                caps(&lobe, a, b, 0.1 * s, false, None).value,
                 rectangle(&lobe, a, b, &rect, false).value,
             ]
         };
