@@ -183,3 +183,54 @@ fn one_lookup_tints_scale_a_constant_texture_exactly() {
         );
     }
 }
+
+/// `eval` refuses a malformed texture before any work: exit 2, the configuration, the line and
+/// the field named, the output not written. A good textured line evaluates.
+#[test]
+fn eval_refuses_malformed_textures_naming_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = r#"{"id":"ok","p1":[0.3,-0.2,1.0],"p2":[0.9,0.4,1.6],"material":{"kind":"diffuse"},"texture":{"kind":"cylindrical","size":[2,1],"texels":[0.5,1.5]}}"#;
+    let cases = [
+        (good.replace("[0.5,1.5]", "[0.5]"), "texture.texels"),
+        (good.replace("[0.5,1.5]", "[0.5,1e999]"), ""),
+        (
+            good.replace("\"size\"", "\"origin\":[0,0,1],\"size\""),
+            "texture.origin",
+        ),
+        (good.replace("cylindrical", "spherical"), "spherical"),
+        (good.replace("[2,1]", "[2,0]"), "texture.size"),
+    ];
+    for (line, field) in cases {
+        let input = common::write(dir.path(), "in.jsonl", &format!("{good}\n{line}\n"));
+        let out = dir.path().join("out.jsonl");
+        let o = common::linelight(&[
+            "eval",
+            "--input",
+            input.to_str().unwrap(),
+            "--output",
+            out.to_str().unwrap(),
+            "--methods",
+            "line.texture_closest",
+        ]);
+        let err = common::stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{line}: {err}");
+        assert!(err.contains("in.jsonl:2") && err.contains(field), "{line}: {err}");
+        assert!(!out.exists(), "{line}: output written");
+    }
+    let input = common::write(dir.path(), "in.jsonl", &format!("{good}\n"));
+    let out = dir.path().join("out.jsonl");
+    let o = common::linelight(&[
+        "eval",
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        out.to_str().unwrap(),
+        "--methods",
+        "line.texture_closest,line.texture_average",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    let row: serde_json::Value = serde_json::from_str(std::fs::read_to_string(&out).unwrap().trim()).unwrap();
+    let reference = row["reference"]["line"].as_f64().unwrap();
+    let closest = row["methods"]["line.texture_closest"]["f64"].as_f64().unwrap();
+    assert!(reference > 0.0 && closest > 0.0, "{row}");
+}
