@@ -184,7 +184,13 @@ pub(crate) fn thin_line<'a>(texture: &'a Texture, axis: &LightAxis) -> Tint<'a> 
             cuts.push(c + k * PI);
         }
     }
-    let panels = super::line::split(phi0 - FRAC_PI_2, phi0 + FRAC_PI_2, cuts);
+    // Panels over the visible half, cut at the texel centres inside it.
+    let (lo, hi) = (phi0 - FRAC_PI_2, phi0 + FRAC_PI_2);
+    cuts.retain(|&c| c > lo && c < hi);
+    cuts.extend([lo, hi]);
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup();
+    let panels: Vec<(f64, f64)> = cuts.windows(2).map(|w| (w[0], w[1] - w[0])).collect();
     let mut weights = Vec::with_capacity(nu as usize);
     let mut quad_error = 0.0f64;
     for i in 0..nu {
