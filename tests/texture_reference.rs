@@ -77,7 +77,7 @@ fn texture(rng: &mut ChaCha8Rng, origin: Option<Vec3>) -> Texture {
 }
 
 fn material(rng: &mut ChaCha8Rng, i: usize) -> Material {
-    if i % 2 == 0 {
+    if i.is_multiple_of(2) {
         Material::Diffuse
     } else {
         // A lobe whose support contains the whole upper hemisphere's lights used here.
