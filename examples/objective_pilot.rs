@@ -56,6 +56,7 @@ fn main() {
                     radius: None,
                     rect: None,
                     material: Material::ggx(Roughness::Iso(alpha), view, Some("published")).unwrap(),
+                    texture: None,
                 };
                 let truth = reference(&c, Target::Line).unwrap().value;
                 if truth.is_nan() || truth <= 0.0 {

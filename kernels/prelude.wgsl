@@ -68,3 +68,65 @@ fn inverse3(m: mat3x3<f32>) -> mat3x3<f32> {
     let det = dot(m[0], c0);
     return transpose(mat3x3<f32>(c0, c1, c2)) * (1.0 / det);
 }
+
+// The harness's texel buffer (issue 25): every textured scene's texels, each from its
+// `tex_offset`; one 0 when no scene is textured. Bound by the runner beside the entry point's
+// bindings 0–2 (src/kernel/compose.rs).
+@group(0) @binding(3) var<storage, read> ll_texels: array<f32>;
+
+// Seed 002's light textures (issue 25; src/input/texture.rs, kernels/README.md): the texture's
+// value at (u, v) on the nu×nv grid of texels starting at `base` in the harness's texel buffer
+// (`ll_texels`, bound by the entry point; texel (i, j) at base + j·nu + i). Bilinear between
+// texel centres ((i+½)/nu, (j+½)/nv): clamped to the edge in u; in v wrapping (`wrap_v`: a
+// cylindrical texture around the light) or clamped (a cubemap face). Read through a storage
+// buffer, not a sampler: hardware filtering has no WGSL accuracy bound and the CPU evaluator
+// could not reproduce it.
+fn ll_texel_bilinear(base: u32, nu: u32, nv: u32, u: f32, v: f32, wrap_v: bool) -> f32 {
+    let x = clamp(u * f32(nu) - 0.5, 0.0, f32(nu - 1u));
+    let i0 = min(u32(floor(x)), nu - 1u);
+    let i1 = min(i0 + 1u, nu - 1u);
+    let a = x - f32(i0);
+    var j0 = 0u;
+    var j1 = 0u;
+    var b = 0.0;
+    if (wrap_v) {
+        let y = (v - floor(v)) * f32(nv) - 0.5;
+        let f = floor(y);
+        j0 = u32(i32(f) + i32(nv)) % nv;
+        j1 = (j0 + 1u) % nv;
+        b = y - f;
+    } else {
+        let y = clamp(v * f32(nv) - 0.5, 0.0, f32(nv - 1u));
+        j0 = min(u32(floor(y)), nv - 1u);
+        j1 = min(j0 + 1u, nv - 1u);
+        b = y - f32(j0);
+    }
+    let t00 = ll_texels[base + j0 * nu + i0];
+    let t10 = ll_texels[base + j0 * nu + i1];
+    let t01 = ll_texels[base + j1 * nu + i0];
+    let t11 = ll_texels[base + j1 * nu + i1];
+    return (1.0 - b) * ((1.0 - a) * t00 + a * t10) + b * ((1.0 - a) * t01 + a * t11);
+}
+
+// A cubemap light texture's value in direction `w` (the light's frame: X = tex_origin,
+// Y = ω_t × tex_origin, Z = ω_t; need not be unit), its six n×n faces from texel `base` in
+// Vulkan's order +X, −X, +Y, −Y, +Z, −Z: Vulkan's face selection (ties to X, then Y), then
+// the face's bilinear look-up, clamped at its edges.
+fn ll_texel_cube(base: u32, n: u32, w: vec3<f32>) -> f32 {
+    let a = abs(w);
+    var face = 0u;
+    var sc = 0.0;
+    var tc = 0.0;
+    var ma = 0.0;
+    if (a.x >= a.y && a.x >= a.z) {
+        ma = a.x;
+        if (w.x >= 0.0) { face = 0u; sc = -w.z; tc = -w.y; } else { face = 1u; sc = w.z; tc = -w.y; }
+    } else if (a.y >= a.z) {
+        ma = a.y;
+        if (w.y >= 0.0) { face = 2u; sc = w.x; tc = w.z; } else { face = 3u; sc = w.x; tc = -w.z; }
+    } else {
+        ma = a.z;
+        if (w.z >= 0.0) { face = 4u; sc = w.x; tc = -w.y; } else { face = 5u; sc = -w.x; tc = -w.y; }
+    }
+    return ll_texel_bilinear(base + face * n * n, n, n, 0.5 * (sc / ma + 1.0), 0.5 * (tc / ma + 1.0), false);
+}

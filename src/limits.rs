@@ -166,6 +166,18 @@ pub const MAX_INCLUDE_DEPTH: usize = 16;
 /// time it is included.
 pub const MAX_INCLUDE_BYTES: u64 = 16 << 20;
 
+/// A light texture's longest side, in texels (`texture.size`, issue 25).
+pub const MAX_TEXTURE_SIDE: u32 = 4096;
+
+/// The most texels one configuration's texture may hold (a cubemap counts its six faces): a
+/// texel costs 8 bytes in the configuration and 4 in the GPU's texel buffer.
+pub const MAX_TEXELS: u64 = 1 << 20;
+
+/// Bytes the GPU's texel buffer takes for `texels` texels (f32 each).
+pub fn texel_buffer_bytes(texels: u64) -> Bytes {
+    Bytes(texels.max(1).saturating_mul(4))
+}
+
 /// The largest JSON record read back (a baseline's `baseline.json`, `timings.json`).
 pub const MAX_RECORD_BYTES: u64 = 64 << 20;
 

@@ -78,6 +78,7 @@ fn configs() -> Vec<Config> {
                     width: 0.1,
                 }),
                 material: m.clone(),
+                texture: None,
             });
         }
     }

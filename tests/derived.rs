@@ -42,6 +42,7 @@ fn sample(n: usize) -> Vec<Config> {
             radius: Some(0.05),
             rect: Some(Rect { normal, width: 0.1 }),
             material,
+            texture: None,
         };
         if c.orthonormalize_rect().is_some() && c.validate().is_ok() {
             out.push(c);

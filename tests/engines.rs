@@ -39,6 +39,7 @@ fn segment(id: String, p1: Vec3, p2: Vec3, material: Material) -> Config {
         radius: None,
         rect: None,
         material,
+        texture: None,
     }
 }
 

@@ -18,6 +18,7 @@ fn config(p1: [f64; 3], p2: [f64; 3], material: Material) -> Config {
         radius: None,
         rect: None,
         material,
+        texture: None,
     }
 }
 

@@ -28,6 +28,7 @@ fn config(view_azimuth: f64, alpha: Roughness, ltc: &str) -> Config {
         radius: None,
         rect: None,
         material: Material::ggx(alpha, view, Some(ltc)).unwrap(),
+        texture: None,
     }
 }
 

@@ -144,6 +144,7 @@ fn cases() -> Vec<(Config, [f64; 2], Vec3, f64)> {
                     radius: None,
                     rect: None,
                     material,
+                    texture: None,
                 };
                 c.validate().unwrap();
                 out.push((c, alpha.xy(), *v, f0));
@@ -228,6 +229,7 @@ fn surface_references_integrate_f_as_well() {
         radius: Some(0.05),
         rect: None,
         material: Material::ggx_fresnel(Roughness::Iso(0.3), v, Some(0.04), None).unwrap(),
+        texture: None,
     };
     c.rect = Some(linelight::input::scene::Rect {
         normal: unit(cross(t, [0.0, 0.0, 1.0])),

@@ -320,6 +320,7 @@ fn config(rng: &mut ChaCha8Rng, i: usize) -> Config {
                 width: rng.random_range(0.02..1.0),
             }),
             material,
+            texture: None,
         };
         // The rectangle must not contain the origin's foot too closely.
         let h = dot(c.p1, cross(t, unit(cross(b, t))));

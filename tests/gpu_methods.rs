@@ -45,6 +45,7 @@ fn fixed_set() -> Vec<Config> {
                     width: 0.05,
                 }),
                 material: m.clone(),
+                texture: None,
             };
             c.orthonormalize_rect().expect("normal not parallel to the segment");
             c.validate().expect("a valid configuration");

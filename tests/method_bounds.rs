@@ -73,6 +73,11 @@ enum Family {
     /// [`AboveThin`]'s geometry on the `ggx` materials with Schlick's F0 (issue 24): the
     /// `minv: ggx` kernels that apply F themselves.
     Fresnel,
+    /// Issue 25: the `AboveThick` geometry with a cylindrical texture (stripes along the light,
+    /// 2–8 of them, times a gradient around it) and no rectangle.
+    Textured,
+    /// The same with a 4×4-per-face cubemap (a smooth gradient over the faces plus a step).
+    TexturedCube,
 }
 
 use Family::*;
@@ -123,6 +128,7 @@ fn family_materials(f: Family) -> std::ops::Range<usize> {
         FwtFar => 0..1,
         BelowLeak => 1..4,
         Fresnel => 6..8,
+        Textured | TexturedCube => 0..4,
     }
 }
 
@@ -171,7 +177,7 @@ fn family(f: Family, mi: usize) -> Vec<Config> {
         };
         let along = |c: Vec3, t: Vec3, a: f64| [0, 1, 2].map(|k| c[k] + a * t[k]);
         let (p1, p2) = match f {
-            AboveThin | AboveThick | CrossingThin | CrossingThick | Fresnel => {
+            AboveThin | AboveThick | CrossingThin | CrossingThick | Fresnel | Textured | TexturedCube => {
                 // The centre at distance 1 and elevation 10°–80°, any tangent, L/d in [0.1, 4].
                 let c = centre(&mut rng, 10.0);
                 let t = random_unit(&mut rng);
@@ -220,7 +226,7 @@ fn family(f: Family, mi: usize) -> Vec<Config> {
         };
         let margin = 0.05;
         let keep = match f {
-            AboveThin | AboveThick | NearPlane | Fresnel => p1[2] > margin && p2[2] > margin,
+            AboveThin | AboveThick | NearPlane | Fresnel | Textured | TexturedCube => p1[2] > margin && p2[2] > margin,
             CrossingThin | CrossingThick => p1[2].min(p2[2]) < -margin && p1[2].max(p2[2]) > margin,
             _ => true,
         };
@@ -252,6 +258,7 @@ fn family(f: Family, mi: usize) -> Vec<Config> {
             radius: None,
             rect: Some(Rect { normal, width: 1.0 }),
             material: material.clone(),
+            texture: None,
         };
         let d = c.distance_to_segment();
         if d < 0.25 || c.orthonormalize_rect().is_none() {
@@ -259,11 +266,43 @@ fn family(f: Family, mi: usize) -> Vec<Config> {
         }
         c.radius = Some(ratio * d);
         c.rect.as_mut().unwrap().width = width.unwrap_or(2.0 * ratio * d);
+        if matches!(f, Textured | TexturedCube) {
+            c.rect = None;
+            c.texture = Some(texture(f, &mut rng));
+        }
         if c.validate().is_ok() {
             out.push(c);
         }
     }
     out
+}
+
+/// A texture of family `f`: cylindrical stripes along × a gradient around, or a cubemap.
+fn texture(f: Family, rng: &mut ChaCha8Rng) -> linelight::input::texture::Texture {
+    use linelight::input::texture::{Texture, TextureKind};
+    if f == Textured {
+        let (nu, nv) = (rng.random_range(2..9u32), rng.random_range(1..5u32));
+        let texels = (0..nu * nv)
+            .map(|k| (0.2 + 0.8 * f64::from(k % nu % 2)) * (1.0 + 0.5 * f64::from(k / nu) / f64::from(nv)))
+            .collect();
+        Texture {
+            kind: TextureKind::Cylindrical,
+            size: [nu, nv],
+            texels,
+            origin: None,
+        }
+    } else {
+        let step = rng.random_range(0..96u32);
+        let texels = (0..96u32)
+            .map(|k| 0.3 + 0.1 * f64::from(k % 16) / 4.0 + f64::from(k / 16) * 0.15 + if k >= step { 0.5 } else { 0.0 })
+            .collect();
+        Texture {
+            kind: TextureKind::Cubemap,
+            size: [4, 4],
+            texels,
+            origin: None,
+        }
+    }
 }
 
 /// [`FwtFar`]: diffuse, copied from reports/line_fwt/disagreements.jsonl (the report is
@@ -292,6 +331,7 @@ fn fwt_far() -> Vec<Config> {
         radius: None,
         rect: None,
         material: Material::Diffuse,
+        texture: None,
     })
     .collect()
 }
@@ -432,9 +472,12 @@ fn measure(r: &Row, kernels: &[linelight::kernel::KernelFile]) -> Measured {
         .collect();
     assert!(!chosen.is_empty(), "{}: no configurations", r.spec);
     let gpu = common::gpu();
-    let scenes: Vec<GpuScene> = chosen.iter().map(GpuScene::from).collect();
+    let (scenes, texels): (Vec<GpuScene>, _) = linelight::input::scene::gpu_scenes(&chosen);
     let pipeline = gpu.pipeline(&m).unwrap_or_else(|e| panic!("{}: {e}", r.spec));
-    let values = gpu.run(&pipeline, &scenes, 0, &mut |_| {}).unwrap().values;
+    let values = gpu
+        .run_textured(&pipeline, &scenes, &texels, 0, &mut |_| {})
+        .unwrap()
+        .values;
     let f64s = m.cpu_column(&chosen, Mode::F64).unwrap();
     let mut out = Measured {
         n: 0,
@@ -613,6 +656,11 @@ fn the_configuration_set_is_fixed() {
 
 #[rustfmt::skip]
 const ROWS: &[Row] = &[
+    // Issue 25: the one-look-up tints of seed 002 and ours, against the textured references.
+    row("line.texture_closest[line.ltc2023_full]", &[Textured], Model, 7.54e-1, 7.54e-1, -1.4847e-1),
+    row("line.texture_cube[line.ltc2023_full]", &[TexturedCube], Model, 1.11e0, 1.11e0, 6.3825e-2),
+    row("line.texture_average[line.ltc2023_full]", &[Textured], Model, 4.27e-2, 4.27e-2, 2.6340e-3),
+    row("line.texture_average[line.ltc2023_full]", &[TexturedCube], Model, 6.54e-2, 6.54e-2, 3.4016e-4),
     //  method                            families        kind     measured: GPU worst, f64 worst, mean signed f64
     row("line.ltc2017",                   ALL,            Exact,   2.93e-4, 1.20e-14, 1.6567e-16),
     row("line.ltc2017",                   &[SmallAngle],  Exact,   6.31e-4, 8.65e-14, -3.2985e-15),
@@ -726,6 +774,7 @@ fn the_published_tube_clamp_at_1_is_kept() {
         material: Material::Ltc {
             minv: [[4.0, 0.0, -1.5], [0.0, 3.5, 0.0], [0.1, 0.0, 1.0]],
         },
+        texture: None,
     };
     let (reference, _) = reference_value(&c, &m);
     assert!((0.88..0.9).contains(&reference), "{reference}");

@@ -142,6 +142,7 @@ fn configs(seed: u64, n: usize, min_alpha: f64) -> Vec<Config> {
             radius: None,
             rect: None,
             material: material.unwrap(),
+            texture: None,
         };
         if c.validate().is_ok() && c.distance_to_segment() > 0.2 {
             out.push(c);

@@ -135,6 +135,7 @@ fn config(rng: &mut ChaCha8Rng, i: usize) -> Config {
             radius: None,
             rect: None,
             material: material(rng, i),
+            texture: None,
         };
         if c.validate().is_ok() && c.distance_to_segment() > 0.05 {
             return c;
@@ -419,6 +420,7 @@ fn surface_config(rng: &mut ChaCha8Rng, i: usize) -> Config {
             radius: None,
             rect: None,
             material,
+            texture: None,
         };
         let dist = c.distance_to_segment();
         let (e1, e2) = basis(t);
@@ -585,6 +587,7 @@ fn straddling_config(rng: &mut ChaCha8Rng, i: usize) -> Config {
                 width: 2.0 * radius,
             }),
             material,
+            texture: None,
         };
         c.orthonormalize_rect();
         if c.validate().is_ok() && c.distance_to_segment() > 2.0 * radius + 0.05 {

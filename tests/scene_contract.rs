@@ -69,6 +69,7 @@ fn configs() -> Vec<Config> {
                     width: 0.02,
                 }),
                 material: material.clone(),
+                texture: None,
             };
             if c.rect.is_some() {
                 c.orthonormalize_rect().unwrap();
@@ -187,6 +188,7 @@ fn configs_with_fresnel() -> Vec<Config> {
             radius: Some(0.01),
             rect: None,
             material: Material::ggx_fresnel(alpha, view, Some(f0), None).unwrap(),
+            texture: None,
         };
         c.validate().unwrap();
         out.push(c);

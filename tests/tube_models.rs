@@ -27,6 +27,7 @@ fn config(name: &str, angle: f64, elevation: f64, material: Material, radius: f6
         radius: Some(radius),
         rect: None,
         material,
+        texture: None,
     }
 }
 

@@ -192,6 +192,7 @@ mod tests {
                 radius: None,
                 rect: None,
                 material: Material::Diffuse,
+                texture: None,
             },
             gpu,
             references: [(Target::Line, 1.0)].into_iter().collect(),

@@ -90,12 +90,12 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
     // nothing in place of what was there.
     let done = write_output(&output, &mut |w| {
         let mut chunk = |configs: Vec<crate::input::scene::Config>| -> anyhow::Result<()> {
-            let scenes: Vec<_> = configs.iter().map(crate::input::scene::GpuScene::from).collect();
+            let (scenes, texels) = crate::input::scene::gpu_scenes(&configs);
             let mut f32s = Vec::new();
             for p in &pipelines {
-                f32s.push(device.run(p, &scenes, gpu.chunk, &mut |_| {})?.values);
+                f32s.push(device.run_textured(p, &scenes, &texels, gpu.chunk, &mut |_| {})?.values);
             }
-            drop(scenes);
+            drop((scenes, texels));
             let references: Vec<_> = configs
                 .par_iter()
                 .map(|c| {

@@ -10,3 +10,4 @@ pub mod render_scene;
 pub mod sampler;
 pub mod scene;
 pub mod target;
+pub mod texture;

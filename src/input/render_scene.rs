@@ -417,6 +417,7 @@ impl RenderScene {
                     material: self
                         .material_at(x, s)
                         .map_err(|e| format!("pixel {x}_{y}: material: {e}"))?,
+                    texture: None,
                 };
                 config.orthonormalize_rect();
                 config

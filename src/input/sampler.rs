@@ -258,6 +258,7 @@ pub fn parameters_behind(d: &crate::input::scene::Degenerate) -> &'static str {
         D::InsideTube { .. } | D::BadRadius(_) => "radius",
         D::BadWidth(_) | D::PointOnRectangle => "rect_width or rect_angle",
         D::BadRectNormal { .. } => "rect_angle",
+        D::BadTexture(_) => "texture",
     }
 }
 
@@ -275,6 +276,7 @@ pub fn reason_of(d: &crate::input::scene::Degenerate) -> &'static str {
         D::BadRectNormal { .. } => "rect normal not perpendicular",
         D::PointOnRectangle => "shading point on the rectangle",
         D::SingularMinv(_) => "M⁻¹ singular",
+        D::BadTexture(_) => "texture malformed",
     }
 }
 
@@ -603,6 +605,7 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
             radius,
             rect,
             material: material_value,
+            texture: None,
         },
         material,
         units: Vec::new(),
@@ -845,6 +848,7 @@ min_per_bin = 30
             radius: None,
             rect: None,
             material: Material::Diffuse,
+            texture: None,
         };
         assert!(config(-1.0, -0.5).wholly_below());
         assert!(config(0.0, -0.5).wholly_below());
@@ -866,6 +870,7 @@ min_per_bin = 30
             radius: Some(0.3),
             rect: None,
             material: Material::Diffuse,
+            texture: None,
         };
         let high = tube(-0.2, [2.0, 0.0, -0.2]);
         assert!(high.wholly_below());

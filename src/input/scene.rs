@@ -5,6 +5,8 @@
 use crate::input::geometry::{mat, v3};
 use serde::{Deserialize, Serialize};
 
+pub use crate::input::texture::Texture;
+
 pub type Vec3 = [f64; 3];
 pub use crate::input::ltc::Mat3;
 
@@ -275,6 +277,9 @@ pub struct Config {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rect: Option<Rect>,
     pub material: Material,
+    /// Seed 002's light texture (src/input/texture.rs); None: a uniform emitter.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub texture: Option<Texture>,
 }
 
 /// Why a configuration cannot be evaluated.
@@ -302,6 +307,9 @@ pub enum Degenerate {
     PointOnRectangle,
     #[error("minv is singular or not finite (det = {0:.3e})")]
     SingularMinv(f64),
+    /// The message names the texture's field (`texture.texels`, `texture.origin`, ...).
+    #[error("{0}")]
+    BadTexture(String),
 }
 
 /// 2^60: lengths up to this (and down to its inverse) square without overflow or
@@ -354,6 +362,7 @@ impl Config {
                 width: r(rect.width),
             }),
             material,
+            texture: self.texture.as_ref().map(Texture::rounded_to_f32),
         }
     }
 
@@ -392,6 +401,12 @@ impl Config {
             normal: fed.rotate(r.normal),
             width: r.width,
         });
+        // A texture's origin is resolved in the configuration's own frame (its default is the
+        // basis of ω_t there) and rotated with the rest.
+        let texture = self.texture.as_ref().map(|t| Texture {
+            origin: Some(fed.rotate(t.origin_for(self.tangent()))),
+            ..t.clone()
+        });
         let c = Config {
             id: self.id.clone(),
             p1: fed.rotate(self.p1),
@@ -399,9 +414,15 @@ impl Config {
             radius: self.radius,
             rect,
             material: Material::Ltc { minv: fed.minv },
+            texture,
         };
         let magnitude = self.material.fed_magnitude().unwrap_or(fed.magnitude);
         (std::borrow::Cow::Owned(c), magnitude)
+    }
+
+    /// The unit tangent ω_t = (p2 − p1)/L.
+    pub fn tangent(&self) -> Vec3 {
+        (v3(self.p2) - v3(self.p1)).normalize().to_array()
     }
 
     /// Distance from the shading point (origin) to the closest point of the segment.
@@ -556,6 +577,14 @@ impl Config {
                 return Err(Degenerate::PointOnRectangle);
             }
         }
+        if let Some(t) = &self.texture {
+            if self.rect.is_some() {
+                return Err(Degenerate::BadTexture(
+                    "texture: a textured light is a line or a tube; this configuration also has a `rect`".into(),
+                ));
+            }
+            t.check(self.tangent()).map_err(Degenerate::BadTexture)?;
+        }
         Ok(())
     }
 }
@@ -615,6 +644,12 @@ impl SceneInput {
             flags |= FLAG_RECT;
         }
         let (rect_normal, rect_width) = c.rect.as_ref().map(|r| (r.normal, r.width)).unwrap_or(([0.0; 3], 0.0));
+        let (mut tex_origin, mut tex_kind, mut tex_size) = ([0.0; 3], 0, [0, 0]);
+        if let Some(t) = &c.texture {
+            tex_origin = t.origin_for(c.tangent());
+            tex_kind = t.kind.code();
+            tex_size = t.size;
+        }
         let (mut view, mut tangent, mut alpha) = ([0.0; 3], [0.0; 3], [0.0; 2]);
         if let (Material::Ggx { alpha: a, view: v, .. }, Some(f)) = (&config.material, config.material.fed()) {
             flags |= FLAG_GGX;
@@ -634,12 +669,13 @@ impl SceneInput {
             alpha_x: alpha[0],
             tangent,
             alpha_y: alpha[1],
-            tex_origin: [0.0; 3],
+            tex_origin,
             f0: config.material.f0(),
-            tex_kind: 0,
+            tex_kind,
+            // Set by whoever lays the texels out (`texel_buffer`).
             tex_offset: 0,
-            tex_nu: 0,
-            tex_nv: 0,
+            tex_nu: tex_size[0],
+            tex_nv: tex_size[1],
             magnitude,
         }
     }
@@ -754,6 +790,25 @@ impl From<&SceneInput> for GpuScene {
     }
 }
 
+/// The GPU scenes of `configs` and the texel buffer their textures are laid out in, one after
+/// another in order, each scene's `tex_offset` its first texel (empty when none is textured).
+/// Texels are rounded to f32 as the kernel reads them.
+pub fn gpu_scenes(configs: &[Config]) -> (Vec<GpuScene>, Vec<f32>) {
+    let mut texels = Vec::new();
+    let scenes = configs
+        .iter()
+        .map(|c| {
+            let mut s = GpuScene::from(c);
+            if let Some(t) = &c.texture {
+                s.tex_offset = u32::try_from(texels.len()).unwrap_or(u32::MAX);
+                texels.extend(t.texels.iter().map(|&x| x as f32));
+            }
+            s
+        })
+        .collect();
+    (scenes, texels)
+}
+
 impl From<&Config> for GpuScene {
     fn from(c: &Config) -> Self {
         GpuScene::from(&SceneInput::new(c))
@@ -772,6 +827,7 @@ mod tests {
             radius: None,
             rect: None,
             material: Material::Diffuse,
+            texture: None,
         }
     }
 

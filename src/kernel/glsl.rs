@@ -25,6 +25,8 @@ const PRELUDE_NAMES: &[&str] = &[
     "buildOrthonormalBasis",
     "inverse3",
     "inverse3_",
+    "ll_texel_bilinear",
+    "ll_texel_cube",
     "I_line",
     "main",
     "main_1",

@@ -315,6 +315,7 @@ mod tests {
             radius: None,
             rect: None,
             material: Material::Diffuse,
+            texture: None,
         };
         assert!(m.supports(&c));
         // Sparse and full M⁻¹ alike are unsupported.

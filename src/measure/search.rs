@@ -97,10 +97,12 @@ fn evaluate(
     score: &(dyn Fn(&[f32], &Estimate) -> Option<f64> + Sync),
 ) -> anyhow::Result<Vec<Option<Point>>> {
     let target = methods[0].0.target();
-    let scenes: Vec<GpuScene> = candidates.iter().map(|s| GpuScene::from(&s.config)).collect();
+    let configs: Vec<_> = candidates.iter().map(|s| s.config.clone()).collect();
+    let (scenes, texels): (Vec<GpuScene>, _) = crate::input::scene::gpu_scenes(&configs);
+    drop(configs);
     let mut per_method = Vec::new();
     for (_, pipeline) in methods {
-        per_method.push(gpu.run(pipeline, &scenes, 0, &mut |_| {})?.values);
+        per_method.push(gpu.run_textured(pipeline, &scenes, &texels, 0, &mut |_| {})?.values);
     }
     Ok(candidates
         .into_par_iter()

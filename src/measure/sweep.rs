@@ -432,10 +432,10 @@ pub fn measure_chunks(
         }
         timing.chunks += 1;
         let configs: Vec<_> = samples.iter().map(|s| s.config.clone()).collect();
-        let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
+        let (scenes, texels): (Vec<GpuScene>, _) = crate::input::scene::gpu_scenes(&configs);
         let mut runs = Vec::new();
         for (j, (m, pipeline)) in methods.iter().zip(&pipelines).enumerate() {
-            let out = gpu.run(pipeline, &scenes, chunk, &mut |_| {})?;
+            let out = gpu.run_textured(pipeline, &scenes, &texels, chunk, &mut |_| {})?;
             gpu_seconds[j] += out.wall.as_secs_f64();
             // The kernel's f64 and cpu_f32 columns, from the CPU evaluator.
             let t = Instant::now();

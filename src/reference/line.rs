@@ -15,9 +15,11 @@
 
 use super::lobe::Lobe;
 use super::quadrature::{integrate, Quad};
+use super::tint::{self, LightAxis, Tint};
 use super::vec::{dot, length, sub};
 use super::{estimate, mul, reject, Estimate};
 use crate::input::scene::Vec3;
+use crate::input::texture::{Texture, TextureKind};
 use std::f64::consts::PI;
 
 /// `foot + s·dir`, `s ∈ [s0, s0 + len]`, with `foot ⟂ dir` and `dir` unit.
@@ -138,17 +140,27 @@ pub(crate) enum Emitter {
 
 /// `∫ D(ω(χ)) sin χ dχ` over the chord's directions, `= d²·∫ D(ω_p)/‖p‖³ ds`, with D
 /// replaced by `D·[ω.z > 0]` if `upper`. Zero when the chord passes through the origin.
-pub(crate) fn integrate_chord(lobe: &Lobe, chord: &Chord, upper: bool, rtol: f64, max_panels: usize) -> Quad {
-    integrate_chord_weighted(lobe, chord, upper, Emitter::Cylinder, rtol, max_panels)
+pub(crate) fn integrate_chord(
+    lobe: &Lobe,
+    chord: &Chord,
+    upper: bool,
+    tint: Option<&Tint>,
+    rtol: f64,
+    max_panels: usize,
+) -> Quad {
+    integrate_chord_weighted(lobe, chord, upper, Emitter::Cylinder, tint, rtol, max_panels)
 }
 
 /// [`integrate_chord`] with the weight of `emitter`: for `Isotropic`, `∫ D(ω(χ)) dχ`
-/// `= d·∫ D(ω_p)/‖p‖² ds`.
+/// `= d·∫ D(ω_p)/‖p‖² ds`. With a `tint` (a textured emitter, src/reference/tint.rs) the
+/// integrand is multiplied by it, the quadrature is also cut at its kinks, and its rounding
+/// (an absolute bound per value, times ∫|f|) is added to the error.
 pub(crate) fn integrate_chord_weighted(
     lobe: &Lobe,
     chord: &Chord,
     upper: bool,
     emitter: Emitter,
+    tint: Option<&Tint>,
     rtol: f64,
     max_panels: usize,
 ) -> Quad {
@@ -175,6 +187,24 @@ pub(crate) fn integrate_chord_weighted(
                 graded(centre, width, &mut cuts);
                 graded(centre + PI, width, &mut cuts);
             }
+            if let Some(t) = tint {
+                // Position s on this side: χ = atan2(d, side·s).
+                cuts.extend(
+                    t.s_cuts
+                        .iter()
+                        .filter(|&&s| s * h.side > 0.0)
+                        .map(|&s| d.atan2(s * h.side)),
+                );
+                for &(k, face) in &t.planes {
+                    for chi in trig_zeros(0.0, h.side * dot(k, dir), dot(k, n)) {
+                        let (s, c) = chi.sin_cos();
+                        let w = [0, 1, 2].map(|j| s * n[j] + c * h.side * dir[j]);
+                        if chi > 0.0 && t.keeps(face, w) {
+                            cuts.push(chi);
+                        }
+                    }
+                }
+            }
             cuts
         },
         |x| {
@@ -183,7 +213,7 @@ pub(crate) fn integrate_chord_weighted(
             s * sn + c * sd > 0.0 && above(s, c)
         },
     );
-    integrate(
+    let q = integrate(
         |x| {
             let (s, c) = x.abs().sin_cos();
             let c = c * x.signum();
@@ -191,12 +221,32 @@ pub(crate) fn integrate_chord_weighted(
                 Emitter::Cylinder => s,
                 Emitter::Isotropic => 1.0,
             };
-            Quad::exact(if above(s, c) { circle.eval(s, c) * weight } else { 0.0 })
+            let f = if above(s, c) { circle.eval(s, c) * weight } else { 0.0 };
+            match tint {
+                None => Quad::exact(f),
+                Some(_) if f == 0.0 => Quad::default(),
+                Some(t) => {
+                    let w = [0, 1, 2].map(|k| s * n[k] + c * dir[k]);
+                    // |f·T| ≤ |f|·bound: `abs` stays an upper bound, and ∫|f| = abs/bound.
+                    Quad {
+                        value: f * t.at(d * c / s, w),
+                        error: 0.0,
+                        abs: f.abs() * t.bound,
+                    }
+                }
+            }
         },
         &panels,
         rtol,
         max_panels,
-    )
+    );
+    match tint {
+        Some(t) if t.bound > 0.0 => Quad {
+            error: q.error + t.rounding * q.abs / t.bound,
+            ..q
+        },
+        _ => q,
+    }
 }
 
 const LINE_RTOL: f64 = 1e-13;
@@ -204,7 +254,23 @@ const LINE_MAX_PANELS: usize = 400;
 
 /// Targets `line` and `line_upper`: `∫₀ᴸ D(ω_p)·2‖ω_p × ω_t‖/‖p‖² dl`, where
 /// `‖ω_p × ω_t‖ = d/‖p‖`, so the integral is `(2/d)·integrate_chord`.
+#[cfg_attr(not(test), allow(dead_code))]
 pub(crate) fn line(lobe: &Lobe, p1: Vec3, p2: Vec3, upper: bool) -> Estimate {
+    line_textured(lobe, p1, p2, upper, None)
+}
+
+/// The light's axis for a tint: its tangent, p1·ω_t, length and the side facing the origin.
+fn light_axis(p1: Vec3, dir: Vec3, len: f64) -> LightAxis {
+    LightAxis {
+        dir,
+        s0: dot(p1, dir),
+        len,
+        facing: tint::facing(p1, dir),
+    }
+}
+
+/// [`line`] of a textured emitter: the thin-line limit of the textured tube (src/reference/tint.rs).
+pub(crate) fn line_textured(lobe: &Lobe, p1: Vec3, p2: Vec3, upper: bool, texture: Option<&Texture>) -> Estimate {
     let e = sub(p2, p1);
     let len = length(e);
     let dir = mul(e, 1.0 / len);
@@ -219,7 +285,8 @@ pub(crate) fn line(lobe: &Lobe, p1: Vec3, p2: Vec3, upper: bool) -> Estimate {
         // below foot_error and I ≤ 2·foot_error·D(ω_p)·∫ds/s³ ≤ foot_error·D(ω_p)/s_near².
         let near = if length(p1) < length(p2) { p1 } else { p2 };
         let r = length(near);
-        let bound = foot_error * lobe.eval(mul(near, 1.0 / r)) / (r * r);
+        let most = texture.map_or(1.0, |t| t.texels.iter().fold(0.0f64, |m, x| m.max(x.abs())));
+        let bound = most * foot_error * lobe.eval(mul(near, 1.0 / r)) / (r * r);
         return Estimate {
             value: 0.0,
             error: bound,
@@ -231,7 +298,12 @@ pub(crate) fn line(lobe: &Lobe, p1: Vec3, p2: Vec3, upper: bool) -> Estimate {
         s0: dot(p1, dir),
         len,
     };
-    let q = integrate_chord(lobe, &chord, upper, LINE_RTOL, LINE_MAX_PANELS).scale(2.0 / d);
+    let axis = light_axis(p1, dir, len);
+    let tint = texture.map(|t| match t.kind {
+        TextureKind::Cylindrical => tint::thin_line(t, &axis),
+        TextureKind::Cubemap => tint::cube(t, dir),
+    });
+    let q = integrate_chord(lobe, &chord, upper, tint.as_ref(), LINE_RTOL, LINE_MAX_PANELS).scale(2.0 / d);
     estimate(q, lobe, far, d)
 }
 
@@ -240,6 +312,12 @@ pub(crate) fn line(lobe: &Lobe, p1: Vec3, p2: Vec3, upper: bool) -> Estimate {
 /// `line` it does not vanish when the line runs through the origin: every ω_p is then the
 /// same and the integral is `D(ω_p)·(1/‖p_near‖ − 1/‖p_far‖)`.
 pub(crate) fn line_isotropic(lobe: &Lobe, p1: Vec3, p2: Vec3) -> Estimate {
+    line_isotropic_textured(lobe, p1, p2, None)
+}
+
+/// [`line_isotropic`] of a textured emitter: each point emits toward the origin with the
+/// texture's value in that direction (cylindrical: T(u, φ₀/2π); cubemap: C(−ω_p)).
+pub(crate) fn line_isotropic_textured(lobe: &Lobe, p1: Vec3, p2: Vec3, texture: Option<&Texture>) -> Estimate {
     let e = sub(p2, p1);
     let len = length(e);
     let dir = mul(e, 1.0 / len);
@@ -248,7 +326,7 @@ pub(crate) fn line_isotropic(lobe: &Lobe, p1: Vec3, p2: Vec3) -> Estimate {
     let (r1, r2) = (length(p1), length(p2));
     let far = r1.max(r2);
     // As in `line`: a d within the foot's rounding error may be 0.
-    if d <= 4.0 * f64::EPSILON * far {
+    if d <= 4.0 * f64::EPSILON * far && texture.is_none() {
         let near = if r1 < r2 { p1 } else { p2 };
         let value = lobe.eval(mul(near, 1.0 / r1.min(r2))) * len / (r1 * r2);
         // A foot rounded to 0 from a few ε·far moves ω_p by that much relative to the
@@ -265,8 +343,31 @@ pub(crate) fn line_isotropic(lobe: &Lobe, p1: Vec3, p2: Vec3) -> Estimate {
         s0: dot(p1, dir),
         len,
     };
-    let q =
-        integrate_chord_weighted(lobe, &chord, false, Emitter::Isotropic, LINE_RTOL, LINE_MAX_PANELS).scale(1.0 / d);
+    if d <= 4.0 * f64::EPSILON * far {
+        // Textured and through the origin: not modelled (the emission direction's angle
+        // around the axis is undefined there); an error as large as the untextured value.
+        let plain = line_isotropic(lobe, p1, p2);
+        let most = texture.map_or(1.0, |t| t.texels.iter().fold(0.0f64, |m, x| m.max(x.abs())));
+        return Estimate {
+            value: 0.0,
+            error: most * (plain.value.abs() + plain.error),
+        };
+    }
+    let axis = light_axis(p1, dir, len);
+    let tint = texture.map(|t| match t.kind {
+        TextureKind::Cylindrical => tint::isotropic(t, &axis),
+        TextureKind::Cubemap => tint::cube(t, dir),
+    });
+    let q = integrate_chord_weighted(
+        lobe,
+        &chord,
+        false,
+        Emitter::Isotropic,
+        tint.as_ref(),
+        LINE_RTOL,
+        LINE_MAX_PANELS,
+    )
+    .scale(1.0 / d);
     estimate(q, lobe, far, d)
 }
 

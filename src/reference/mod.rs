@@ -10,6 +10,7 @@ mod line;
 mod lobe;
 mod quadrature;
 mod surface;
+mod tint;
 mod vec;
 
 use crate::input::scene::{Config, Material, Vec3};
@@ -28,41 +29,45 @@ pub struct Estimate {
 /// The reference value of `target` for `config` (already validated), or None when the target
 /// needs data the config lacks (`radius` for cylinder, caps and tube; `rect` for rectangle;
 /// and the same for their `_upper` variants).
+/// A textured configuration (`texture`, src/input/texture.rs) integrates the tinted emitter;
+/// a rectangle is never textured (`Config::validate` refuses one with a texture).
 pub fn reference(config: &Config, target: Target) -> Option<Estimate> {
     let lobe = Lobe::new(&config.material);
     let (p1, p2, radius) = (config.p1, config.p2, config.radius);
+    let tex = config.texture.as_ref();
     match target {
-        Target::Line => Some(line::line(&lobe, p1, p2, false)),
-        Target::LineUpper => Some(line::line(&lobe, p1, p2, true)),
-        Target::LineIsotropic => Some(line::line_isotropic(&lobe, p1, p2)),
+        Target::Line => Some(line::line_textured(&lobe, p1, p2, false, tex)),
+        Target::LineUpper => Some(line::line_textured(&lobe, p1, p2, true, tex)),
+        Target::LineIsotropic => Some(line::line_isotropic_textured(&lobe, p1, p2, tex)),
         // The material's lobe and the Lambertian base integrated apart (each with its own
         // splits and peaks), the values and error estimates summed.
         Target::LineSum => Some(sum(
-            line::line(&lobe, p1, p2, false),
-            line::line(&Lobe::new(&Material::Diffuse), p1, p2, false),
+            line::line_textured(&lobe, p1, p2, false, tex),
+            line::line_textured(&Lobe::new(&Material::Diffuse), p1, p2, false, tex),
         )),
         Target::LineIsotropicSum => Some(sum(
-            line::line_isotropic(&lobe, p1, p2),
-            line::line_isotropic(&Lobe::new(&Material::Diffuse), p1, p2),
+            line::line_isotropic_textured(&lobe, p1, p2, tex),
+            line::line_isotropic_textured(&Lobe::new(&Material::Diffuse), p1, p2, tex),
         )),
         Target::Cylinder | Target::CylinderUpper => {
-            radius.map(|r| surface::cylinder(&lobe, p1, p2, r, target == Target::CylinderUpper))
+            radius.map(|r| surface::cylinder(&lobe, p1, p2, r, target == Target::CylinderUpper, tex))
         }
         Target::Caps | Target::CapsUpper => {
-            radius.map(|r| surface::caps(&lobe, p1, p2, r, target == Target::CapsUpper))
+            radius.map(|r| surface::caps(&lobe, p1, p2, r, target == Target::CapsUpper, tex))
         }
         Target::Tube | Target::TubeUpper => {
             let upper = target == Target::TubeUpper;
             radius.map(|r| {
                 sum(
-                    surface::cylinder(&lobe, p1, p2, r, upper),
-                    surface::caps(&lobe, p1, p2, r, upper),
+                    surface::cylinder(&lobe, p1, p2, r, upper, tex),
+                    surface::caps(&lobe, p1, p2, r, upper, tex),
                 )
             })
         }
         Target::Rectangle | Target::RectangleUpper => config
             .rect
             .as_ref()
+            .filter(|_| tex.is_none())
             .map(|rect| surface::rectangle(&lobe, p1, p2, rect, target == Target::RectangleUpper)),
     }
 }

@@ -10,9 +10,11 @@
 use super::line::{graded, halves, integrate_chord, split, split_halves, trig_zeros, Chord};
 use super::lobe::Lobe;
 use super::quadrature::{integrate, Quad};
+use super::tint::{self, LightAxis, Tint};
 use super::vec::{cross, dot, length, sub};
 use super::{estimate, mul, reject, Estimate};
 use crate::input::scene::{Rect, Vec3};
+use crate::input::texture::{Texture, TextureKind};
 use std::f64::consts::FRAC_PI_2;
 
 /// The inner integrals are 100× tighter so that their noise stays below the outer error.
@@ -67,7 +69,14 @@ impl Axis {
 /// `ω_n(δ) = −cos δ·x + sin δ·y`, the side faces the origin where
 /// `−p·ω_n = d cos δ − R > 0`, i.e. |δ| < acos(R/d), for every l. Along each generator
 /// line (fixed δ), `∫ D max(0, −ω_p·ω_n)/‖p‖² R dl = R(d cos δ − R)·∫ D/‖p‖³ dl`.
-pub(crate) fn cylinder(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64, upper: bool) -> Estimate {
+pub(crate) fn cylinder(
+    lobe: &Lobe,
+    p1: Vec3,
+    p2: Vec3,
+    radius: f64,
+    upper: bool,
+    texture: Option<&Texture>,
+) -> Estimate {
     let axis = Axis::new(p1, p2);
     let d = length(axis.foot);
     let gap = d - radius;
@@ -112,6 +121,25 @@ pub(crate) fn cylinder(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64, upper: bool
             graded(py.atan2(d - px), d * w / radius, &mut cuts);
         }
     }
+    // A cylindrical texture kinks in δ where a generator passes a texel centre around the
+    // axis: its angle φ_j seen as δ = atan2(ω·y, −ω·x).
+    if let Some(t) = texture.filter(|t| t.kind == TextureKind::Cylindrical) {
+        let o = t.origin_for(axis.dir);
+        let b = cross(axis.dir, o);
+        for phi in tint::v_centres(t) {
+            let w = [0, 1, 2].map(|k| phi.cos() * o[k] + phi.sin() * b[k]);
+            cuts.push(dot(w, y).atan2(-dot(w, x)));
+        }
+    }
+    let light = LightAxis {
+        dir: axis.dir,
+        s0: axis.s0,
+        len: axis.len,
+        facing: mul(x, -1.0),
+    };
+    let cube = texture
+        .filter(|t| t.kind == TextureKind::Cubemap)
+        .map(|t| tint::cube(t, axis.dir));
     let panels = split(-beta, beta, cuts);
     let q = integrate(
         |delta| {
@@ -127,7 +155,12 @@ pub(crate) fn cylinder(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64, upper: bool
                 s0: axis.s0,
                 len: axis.len,
             };
-            let inner = integrate_chord(lobe, &chord, upper, INNER_RTOL, INNER_MAX_PANELS);
+            let side = texture.filter(|t| t.kind == TextureKind::Cylindrical).map(|t| {
+                let (s, c) = delta.sin_cos();
+                tint::generator(t, &light, [0, 1, 2].map(|k| -c * x[k] + s * y[k]))
+            });
+            let tint = side.as_ref().or(cube.as_ref());
+            let inner = integrate_chord(lobe, &chord, upper, tint, INNER_RTOL, INNER_MAX_PANELS);
             inner.scale(radius * facing / dot(foot, foot))
         },
         &panels,
@@ -139,13 +172,17 @@ pub(crate) fn cylinder(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64, upper: bool
 
 /// Eq. 1.29 for both end disks, one-sided as in Listing 1.8: the disk at p1 (outward normal
 /// −ω_t) weighs `max(0, ω_p·ω_t)`, the one at p2 `max(0, −ω_p·ω_t)`.
-pub(crate) fn caps(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64, upper: bool) -> Estimate {
+pub(crate) fn caps(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64, upper: bool, texture: Option<&Texture>) -> Estimate {
     let axis = Axis::new(p1, p2);
+    // A cylindrical texture leaves the caps untextured; a cubemap tints them.
+    let cube = texture
+        .filter(|t| t.kind == TextureKind::Cubemap)
+        .map(|t| tint::cube(t, axis.dir));
     let mut q = Quad::default();
     let mut near = f64::INFINITY;
     for (height, centre) in [(axis.s0, p1), (-(axis.s0 + axis.len), p2)] {
         if height > 0.0 {
-            q += disk(lobe, &axis, centre, height, radius, upper);
+            q += disk(lobe, &axis, centre, height, radius, upper, cube.as_ref());
             near = near.min(height);
         }
     }
@@ -157,7 +194,7 @@ pub(crate) fn caps(lobe: &Lobe, p1: Vec3, p2: Vec3, radius: f64, upper: bool) ->
 /// origin's foot on the plane as 0 and the centre at X = d along x, the chord at
 /// `X = d + R sin t` spans `Y ∈ [−R cos t, R cos t]`, so `dA = R cos t dt dY` has no square
 /// root at the rim, and each chord is an `integrate_chord` at distance sqrt(h² + X²).
-fn disk(lobe: &Lobe, axis: &Axis, centre: Vec3, height: f64, radius: f64, upper: bool) -> Quad {
+fn disk(lobe: &Lobe, axis: &Axis, centre: Vec3, height: f64, radius: f64, upper: bool, tint: Option<&Tint>) -> Quad {
     let (x, y) = axis.frame();
     let d = length(axis.foot);
     let plane_foot = mul(axis.dir, dot(centre, axis.dir));
@@ -199,7 +236,7 @@ fn disk(lobe: &Lobe, axis: &Axis, centre: Vec3, height: f64, radius: f64, upper:
                 s0: -radius * cos,
                 len: 2.0 * radius * cos,
             };
-            let inner = integrate_chord(lobe, &chord, upper, INNER_RTOL, INNER_MAX_PANELS);
+            let inner = integrate_chord(lobe, &chord, upper, tint, INNER_RTOL, INNER_MAX_PANELS);
             inner.scale(radius * cos * height / (height * height + xx * xx))
         },
         &panels,
@@ -271,7 +308,7 @@ pub(crate) fn rectangle(lobe: &Lobe, p1: Vec3, p2: Vec3, rect: &Rect, upper: boo
                 s0: y0,
                 len: rect.width,
             };
-            integrate_chord(lobe, &chord, upper, INNER_RTOL, INNER_MAX_PANELS)
+            integrate_chord(lobe, &chord, upper, None, INNER_RTOL, INNER_MAX_PANELS)
         },
         &panels,
         OUTER_RTOL,
@@ -316,7 +353,7 @@ mod tests {
             assert!(i_line > 0.0);
             let mut last = f64::INFINITY;
             for r in [1e-2, 1e-3, 1e-4] {
-                let est = cylinder(&lobe, p1, p2, r, false);
+                let est = cylinder(&lobe, p1, p2, r, false, None);
                 let gap = rel(est.value / r, i_line);
                 assert!(gap < last, "{material:?} R={r}: {gap:e}");
                 assert!(est.error <= 1e-9 * est.value, "{est:?}");
@@ -332,7 +369,7 @@ mod tests {
         // spans |φ| < asin(R/h) in the cross-section, so by the 2D crossed-strings form factor
         // E = (sin φ₂ − sin φ₁)/2 = R/h. Ends at ±10⁴h change that by O((h/L)³).
         for r in [0.1, 0.5, 0.9] {
-            let est = cylinder(&diffuse(), [-1e4, 0.0, 1.0], [1e4, 0.0, 1.0], r, false);
+            let est = cylinder(&diffuse(), [-1e4, 0.0, 1.0], [1e4, 0.0, 1.0], r, false, None);
             assert!(rel(est.value, r) < 1e-10, "R={r}: {est:?}");
             assert!(est.error < 1e-9 * r, "R={r}: {est:?}");
         }
@@ -355,7 +392,7 @@ mod tests {
             let limit = point(p1, 1.0) + point(p2, -1.0);
             assert!(limit > 0.0);
             let r = 1e-3;
-            let est = caps(&lobe, p1, p2, r, false);
+            let est = caps(&lobe, p1, p2, r, false, None);
             assert!(rel(est.value / (PI * r * r), limit) < 1e-4, "{est:?} {limit}");
         }
     }
@@ -365,14 +402,14 @@ mod tests {
         // E = (1/π)∫ cos θ dω over a cone of half-angle θm = sin²θm = R²/(h² + R²).
         for (h, r) in [(1.0, 1.0), (2.0, 0.01), (0.01, 3.0), (1.0, 1e-4)] {
             let exact = r * r / (h * h + r * r);
-            let est = caps(&diffuse(), [0.0, 0.0, h], [0.0, 0.0, h + 1.0], r, false);
+            let est = caps(&diffuse(), [0.0, 0.0, h], [0.0, 0.0, h + 1.0], r, false, None);
             assert!(rel(est.value, exact) < 1e-10, "h={h} R={r}: {est:?} vs {exact}");
             assert!((est.value - exact).abs() <= est.error, "{est:?} vs {exact}");
         }
         // Off axis but with the foot inside the disk, and seen from beside the tube.
-        let est = caps(&diffuse(), [0.3, 0.0, 0.5], [0.3, 0.0, 1.5], 1.0, false);
+        let est = caps(&diffuse(), [0.3, 0.0, 0.5], [0.3, 0.0, 1.5], 1.0, false, None);
         assert!(est.value > 0.0 && est.value < 1.0);
-        let side = cylinder(&diffuse(), [0.3, 0.0, 0.5], [0.3, 0.0, 1.5], 1.0, false);
+        let side = cylinder(&diffuse(), [0.3, 0.0, 0.5], [0.3, 0.0, 1.5], 1.0, false, None);
         assert_eq!(side.value, 0.0);
     }
 
@@ -413,8 +450,8 @@ mod tests {
             let (a, b) = (mul(p1, s), mul(p2, s));
             let rect = Rect { normal, width: 0.2 * s };
             [
-                cylinder(&lobe, a, b, 0.1 * s, false).value,
-                caps(&lobe, a, b, 0.1 * s, false).value,
+                cylinder(&lobe, a, b, 0.1 * s, false, None).value,
+                caps(&lobe, a, b, 0.1 * s, false, None).value,
                 rectangle(&lobe, a, b, &rect, false).value,
             ]
         };

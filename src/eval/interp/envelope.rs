@@ -113,7 +113,8 @@ pub(super) struct Walk<'p> {
 }
 
 impl<'p> Walk<'p> {
-    pub(super) fn run(p: &'p Program, scene: V, strict: Option<usize>) -> Outcome {
+    /// `texels`: the configuration's texture (one 0 untextured), read through `ll_texels`.
+    pub(super) fn run(p: &'p Program, scene: V, texels: V, strict: Option<usize>) -> Outcome {
         let mut w = Walk {
             p,
             heap: Vec::new(),
@@ -123,16 +124,22 @@ impl<'p> Walk<'p> {
             strict: strict.map_or(NO_LINE, |s| s as u32),
             loose: vec![false; p.lines.len()],
         };
-        let value = w.start(scene);
+        let value = w.start(scene, texels);
         Outcome {
             value,
             loose: (0..w.loose.len()).filter(|&i| w.loose[i]).collect(),
         }
     }
 
-    fn start(&mut self, scene: V) -> R<Iv> {
+    fn start(&mut self, scene: V, texels: V) -> R<Iv> {
         let p = self.p;
+        let mut texels = Some(texels);
         for (h, g) in p.module.global_variables.iter() {
+            if g.name.as_deref() == Some("ll_texels") {
+                self.globals[h.index()] = Some(self.heap.len());
+                self.heap.push(texels.take().unwrap_or_default());
+                continue;
+            }
             if g.space != naga::AddressSpace::Private {
                 continue;
             }
@@ -725,6 +732,11 @@ impl<'p> Walk<'p> {
                 match fr.vals[base.index()].as_ref() {
                     Some(Slot::Ptr(ptr)) => {
                         let (count, stride) = p.elements(&p.pointee(bty));
+                        let count = if count == 0 {
+                            (self.heap[ptr.slot].len() / stride.max(1)).max(1)
+                        } else {
+                            count
+                        };
                         let offs = range(count)
                             .flat_map(|k| ptr.offs.iter().map(move |o| o + k * stride))
                             .collect();

@@ -264,9 +264,16 @@ impl<'p> Exec<'p> {
     }
 
     /// Runs `method` on `scene` (one value per lane) and returns its result.
-    pub(super) fn run(&mut self, scene: Val) -> Result<Vec<f64>> {
+    /// `texels`: each lane's texture (`Program::texel_lanes`), read through `ll_texels`.
+    pub(super) fn run(&mut self, scene: Val, texels: Val) -> Result<Vec<f64>> {
         let p = self.p;
+        let mut texels = Some(texels);
         for (h, g) in p.module.global_variables.iter() {
+            if g.name.as_deref() == Some("ll_texels") {
+                self.globals[h.index()] = Some(self.heap.len());
+                self.heap.push(texels.take().unwrap_or_else(|| Val(Vec::new())));
+                continue;
+            }
             if g.space != naga::AddressSpace::Private {
                 continue;
             }
@@ -657,6 +664,11 @@ impl<'p> Exec<'p> {
                     Some(Slot::Ptr(ptr)) => {
                         let inner = p.pointee(bty);
                         let (count, stride) = p.elements(&inner);
+                        let count = if count == 0 {
+                            (self.heap[ptr.slot].0.len() / stride.max(1)).max(1)
+                        } else {
+                            count
+                        };
                         let off = (0..self.n)
                             .map(|i| {
                                 let k = (idx[i].max(0.0) as usize).min(count - 1);

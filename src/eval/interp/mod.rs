@@ -478,6 +478,7 @@ impl Program {
             radius: None,
             rect: None,
             material: crate::input::scene::Material::Diffuse,
+            texture: None,
         });
         for (name, _, len) in &scene {
             if dummy.member(name).map(|v| v.len()) != Some(*len) {
@@ -540,9 +541,41 @@ impl Program {
                 size: naga::ArraySize::Constant(n),
                 ..
             } => (n.get() as usize, self.flat[base.index()]),
+            // A runtime-sized array (the harness's `ll_texels`): its length is the value's own;
+            // 0 tells the caller to read it there.
+            TypeInner::Array {
+                base,
+                size: naga::ArraySize::Dynamic,
+                ..
+            } => (0, self.flat[base.index()]),
             TypeInner::Pointer { .. } | TypeInner::ValuePointer { .. } => self.elements(&self.pointee(inner)),
             _ => (1, 1),
         }
+    }
+
+    /// The texels of each lane's texture (issue 25): component k of lane i is texel k of lane
+    /// i's configuration (f32 lanes read them rounded), padded with 0 to the longest; each
+    /// lane's texels start at 0, so its scene's `tex_offset` is 0 (`SceneInput::new`).
+    fn texel_lanes(&self, configs: &[&Config], n: usize, split: usize, shadow_f32: bool) -> exec::Val {
+        let len = configs
+            .iter()
+            .filter_map(|c| c.texture.as_ref().map(|t| t.texels.len()))
+            .max()
+            .unwrap_or(0)
+            .max(1);
+        let mut comps = vec![vec![0.0; n]; len];
+        let half = if shadow_f32 { split } else { n };
+        for (i, c) in configs.iter().enumerate() {
+            let Some(t) = &c.texture else { continue };
+            for (k, &x) in t.texels.iter().enumerate() {
+                for lane in [i, i + half] {
+                    if lane < n {
+                        comps[k][lane] = if lane < split || shadow_f32 { x as f32 as f64 } else { x };
+                    }
+                }
+            }
+        }
+        exec::Val(comps.into_iter().map(Into::into).collect())
     }
 
     fn scene_lanes(&self, configs: &[&Config], n: usize, split: usize, shadow_f32: bool) -> exec::Val {
@@ -571,7 +604,10 @@ impl Program {
         let n = configs.len();
         let split = if mode == Mode::F32 { n } else { 0 };
         let mut ex = exec::Exec::new(self, n, split, false);
-        ex.run(self.scene_lanes(configs, n, split, false))
+        ex.run(
+            self.scene_lanes(configs, n, split, false),
+            self.texel_lanes(configs, n, split, false),
+        )
     }
 
     /// The compiled kernel in `mode` (compiled on first use), or why there is none.
@@ -656,7 +692,12 @@ impl Program {
                 scene[off + k] = crate::eval::envelope::interval::Iv::point(x as f32 as f64);
             }
         }
-        envelope::Walk::run(self, scene, strict)
+        let texels = config.texture.as_ref().map_or(vec![0.0], |t| t.texels.clone());
+        let texels = texels
+            .into_iter()
+            .map(|x| crate::eval::envelope::interval::Iv::point(x as f32 as f64))
+            .collect();
+        envelope::Walk::run(self, scene, texels, strict)
     }
 
     /// The f32 values with each source line's local error (module doc).
@@ -666,7 +707,7 @@ impl Program {
             .map(|c| {
                 let k = c.len();
                 let mut ex = exec::Exec::new(self, 2 * k, k, true);
-                let mut v = ex.run(self.scene_lanes(c, 2 * k, k, true))?;
+                let mut v = ex.run(self.scene_lanes(c, 2 * k, k, true), self.texel_lanes(c, 2 * k, k, true))?;
                 v.truncate(k);
                 let mut per = vec![Vec::new(); k];
                 for (line, e) in ex.errors.iter().enumerate() {

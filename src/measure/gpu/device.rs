@@ -204,6 +204,8 @@ fn layouts(device: &wgpu::Device) -> (wgpu::BindGroupLayout, wgpu::PipelineLayou
                 },
                 count: None,
             },
+            // The light textures' texels (issue 25).
+            storage(3, true),
         ],
     });
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

@@ -54,6 +54,7 @@ impl Gpu {
             radius: None,
             rect: None,
             material: Material::Diffuse,
+            texture: None,
         };
         let mut scene = GpuScene::from(&config);
         scene.radius = PROBE_TRIPS as f32;
@@ -172,6 +173,7 @@ mod tests {
             radius: None,
             rect: None,
             material: Material::Diffuse,
+            texture: None,
         };
         let mut scene = GpuScene::from(&config);
         scene.radius = 100.0;

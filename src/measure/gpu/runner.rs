@@ -114,6 +114,20 @@ impl Gpu {
         chunk: usize,
         progress: &mut dyn FnMut(usize),
     ) -> Result<RunOutput, GpuError> {
+        self.run_textured(pipeline, scenes, &[], chunk, progress)
+    }
+
+    /// [`Gpu::run`] with the texel buffer of textured scenes (issue 25): `texels` as
+    /// `crate::input::scene::gpu_scenes` lays them out, bound whole for every chunk (each
+    /// scene's `tex_offset` indexes it); empty when no scene is textured.
+    pub fn run_textured(
+        &self,
+        pipeline: &MethodPipeline,
+        scenes: &[GpuScene],
+        texels: &[f32],
+        chunk: usize,
+        progress: &mut dyn FnMut(usize),
+    ) -> Result<RunOutput, GpuError> {
         let start = Instant::now();
         if scenes.is_empty() {
             return Ok(RunOutput {
@@ -128,7 +142,18 @@ impl Gpu {
         let chunk = if chunk == 0 { DEFAULT_CHUNK } else { chunk }
             .min(self.max_chunk())
             .min(scenes.len());
-        let buffers = scoped(&self.device, || ChunkBuffers::new(self, chunk)).map_err(|e| fail(e.to_string()))?;
+        let limits = self.device.limits();
+        let texel_bytes = (texels.len().max(1) * 4) as u64;
+        if texel_bytes > limits.max_storage_buffer_binding_size.min(limits.max_buffer_size) {
+            return Err(fail(format!(
+                "the textures' {} texels ({texel_bytes} bytes) do not fit one storage binding on this device \
+                 ({} bytes): evaluate fewer or smaller textures at once",
+                texels.len(),
+                limits.max_storage_buffer_binding_size
+            )));
+        }
+        let buffers =
+            scoped(&self.device, || ChunkBuffers::new(self, chunk, texels)).map_err(|e| fail(e.to_string()))?;
 
         let mut values = Vec::with_capacity(scenes.len());
         for part in scenes.chunks(chunk) {
@@ -252,11 +277,13 @@ struct ChunkBuffers {
     results: wgpu::Buffer,
     readback: wgpu::Buffer,
     count: wgpu::Buffer,
+    /// Kept alive with the bind group.
+    _texels: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
 }
 
 impl ChunkBuffers {
-    fn new(gpu: &Gpu, chunk: usize) -> ChunkBuffers {
+    fn new(gpu: &Gpu, chunk: usize, texels: &[f32]) -> ChunkBuffers {
         let buffer = |label, size, usage| {
             gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -271,6 +298,7 @@ impl ChunkBuffers {
         let results = buffer("ll_results", chunk * RESULT_BYTES, U::STORAGE | U::COPY_SRC);
         let readback = buffer("ll_readback", chunk * RESULT_BYTES, U::MAP_READ | U::COPY_DST);
         let count = buffer("ll_count", std::mem::size_of::<u32>() as u64, U::UNIFORM | U::COPY_DST);
+        let texel_buffer = texel_buffer(gpu, texels);
         let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("linelight chunk"),
             layout: &gpu.bind_group_layout,
@@ -287,6 +315,10 @@ impl ChunkBuffers {
                     binding: 2,
                     resource: count.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: texel_buffer.as_entire_binding(),
+                },
             ],
         });
         ChunkBuffers {
@@ -294,9 +326,24 @@ impl ChunkBuffers {
             results,
             readback,
             count,
+            _texels: texel_buffer,
             bind_group,
         }
     }
+}
+
+/// The texel buffer (binding 3, `ll_texels`): `texels`, or one 0 when there are none (a
+/// binding cannot be empty).
+pub(crate) fn texel_buffer(gpu: &Gpu, texels: &[f32]) -> wgpu::Buffer {
+    let data: &[f32] = if texels.is_empty() { &[0.0] } else { texels };
+    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("ll_texels"),
+        size: std::mem::size_of_val(data) as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    gpu.queue.write_buffer(&buffer, 0, bytemuck::cast_slice(data));
+    buffer
 }
 
 /// `values` for `kernel`'s header params, in order; params not given keep their defaults.

@@ -64,7 +64,7 @@ struct Chunk {
     count: u32,
     bind_group: wgpu::BindGroup,
     // Kept alive with their bind group, for clarity (wgpu would keep them anyway).
-    _buffers: [wgpu::Buffer; 3],
+    _buffers: [wgpu::Buffer; 4],
 }
 
 /// The query set and the buffers the two timestamps go through on their way back.
@@ -201,6 +201,8 @@ impl Gpu {
             std::mem::size_of::<u32>() as u64,
             U::UNIFORM | U::COPY_DST,
         );
+        // Timing runs untextured scenes: the texel binding holds one 0.
+        let texels = super::runner::texel_buffer(self, &[]);
         self.queue.write_buffer(&scene_buffer, 0, bytemuck::cast_slice(scenes));
         self.queue.write_buffer(&count_buffer, 0, bytemuck::bytes_of(&count));
         let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -219,12 +221,16 @@ impl Gpu {
                     binding: 2,
                     resource: count_buffer.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: texels.as_entire_binding(),
+                },
             ],
         });
         Chunk {
             count,
             bind_group,
-            _buffers: [scene_buffer, results, count_buffer],
+            _buffers: [scene_buffer, results, count_buffer, texels],
         }
     }
 

@@ -385,6 +385,7 @@ pub fn scan(
                 } else {
                     Material::Ltc { minv: c.rows.map(v) }
                 },
+                texture: None,
             }
         })
         .collect();
