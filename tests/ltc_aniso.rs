@@ -13,7 +13,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 /// What the committed fit output holds: the 8⁴ table when it is complete, otherwise the
 /// checkpoint of its unfinished run (`data/ltc_ggx_aniso.checkpoint.csv`, committed beside the
 /// earlier 8×5×5×4 table that the feeds read until the run is finished and the table committed).
-fn committed_fits() -> Vec<([usize; 4], aniso::Entry)> {
+fn committed_fits() -> Vec<aniso::Fitted> {
     let t = aniso::ours();
     if t.size == aniso::SIZE {
         return aniso::chains(t.size)

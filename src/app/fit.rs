@@ -159,7 +159,7 @@ pub fn aniso(out: &Path, size: [usize; 4], checkpoint: &Path, every: usize) -> a
     pb.inc(done.len() as u64);
     let start = std::time::Instant::now();
     let state = std::sync::Mutex::new((done.clone(), 0usize));
-    let save = |entries: &[([usize; 4], aniso::Entry)]| -> anyhow::Result<()> {
+    let save = |entries: &[aniso::Fitted]| -> anyhow::Result<()> {
         let mut sorted = entries.to_vec();
         sorted.sort_by_key(|(i, _)| aniso::index(size, *i));
         let c = aniso::Checkpoint {

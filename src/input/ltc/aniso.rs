@@ -83,6 +83,9 @@ pub struct Entry {
     pub origin: Origin,
 }
 
+/// A fitted entry with its index (iθ, iφ, iα, ir): what chains and checkpoints hold.
+pub type Fitted = ([usize; 4], Entry);
+
 #[derive(Clone, Debug)]
 pub struct AnisoTable {
     pub size: [usize; 4],
@@ -292,7 +295,7 @@ pub fn chains(size: [usize; 4]) -> Vec<[usize; 3]> {
 
 /// Fits one chain (see [`chains`]): the entries (iθ, iφ, iα, ir) for iα from the top down,
 /// returned in that order with their indices.
-pub fn fit_chain(size: [usize; 4], chain: [usize; 3]) -> Vec<([usize; 4], Entry)> {
+pub fn fit_chain(size: [usize; 4], chain: [usize; 3]) -> Vec<Fitted> {
     let [a, b, d] = chain;
     let mut warm = None;
     let mut out = Vec::with_capacity(size[2]);
@@ -308,11 +311,7 @@ pub fn fit_chain(size: [usize; 4], chain: [usize; 3]) -> Vec<([usize; 4], Entry)
 /// Fits the whole table: the chains not in `done` in parallel (`on_chain` is told of each as
 /// it finishes, for checkpoints and progress), then the copies. `done` holds whole chains of
 /// an earlier run (a checkpoint) and is trusted as fitted by this code.
-pub fn fit_table(
-    size: [usize; 4],
-    done: &[([usize; 4], Entry)],
-    on_chain: &(dyn Fn(&[([usize; 4], Entry)]) + Sync),
-) -> AnisoTable {
+pub fn fit_table(size: [usize; 4], done: &[Fitted], on_chain: &(dyn Fn(&[Fitted]) + Sync)) -> AnisoTable {
     use rayon::prelude::*;
     let mut slots: Vec<Option<Entry>> = vec![None; size.iter().product()];
     for (i, e) in done {
@@ -322,7 +321,7 @@ pub fn fit_table(
         .into_iter()
         .filter(|&[a, b, d]| slots[index(size, [a, b, 0, d])].is_none())
         .collect();
-    let fitted: Vec<Vec<([usize; 4], Entry)>> = todo
+    let fitted: Vec<Vec<Fitted>> = todo
         .par_iter()
         .map(|&chain| {
             let entries = fit_chain(size, chain);
@@ -517,7 +516,7 @@ impl AnisoTable {
 }
 
 /// The rows of a table or checkpoint text (comments and the column line skipped).
-fn parse_rows(text: &str, source: &str) -> Result<Vec<([usize; 4], Entry)>, String> {
+fn parse_rows(text: &str, source: &str) -> Result<Vec<Fitted>, String> {
     let mut rows = Vec::new();
     for (n, line) in text.lines().enumerate() {
         let line = line.trim();
@@ -574,7 +573,7 @@ fn row(size: [usize; 4], i: [usize; 4], e: &Entry) -> String {
 pub struct Checkpoint {
     pub size: [usize; 4],
     pub seconds: f64,
-    pub entries: Vec<([usize; 4], Entry)>,
+    pub entries: Vec<Fitted>,
 }
 
 const CHECKPOINT_TAG: &str = "# linelight fit --aniso checkpoint v1";
