@@ -213,12 +213,7 @@ pub fn aniso(out: &Path, size: [usize; 4], checkpoint: &Path, every: usize) -> a
     });
     let run = write(out, table.to_csv(&header), record)?;
     if checkpoint.exists() {
-        std::fs::remove_file(checkpoint).map_err(|e| {
-            anyhow::anyhow!(
-                "{}: the finished run's checkpoint could not be removed: {e}",
-                checkpoint.display()
-            )
-        })?;
+        crate::io::remove(checkpoint, "the finished run's checkpoint")?;
     }
     eprintln!(
         "wrote {} and {}: {} entries ({fitted} fitted) in {seconds:.1} s on {threads} thread(s); relative L1 fit error median {median:.3e}, largest {worst:.3e}",
