@@ -533,6 +533,11 @@ pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     write_output(path, &mut |w| w.write_all(bytes))
 }
 
+/// Removes the file `path` (`what` names it in the message), e.g. a finished run's checkpoint.
+pub fn remove(path: &Path, what: &str) -> Result<(), OutputError> {
+    fs::remove_file(path).map_err(|e| fail(format!("{what} {} could not be removed: {e}", path.display())))
+}
+
 /// The file every report folder written before [`KIND_MARKER`] holds: a folder with neither
 /// is not replaced.
 pub const SET_MARKER: &str = "summary.json";

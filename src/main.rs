@@ -220,6 +220,14 @@ enum Command {
         /// Entries per axis of the anisotropic table: θ,φ,α_max,ratio.
         #[arg(long, value_delimiter = ',', default_values_t = linelight::input::ltc::aniso::SIZE)]
         aniso_size: Vec<usize>,
+        /// With --aniso: the checkpoint file (default: the table's path with
+        /// `.checkpoint.csv`); a run finding one resumes from it, a finished run removes it.
+        #[arg(long)]
+        checkpoint: Option<PathBuf>,
+        /// With --aniso: write the checkpoint every this many finished chains (one chain: the
+        /// α_max axis at one θ, φ, r).
+        #[arg(long, default_value_t = 4)]
+        checkpoint_every: usize,
     },
     /// The GGX error chain (fit, table, storage, formula, rounding, driver) of a case of ggx
     /// materials, beside the published table: writes OUT/chain.{md,csv,json}
@@ -422,13 +430,19 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             size,
             aniso,
             aniso_size,
+            checkpoint,
+            checkpoint_every,
         } => {
+            if !aniso && checkpoint.is_some() {
+                anyhow::bail!("--checkpoint is for --aniso fits (the isotropic table takes minutes, not hours)");
+            }
             if aniso {
                 let size: [usize; 4] = aniso_size
                     .try_into()
                     .map_err(|v: Vec<usize>| anyhow::anyhow!("--aniso-size takes 4 numbers, got {}", v.len()))?;
                 let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_aniso.csv"));
-                linelight::app::fit::aniso(&out, size)?;
+                let checkpoint = checkpoint.unwrap_or_else(|| linelight::app::fit::default_checkpoint(&out));
+                linelight::app::fit::aniso(&out, size, &checkpoint, checkpoint_every)?;
             } else {
                 let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_iso.csv"));
                 linelight::app::fit::iso(&out, size)?;

@@ -91,35 +91,107 @@ pub fn iso(out: &Path, size: usize) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `linelight fit --aniso`: the anisotropic table (seed 004).
-pub fn aniso(out: &Path, size: [usize; 4]) -> anyhow::Result<()> {
+/// Where `fit --aniso` keeps its checkpoint by default: beside the table.
+pub fn default_checkpoint(out: &Path) -> std::path::PathBuf {
+    out.with_extension("checkpoint.csv")
+}
+
+/// Reads the checkpoint at `path` if there is one (a run to resume); refuses one of another size.
+fn read_checkpoint(path: &Path, size: [usize; 4]) -> anyhow::Result<Option<aniso::Checkpoint>> {
+    if !path.exists() {
+        return Ok(None);
+    }
+    let bytes = crate::io::read_regular(path, "the checkpoint", crate::limits::MAX_TEXT_INPUT)?;
+    let text = String::from_utf8(bytes)
+        .map_err(|_| crate::io::InputError(format!("{}: the checkpoint is not UTF-8", path.display())))?;
+    let c = aniso::Checkpoint::parse(&text, &path.display().to_string()).map_err(crate::io::InputError)?;
+    if c.size != size {
+        return Err(crate::io::InputError(format!(
+            "{}: a checkpoint of a {:?} table, not of the {size:?} asked for (remove it or pass that --aniso-size)",
+            path.display(),
+            c.size
+        ))
+        .into());
+    }
+    Ok(Some(c))
+}
+
+/// `linelight fit --aniso`: the anisotropic table (seed 004), resumable: every `every` chains
+/// the finished chains go to `checkpoint` (written whole through io, so a killed run leaves
+/// the last one intact), a run finding a checkpoint resumes from it, and a finished run
+/// removes it. The table is the same bytes however often it was interrupted.
+pub fn aniso(out: &Path, size: [usize; 4], checkpoint: &Path, every: usize) -> anyhow::Result<()> {
     use aniso::{ALPHA_MIN, RATIO_MIN, THETA_MAX};
     if size.iter().any(|&n| n < 2) {
         anyhow::bail!("--aniso-size: every axis needs at least 2 entries, got {size:?}");
     }
+    if every == 0 {
+        anyhow::bail!("--checkpoint-every must be at least 1 chain");
+    }
     fit::check_table_size("--aniso-size", &size)?;
-    check_outputs(out)?;
+    let mut plan = OutputPlan::new();
+    plan.file("--out", out)
+        .file("the run record", &out.with_extension("run.json"))
+        .file("--checkpoint", checkpoint)
+        .check()?;
+    let resumed = read_checkpoint(checkpoint, size)?;
     let threads = rayon::current_num_threads();
     let fitted = aniso::fitted_count(size);
+    let (done, before) = resumed.map_or((Vec::new(), 0.0), |c| (c.entries, c.seconds));
     eprintln!(
-        "fitting a {}×{}×{}×{} anisotropic GGX LTC table (θ × φ × α_max × r; {fitted} fits, the rest by symmetry) on {threads} thread(s)",
-        size[0], size[1], size[2], size[3]
+        "fitting a {}×{}×{}×{} anisotropic GGX LTC table (θ × φ × α_max × r; {fitted} fits in {} chains, the rest by symmetry) on {threads} thread(s){}",
+        size[0],
+        size[1],
+        size[2],
+        size[3],
+        aniso::chains(size).len(),
+        if done.is_empty() {
+            String::new()
+        } else {
+            format!("; resuming from {} ({} entries, {before:.0} s)", checkpoint.display(), done.len())
+        }
     );
     let pb = crate::measure::progress::styled(
         fitted as u64,
         "fit",
         "{msg:>12} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})",
     );
+    pb.inc(done.len() as u64);
     let start = std::time::Instant::now();
-    let table = aniso::fit_table(size, &|| pb.inc(1));
+    let state = std::sync::Mutex::new((done.clone(), 0usize));
+    let save = |entries: &[aniso::Fitted]| -> anyhow::Result<()> {
+        let mut sorted = entries.to_vec();
+        sorted.sort_by_key(|(i, _)| aniso::index(size, *i));
+        let c = aniso::Checkpoint {
+            size,
+            seconds: before + start.elapsed().as_secs_f64(),
+            entries: sorted,
+        };
+        crate::io::write_atomic(checkpoint, c.to_text().as_bytes())
+    };
+    let failed = std::sync::Mutex::new(None::<anyhow::Error>);
+    let table = aniso::fit_table(size, &done, &|chain| {
+        pb.inc(chain.len() as u64);
+        let mut s = state.lock().unwrap_or_else(|e| e.into_inner());
+        s.0.extend_from_slice(chain);
+        s.1 += 1;
+        if s.1 % every == 0 {
+            if let Err(e) = save(&s.0) {
+                failed.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(e);
+            }
+        }
+    });
     pb.finish_and_clear();
-    let seconds = start.elapsed().as_secs_f64();
+    if let Some(e) = failed.into_inner().unwrap_or_else(|e| e.into_inner()) {
+        return Err(e.context(format!("writing the checkpoint {}", checkpoint.display())));
+    }
+    let seconds = before + start.elapsed().as_secs_f64();
     let header = format!(
         "Anisotropic GGX LTC table (seed 004) fitted by `linelight fit --aniso` (src/ltc/aniso.rs); format: docs/ggx.md.\n\
          {}×{}×{}×{} entries (i_theta, i_phi, i_alpha, i_ratio), uniform: θ ∈ [0, {THETA_MAX}], φ ∈ [0, π/2] (view azimuth against the roughness axes),\n\
          alpha_max ∈ [{ALPHA_MIN}, 1] (αx = alpha_max, αy = ratio·alpha_max), ratio ∈ [{RATIO_MIN}, 1].\n\
          m* = M (row-major, roughness frame, ω = M ω_o / |M ω_o|), aligned (Eq. 12), third column of unit length; magnitude = ∫D; fresnel = ∫D(1−v·h)⁵;\n\
-         fit_l1 = ∫|mag·D_ltc − D|/∫D and fit_l3 = ∫|mag·D_ltc − D|³ of the stored M; origin: fit, theta0 (copy of φ = 0), iso_rotation (φ = 0 turned by φ).",
+         fit_l1 = ∫|mag·D_ltc − D|/∫D and fit_l3 = ∫|mag·D_ltc − D|³ of the stored M; origin: fit (chains over α_max from 1 down, warm-started), theta0 (copy of φ = 0).",
         size[0], size[1], size[2], size[3]
     );
     let l1: Vec<f64> = table.entries.iter().map(|e| e.l1).collect();
@@ -136,8 +208,13 @@ pub fn aniso(out: &Path, size: [usize; 4]) -> anyhow::Result<()> {
         "moment_grid": fit::MOMENT_GRID,
         "fit_l1_max": worst,
         "fit_l1_median": median,
+        "flipped": table.entries.iter().filter(|e| crate::input::geometry::det(&e.m) < 0.0).count(),
+        "resumed": !done.is_empty(),
     });
     let run = write(out, table.to_csv(&header), record)?;
+    if checkpoint.exists() {
+        crate::io::remove(checkpoint, "the finished run's checkpoint")?;
+    }
     eprintln!(
         "wrote {} and {}: {} entries ({fitted} fitted) in {seconds:.1} s on {threads} thread(s); relative L1 fit error median {median:.3e}, largest {worst:.3e}",
         out.display(),

@@ -10,21 +10,23 @@
 //!   each on a uniform grid;
 //! - the full matrix M (not M⁻¹) stored, divided by the length of its third column, and
 //!   interpolated (Sec. 7), then inverted as a shader would (f32);
-//! - alignment against the non-uniqueness of LTCs (Sec. 5.2, Eq. 12): M·R_z(γ) with the γ that
-//!   minimises the mean squared distance between cosine samples and their transforms, by a
-//!   linear search (refined by golden section). The seed also searches the two single-axis
-//!   flips; they reverse M's orientation (det < 0), which a polygon integrator sees as a
-//!   reversed winding, so only rotations are searched here;
+//! - alignment against the non-uniqueness of LTCs (Sec. 5.2, Eq. 12): M·R_z(γ) or M·F·R_z(γ)
+//!   (F the x-flip; with R_z(π) these are the seed's four flipping cases) with the γ and case
+//!   that minimise the mean squared distance between cosine samples and their transforms, by a
+//!   linear search refined by golden section. A flip gives det M < 0, the same distribution
+//!   (the density uses |det|), and it is stored as found; the run record counts them;
 //! - the post-processing of Sec. 6.2 (Eq. 16): entries that the lobe's symmetries make zero
 //!   are set to zero at φ = 0, φ = π/2 and θ = 0, and at θ = 0 every φ holds the same entry;
+//! - the fitting order of Sec. 4.1: along α_max from rough to smooth, each entry started from
+//!   the one before (plus one cold start, which the seed's robustness argument asks for);
+//! - the resolution 8⁴ (Sec. 8), every r including r = 1 fitted;
 //! - the magnitude and the Schlick term as two extra channels (Sec. 9, "Fresnel").
 //!
 //! What does not: the seed fits each entry with a sliced-Wasserstein loss, 10 000 SGD steps in
-//! PyTorch (two hours on a GPU). Here each entry is the exact per-configuration fit of
-//! `fit::fit_general` (our L1 objective, Nelder–Mead from three starts with restarts), so a
-//! table node holds exactly what the `fit` feed gives there, before alignment. The isotropic
-//! slice r = 1 is fitted at φ = 0 only and turned: M(φ) = R_z(φ)·M(0)·R_z(−φ) (the lobe turns
-//! with the view; alignment commutes with that conjugation).
+//! PyTorch (two hours on a GPU). Here each entry is the fit of `fit::fit_general_from` (our L1
+//! objective, Nelder–Mead with restarts), so a table node holds a fit of its own lobe, before
+//! alignment. The table is fitted chain by chain ([`chains`]) with checkpoints
+//! (`linelight fit --aniso`), so a run of hours survives being killed.
 
 use super::fit::{self, Ltc, M3};
 use super::ggx::Ggx;
@@ -37,7 +39,7 @@ pub const THETA_MAX: f64 = 1.57;
 pub const ALPHA_MIN: f64 = 0.02;
 pub const RATIO_MIN: f64 = 0.25;
 /// The committed resolution (θ, φ, α_max, r).
-pub const SIZE: [usize; 4] = [8, 5, 5, 4];
+pub const SIZE: [usize; 4] = [8, 8, 8, 8];
 
 /// Cosine samples per axis of the alignment's objective (Eq. 12).
 const ALIGN_GRID: usize = 16;
@@ -49,7 +51,8 @@ pub enum Origin {
     Fit,
     /// θ = 0: the entry of φ = 0 (the lobe does not depend on φ there).
     Theta0,
-    /// r = 1: the entry of φ = 0 turned about z by φ.
+    /// Read only, from tables fitted before the r = 1 slice was fitted (8×5×5×4): the entry
+    /// of φ = 0 turned about z by φ. `fit_table` never makes one.
     IsoRotation,
 }
 
@@ -79,6 +82,9 @@ pub struct Entry {
     pub l3: f64,
     pub origin: Origin,
 }
+
+/// A fitted entry with its index (iθ, iφ, iα, ir): what chains and checkpoints hold.
+pub type Fitted = ([usize; 4], Entry);
 
 #[derive(Clone, Debug)]
 pub struct AnisoTable {
@@ -143,9 +149,26 @@ fn alignment_cost(m: &M3) -> f64 {
     sum / (n * n) as f64
 }
 
-/// M·R_z(γ) for the γ that minimises Eq. 12: a linear search over 720 angles, then golden
-/// section around the best.
+/// The reflection x → −x (one of the seed's "flipping cases"; y → −y is this one turned by π,
+/// and flipping both is the rotation by π, so rotations and this one cover all four).
+const FLIP_X: M3 = [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+/// M·R_z(γ) for the γ that minimises Eq. 12, by a linear search over 720 angles refined by
+/// golden section, among the rotations and the flipped rotations M·F·R_z(γ) (the seed's "four
+/// flipping cases"). A flip keeps the distribution (|det| is what the density uses) but makes
+/// det M < 0; the shading integrators orient by M⁻¹'s sign (a reversed winding), so a flip is
+/// taken only where it is strictly nearer the cosine samples, and `fit_entry` records it.
 pub fn align(m: &M3) -> M3 {
+    let rotated = align_from(m);
+    let flipped = align_from(&geometry::mat_mul(m, &FLIP_X));
+    if alignment_cost(&flipped) < alignment_cost(&rotated) {
+        flipped
+    } else {
+        rotated
+    }
+}
+
+fn align_from(m: &M3) -> M3 {
     let cost = |g: f64| alignment_cost(&geometry::mat_mul(m, &rot_z(g)));
     let steps = 720;
     let h = std::f64::consts::TAU / steps as f64;
@@ -204,25 +227,27 @@ fn finish(g: &Ggx, m: M3, magnitude: f64, fresnel: f64, origin: Origin) -> Entry
     }
 }
 
-/// Fits entry `i` of a table of `size` (an `Origin::Fit` entry): the exact fit, aligned,
-/// post-processed, third column of unit length, with its errors.
+/// Fits entry `i` of a table of `size` (an `Origin::Fit` entry) cold (three starts): the
+/// exact fit, aligned, post-processed, third column of unit length, with its errors.
 pub fn fit_entry(size: [usize; 4], i: [usize; 4]) -> Entry {
+    fit_entry_from(size, i, None).0
+}
+
+/// [`fit_entry`] warm-started from a neighbour's parameters (fit::fit_general_from); returns
+/// the entry and the parameters for the next.
+pub fn fit_entry_from(size: [usize; 4], i: [usize; 4], warm: Option<[f64; 6]>) -> (Entry, [f64; 6]) {
     let g = lobe(entry_point(size, i));
-    let f = fit::fit_general(&g);
+    let (f, params) = fit::fit_general_from(&g, warm);
     let mut m = unit_third_column(&align(&geometry::inverse(&f.minv)));
     symmetrize(&mut m, i, size);
     let m = unit_third_column(&m);
-    finish(&g, m, f.magnitude, f.fresnel, Origin::Fit)
+    (finish(&g, m, f.magnitude, f.fresnel, Origin::Fit), params)
 }
 
-/// Which entries are fitted; the others are copies (θ = 0) or turned copies (r = 1).
-fn origin_of(size: [usize; 4], i: [usize; 4]) -> Origin {
-    if i[1] == 0 {
-        Origin::Fit
-    } else if i[0] == 0 {
+/// Which entries are fitted; the others (θ = 0, φ > 0) are copies of φ = 0.
+fn origin_of(i: [usize; 4]) -> Origin {
+    if i[0] == 0 && i[1] > 0 {
         Origin::Theta0
-    } else if i[3] == size[3] - 1 {
-        Origin::IsoRotation
     } else {
         Origin::Fit
     }
@@ -246,45 +271,77 @@ fn all_indices(size: [usize; 4]) -> Vec<[usize; 4]> {
 pub fn fitted_count(size: [usize; 4]) -> usize {
     all_indices(size)
         .into_iter()
-        .filter(|&i| origin_of(size, i) == Origin::Fit)
+        .filter(|&i| origin_of(i) == Origin::Fit)
         .count()
 }
 
-/// Fits the whole table: the fitted entries in parallel (each is independent, so the table
-/// does not depend on the thread count or order), then the copies.
-pub fn fit_table(size: [usize; 4], progress: &(dyn Fn() + Sync)) -> AnisoTable {
+/// The fitted chains of a table: one per (θ, φ, r), its entries from the roughest α_max to
+/// the smoothest, each warm-started from the one before (the paper's order, seed 004
+/// Sec. 4.1). A chain is the unit of parallel work and of checkpoints: it depends on nothing
+/// outside itself, so the table is the same for any thread count, order or resume.
+pub fn chains(size: [usize; 4]) -> Vec<[usize; 3]> {
+    let mut v = Vec::new();
+    for a in 0..size[0] {
+        for b in 0..size[1] {
+            for d in 0..size[3] {
+                if origin_of([a, b, 0, d]) == Origin::Fit {
+                    v.push([a, b, d]);
+                }
+            }
+        }
+    }
+    v
+}
+
+/// Fits one chain (see [`chains`]): the entries (iθ, iφ, iα, ir) for iα from the top down,
+/// returned in that order with their indices.
+pub fn fit_chain(size: [usize; 4], chain: [usize; 3]) -> Vec<Fitted> {
+    let [a, b, d] = chain;
+    let mut warm = None;
+    let mut out = Vec::with_capacity(size[2]);
+    for c in (0..size[2]).rev() {
+        let i = [a, b, c, d];
+        let (e, params) = fit_entry_from(size, i, warm);
+        warm = Some(params);
+        out.push((i, e));
+    }
+    out
+}
+
+/// Fits the whole table: the chains not in `done` in parallel (`on_chain` is told of each as
+/// it finishes, for checkpoints and progress), then the copies. `done` holds whole chains of
+/// an earlier run (a checkpoint) and is trusted as fitted by this code.
+pub fn fit_table(size: [usize; 4], done: &[Fitted], on_chain: &(dyn Fn(&[Fitted]) + Sync)) -> AnisoTable {
     use rayon::prelude::*;
-    let indices = all_indices(size);
-    let fitted: Vec<Option<Entry>> = indices
+    let mut slots: Vec<Option<Entry>> = vec![None; size.iter().product()];
+    for (i, e) in done {
+        slots[index(size, *i)] = Some(e.clone());
+    }
+    let todo: Vec<[usize; 3]> = chains(size)
+        .into_iter()
+        .filter(|&[a, b, d]| slots[index(size, [a, b, 0, d])].is_none())
+        .collect();
+    let fitted: Vec<Vec<Fitted>> = todo
         .par_iter()
-        .map(|&i| {
-            (origin_of(size, i) == Origin::Fit).then(|| {
-                let e = fit_entry(size, i);
-                progress();
-                e
-            })
+        .map(|&chain| {
+            let entries = fit_chain(size, chain);
+            on_chain(&entries);
+            entries
         })
         .collect();
-    let entries = indices
-        .iter()
-        .zip(&fitted)
-        .map(|(&i, e)| match e {
-            Some(e) => e.clone(),
-            None => {
-                let base = fitted[index(size, [i[0], 0, i[2], i[3]])]
+    for (i, e) in fitted.into_iter().flatten() {
+        slots[index(size, i)] = Some(e);
+    }
+    let entries = all_indices(size)
+        .into_iter()
+        .map(|i| match origin_of(i) {
+            Origin::Fit | Origin::IsoRotation => slots[index(size, i)].clone().expect("every chain fitted"),
+            Origin::Theta0 => {
+                let base = slots[index(size, [0, 0, i[2], i[3]])]
                     .as_ref()
                     .expect("φ = 0 is fitted");
                 let g = lobe(entry_point(size, i));
-                match origin_of(size, i) {
-                    Origin::Theta0 => finish(&g, base.m, base.magnitude, base.fresnel, Origin::Theta0),
-                    _ => {
-                        let phi = entry_point(size, i)[1];
-                        let m = geometry::mat_mul(&geometry::mat_mul(&rot_z(phi), &base.m), &rot_z(-phi));
-                        let mut m = unit_third_column(&m);
-                        symmetrize(&mut m, i, size);
-                        finish(&g, m, base.magnitude, base.fresnel, Origin::IsoRotation)
-                    }
-                }
+                finish(&g, base.m, base.magnitude, base.fresnel, Origin::Theta0)
             }
         })
         .collect();
@@ -430,56 +487,13 @@ impl AnisoTable {
         s.push_str(COLUMNS);
         s.push('\n');
         for i in all_indices(self.size) {
-            let e = &self.entries[index(self.size, i)];
-            let p = entry_point(self.size, i);
-            let mut line = format!("{},{},{},{}", i[0], i[1], i[2], i[3]);
-            for v in p
-                .iter()
-                .chain(e.m.iter().flatten())
-                .chain(&[e.magnitude, e.fresnel, e.l1, e.l3])
-            {
-                line.push_str(&format!(",{v:e}"));
-            }
-            s.push_str(&format!("{line},{}\n", e.origin.name()));
+            s.push_str(&row(self.size, i, &self.entries[index(self.size, i)]));
         }
         s
     }
 
     pub fn parse(text: &str, source: &str) -> Result<AnisoTable, String> {
-        let mut rows = Vec::new();
-        for (n, line) in text.lines().enumerate() {
-            let line = line.trim();
-            if line.is_empty() || line.starts_with('#') || line.starts_with("i_theta,") {
-                continue;
-            }
-            let f: Vec<&str> = line.split(',').collect();
-            if f.len() != 22 {
-                return Err(format!("{source}:{}: {} fields, expected 22", n + 1, f.len()));
-            }
-            let num = |k: usize| {
-                f[k].parse::<f64>()
-                    .map_err(|e| format!("{source}:{}: field {} `{}`: {e}", n + 1, k + 1, f[k]))
-            };
-            let idx = |k: usize| {
-                f[k].parse::<usize>()
-                    .map_err(|e| format!("{source}:{}: field {} `{}`: {e}", n + 1, k + 1, f[k]))
-            };
-            let i = [idx(0)?, idx(1)?, idx(2)?, idx(3)?];
-            let v: Vec<f64> = (8..21).map(num).collect::<Result<_, _>>()?;
-            let origin =
-                Origin::parse(f[21]).ok_or_else(|| format!("{source}:{}: unknown origin `{}`", n + 1, f[21]))?;
-            rows.push((
-                i,
-                Entry {
-                    m: [[v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]]],
-                    magnitude: v[9],
-                    fresnel: v[10],
-                    l1: v[11],
-                    l3: v[12],
-                    origin,
-                },
-            ));
-        }
+        let rows = parse_rows(text, source)?;
         let mut size = [0usize; 4];
         for (i, _) in &rows {
             for k in 0..4 {
@@ -498,6 +512,127 @@ impl AnisoTable {
             .collect::<Option<Vec<_>>>()
             .ok_or_else(|| format!("{source}: an entry appears twice"))?;
         Ok(AnisoTable { size, entries })
+    }
+}
+
+/// The rows of a table or checkpoint text (comments and the column line skipped).
+fn parse_rows(text: &str, source: &str) -> Result<Vec<Fitted>, String> {
+    let mut rows = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') || line.starts_with("i_theta,") {
+            continue;
+        }
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() != 22 {
+            return Err(format!("{source}:{}: {} fields, expected 22", n + 1, f.len()));
+        }
+        let num = |k: usize| {
+            f[k].parse::<f64>()
+                .map_err(|e| format!("{source}:{}: field {} `{}`: {e}", n + 1, k + 1, f[k]))
+        };
+        let idx = |k: usize| {
+            f[k].parse::<usize>()
+                .map_err(|e| format!("{source}:{}: field {} `{}`: {e}", n + 1, k + 1, f[k]))
+        };
+        let i = [idx(0)?, idx(1)?, idx(2)?, idx(3)?];
+        let v: Vec<f64> = (8..21).map(num).collect::<Result<_, _>>()?;
+        let origin = Origin::parse(f[21]).ok_or_else(|| format!("{source}:{}: unknown origin `{}`", n + 1, f[21]))?;
+        rows.push((
+            i,
+            Entry {
+                m: [[v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]]],
+                magnitude: v[9],
+                fresnel: v[10],
+                l1: v[11],
+                l3: v[12],
+                origin,
+            },
+        ));
+    }
+    Ok(rows)
+}
+
+fn row(size: [usize; 4], i: [usize; 4], e: &Entry) -> String {
+    let p = entry_point(size, i);
+    let mut line = format!("{},{},{},{}", i[0], i[1], i[2], i[3]);
+    for v in p
+        .iter()
+        .chain(e.m.iter().flatten())
+        .chain(&[e.magnitude, e.fresnel, e.l1, e.l3])
+    {
+        // `{:e}` prints the shortest digits that read back to the same f64.
+        line.push_str(&format!(",{v:e}"));
+    }
+    format!("{line},{}\n", e.origin.name())
+}
+
+/// What a checkpoint of an unfinished `fit --aniso` run holds: the table's size, the seconds
+/// spent so far, and the entries of the chains finished (whole chains only).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Checkpoint {
+    pub size: [usize; 4],
+    pub seconds: f64,
+    pub entries: Vec<Fitted>,
+}
+
+const CHECKPOINT_TAG: &str = "# linelight fit --aniso checkpoint v1";
+
+impl Checkpoint {
+    /// The checkpoint's text: a tag line, size and seconds, then the table's rows (exact f64).
+    pub fn to_text(&self) -> String {
+        let [a, b, c, d] = self.size;
+        let mut s = format!(
+            "{CHECKPOINT_TAG}\n# size {a},{b},{c},{d}\n# seconds {:e}\n{COLUMNS}\n",
+            self.seconds
+        );
+        for (i, e) in &self.entries {
+            s.push_str(&row(self.size, *i, e));
+        }
+        s
+    }
+
+    /// Reads a checkpoint written by [`Checkpoint::to_text`]; refuses another file, a row
+    /// outside the size, and a chain that is not whole.
+    pub fn parse(text: &str, source: &str) -> Result<Checkpoint, String> {
+        let mut lines = text.lines();
+        if lines.next() != Some(CHECKPOINT_TAG) {
+            return Err(format!(
+                "{source}: not a checkpoint of `linelight fit --aniso` (no `{CHECKPOINT_TAG}` line)"
+            ));
+        }
+        let field = |line: Option<&str>, key: &str| -> Result<String, String> {
+            line.and_then(|l| l.strip_prefix(&format!("# {key} ")))
+                .map(str::to_string)
+                .ok_or_else(|| format!("{source}: line `# {key} …` missing"))
+        };
+        let size_text = field(lines.next(), "size")?;
+        let size: Vec<usize> = size_text
+            .split(',')
+            .map(|x| x.parse::<usize>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| format!("{source}: size `{size_text}`: {e}"))?;
+        let size: [usize; 4] = size
+            .try_into()
+            .map_err(|_| format!("{source}: size `{size_text}` is not 4 numbers"))?;
+        let seconds_text = field(lines.next(), "seconds")?;
+        let seconds = seconds_text
+            .parse::<f64>()
+            .map_err(|e| format!("{source}: seconds `{seconds_text}`: {e}"))?;
+        let entries = parse_rows(text, source)?;
+        let mut per_chain = std::collections::BTreeMap::<[usize; 3], usize>::new();
+        for (i, e) in &entries {
+            if (0..4).any(|k| i[k] >= size[k]) || origin_of(*i) != Origin::Fit || e.origin != Origin::Fit {
+                return Err(format!(
+                    "{source}: entry {i:?} is not a fitted entry of a {size:?} table"
+                ));
+            }
+            *per_chain.entry([i[0], i[1], i[3]]).or_default() += 1;
+        }
+        if let Some((chain, n)) = per_chain.iter().find(|(_, &n)| n != size[2]) {
+            return Err(format!("{source}: chain {chain:?} has {n} of {} entries", size[2]));
+        }
+        Ok(Checkpoint { size, seconds, entries })
     }
 }
 

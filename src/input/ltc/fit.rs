@@ -93,32 +93,61 @@ pub enum Objective {
     Chi2,
 }
 
-/// `[L3, relative L1, χ²]` of `mag·ltc` against the lobe, by MIS over n×n grids.
-pub fn all_errors(ggx: &Ggx, ltc: &Ltc, mag: f64, n: usize) -> [f64; 3] {
-    let (mut l3, mut l1, mut chi2) = (0.0, 0.0, 0.0);
-    let mut add = |w: V3| {
-        let (f, p_ggx) = (ggx.eval(w), ggx.pdf(w));
-        let p_ltc = ltc.eval(w);
-        let g = mag * p_ltc;
-        let e = (g - f).abs();
-        let p = p_ggx + p_ltc;
-        if p > 0.0 {
-            l3 += e * e * e / p;
-            l1 += e / p;
-            if g + f > 0.0 {
-                chi2 += e * e / (g + f) / p;
+/// The lobe's half of the objective's MIS grid, which does not depend on the LTC: each
+/// visible-normal sample with D and the GGX pdf there, computed once per fit instead of once
+/// per Nelder–Mead evaluation (the same numbers in the same order, so the same bits).
+pub struct LobeSamples<'a> {
+    ggx: &'a Ggx,
+    n: usize,
+    samples: Vec<(V3, f64, f64)>,
+}
+
+impl<'a> LobeSamples<'a> {
+    pub fn new(ggx: &'a Ggx, n: usize) -> LobeSamples<'a> {
+        let mut samples = Vec::with_capacity(n * n);
+        for i in 0..n {
+            for j in 0..n {
+                let (u1, u2) = ((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
+                let w = ggx.sample(u1, u2).0;
+                samples.push((w, ggx.eval(w), ggx.pdf(w)));
             }
         }
-    };
-    for i in 0..n {
-        for j in 0..n {
-            let (u1, u2) = ((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
-            add(ggx.sample(u1, u2).0);
-            add(ltc.sample(u1, u2));
-        }
+        LobeSamples { ggx, n, samples }
     }
-    let scale = 1.0 / (n * n) as f64;
-    [l3 * scale, l1 * scale / mag, chi2 * scale / mag]
+
+    /// `[L3, relative L1, χ²]` of `mag·ltc` against the lobe (see [`all_errors`]).
+    pub fn errors(&self, ltc: &Ltc, mag: f64) -> [f64; 3] {
+        let (mut l3, mut l1, mut chi2) = (0.0, 0.0, 0.0);
+        let mut add = |f: f64, p_ggx: f64, p_ltc: f64| {
+            let g = mag * p_ltc;
+            let e = (g - f).abs();
+            let p = p_ggx + p_ltc;
+            if p > 0.0 {
+                l3 += e * e * e / p;
+                l1 += e / p;
+                if g + f > 0.0 {
+                    chi2 += e * e / (g + f) / p;
+                }
+            }
+        };
+        let n = self.n;
+        for i in 0..n {
+            for j in 0..n {
+                let (w, f, p_ggx) = self.samples[i * n + j];
+                add(f, p_ggx, ltc.eval(w));
+                let (u1, u2) = ((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
+                let w = ltc.sample(u1, u2);
+                add(self.ggx.eval(w), self.ggx.pdf(w), ltc.eval(w));
+            }
+        }
+        let scale = 1.0 / (n * n) as f64;
+        [l3 * scale, l1 * scale / mag, chi2 * scale / mag]
+    }
+}
+
+/// `[L3, relative L1, χ²]` of `mag·ltc` against the lobe, by MIS over n×n grids.
+pub fn all_errors(ggx: &Ggx, ltc: &Ltc, mag: f64, n: usize) -> [f64; 3] {
+    LobeSamples::new(ggx, n).errors(ltc, mag)
 }
 
 /// Nelder–Mead on `f` from `x0` with initial steps `step`: standard coefficients
@@ -251,12 +280,13 @@ pub fn fit_iso_with(ggx: &Ggx, start: Option<[f64; 3]>, objective_kind: Objectiv
     let frame = mean_frame(mean);
     let normal = ggx.view[0].abs() < 1e-12;
     let make = |p: [f64; 3]| Ltc::new(mat_mul(&frame, &[[p[0], 0.0, p[2]], [0.0, p[1], 0.0], [0.0, 0.0, 1.0]]));
+    let lobe = LobeSamples::new(ggx, OBJECTIVE_GRID);
     let objective = |x: &[f64]| {
         let p = if normal { [x[0], x[0], 0.0] } else { [x[0], x[1], x[2]] };
         if p[0] <= 0.0 || p[1] <= 0.0 {
             return f64::INFINITY;
         }
-        objective_value(all_errors(ggx, &make(p), magnitude, OBJECTIVE_GRID), objective_kind)
+        objective_value(lobe.errors(&make(p), magnitude), objective_kind)
     };
     let s = start.unwrap_or([1.0, 1.0, 0.0]);
     let (x, _) = if normal {
@@ -284,8 +314,17 @@ pub fn fit_iso_with(ggx: &Ggx, start: Option<[f64; 3]>, objective_kind: Objectiv
 }
 
 /// An exact fit of any GGX lobe (anisotropic, any view) with a general M in the mean
-/// direction's frame, from several starting points; the best by the L3 error is kept.
+/// direction's frame, from several starting points; the best by the objective is kept.
 pub fn fit_general(ggx: &Ggx) -> Fit {
+    fit_general_from(ggx, None).0
+}
+
+/// [`fit_general`], optionally warm-started: with `warm` (the six parameters of a
+/// neighbouring entry's fit, in that entry's mean frame), Nelder–Mead starts from them and
+/// from the geometric-mean guess only, as the paper's table fits start from the neighbour
+/// (seed 004 Sec. 4.1); without, from the three cold guesses. Returns the fit and its six
+/// parameters, the next entry's warm start.
+pub fn fit_general_from(ggx: &Ggx, warm: Option<[f64; 6]>) -> (Fit, [f64; 6]) {
     let (magnitude, fresnel, mean) = ggx.moments(MOMENT_GRID);
     let frame = mean_frame(mean);
     let make = |p: &[f64]| {
@@ -294,21 +333,27 @@ pub fn fit_general(ggx: &Ggx) -> Fit {
             &[[p[0], p[1], p[2]], [p[3], p[4], p[5]], [0.0, 0.0, 1.0]],
         ))
     };
+    let lobe = LobeSamples::new(ggx, OBJECTIVE_GRID);
     let objective = |x: &[f64]| {
         let ltc = make(x);
         if !(det(&ltc.m) > 0.0) || !ltc.minv.iter().flatten().all(|v| v.is_finite()) {
             return f64::INFINITY;
         }
-        objective_value(all_errors(ggx, &ltc, magnitude, OBJECTIVE_GRID), OBJECTIVE)
+        objective_value(lobe.errors(&ltc, magnitude), OBJECTIVE)
     };
     let (a, b) = (ggx.ax, ggx.ay);
     let g = (a * b).sqrt();
-    let mut best: Option<(Vec<f64>, f64)> = None;
-    for start in [
+    let cold = [
         [a, 0.0, 0.0, 0.0, b, 0.0],
         [b, 0.0, 0.0, 0.0, a, 0.0],
         [g, 0.0, 0.0, 0.0, g, 0.0],
-    ] {
+    ];
+    let starts: Vec<[f64; 6]> = match warm {
+        Some(w) if objective(&w).is_finite() => vec![w, cold[2]],
+        _ => cold.to_vec(),
+    };
+    let mut best: Option<(Vec<f64>, f64)> = None;
+    for start in starts {
         let step: Vec<f64> = [0.1 * a, 0.1 * g, 0.1 * g, 0.1 * g, 0.1 * b, 0.1 * g].to_vec();
         let mut x = start.to_vec();
         let mut fx = f64::INFINITY;
@@ -325,17 +370,18 @@ pub fn fit_general(ggx: &Ggx) -> Fit {
             best = Some((x, fx));
         }
     }
-    let (x, _) = best.expect("three starts");
+    let (x, _) = best.expect("at least two starts");
     let ltc = make(&x);
     let (l3, l1) = errors(ggx, &ltc, magnitude, OBJECTIVE_GRID);
-    Fit {
+    let fit = Fit {
         minv: normalized(ltc.minv),
         magnitude,
         fresnel,
         l3,
         l1,
         params: [x[0], x[4], x[2]],
-    }
+    };
+    (fit, [x[0], x[1], x[2], x[3], x[4], x[5]])
 }
 
 /// Fits the whole isotropic table (entry (a, t) at `a + size·t`, table::entry_point):
