@@ -91,9 +91,12 @@ fn every_builtin() -> Vec<Method> {
     out
 }
 
-fn compare(m: &Method, configs: &[Config]) -> usize {
+/// Values compared bit for bit, or None when the compiler handles the kernel in neither mode
+/// (it is interpreted everywhere, for a reason the assertion below accepts).
+fn compare(m: &Method, configs: &[Config]) -> Option<usize> {
     let p = program(m).unwrap_or_else(|e| panic!("{}: {e:#}", m.label));
     let mut compared = 0;
+    let mut compiled = false;
     for mode in [Mode::F32, Mode::F64] {
         let interp = m.cpu_column_on(configs, mode, Engine::Interpreter);
         if let Some(why) = p.not_compiled(mode) {
@@ -106,6 +109,7 @@ fn compare(m: &Method, configs: &[Config]) -> usize {
             );
             continue;
         }
+        compiled = true;
         assert_eq!(p.engine(mode), Engine::Compiled, "{}", m.label);
         let native = m.cpu_column_on(configs, mode, Engine::Compiled);
         match (interp, native) {
@@ -127,7 +131,7 @@ fn compare(m: &Method, configs: &[Config]) -> usize {
             ),
         }
     }
-    compared
+    compiled.then_some(compared)
 }
 
 #[test]
@@ -147,13 +151,26 @@ fn every_builtin_kernel_gives_the_interpreters_bits_in_f32_and_f64() {
     let odd = odd_configs(&configs);
     let methods = every_builtin();
     assert!(methods.len() > 40, "{} methods", methods.len());
-    let mut total = 0;
+    let (mut total, mut interpreted) = (0, Vec::new());
     for m in &methods {
-        let n = compare(m, &configs) + compare(m, &odd);
-        assert!(n > 0, "{}: no configuration compared", m.label);
-        total += n;
+        match (compare(m, &configs), compare(m, &odd)) {
+            (Some(a), Some(b)) => {
+                assert!(a + b > 0, "{}: no configuration compared", m.label);
+                total += a + b;
+            }
+            // The texel buffer (`ll_texels`, issue 25) is not compiled yet: those kernels run
+            // on the interpreter (their reason is checked in `compare`).
+            _ => interpreted.push(m.label.clone()),
+        }
     }
-    eprintln!("{} methods, {total} values compared bit for bit", methods.len());
+    assert!(
+        interpreted.iter().all(|l| l.starts_with("line.texture_")),
+        "built-ins interpreted: {interpreted:?}"
+    );
+    eprintln!(
+        "{} methods, {total} values compared bit for bit; interpreted: {interpreted:?}",
+        methods.len()
+    );
 }
 
 /// A user kernel that goes through the WGSL rules the interpreter implements.
@@ -232,7 +249,7 @@ fn a_kernel_of_many_rules_gives_the_interpreters_bits() {
     for mode in [Mode::F32, Mode::F64] {
         assert_eq!(p.not_compiled(mode), None);
     }
-    assert!(compare(&m, &configs) > 0);
+    assert!(compare(&m, &configs).is_some_and(|n| n > 0));
 }
 
 const LOOPS: &str = "\
