@@ -163,7 +163,15 @@ fn family(f: Family, mi: usize) -> Vec<Config> {
     if f == FwtFar {
         return fwt_far();
     }
-    let mut rng = ChaCha8Rng::seed_from_u64(0x6c69_6e65 + 16 * f as u64 + mi as u64);
+    // The seed's family index. `Fresnel` (materials 6–7) and `Textured` (materials 0–3) were
+    // added side by side with the same index; keeping each as it was keeps the sets (and the
+    // measured bounds below) the branches were measured on, and their seeds stay distinct.
+    let index = match f {
+        Textured => Fresnel as u64,
+        TexturedCube => Fresnel as u64 + 1,
+        f => f as u64,
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(0x6c69_6e65 + 16 * index + mi as u64);
     let mut out = Vec::new();
     while out.len() < PER {
         let centre = |rng: &mut ChaCha8Rng, lo: f64| {
