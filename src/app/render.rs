@@ -11,6 +11,7 @@ use crate::measure::eval_rows;
 use crate::report::format::{Bytes, Format, Json, Jsonl, Layout, Markdown, Svg};
 use crate::report::html::{Gallery, Part};
 use crate::report::image::{self, Rgb, Sample};
+use crate::report::markup::{Align, Table};
 use rayon::prelude::*;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
@@ -773,7 +774,7 @@ fn gate_markdown(b: &serde_json::Map<String, Value>) -> String {
          FLIP between the baseline's image and this run's (a change is visible above {} on at least {} % \
          of the floor pixels, and fails when at least that many of the changed pixels moved away from \
          the reference); `nan`, floor pixels NaN/inf new since the baseline. The pixels that regressed \
-         are in `regressed.jsonl` ({}).\n\n**{}**\n\n| method | rule | outcome | numbers |\n|---|---|---|---|\n",
+         are in `regressed.jsonl` ({}).\n\n**{}**\n\n",
         b["folder"].as_str().unwrap_or(""),
         b["format"],
         b["baseline_adapter"].as_str().unwrap_or(""),
@@ -783,15 +784,21 @@ fn gate_markdown(b: &serde_json::Map<String, Value>) -> String {
         b["regressed_pixels"],
         b["summary"].as_str().unwrap_or(""),
     );
+    let mut table = Table::new(&[
+        ("method", Align::Left),
+        ("rule", Align::Left),
+        ("outcome", Align::Left),
+        ("numbers", Align::Left),
+    ]);
     for r in b["rules"].as_array().into_iter().flatten() {
-        md += &format!(
-            "| `{}` | {} | {} | {} |\n",
-            r["method"].as_str().unwrap_or(""),
-            r["rule"].as_str().unwrap_or(""),
-            r["change"].as_str().unwrap_or(""),
-            r["message"].as_str().unwrap_or("").replace('|', "\\|")
-        );
+        table.row(vec![
+            format!("`{}`", r["method"].as_str().unwrap_or("")),
+            r["rule"].as_str().unwrap_or("").to_string(),
+            r["change"].as_str().unwrap_or("").to_string(),
+            r["message"].as_str().unwrap_or("").replace('|', "\\|"),
+        ]);
     }
+    md += &table.markdown();
     for m in b["new_methods"].as_array().into_iter().flatten() {
         md += &format!("\nNew since the baseline (not gated): `{}`\n", m.as_str().unwrap_or(""));
     }
@@ -821,15 +828,32 @@ fn markdown(s: &Value, images: &[(String, Vec<String>)]) -> [String; 4] {
     }
     md += &format!(
         "## FLIP per method\n\nFLIP (nv-flip, LDR) on the tone-mapped images against the reference, {} pixels per degree. \
-         Floor: every floor pixel; lit: reference > 0; grazing: view below {GRAZING_DEG}°.\n\n\
-         | method | mean floor | p99 floor | max | mean lit | mean grazing | > 0.05 | > 0.1 | > 0.2 | NaN | inf | false light | rel. err. p50 (lit) | rel. err. p99 (lit) |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+         Floor: every floor pixel; lit: reference > 0; grazing: view below {GRAZING_DEG}°.\n\n",
         s["flip"]["pixels_per_degree"]
+    );
+    let mut table = Table::new(
+        &[
+            "method",
+            "mean floor",
+            "p99 floor",
+            "max",
+            "mean lit",
+            "mean grazing",
+            "> 0.05",
+            "> 0.1",
+            "> 0.2",
+            "NaN",
+            "inf",
+            "false light",
+            "rel. err. p50 (lit)",
+            "rel. err. p99 (lit)",
+        ]
+        .map(|c| (c, Align::Left)),
     );
     for (label, r) in s["methods"].as_object().into_iter().flatten() {
         let share = |t: &str| fmt(&r["flip_floor"]["above"][t]["share"]);
-        md += &format!(
-            "| `{label}` | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+        table.row(vec![
+            format!("`{label}`"),
             fmt(&r["flip_floor"]["mean"]),
             fmt(&r["flip_floor"]["p99"]),
             fmt(&r["flip_floor"]["max"]),
@@ -838,13 +862,14 @@ fn markdown(s: &Value, images: &[(String, Vec<String>)]) -> [String; 4] {
             share("0.05"),
             share("0.1"),
             share("0.2"),
-            r["nan"],
-            r["inf"],
-            r["false_light"],
+            r["nan"].to_string(),
+            r["inf"].to_string(),
+            r["false_light"].to_string(),
             fmt(&r["relative_error_lit"]["p50"]),
             fmt(&r["relative_error_lit"]["p99"]),
-        );
+        ]);
     }
+    md += &table.markdown();
     md += &format!(
         "\nShares are of the floor pixels. Exposure {} ({}). Tone map: {}.\n\n",
         fmt(&s["exposure"]["value"]),

@@ -3,6 +3,7 @@
 //! where the freedom goes. Rendered only when the case asks (`envelope = { sample = N }`).
 
 use crate::analyse::envelope::AnyDriver;
+use crate::report::markup::{Align, Table};
 use std::fmt::Write;
 
 /// Lines shown per method in "where the freedom goes".
@@ -35,11 +36,21 @@ pub fn render(a: &AnyDriver) -> String {
         a.budget_target,
         sig(a.budget_value)
     );
-    let _ = writeln!(
-        o,
-        "| method | material | target | n | p50 | p90 | p99 | max | past the budget | no finite envelope | GPU outside |"
+    let mut columns: Vec<(&str, Align)> = ["method", "material", "target"].map(|c| (c, Align::Left)).to_vec();
+    columns.extend(
+        [
+            "n",
+            "p50",
+            "p90",
+            "p99",
+            "max",
+            "past the budget",
+            "no finite envelope",
+            "GPU outside",
+        ]
+        .map(|c| (c, Align::Right)),
     );
-    let _ = writeln!(o, "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let mut table = Table::new(&columns);
     for r in &a.rows {
         let q = |i: usize| r.quantiles.map_or("—".to_string(), |q| sig(q[i]));
         let past = match r.breaks {
@@ -47,24 +58,21 @@ pub fn render(a: &AnyDriver) -> String {
             Some(_) => "—".into(),
             None => "not judged".into(),
         };
-        let _ = writeln!(
-            o,
-            "| `{}` | {} | `{}` | {} | {} | {} | {} | {} | {} | {} | {}/{} |",
-            r.label,
-            r.material,
-            r.target,
-            r.n,
+        table.row(vec![
+            format!("`{}`", r.label),
+            r.material.to_string(),
+            format!("`{}`", r.target),
+            r.n.to_string(),
             q(0),
             q(1),
             q(2),
             q(3),
             past,
-            r.undefined,
-            r.gpu_outside,
-            r.gpu_checked
-        );
+            r.undefined.to_string(),
+            format!("{}/{}", r.gpu_outside, r.gpu_checked),
+        ]);
     }
-    let _ = writeln!(o);
+    let _ = writeln!(o, "{}", table.markdown());
     let outside: Vec<_> = a.rows.iter().filter(|r| r.gpu_outside > 0).collect();
     if !outside.is_empty() {
         let _ = writeln!(
@@ -111,12 +119,19 @@ pub fn render(a: &AnyDriver) -> String {
             continue;
         }
         let _ = writeln!(o, "`{}` ({} configurations):\n", f.label, f.configurations);
-        let _ = writeln!(o, "| file:line | source | mean bits |");
-        let _ = writeln!(o, "|---|---|---:|");
+        let mut table = Table::new(&[
+            ("file:line", Align::Left),
+            ("source", Align::Left),
+            ("mean bits", Align::Right),
+        ]);
         for (at, text, bits) in f.lines.iter().take(TOP) {
-            let _ = writeln!(o, "| `{at}` | `{}` | {bits:.2} |", text.replace('|', "\\|"));
+            table.row(vec![
+                format!("`{at}`"),
+                format!("`{}`", text.replace('|', "\\|")),
+                format!("{bits:.2}"),
+            ]);
         }
-        let _ = writeln!(o);
+        let _ = writeln!(o, "{}", table.markdown());
     }
     o
 }
