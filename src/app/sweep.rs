@@ -1,13 +1,13 @@
 //! The sweep's orchestration: the measure stage yields measured chunks (`measure::sweep::measure_chunks`),
 //! and each is folded here into the statistics (`analysis::Accumulators`), the leak below the
-//! horizon and, for the gate, the per-configuration observations (`baseline::observe_chunk`)
+//! horizon and, for the gate, the per-configuration observations (`app::gate::Observations`, an `Accumulate`)
 //! before it is dropped. Also the shard state files (`--shard`, `linelight merge`,
 //! docs/scale.md), which hold both the measure stage's kept state and the statistics.
 
 use super::shard::{read_shards, shard_path, write_shard, Partial, Recorded, SHARD_FORMAT};
 use super::{kernel_inputs, open_gpu, GpuOptions, Status};
 use crate::analyse::analysis::{Accumulators, Fold, Leak, LeakAccumulator, Verdict};
-use crate::analyse::stats::add_to_each;
+use crate::analyse::stats::{add_to_each, Accumulate};
 use crate::analyse::summary::Summary;
 use crate::app::gate::Observations;
 use crate::input::case::Case;
@@ -613,7 +613,7 @@ pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions, observe: 
         add_to_each(&mut [&mut accumulators, &mut leak], Fold { case, chunk: c });
         statistics_seconds += t.elapsed().as_secs_f64();
         if let Some(obs) = &mut observations {
-            crate::app::gate::observe_chunk(obs, case, c);
+            obs.add(Fold { case, chunk: c });
         }
         Ok(())
     })?;

@@ -6,9 +6,10 @@
 //! `false_light` (new light where the reference is 0); per method: `ops` (op-count growth).
 //! Timings are reported beside, never gated. The format is in docs/ci/README.md.
 
+use crate::analyse::analysis::Fold;
 use crate::analyse::gate::{g, share_tests, Axis, Pair};
 pub use crate::analyse::gate::{paired, Change, GateReport, Paired, RuleResult, ShareOptions, Shares, ERROR_FLOOR};
-use crate::analyse::stats::nearest_rank;
+use crate::analyse::stats::{nearest_rank, Accumulate};
 use crate::input::scene::Config;
 use crate::measure::sweep::{Measured, Setup};
 use crate::reference::Estimate;
@@ -178,30 +179,40 @@ pub fn observations(methods: usize, families: usize) -> Observations {
     }
 }
 
-/// Folds one measured chunk's natural configurations into `obs` (chunks in sample order).
-pub fn observe_chunk(obs: &mut Observations, case: &crate::input::case::Case, chunk: &crate::analyse::analysis::Chunk) {
-    for (i, s) in chunk.samples.iter().enumerate().filter(|(_, s)| s.natural()) {
-        let c = &s.config;
-        let bins = case.bins.iter().map(|a| a.index(s.axes.get(&a.axis))).collect();
-        obs.configs[s.material].push((c.clone(), bins));
-        for ((per_method, ulps), run) in obs.methods.iter_mut().zip(&mut obs.ulps).zip(chunk.runs) {
-            let (supported, list) = &mut per_method[s.material];
-            if list.is_empty() {
-                *supported = run.method.supports(c);
+/// The gate's observations are a mergeable accumulator like the analysis's: each measured
+/// chunk's natural configurations are folded in, in sample order.
+impl<'a> Accumulate<Fold<'a>> for Observations {
+    fn add(&mut self, fold: Fold<'a>) {
+        let (case, chunk) = (fold.case, fold.chunk);
+        for (i, s) in chunk.samples.iter().enumerate().filter(|(_, s)| s.natural()) {
+            let c = &s.config;
+            let bins = case.bins.iter().map(|a| a.index(s.axes.get(&a.axis))).collect();
+            self.configs[s.material].push((c.clone(), bins));
+            for ((per_method, ulps), run) in self.methods.iter_mut().zip(&mut self.ulps).zip(chunk.runs) {
+                let (supported, list) = &mut per_method[s.material];
+                if list.is_empty() {
+                    *supported = run.method.supports(c);
+                }
+                // The headline's target (the surface view), the f32 result against the reference
+                // at the f32-rounded inputs where it is measured and not 0 (as the analysis does).
+                let target = crate::analyse::analysis::headline_target(run.method.target());
+                let reference = chunk.references[i].get(&target).copied();
+                let judged = crate::analyse::analysis::f32_reference(chunk, i, target);
+                list.push(if run.method.applies(c) {
+                    observe(run.f32[i], judged)
+                } else {
+                    Obs::NotApplicable
+                });
+                let ulp = reference.and_then(|r| crate::analyse::stats::ulp_relative(r.value));
+                ulps[s.material].push(ulp.unwrap_or(f64::NAN));
             }
-            // The headline's target (the surface view), the f32 result against the reference
-            // at the f32-rounded inputs where it is measured and not 0 (as the analysis does).
-            let target = crate::analyse::analysis::headline_target(run.method.target());
-            let reference = chunk.references[i].get(&target).copied();
-            let judged = crate::analyse::analysis::f32_reference(chunk, i, target);
-            list.push(if run.method.applies(c) {
-                observe(run.f32[i], judged)
-            } else {
-                Obs::NotApplicable
-            });
-            let ulp = reference.and_then(|r| crate::analyse::stats::ulp_relative(r.value));
-            ulps[s.material].push(ulp.unwrap_or(f64::NAN));
         }
+    }
+
+    /// Observations are kept in sample order for one whole run (`--baseline`, `--save-baseline`,
+    /// `diff`); shards interleave blocks and do not keep them, so two parts never merge.
+    fn merge(&mut self, _other: &Observations) -> Result<(), String> {
+        Err("the gate's per-configuration observations are not kept by shards: run the gate unsharded".into())
     }
 }
 
