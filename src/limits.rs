@@ -173,6 +173,19 @@ pub const MAX_TEXTURE_SIDE: u32 = 4096;
 /// texel costs 8 bytes in the configuration and 4 in the GPU's texel buffer.
 pub const MAX_TEXELS: u64 = 1 << 20;
 
+/// Estimated bytes of the light textures of `configurations` configurations held at once, each
+/// with `texels` texels (a case's `[materials.texture]`, the largest of its families): per texel
+/// the f64 in the configuration and in its f32-rounded copy (the references at the f32 inputs),
+/// the f32 in the GPU's texel buffer, and with `--raw` its number in the JSON row.
+pub fn texel_estimate(configurations: u64, texels: u64, raw: bool) -> Bytes {
+    let per_texel = 8 + 8 + 4 + if raw { 24 } else { 0 };
+    Bytes(configurations.saturating_mul(texels).saturating_mul(per_texel))
+}
+
+/// The most texels the top-up holds in one batch of draws (src/input/sampler.rs): a batch of
+/// textured draws is smaller, so its memory stays below 8 bytes × this.
+pub const TOPUP_BATCH_TEXELS: u64 = 1 << 24;
+
 /// Bytes the GPU's texel buffer takes for `texels` texels (f32 each).
 pub fn texel_buffer_bytes(texels: u64) -> Bytes {
     Bytes(texels.max(1).saturating_mul(4))

@@ -556,6 +556,27 @@ pub fn memory_budget(setup: &Setup, holds: Holds) -> crate::limits::Budget {
         format!("{held} configurations measured at once"),
         crate::limits::sweep_estimate(held, methods, targets, holds.raw),
     );
+    // Light textures drawn by the case (`[materials.texture]`): each configuration held carries
+    // its texels; the top-ups are held all at once, and a top-up batch holds at most
+    // TOPUP_BATCH_TEXELS.
+    let texels = case
+        .materials
+        .iter()
+        .filter_map(|m| m.texture.as_ref().map(|t| t.texel_count()))
+        .max()
+        .unwrap_or(0);
+    if texels > 0 {
+        let topups = total.saturating_sub(naturals);
+        let held_textures = held.saturating_add(if holds.all_samples { 0 } else { topups });
+        budget.add(
+            format!("light textures of {held_textures} configurations held at once, {texels} texels each"),
+            crate::limits::texel_estimate(held_textures, texels, holds.raw),
+        );
+        budget.add(
+            "one top-up batch of textured draws",
+            crate::limits::Bytes(crate::limits::TOPUP_BATCH_TEXELS.max(texels).saturating_mul(8)),
+        );
+    }
     let size = crate::analyse::analysis::statistics_size(case, &setup.methods);
     let bins: usize = case.bins.iter().map(|b| b.edges.len().saturating_sub(1)).sum();
     let cells: usize = case
@@ -576,6 +597,21 @@ pub fn memory_budget(setup: &Setup, holds: Holds) -> crate::limits::Budget {
                 search.restarts, search.population
             ),
             crate::limits::search_estimate(batch),
+        );
+        if texels > 0 {
+            budget.add(
+                "[search] candidates' light textures",
+                crate::limits::texel_estimate(batch, texels, false),
+            );
+        }
+    }
+    if texels > 0 && !case.compare.is_empty() {
+        // The disagreement search's candidates of one step carry their textures too.
+        let d = case.disagreements.clone().unwrap_or_default();
+        let batch = (d.restarts as u64).saturating_mul(d.population as u64);
+        budget.add(
+            format!("disagreement candidates' light textures ({batch} per step)"),
+            crate::limits::texel_estimate(batch, texels, false),
         );
     }
     if holds.observations {

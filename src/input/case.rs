@@ -9,6 +9,9 @@ use std::path::Path;
 /// The checks of a case file's values beyond their types.
 pub mod values;
 
+/// A family's light texture as a case distribution (issue 25).
+pub mod texture;
+
 /// A one-dimensional distribution of a dimensionless parameter.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(tag = "dist", rename_all = "snake_case", deny_unknown_fields)]
@@ -163,6 +166,10 @@ pub struct MaterialFamily {
     /// anisotropic). See docs/ggx.md.
     #[serde(default)]
     pub ltc: Option<String>,
+    /// A light texture drawn per configuration (`[materials.texture]`, src/input/case/texture.rs):
+    /// absent, the light is untextured and nothing is drawn for it.
+    #[serde(default)]
+    pub texture: Option<texture::TextureSpec>,
 }
 
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
@@ -435,6 +442,9 @@ pub const AXES: &[&str] = &[
     "view_angle",
     "anisotropy",
     "highlight",
+    "frequency",
+    "texture_contrast",
+    "distance_over_length",
 ];
 
 /// A finding: an expectation over the run's analysis and the explanation that holds while it

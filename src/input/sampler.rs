@@ -5,6 +5,7 @@
 //! so adding a material changes no other), floats drawn from raw integers, and the
 //! transcendental functions from `libm` (pure Rust) rather than the platform's libm.
 
+use crate::input::case::texture::{Direction, Drawn, Shape, TextureSpec};
 use crate::input::case::{Case, Dist, MaterialFamily, MaterialKind};
 use crate::input::geometry::{mat, rows, v3, DMat3, DVec3};
 use crate::input::scene::{Config, Material, Rect, Roughness, Vec3};
@@ -58,6 +59,17 @@ pub struct Axes {
     /// is the highlight a viewer sees. NaN for other materials.
     #[serde(default = "nan")]
     pub highlight: f64,
+    /// A textured family's stripes: periods per light length (along) or per turn (around; a
+    /// cubemap along: per half turn), as drawn and as the texels hold them
+    /// (src/input/case/texture.rs). NaN for other patterns and untextured families.
+    #[serde(default = "nan")]
+    pub frequency: f64,
+    /// A textured family's contrast (texels in [1 − c, 1 + c]); NaN without one.
+    #[serde(default = "nan")]
+    pub texture_contrast: f64,
+    /// The line's distance over the light's length, d/L (1/`length`).
+    #[serde(default = "nan")]
+    pub distance_over_length: f64,
 }
 
 fn nan() -> f64 {
@@ -99,6 +111,9 @@ impl Axes {
             "view_angle" => self.view_angle,
             "anisotropy" => self.anisotropy,
             "highlight" => self.highlight,
+            "frequency" => self.frequency,
+            "texture_contrast" => self.texture_contrast,
+            "distance_over_length" => self.distance_over_length,
             _ => f64::NAN,
         }
     }
@@ -479,9 +494,13 @@ pub fn top_up_counted(case: &Case, counts: &[FamilyCounts]) -> (Vec<Sample>, Vec
         let dims = c.dims;
         let stream = case.seed ^ (index as u64 + 1).wrapping_mul(0xD1B5_4A32_D192_ED03) ^ 0x7070_7570;
         let mut source = Stream(ChaCha8Rng::seed_from_u64(stream));
-        const BATCH: usize = 16384;
+        // A batch of textured draws holds every draw's texels: fewer at a time (the kept ones do
+        // not depend on the batch's size, only the draws counted past the last one needed).
+        let texels = family.texture.as_ref().map_or(0, |t| t.texel_count());
+        let most = (crate::limits::TOPUP_BATCH_TEXELS / texels.max(1)).max(1);
+        let batch_size = usize::try_from(most).unwrap_or(usize::MAX).min(16384);
         while report.draws < budget && need.iter().flatten().any(|&n| n > 0) {
-            let batch = BATCH.min(budget - report.draws);
+            let batch = batch_size.min(budget - report.draws);
             let units: Vec<Vec<f64>> = (0..batch).map(|_| (0..dims).map(|_| source.unit()).collect()).collect();
             let drawn: Vec<Option<Sample>> = units
                 .par_iter()
@@ -596,6 +615,14 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
     let (p1, p2) = (p1.to_array(), p2.to_array());
     let (reach_near, reach_far, subtended, height, _) = line_axes(p1, p2);
     let (reach_near_o, reach_o, subtended_o, height_o, tilt_o) = line_axes(p1o.to_array(), p2o.to_array());
+    // Drawn last and only for a textured family, so an untextured family draws what it always drew.
+    let texture = family.texture.as_ref().map(|t| {
+        let drawn = sample_texture(source, t);
+        (t.texture(&drawn), drawn)
+    });
+    let (frequency, texture_contrast) = texture
+        .as_ref()
+        .map_or((f64::NAN, f64::NAN), |(_, d)| (d.frequency, d.contrast));
 
     Sample {
         config: Config {
@@ -605,7 +632,7 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
             radius,
             rect,
             material: material_value,
-            texture: None,
+            texture: texture.map(|(t, _)| t),
         },
         material,
         units: Vec::new(),
@@ -646,7 +673,37 @@ fn sample_one(source: &mut dyn Uniforms, case: &Case, material: usize, id: Strin
             view_angle,
             anisotropy,
             highlight,
+            frequency,
+            texture_contrast,
+            distance_over_length: 1.0 / length_over_d,
         },
+    }
+}
+
+/// The values a family's texture pattern is made from, drawn in a fixed order: `frequency`
+/// (stripes), `contrast` (all but constant), the phase (stripes, a gradient around), the box or
+/// cap (step). What a pattern does not use is not drawn (NaN), so a family's draws per
+/// configuration are fixed by its pattern.
+fn sample_texture(source: &mut dyn Uniforms, spec: &TextureSpec) -> Drawn {
+    let p = &spec.pattern;
+    let frequency = draw_opt(source, &p.frequency, f64::NAN);
+    let contrast = draw_opt(source, &p.contrast, f64::NAN);
+    let phase = match (p.shape, p.direction) {
+        (Shape::Stripes, _) | (Shape::Gradient, Some(Direction::Around)) => source.unit(),
+        _ => f64::NAN,
+    };
+    let step = if p.shape == Shape::Step {
+        let (u0, v0) = (source.unit(), source.unit());
+        let (wu, wv) = (0.1 + 0.4 * source.unit(), 0.1 + 0.4 * source.unit());
+        [u0, v0, wu, wv]
+    } else {
+        [f64::NAN; 4]
+    };
+    Drawn {
+        frequency,
+        contrast,
+        phase,
+        step,
     }
 }
 

@@ -120,6 +120,17 @@ pub fn check(case: &Case) -> Result<(), String> {
         // The same cap as `--count`: a case file is no way around it.
         crate::limits::check_count(&format!("`materials[{i}].count` ="), m.count as u64)?;
         material(m, i)?;
+        if let Some(t) = &m.texture {
+            let at = format!("materials[{i}].texture");
+            t.check(&at)?;
+            if case.geometry_of(m).rect_width.is_some() {
+                return Err(format!(
+                    "`{at}`: a textured light is a line or a tube, and the geometry of materials[{i}] (\"{}\") has a \
+                     `rect_width` (a rectangle is never textured)",
+                    clip(&m.name)
+                ));
+            }
+        }
     }
     if case.min_per_bin as u64 > crate::limits::MAX_COUNT {
         return Err(format!(
@@ -266,6 +277,15 @@ pub fn axis_range(case: &Case, family: &MaterialFamily, axis: &str) -> Option<(f
         "anisotropy" => ggx.then(|| or(family.anisotropy.as_ref(), 1.0)),
         // Defined where the view is known: the `ggx` material (src/input/sampler.rs).
         "highlight" => (family.kind == Ggx).then_some((0.0, 180.0)),
+        // Drawn by the family's texture pattern (src/input/case/texture.rs).
+        "frequency" => family.texture.as_ref().and_then(|t| t.pattern.frequency.as_ref()).map(range),
+        "texture_contrast" => family.texture.as_ref().and_then(|t| t.pattern.contrast.as_ref()).map(range),
+        "distance_over_length" => Some(if g.endpoint_height.is_some() {
+            all
+        } else {
+            let (lo, hi) = range(&g.length);
+            (1.0 / hi, 1.0 / lo)
+        }),
         "radius" => g.radius.as_ref().map(range),
         "cap_straddle" => g.radius.as_ref().map(|_| (0.0, 1.0)),
         "width" => g.rect_width.as_ref().map(range),
@@ -302,6 +322,8 @@ fn drawn_axes(case: &Case) -> Result<(), String> {
                 "alpha" => "an LTC or ggx material",
                 "view_angle" | "anisotropy" => "a ggx or ltc_ggx material",
                 "highlight" => "a ggx material",
+                "frequency" => "a `[materials.texture]` whose pattern draws a `frequency` (stripes)",
+                "texture_contrast" => "a `[materials.texture]` whose pattern draws a `contrast`",
                 "radius" | "cap_straddle" => "a geometry with a `radius`",
                 "width" | "rect_angle" => "a geometry with a `rect_width`",
                 _ => "another case",
