@@ -163,8 +163,10 @@ pub fn bench_methods_with(
     anyhow::ensure!(!configs.is_empty(), "bench: no configurations to time");
     let start = Instant::now();
     let n = configs.len();
-    let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
-    let timer = gpu.dispatch_timer(&scenes)?;
+    // Textured configurations are timed reading their own texels (issue 25).
+    let (scenes, texels): (Vec<GpuScene>, Vec<f32>) = crate::input::scene::gpu_scenes(configs);
+    let timer = gpu.dispatch_timer_textured(&scenes, &texels)?;
+    drop(texels);
     // Everything that can fail on bad input fails before anything is timed.
     let pipelines = methods
         .iter()

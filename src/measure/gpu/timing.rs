@@ -103,21 +103,47 @@ impl Gpu {
     /// Uploads `scenes` for timing, with the GPU's timestamps when the device has them
     /// and the wall clock otherwise.
     pub fn dispatch_timer(&self, scenes: &[GpuScene]) -> Result<DispatchTimer<'_>, GpuError> {
+        self.dispatch_timer_textured(scenes, &[])
+    }
+
+    /// [`Gpu::dispatch_timer`] with the texel buffer of textured scenes (issue 25): `texels` as
+    /// `crate::input::scene::gpu_scenes` lays them out, bound whole to every dispatch, so a
+    /// texture method is timed reading its scenes' own texels.
+    pub fn dispatch_timer_textured(&self, scenes: &[GpuScene], texels: &[f32]) -> Result<DispatchTimer<'_>, GpuError> {
         let clock = if self.has_timestamps() {
             Clock::GpuTimestamp
         } else {
             Clock::Wall
         };
-        self.dispatch_timer_with(scenes, clock)
+        self.dispatch_timer_inner(scenes, texels, clock)
     }
 
     /// Uploads `scenes` for timing with `clock`; [`Clock::GpuTimestamp`] is an error on a
     /// device without timestamp queries.
     pub fn dispatch_timer_with(&self, scenes: &[GpuScene], clock: Clock) -> Result<DispatchTimer<'_>, GpuError> {
+        self.dispatch_timer_inner(scenes, &[], clock)
+    }
+
+    fn dispatch_timer_inner(
+        &self,
+        scenes: &[GpuScene],
+        texels: &[f32],
+        clock: Clock,
+    ) -> Result<DispatchTimer<'_>, GpuError> {
         let fail = |message: String| GpuError::Run {
             method: "timing".to_string(),
             message,
         };
+        let texel_bytes = (texels.len().max(1) * 4) as u64;
+        let limits = self.device.limits();
+        if texel_bytes > limits.max_storage_buffer_binding_size || texel_bytes > limits.max_buffer_size {
+            return Err(fail(format!(
+                "the textures' {} texels ({texel_bytes} bytes) do not fit one storage binding on this device \
+                 (at most {} bytes): time fewer or smaller textured configurations",
+                texels.len(),
+                limits.max_storage_buffer_binding_size.min(limits.max_buffer_size)
+            )));
+        }
         if scenes.is_empty() {
             return Err(fail("no configurations to time".to_string()));
         }
@@ -131,7 +157,7 @@ impl Gpu {
         scoped(&self.device, || {
             let chunks = scenes
                 .chunks(per_dispatch)
-                .map(|part| self.upload_chunk(part))
+                .map(|part| self.upload_chunk(part, texels))
                 .collect();
             let timestamps = (clock == Clock::GpuTimestamp).then(|| self.timestamps());
             DispatchTimer {
@@ -179,7 +205,7 @@ impl Gpu {
         by_dispatch.min(by_binding).min(by_buffer).max(1) as usize
     }
 
-    fn upload_chunk(&self, scenes: &[GpuScene]) -> Chunk {
+    fn upload_chunk(&self, scenes: &[GpuScene], texels: &[f32]) -> Chunk {
         use wgpu::BufferUsages as U;
         let count = scenes.len() as u32;
         let buffer = |label, size, usage| {
@@ -201,8 +227,8 @@ impl Gpu {
             std::mem::size_of::<u32>() as u64,
             U::UNIFORM | U::COPY_DST,
         );
-        // Timing runs untextured scenes: the texel binding holds one 0.
-        let texels = super::runner::texel_buffer(self, &[]);
+        // The textured scenes' texels (their offsets index the whole buffer), or one 0.
+        let texels = super::runner::texel_buffer(self, texels);
         self.queue.write_buffer(&scene_buffer, 0, bytemuck::cast_slice(scenes));
         self.queue.write_buffer(&count_buffer, 0, bytemuck::bytes_of(&count));
         let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
