@@ -126,7 +126,10 @@ fn texture_draws_are_seeded_in_range_and_hold_the_frequency_drawn() {
             .bounds();
         assert!(c >= lo && c <= hi, "{name}: contrast {c}");
         for &x in &t.texels {
-            assert!(x >= 1.0 - c - 1e-12 && x <= 1.0 + c + 1e-12, "{name}: texel {x}, contrast {c}");
+            assert!(
+                x >= 1.0 - c - 1e-12 && x <= 1.0 + c + 1e-12,
+                "{name}: texel {x}, contrast {c}"
+            );
         }
         // Stripes take two values only; a gradient is monotone along u.
         let distinct = |v: &[f64]| {

@@ -105,7 +105,10 @@ impl TextureSpec {
             ));
         }
         if self.kind == TextureKind::Cubemap && nu != nv {
-            return Err(format!("`{at}.size` = {:?}: a cubemap's faces are square ([n, n])", self.size));
+            return Err(format!(
+                "`{at}.size` = {:?}: a cubemap's faces are square ([n, n])",
+                self.size
+            ));
         }
         if self.texel_count() > MAX_TEXELS {
             return Err(format!(

@@ -278,8 +278,16 @@ pub fn axis_range(case: &Case, family: &MaterialFamily, axis: &str) -> Option<(f
         // Defined where the view is known: the `ggx` material (src/input/sampler.rs).
         "highlight" => (family.kind == Ggx).then_some((0.0, 180.0)),
         // Drawn by the family's texture pattern (src/input/case/texture.rs).
-        "frequency" => family.texture.as_ref().and_then(|t| t.pattern.frequency.as_ref()).map(range),
-        "texture_contrast" => family.texture.as_ref().and_then(|t| t.pattern.contrast.as_ref()).map(range),
+        "frequency" => family
+            .texture
+            .as_ref()
+            .and_then(|t| t.pattern.frequency.as_ref())
+            .map(range),
+        "texture_contrast" => family
+            .texture
+            .as_ref()
+            .and_then(|t| t.pattern.contrast.as_ref())
+            .map(range),
         "distance_over_length" => Some(if g.endpoint_height.is_some() {
             all
         } else {
