@@ -96,14 +96,13 @@ pub fn outputs(o: &Objectives, inputs: &Inputs) -> Vec<Box<dyn Format>> {
     for (name, groups) in &o.regions {
         let _ = writeln!(
             md,
-            "## Line-light error, {}\n\n{}\n",
+            "## Line-light error, {}\n\nRows: all lines, then per (φ, r) slice, per α_max, and for the natural sample per \
+             highlight-angle bin. \"SW nearer\" / \"L1 nearer\": lines where that fit's value is nearer T (paired).\n",
             if name == "highlight" {
                 "near the highlight (nearest point within 5° of the mirror direction)"
             } else {
                 "natural sample (cases/ggx.toml's geometry), also binned by the highlight angle"
-            },
-            "Rows: all lines, then per (φ, r) slice, per α_max, and for the natural sample per highlight-angle bin. \
-             \"SW nearer\" / \"L1 nearer\": lines where that fit's value is nearer T (paired)."
+            }
         );
         md.push_str(&group_table(groups));
         md.push('\n');
