@@ -106,16 +106,19 @@ pub enum SetKind {
     Render,
     /// `render --save-baseline DIR`: a render baseline (src/app/gate/render.rs).
     RenderBaseline,
+    /// `objectives`: OUT, by default reports/ggx-objectives/ (issue 24).
+    Objectives,
 }
 
 impl SetKind {
-    pub const ALL: [SetKind; 6] = [
+    pub const ALL: [SetKind; 7] = [
         SetKind::Sweep,
         SetKind::Scan,
         SetKind::Chain,
         SetKind::Baseline,
         SetKind::Render,
         SetKind::RenderBaseline,
+        SetKind::Objectives,
     ];
 
     /// The name written in the folder's [`KIND_MARKER`].
@@ -127,6 +130,7 @@ impl SetKind {
             SetKind::Baseline => "baseline",
             SetKind::Render => "render",
             SetKind::RenderBaseline => "render-baseline",
+            SetKind::Objectives => "objectives",
         }
     }
 
@@ -139,6 +143,7 @@ impl SetKind {
             SetKind::Baseline => "baseline folder",
             SetKind::Render => "render folder",
             SetKind::RenderBaseline => "render baseline folder",
+            SetKind::Objectives => "objectives report folder",
         }
     }
 
@@ -151,6 +156,7 @@ impl SetKind {
             SetKind::Baseline => "linelight sweep --save-baseline",
             SetKind::Render => "linelight render",
             SetKind::RenderBaseline => "linelight render --save-baseline",
+            SetKind::Objectives => "linelight objectives",
         }
     }
 
@@ -210,6 +216,7 @@ fn enclosing_set(path: &Path) -> Option<(PathBuf, SetKind)> {
             SetKind::Render => true,
             // Written with its marker from the start.
             SetKind::RenderBaseline => false,
+            SetKind::Objectives => false,
         };
         (marked || paired).then(|| (a.to_path_buf(), kind))
     })

@@ -228,6 +228,28 @@ enum Command {
         /// α_max axis at one θ, φ, r).
         #[arg(long, default_value_t = 4)]
         checkpoint_every: usize,
+        /// With --aniso: the objective, `l1` (the table, by Nelder–Mead) or `sw` (seed 004's
+        /// sliced Wasserstein by SGD, on a documented subset of entries; default out
+        /// data/ltc_ggx_aniso_sw_subset.csv).
+        #[arg(long, default_value = "l1", value_parser = ["l1", "sw"])]
+        objective: String,
+        /// With --objective sw: SGD steps per entry.
+        #[arg(long, default_value_t = linelight::input::ltc::sw::PARAMS.steps)]
+        sw_steps: usize,
+    },
+    /// Seed 004's fitting objective (sliced Wasserstein, SGD) beside ours (L1) on the SW-fitted
+    /// subset of the anisotropic table: line-light error against GGX truth near the highlight and
+    /// overall, and the lobe errors (issue 24). Writes OUT/objectives.{md,json}, lines.csv, entries.csv.
+    Objectives {
+        /// The SW-fitted entries (`linelight fit --aniso --objective sw`).
+        #[arg(long, default_value = "data/ltc_ggx_aniso_sw_subset.csv")]
+        subset: PathBuf,
+        /// Output folder, a report folder of its own.
+        #[arg(long, default_value = "reports/ggx-objectives")]
+        out: PathBuf,
+        /// Lines per region (near the highlight, natural) and entry.
+        #[arg(long, default_value_t = 8)]
+        lines: usize,
     },
     /// The GGX error chain (fit, table, storage, formula, rounding, driver) of a case of ggx
     /// materials, beside the published table: writes OUT/chain.{md,csv,json}
@@ -432,11 +454,25 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             aniso_size,
             checkpoint,
             checkpoint_every,
+            objective,
+            sw_steps,
         } => {
             if !aniso && checkpoint.is_some() {
                 anyhow::bail!("--checkpoint is for --aniso fits (the isotropic table takes minutes, not hours)");
             }
-            if aniso {
+            if objective == "sw" {
+                if !aniso {
+                    anyhow::bail!("--objective sw is for --aniso fits (seed 004's objective)");
+                }
+                if checkpoint.is_some() {
+                    anyhow::bail!("--checkpoint is for the L1 table's fit (--objective sw fits a subset in minutes)");
+                }
+                let size: [usize; 4] = aniso_size
+                    .try_into()
+                    .map_err(|v: Vec<usize>| anyhow::anyhow!("--aniso-size takes 4 numbers, got {}", v.len()))?;
+                let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_aniso_sw_subset.csv"));
+                linelight::app::fit::aniso_sw(&out, size, sw_steps)?;
+            } else if aniso {
                 let size: [usize; 4] = aniso_size
                     .try_into()
                     .map_err(|v: Vec<usize>| anyhow::anyhow!("--aniso-size takes 4 numbers, got {}", v.len()))?;
@@ -449,6 +485,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             }
             Ok(Status::Ok)
         }
+        Command::Objectives { subset, out, lines } => linelight::app::objectives::run(&subset, &out, lines),
         Command::Chain { case, out, count, gpu } => linelight::app::chain::run(&case, out, count, &gpu.options()),
         Command::Diff {
             case,

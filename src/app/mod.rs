@@ -9,6 +9,7 @@ pub mod diff;
 pub mod eval;
 pub mod fit;
 pub mod gate;
+pub mod objectives;
 pub mod options;
 pub mod render;
 pub mod shard;

@@ -7,6 +7,7 @@ pub mod chain;
 pub mod envelope;
 pub mod eval_rows;
 pub mod gpu;
+pub mod objectives;
 pub mod progress;
 pub mod scan;
 pub mod search;

@@ -244,6 +244,37 @@ pub fn fit_entry_from(size: [usize; 4], i: [usize; 4], warm: Option<[f64; 6]>) -
     (finish(&g, m, f.magnitude, f.fresnel, Origin::Fit), params)
 }
 
+/// What every fitted entry goes through after its fit, whatever the objective (the SW fit of
+/// `sw.rs` too): M (ω = M ω_o/‖M ω_o‖, in the roughness frame) aligned (Eq. 12), third column
+/// of unit length, the Eq. 16 zeros of entry `i` of a table of `size`, and its lobe errors.
+pub fn post_process(size: [usize; 4], i: [usize; 4], m: &M3, magnitude: f64, fresnel: f64) -> Entry {
+    let g = lobe(entry_point(size, i));
+    let mut m = unit_third_column(&align(m));
+    symmetrize(&mut m, i, size);
+    let m = unit_third_column(&m);
+    finish(&g, m, magnitude, fresnel, Origin::Fit)
+}
+
+/// Some entries of a table of `size` as CSV: the table's columns, `header` as `#` lines
+/// (read back by [`parse_entries`]).
+pub fn entries_csv(size: [usize; 4], entries: &[Fitted], header: &str) -> String {
+    let mut s = String::new();
+    for line in header.lines() {
+        s.push_str(&format!("# {line}\n"));
+    }
+    s.push_str(COLUMNS);
+    s.push('\n');
+    for (i, e) in entries {
+        s.push_str(&row(size, *i, e));
+    }
+    s
+}
+
+/// The rows of [`entries_csv`] (or of a table): each entry with its index.
+pub fn parse_entries(text: &str, source: &str) -> Result<Vec<Fitted>, String> {
+    parse_rows(text, source)
+}
+
 /// Which entries are fitted; the others (θ = 0, φ > 0) are copies of φ = 0.
 fn origin_of(i: [usize; 4]) -> Origin {
     if i[0] == 0 && i[1] > 0 {

@@ -6,6 +6,7 @@
 pub mod aniso;
 pub mod fit;
 pub mod ggx;
+pub mod sw;
 pub mod table;
 
 /// A 3×3 matrix (`scene::Mat3` is this type: the scene builds on this module, not the reverse).
