@@ -1186,9 +1186,9 @@ edges = [0.0, 45.0, 90.0]
             row(&[(ISO, 0.0)], v(0.125, None, Some(0.0))),
             row(&[(ISO, 0.0)], v(0.0, None, Some(1e-3))),
             row(&[(ISO, 0.0)], v(f32::INFINITY, None, None)),
-            // 9: the reference at f32 inputs is 1.25: the f32 columns are exact against it, the
-            // f64 column is 0.25 off the exact reference 1, and the input rounding is 0.25.
-            row(&[(ISO, 1.0)], v(1.25, Some(1.25), Some(1.25))),
+            // 9: the reference at f32 inputs is 2.5: the f32 columns are exact against it, the
+            // f64 column is 0.5/2 off the exact reference 2, and the input rounding is 0.25.
+            row(&[(ISO, 2.0)], v(2.5, Some(2.5), Some(2.5))),
             // 10: no reference of the method's target: not judged.
             row(&[(Target::Line, 1.0)], v(7.0, None, None)),
             // 11, 12: rel 3/64 (within 1e-1) and 2⁻⁸ (within 1e-2).
@@ -1202,7 +1202,7 @@ edges = [0.0, 45.0, 90.0]
                 error: 1e-9,
             },
         );
-        rows[9].refs32 = refs(&[(ISO, 1.25)]);
+        rows[9].refs32 = refs(&[(ISO, 2.5)]);
         rows
     }
 
