@@ -1016,3 +1016,658 @@ impl<'a> Accumulate<Fold<'a>> for LeakAccumulator {
         Ok(())
     }
 }
+
+/// Small chunks built by hand, every expected number worked out on paper from the rules of
+/// docs/statistics.md (the values are chosen exact in f32, so a relative error is a fraction).
+/// Written for issue 26's mutation pass (docs/mutation.md).
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::sampler::Axes;
+    use crate::input::scene::{Config, Material};
+    use crate::reference::Estimate;
+    use std::collections::BTreeMap;
+
+    /// A case of two diffuse families, `length` and `elevation` axes of two bins each, and
+    /// whatever `extra` adds (methods, compare, maps, tolerances).
+    fn case(methods: &[&str], extra: &str) -> Case {
+        let methods: Vec<String> = methods.iter().map(|m| format!("\"{m}\"")).collect();
+        let text = format!(
+            r#"
+name = "t"
+title = "t"
+seed = 1
+methods = [{}]
+{extra}
+[geometry]
+elevation = {{ dist = "uniform", min = 0.0, max = 90.0 }}
+tilt_angle = {{ dist = "uniform", min = 0.0, max = 180.0 }}
+length = {{ dist = "log_uniform", min = 0.1, max = 10.0 }}
+center = {{ dist = "fixed", value = 0.0 }}
+[[materials]]
+name = "a"
+kind = "diffuse"
+count = 10
+[[materials]]
+name = "b"
+kind = "diffuse"
+count = 10
+[[bins]]
+axis = "length"
+edges = [0.1, 1.0, 10.0]
+[[bins]]
+axis = "elevation"
+edges = [0.0, 45.0, 90.0]
+"#,
+            methods.join(", ")
+        );
+        Case::parse("t.toml", &text).unwrap()
+    }
+
+    fn methods(case: &Case) -> Vec<Method> {
+        let kernels = crate::kernel::builtin_kernels();
+        case.methods
+            .iter()
+            .map(|l| crate::kernel::methods::resolve(l, &kernels).unwrap())
+            .collect()
+    }
+
+    /// One configuration: a segment at distance 1 from the shading point, above the surface
+    /// (z = 1) or wholly below it (z = −1).
+    struct Row {
+        sample: Sample,
+        refs: BTreeMap<Target, Estimate>,
+        refs32: BTreeMap<Target, Estimate>,
+        /// Per method: GPU f32, CPU f32, f64.
+        values: Vec<(f32, Option<f32>, Option<f64>)>,
+    }
+
+    fn sample(material: usize, length: f64, elevation: f64, strata: Vec<(usize, usize)>, below: bool) -> Sample {
+        let z = if below { -1.0 } else { 1.0 };
+        Sample {
+            config: Config {
+                id: String::new(),
+                p1: [-0.5, 0.0, z],
+                p2: [0.5, 0.0, z],
+                radius: None,
+                rect: None,
+                material: Material::Diffuse,
+                texture: None,
+            },
+            material,
+            axes: Axes {
+                length,
+                elevation,
+                ..Axes::default()
+            },
+            units: Vec::new(),
+            strata,
+        }
+    }
+
+    fn refs(list: &[(Target, f64)]) -> BTreeMap<Target, Estimate> {
+        list.iter()
+            .map(|&(t, value)| (t, Estimate { value, error: 0.0 }))
+            .collect()
+    }
+
+    /// A natural configuration of family 0 in the first bin of both axes.
+    fn row(refs_: &[(Target, f64)], values: Vec<(f32, Option<f32>, Option<f64>)>) -> Row {
+        Row {
+            sample: sample(0, 0.5, 10.0, Vec::new(), false),
+            refs: refs(refs_),
+            refs32: BTreeMap::new(),
+            values,
+        }
+    }
+
+    /// Folds `rows` in as one chunk.
+    fn fold(case: &Case, methods: &[Method], rows: &[Row], accs: &mut Accumulators, leak: &mut LeakAccumulator) {
+        let samples: Vec<Sample> = rows.iter().map(|r| r.sample.clone()).collect();
+        let global: Vec<usize> = (0..rows.len()).collect();
+        let references: Vec<_> = rows.iter().map(|r| r.refs.clone()).collect();
+        let references_f32: Vec<_> = rows.iter().map(|r| r.refs32.clone()).collect();
+        let runs: Vec<MethodRun> = methods
+            .iter()
+            .enumerate()
+            .map(|(m, method)| MethodRun {
+                method: method.clone(),
+                f32: rows.iter().map(|r| r.values[m].0).collect(),
+                f32_cpu: rows.iter().map(|r| r.values[m].1).collect(),
+                f64: rows.iter().map(|r| r.values[m].2).collect(),
+            })
+            .collect();
+        let chunk = Chunk {
+            samples: &samples,
+            global: &global,
+            references: &references,
+            references_f32: &references_f32,
+            runs: &runs,
+        };
+        add_to_each(
+            &mut [accs as &mut dyn Accumulate<Fold>, leak],
+            Fold { case, chunk: &chunk },
+        );
+    }
+
+    fn analyse(case: &Case, methods: &[Method], rows: &[Row]) -> (Analysis, Vec<Leak>) {
+        let mut accs = Accumulators::new(case, methods);
+        let mut leak = LeakAccumulator::new(case.materials.len());
+        fold(case, methods, rows, &mut accs, &mut leak);
+        (accs.finish(case, methods), leak.finish(case))
+    }
+
+    use crate::analyse::stats::add_to_each;
+
+    const ISO: Target = Target::LineIsotropic;
+
+    /// Every kind of configuration of one method without a surface view
+    /// (`line_isotropic.closest_point`), beside a method that applies to none of them
+    /// (`cylinder.line`: no radius).
+    fn judged_rows() -> Vec<Row> {
+        let v = |gpu: f32, cpu: Option<f32>, f64_: Option<f64>| vec![(gpu, cpu, f64_), (1.0, None, None)];
+        let mut rows = vec![
+            // 0: rel 2⁻¹⁰ (within 1e-3); the CPU f32 exact; the reference's estimate 1e-9.
+            row(
+                &[(ISO, 1.0)],
+                v(1.0 + 1.0 / 1024.0, Some(1.0), Some(1.0 + 1.0 / 1024.0)),
+            ),
+            // 1: rel 0.25.
+            row(&[(ISO, 2.0)], v(1.5, None, Some(1.5))),
+            // 2: missed light in f32 and f64: rel 1 in both.
+            row(&[(ISO, 0.5)], v(0.0, None, Some(0.0))),
+            // 3: missed in f32 only: f64 rel 0.5.
+            row(&[(ISO, 0.5)], v(0.0, None, Some(0.25))),
+            // 4: NaN in both.
+            row(&[(ISO, 1.0)], v(f32::NAN, None, Some(f64::NAN))),
+            // 5: a reference of 1e-9, below the floor 1e-6: rel 0.5, floored 0.5e-9 / 1e-6.
+            row(&[(ISO, 1e-9)], v(1.5e-9, None, None)),
+            // 6–8: references of exactly 0: lit; dark in f32 but lit in f64; infinite.
+            row(&[(ISO, 0.0)], v(0.125, None, Some(0.0))),
+            row(&[(ISO, 0.0)], v(0.0, None, Some(1e-3))),
+            row(&[(ISO, 0.0)], v(f32::INFINITY, None, None)),
+            // 9: the reference at f32 inputs is 2.5: the f32 columns are exact against it, the
+            // f64 column is 0.5/2 off the exact reference 2, and the input rounding is 0.25.
+            row(&[(ISO, 2.0)], v(2.5, Some(2.5), Some(2.5))),
+            // 10: no reference of the method's target: not judged.
+            row(&[(Target::Line, 1.0)], v(7.0, None, None)),
+            // 11, 12: rel 3/64 (within 1e-1) and 2⁻⁸ (within 1e-2).
+            row(&[(ISO, 1.0)], v(1.0 + 3.0 / 64.0, None, None)),
+            row(&[(ISO, 1.0)], v(1.0 + 1.0 / 256.0, None, None)),
+        ];
+        rows[0].refs.insert(
+            ISO,
+            Estimate {
+                value: 1.0,
+                error: 1e-9,
+            },
+        );
+        rows[9].refs32 = refs(&[(ISO, 2.5)]);
+        rows
+    }
+
+    const JUDGED_EXTRA: &str = r#"
+[tolerances."line_isotropic.closest_point"]
+median = 0.1
+max = 0.5
+nan = 0
+false_light = 1
+"#;
+
+    #[test]
+    fn each_configuration_is_judged_by_hand() {
+        let case = case(&["line_isotropic.closest_point", "cylinder.line"], JUDGED_EXTRA);
+        let methods = methods(&case);
+        let (a, _) = analyse(&case, &methods, &judged_rows());
+        let m = &a.methods[0];
+        assert_eq!((m.target, m.judged, m.has_f64), (ISO, ISO, true));
+        let s = &m.materials[0].all;
+        // Finite with a non-zero reference: 0, 1, 2, 3, 5, 9, 11, 12; NaN: 4.
+        assert_eq!((s.count, s.nan, s.inf), (8, 1, 0));
+        assert_eq!((s.dark, s.dark_f64, s.below_floor, s.nan_f64), (2, 1, 1, 1));
+        // Sorted: 0, 2⁻¹⁰, 2⁻⁸, 3/64, 0.25, 0.5(f32 of 1.5e-9), 1, 1; median at rank 4.
+        let rel = s.rel.unwrap();
+        assert_eq!((rel.median, rel.max), (3.0 / 64.0, 1.0));
+        // Within 1e-3: 0 and 9; 1e-2: and 12; 1e-1: and 11; of 9 (the NaN counts as outside).
+        assert_eq!(s.within, [2.0 / 9.0, 3.0 / 9.0, 4.0 / 9.0]);
+        // Apart from the missed ones (2, 3), the worst is configuration 5.
+        let lit = s.rel_lit.unwrap();
+        assert!((lit.max - 0.5).abs() < 1e-7 && lit.median == 1.0 / 256.0, "{lit:?}");
+        // Floored: configuration 5's 0.5e-9 over the floor 1e-6 instead of over 1e-9.
+        let floored = s.rel_floored.unwrap();
+        assert_eq!(floored.max, 1.0);
+        let five = {
+            let mut v: Vec<f64> = vec![0.0, 1.0 / 1024.0, 1.0 / 256.0, 3.0 / 64.0, 0.25, 1.0, 1.0];
+            v.push(((1.5e-9f32 as f64) - 1e-9).abs() / 1e-6);
+            v.sort_by(f64::total_cmp);
+            v
+        };
+        assert_eq!(floored.median, five[3]);
+        // f64: 0, 1, 2, 3, 9 (the NaN counted apart): 2⁻¹⁰, 0.25, 1, 0.5, 0.25; lit without 2.
+        let f = s.rel_f64.unwrap();
+        assert_eq!((f.median, f.max), (0.25, 1.0));
+        assert_eq!(s.rel_f64_lit.unwrap().max, 0.5);
+        assert_eq!(s.rel_cpu_f32.unwrap().max, 0.0);
+        assert_eq!(s.abs.unwrap().max, 0.5);
+        assert_eq!(s.reference.unwrap().max, 2.0);
+        assert_eq!(s.reference_rel.unwrap().max, 1e-9);
+        assert!(!s.reference_flag, "1e-9·100 is far below the median 3/64");
+        assert_eq!(s.input_rounding.unwrap().max, 0.25);
+        assert_eq!(s.input_rounding.unwrap().median, 0.25);
+        let fl = &s.false_light;
+        assert_eq!((fl.configurations, fl.lit, fl.nonfinite, fl.lit_f64), (3, 1, 1, 1));
+        assert_eq!(fl.value.unwrap().max, 0.125);
+        // No surface view: no own-target rows.
+        let mat = &m.materials[0];
+        assert!(mat.own_target.is_none() && mat.wholly_below.is_none() && mat.own_axes.is_empty());
+        // Family b saw nothing.
+        assert_eq!(m.materials[1].all.configurations(), 0);
+        // The method that applies to none of them (no radius) judged nothing.
+        let c = &a.methods[1].materials[0];
+        assert_eq!(c.all.configurations(), 0);
+        assert_eq!(c.own_target.as_ref().unwrap().configurations(), 0);
+        // The checks: median and false light pass, max and NaN/inf (4 and 8) fail.
+        let checks: Vec<_> = a
+            .checks
+            .iter()
+            .filter(|c| c.material == "a")
+            .map(|c| (c.what.as_str(), c.limit, c.measured, c.pass))
+            .collect();
+        assert_eq!(
+            checks,
+            [
+                ("median rel. error", 0.1, 3.0 / 64.0, true),
+                ("max rel. error", 0.5, 1.0, false),
+                ("NaN/inf count", 0.0, 2.0, false),
+                ("false light (configurations with reference 0 lit)", 1.0, 1.0, true),
+            ]
+        );
+        // Family b is checked too (empty: every measure 0).
+        assert_eq!(a.checks.len(), 8);
+        assert!(a
+            .checks
+            .iter()
+            .filter(|c| c.material == "b")
+            .all(|c| c.pass && c.measured == 0.0));
+        assert_eq!(a.verdict, Verdict::Fail);
+    }
+
+    #[test]
+    fn the_f32_columns_are_judged_against_the_reference_at_f32_inputs_where_it_is_not_0() {
+        let references = vec![refs(&[(ISO, 1.0)]), refs(&[(ISO, 1.0)]), refs(&[(ISO, 0.0)]), refs(&[])];
+        let references_f32 = vec![refs(&[(ISO, 1.25)]), refs(&[(ISO, 0.0)]), refs(&[(ISO, 0.5)])];
+        let chunk = Chunk {
+            samples: &[],
+            global: &[],
+            references: &references,
+            references_f32: &references_f32,
+            runs: &[],
+        };
+        let at = |i| f32_reference(&chunk, i, ISO).map(|e| e.value);
+        assert_eq!((at(0), at(1), at(2), at(3)), (Some(1.25), Some(1.0), Some(0.0), None));
+        assert_eq!(f32_reference(&chunk, 0, Target::Line), None);
+    }
+
+    #[test]
+    fn a_surface_view_judges_the_headline_and_the_formula_apart() {
+        let case = case(&["line.ltc2023"], "");
+        let methods = methods(&case);
+        let (l, u) = (Target::Line, Target::LineUpper);
+        let rows = vec![
+            // Above: the surface receives 1, the lobe gives 1.25: headline 0.25, own exact (f64
+            // the other way round: 0 and 0.25/1.25).
+            row(&[(l, 1.25), (u, 1.0)], vec![(1.25, None, Some(1.0))]),
+            // Wholly below: the surface receives nothing; a lit one and a dark one.
+            Row {
+                sample: sample(0, 0.5, 10.0, Vec::new(), true),
+                ..row(&[(l, 0.375), (u, 0.0)], vec![(0.375, None, None)])
+            },
+            Row {
+                sample: sample(0, 0.5, 10.0, Vec::new(), true),
+                ..row(&[(l, 0.5), (u, 0.0)], vec![(0.0, None, None)])
+            },
+            // A top-up of the second length bin: rel 1 both ways, in that bin only.
+            Row {
+                sample: sample(0, 5.0, 10.0, vec![(0, 1)], false),
+                ..row(&[(l, 1.0), (u, 1.0)], vec![(2.0, None, None)])
+            },
+        ];
+        let (a, _) = analyse(&case, &methods, &rows);
+        let m = &a.methods[0];
+        assert_eq!((m.target, m.judged), (l, u));
+        let mat = &m.materials[0];
+        assert_eq!((mat.all.count, mat.all.rel.unwrap().max), (1, 0.25));
+        assert_eq!(mat.all.rel_f64.unwrap().max, 0.0);
+        assert_eq!((mat.all.false_light.configurations, mat.all.false_light.lit), (2, 1));
+        let own = mat.own_target.as_ref().unwrap();
+        assert_eq!((own.count, own.dark, own.false_light.configurations), (3, 1, 0));
+        assert_eq!((own.rel.unwrap().median, own.rel.unwrap().max), (0.0, 1.0));
+        assert_eq!(own.rel_f64.unwrap().max, 0.2);
+        let below = mat.wholly_below.as_ref().unwrap();
+        assert_eq!(
+            (below.count, below.false_light.configurations, below.false_light.lit),
+            (0, 2, 1)
+        );
+        // Per bin: the length axis (the top-up counts in bin 1 only), both views.
+        let bins = &mat.axes[0].bins;
+        assert_eq!((bins[0].lo, bins[0].hi, bins[1].lo, bins[1].hi), (0.1, 1.0, 1.0, 10.0));
+        assert_eq!((bins[0].stats.configurations(), bins[1].stats.count), (3, 1));
+        assert_eq!(bins[1].stats.rel.unwrap().max, 1.0);
+        let own_bins = &mat.own_axes[0].bins;
+        assert_eq!((own_bins[0].stats.count, own_bins[1].stats.count), (3, 1));
+        assert_eq!(own_bins[1].stats.rel.unwrap().max, 1.0);
+        // Elevation: the top-up was drawn for a length bin only.
+        assert_eq!(mat.axes[1].bins[0].stats.configurations(), 3);
+        // Every bin carries the bound of the budget's quantile (p99: too few here).
+        assert_eq!(mat.all.bound.unwrap().quantile, 0.99);
+        assert_eq!(mat.all.bound.unwrap().n, 3);
+        assert_eq!(bins[0].stats.bound.unwrap().n, 3);
+        assert_eq!(own.bound.unwrap().n, 3);
+        // select: every view, and the bins by axis and lower edge.
+        let count = |w: BinStatsRef| mat.select(&w).map(|s| s.configurations());
+        assert_eq!(count(BinStatsRef::All), Some(3));
+        assert_eq!(count(BinStatsRef::Upper), Some(3));
+        assert_eq!(count(BinStatsRef::Own), Some(3));
+        assert_eq!(count(BinStatsRef::WhollyBelow), Some(2));
+        let bin = |axis: &str, lo| BinStatsRef::Bin { axis: axis.into(), lo };
+        let own_bin = |axis: &str, lo| BinStatsRef::OwnBin { axis: axis.into(), lo };
+        assert_eq!(count(bin("length", 1.0)), Some(1));
+        assert_eq!(count(bin("elevation", 0.0)), Some(3));
+        assert_eq!(count(bin("length", 0.5)), None);
+        assert_eq!(count(bin("alpha", 0.1)), None);
+        assert_eq!(count(own_bin("length", 1.0)), Some(1));
+        assert_eq!(count(own_bin("length", 0.1)), Some(3));
+        // Without a surface view there is no `Upper`, `Own` or `WhollyBelow`.
+        let iso = case_iso();
+        let mat = &iso.methods[0].materials[0];
+        assert!(mat.select(&BinStatsRef::Upper).is_none());
+        assert!(mat.select(&BinStatsRef::Own).is_none());
+        assert!(mat.select(&BinStatsRef::WhollyBelow).is_none());
+        assert!(mat
+            .select(&BinStatsRef::OwnBin {
+                axis: "length".into(),
+                lo: 0.1
+            })
+            .is_none());
+        assert_eq!(mat.select(&BinStatsRef::All).map(|s| s.count), Some(1));
+    }
+
+    fn case_iso() -> Analysis {
+        let case = case(&["line_isotropic.closest_point"], "");
+        let methods = methods(&case);
+        analyse(&case, &methods, &[row(&[(ISO, 1.0)], vec![(1.0, None, None)])]).0
+    }
+
+    #[test]
+    fn configurations_are_placed_in_their_family_bins_and_cells() {
+        let extra = r#"
+[[maps]]
+x = { axis = "length", edges = [0.1, 1.0, 10.0] }
+y = { axis = "elevation", edges = [0.0, 45.0, 90.0] }
+methods = ["line_isotropic.closest_point"]
+"#;
+        let case = case(&["line_isotropic.closest_point", "line.ltc2017"], extra);
+        let methods = methods(&case);
+        // Configuration k has relative error k/8 for both methods (every reference 1).
+        let r = |k: u8, material, length, elevation, strata| Row {
+            sample: sample(material, length, elevation, strata, false),
+            refs: refs(&[(ISO, 1.0), (Target::Line, 1.0), (Target::LineUpper, 1.0)]),
+            refs32: BTreeMap::new(),
+            values: vec![(1.0 + f32::from(k) / 8.0, None, None); 2],
+        };
+        let rows = vec![
+            r(1, 0, 0.5, 10.0, vec![]),
+            r(2, 0, 5.0, 60.0, vec![]),
+            r(3, 0, 10.0, 90.0, vec![]), // upper edges: the last bins
+            r(4, 0, 20.0, 10.0, vec![]), // outside the length axis
+            r(5, 0, 5.0, 10.0, vec![(0, 1)]),
+            r(6, 0, 5.0, 10.0, vec![(0, 0)]), // drawn for bin 0 but lies in bin 1: nowhere
+            r(7, 1, 0.5, 10.0, vec![]),
+            r(8, 0, 5.0, 60.0, vec![(1, 1)]),
+        ];
+        let (a, _) = analyse(&case, &methods, &rows);
+        let worst = |s: &BinStats| (s.count, s.rel.map(|q| q.max));
+        for m in &a.methods {
+            let (a0, a1) = (&m.materials[0], &m.materials[1]);
+            assert_eq!(worst(&a0.all), (4, Some(0.5)), "{}", m.label);
+            assert_eq!(worst(&a1.all), (1, Some(7.0 / 8.0)), "{}", m.label);
+            let length = &a0.axes[0].bins;
+            assert_eq!(worst(&length[0].stats), (1, Some(1.0 / 8.0)));
+            assert_eq!(worst(&length[1].stats), (3, Some(5.0 / 8.0)));
+            let elevation = &a0.axes[1].bins;
+            assert_eq!(worst(&elevation[0].stats), (2, Some(0.5)));
+            assert_eq!(worst(&elevation[1].stats), (3, Some(1.0)));
+            assert_eq!(worst(&a1.axes[0].bins[0].stats), (1, Some(7.0 / 8.0)));
+            assert_eq!(worst(&a1.axes[0].bins[1].stats), (0, None));
+        }
+        // The map draws only the first method; natural configurations only; cells[y][x].
+        let map = &a.methods[0].materials[0].maps[0];
+        assert_eq!(worst(&map.cells[0][0]), (1, Some(1.0 / 8.0)));
+        assert_eq!(worst(&map.cells[1][1]), (2, Some(3.0 / 8.0)));
+        assert_eq!((map.cells[0][1].count, map.cells[1][0].count), (0, 0));
+        assert_eq!(
+            worst(&a.methods[0].materials[1].maps[0].cells[0][0]),
+            (1, Some(7.0 / 8.0))
+        );
+        assert!(a.methods[1].materials[0].maps[0].cells.is_empty());
+        // The surface view's own rows follow the same placement.
+        let own = &a.methods[1].materials[0];
+        assert_eq!(worst(own.own_target.as_ref().unwrap()), (4, Some(0.5)));
+        assert_eq!(worst(&own.own_axes[0].bins[1].stats), (3, Some(5.0 / 8.0)));
+        assert_eq!(worst(&own.own_axes[1].bins[1].stats), (3, Some(1.0)));
+    }
+
+    #[test]
+    fn pair_differences_by_hand() {
+        let case = case(
+            &["line.ltc2023", "line.ltc2017"],
+            r#"compare = [["line.ltc2023", "line.ltc2017"]]"#,
+        );
+        let methods = methods(&case);
+        let (l, u) = (Target::Line, Target::LineUpper);
+        let pair = |refs_: &[(Target, f64)], a: (f32, Option<f64>), b: (f32, Option<f64>)| {
+            row(refs_, vec![(a.0, None, a.1), (b.0, None, b.1)])
+        };
+        let rows = vec![
+            // Against the own target `line` (2), not the surface view (1): 0.25 and 0.125.
+            pair(&[(l, 2.0), (u, 1.0)], (1.5, Some(1.25)), (1.0, Some(1.0))),
+            pair(&[(l, 1.0)], (0.5, None), (0.5, None)),
+            // Zero reference, a NaN, no `line` reference: left out.
+            pair(&[(l, 0.0)], (0.5, None), (0.0, None)),
+            pair(&[(l, 1.0)], (f32::NAN, None), (1.0, None)),
+            pair(&[(u, 1.0)], (1.0, None), (0.0, None)),
+            // A non-finite f64 leaves the f64 difference out only: 0.75.
+            pair(&[(l, 1.0)], (1.0, Some(f64::NAN)), (0.25, Some(0.0))),
+            // A top-up of the second length bin: 0.5 there only.
+            Row {
+                sample: sample(0, 5.0, 10.0, vec![(0, 1)], false),
+                ..pair(&[(l, 1.0)], (1.0, None), (0.5, None))
+            },
+        ];
+        let (a, _) = analyse(&case, &methods, &rows);
+        let c = &a.comparisons[0];
+        assert_eq!((c.a.as_str(), c.b.as_str()), ("line.ltc2023", "line.ltc2017"));
+        let all = &c.materials[0].all;
+        let d32 = all.diff_f32.unwrap();
+        assert_eq!((all.count, d32.median, d32.max), (3, 0.25, 0.75));
+        let d64 = all.diff_f64.unwrap();
+        assert_eq!((d64.median, d64.max), (0.125, 0.125));
+        let length = &c.materials[0].axes[0];
+        assert_eq!(length.axis, "length");
+        assert_eq!((length.bins[0].lo, length.bins[0].hi), (0.1, 1.0));
+        assert_eq!((length.bins[0].stats.count, length.bins[1].stats.count), (3, 1));
+        assert_eq!(length.bins[1].stats.diff_f32.unwrap().max, 0.5);
+        assert_eq!(c.materials[0].axes[1].bins[0].stats.count, 3);
+        assert_eq!(c.materials[1].all.count, 0);
+        assert_eq!(c.materials[1].material, "b");
+    }
+
+    #[test]
+    fn leaks_by_hand() {
+        let case = case(&["line.ltc2023"], "");
+        let methods = methods(&case);
+        let (l, u) = (Target::Line, Target::LineUpper);
+        let one = |refs_: &[(Target, f64)]| row(refs_, vec![(1.0, None, None)]);
+        let mut rows = vec![
+            one(&[(l, 1.0), (u, 0.75)]),       // 0.25
+            one(&[(l, 2.0), (u, 1.0)]),        // 0.5
+            one(&[(l, 1.0), (u, 1.0)]),        // 0
+            one(&[(l, 1.0), (u, 1.0 - 5e-7)]), // 5e-7: not past 1e-6
+            one(&[(l, 1.0), (u, 1.25)]),       // more above than in all: 0
+            one(&[(l, 4.0), (u, 3.0)]),        // 0.25
+            one(&[(l, 1.0)]),                  // no surface view: not counted
+        ];
+        // Family b: only configurations without both references.
+        rows.push(Row {
+            sample: sample(1, 0.5, 10.0, Vec::new(), false),
+            ..one(&[(u, 1.0)])
+        });
+        let (_, leak) = analyse(&case, &methods, &rows);
+        assert_eq!(leak.len(), 1, "family b has no `line` configuration");
+        let a = &leak[0];
+        assert_eq!(a.material, "a");
+        assert_eq!((a.configurations, a.leaking), (6, 3));
+        assert_eq!((a.median_fraction, a.max_fraction), (0.25, 0.5));
+        // No leaking configuration: 0 for both.
+        let (_, leak) = analyse(&case, &methods, &rows[2..5]);
+        assert_eq!(
+            (
+                leak[0].configurations,
+                leak[0].leaking,
+                leak[0].median_fraction,
+                leak[0].max_fraction
+            ),
+            (3, 0, 0.0, 0.0)
+        );
+    }
+
+    #[test]
+    fn merging_parts_is_one_pass() {
+        let extra = format!(
+            "compare = [[\"line_isotropic.closest_point\", \"line_isotropic.closest_point_r2\"]]\n{JUDGED_EXTRA}\n{}",
+            "[[maps]]\nx = { axis = \"length\", edges = [0.1, 1.0, 10.0] }\n\
+             y = { axis = \"elevation\", edges = [0.0, 45.0, 90.0] }\n"
+        );
+        let case = case(
+            &["line_isotropic.closest_point", "line_isotropic.closest_point_r2"],
+            &extra,
+        );
+        let methods = methods(&case);
+        let mut rows = judged_rows();
+        for (k, r) in rows.iter_mut().enumerate() {
+            // Spread over both families, both bins of each axis and a top-up; `line` and
+            // `line_upper` references for the leak.
+            r.sample.material = k % 2;
+            r.sample.axes.length = if k % 3 == 0 { 5.0 } else { 0.5 };
+            r.sample.axes.elevation = if k % 4 == 0 { 60.0 } else { 10.0 };
+            if k == 7 {
+                r.sample.strata = vec![(0, 0)];
+            }
+            r.refs.insert(Target::Line, Estimate { value: 1.0, error: 0.0 });
+            r.refs.insert(
+                Target::LineUpper,
+                Estimate {
+                    value: 1.0 - k as f64 / 16.0,
+                    error: 0.0,
+                },
+            );
+        }
+        let one = analyse(&case, &methods, &rows);
+        let (mut whole, mut leak) = (Accumulators::new(&case, &methods), LeakAccumulator::new(2));
+        for part in [&rows[..5], &rows[5..6], &rows[6..]] {
+            let (mut accs, mut l) = (Accumulators::new(&case, &methods), LeakAccumulator::new(2));
+            fold(&case, &methods, part, &mut accs, &mut l);
+            merge_each::<Fold, _>(std::slice::from_mut(&mut whole), std::slice::from_ref(&accs)).unwrap();
+            <LeakAccumulator as Accumulate<Fold>>::merge(&mut leak, &l).unwrap();
+        }
+        assert_eq!(whole.configurations, rows.len());
+        let merged = (whole.finish(&case, &methods), leak.finish(&case));
+        let json = |x: &(Analysis, Vec<Leak>)| serde_json::to_string(x).unwrap();
+        assert_eq!(json(&merged), json(&one));
+        assert!(one.0.comparisons[0].materials[0].all.count > 0 && one.1[0].leaking > 0);
+        // Parts that do not fit together.
+        let other = case_with_pairs(&[]);
+        let err = whole.merge(&Accumulators::new(&other, &methods)).unwrap_err();
+        assert!(err.contains("different methods"), "{err}");
+        let swapped: Vec<Method> = methods.iter().rev().cloned().collect();
+        assert!(Accumulators::new(&case, &methods)
+            .merge(&Accumulators::new(&case, &swapped))
+            .is_err());
+        let mut pairs = Accumulators::new(&case, &methods).pairs;
+        let mut flipped = pairs.clone();
+        (flipped[0].a, flipped[0].b) = (flipped[0].b, flipped[0].a);
+        assert!(<PairAcc as Accumulate<(&Chunk, &[Placement])>>::merge(&mut pairs[0], &flipped[0]).is_err());
+        let same = pairs[0].clone();
+        assert!(<PairAcc as Accumulate<(&Chunk, &[Placement])>>::merge(&mut pairs[0], &same).is_ok());
+        let mut m = Accumulators::new(&case, &methods).methods;
+        let other = m[1].clone();
+        type MethodIn<'a> = (&'a Case, &'a Chunk<'a>, &'a [Placement], &'a MethodRun);
+        assert!(<MethodAcc as Accumulate<MethodIn>>::merge(&mut m[0], &other).is_err());
+        let err = <LeakAccumulator as Accumulate<Fold>>::merge(&mut LeakAccumulator::new(2), &LeakAccumulator::new(3));
+        assert!(err.is_err());
+    }
+
+    fn case_with_pairs(pairs: &[[&str; 2]]) -> Case {
+        let compare: Vec<String> = pairs.iter().map(|[a, b]| format!("[\"{a}\", \"{b}\"]")).collect();
+        case(
+            &["line_isotropic.closest_point", "line_isotropic.closest_point_r2"],
+            &format!("compare = [{}]", compare.join(", ")),
+        )
+    }
+
+    #[test]
+    fn statistics_size_counts_the_accumulators() {
+        let extra = r#"
+compare = [["line.ltc2023", "line.ltc2017"]]
+[[maps]]
+x = { axis = "length", edges = [0.1, 1.0, 10.0] }
+y = { axis = "elevation", edges = [0.0, 30.0, 60.0, 90.0] }
+methods = ["line.ltc2017"]
+"#;
+        let case = case(&["line_isotropic.closest_point", "line.ltc2023", "line.ltc2017"], extra);
+        let methods = methods(&case);
+        // 3 methods (2 with a surface view), 1 pair, 2 families, 2 axes of 2 bins (4 bins),
+        // one map of 2 × 3 cells drawing 1 method. Per family: each method's 4 bins + all +
+        // own or below (3·6), the surface views' own bins (2·4), the pair's bins + all (5),
+        // the bins once (4): 35; ×2. Cells 6 × 2. Per configuration: each method's 2 axes +
+        // 2 (3·4), own axes (2·2), the pair (3), the map (1): 20.
+        assert_eq!(
+            statistics_size(&case, &methods),
+            crate::limits::StatisticsSize {
+                bins: 70,
+                map_cells: 12,
+                per_configuration: 20,
+            }
+        );
+    }
+
+    #[test]
+    fn verdicts_and_their_names() {
+        let check = |pass| Check {
+            method: "m".into(),
+            material: "a".into(),
+            what: "w".into(),
+            limit: 1.0,
+            measured: 0.5,
+            pass,
+        };
+        assert_eq!(Verdict::of(&[]), Verdict::NoVerdict);
+        assert_eq!(Verdict::of(&[check(true), check(true)]), Verdict::Pass);
+        assert_eq!(Verdict::of(&[check(true), check(false)]), Verdict::Fail);
+        assert_eq!(Verdict::of(&[check(false), check(true)]), Verdict::Fail);
+        let names = [Verdict::Pass, Verdict::Fail, Verdict::NoVerdict].map(Verdict::name);
+        assert_eq!(names, ["PASS", "FAIL", "no verdict"]);
+        assert_eq!(headline_target(Target::Cylinder), Target::CylinderUpper);
+        assert_eq!(headline_target(ISO), ISO);
+        assert_eq!(
+            BinStatsRef::Bin {
+                axis: "length".into(),
+                lo: 0.1
+            }
+            .to_string(),
+            "of `length` with lower edge 0.1"
+        );
+        // A case without tolerances has no checks and no verdict.
+        assert_eq!(case_iso().verdict, Verdict::NoVerdict);
+    }
+}

@@ -1389,6 +1389,189 @@ mod tests {
         }
     }
 
+    /// Nine configurations of every kind, and three input roundings (issue 26's second
+    /// mutation pass, docs/mutation.md).
+    fn fill(acc: &mut BinAccumulator) {
+        let f = 1e-6;
+        // rel 0.25 (CPU f32 exact, f64 0.5), the reference's own estimate 1e-9.
+        let cpu = Some(Outcome::of_f32(1.0, 1.0, f));
+        acc.push(
+            Outcome::of_f32(1.25, 1.0, f),
+            cpu,
+            Some(Outcome::of_f64(1.5, 1.0, f)),
+            1e-9,
+            false,
+            (false, false),
+            1.0,
+        );
+        // Missed in f32 and f64: rel 1 in both; |reference| 2.
+        let f64_dark = Some(Outcome::of_f64(0.0, 2.0, f));
+        acc.push(
+            Outcome::of_f32(0.0, 2.0, f),
+            None,
+            f64_dark,
+            0.0,
+            false,
+            (true, true),
+            -2.0,
+        );
+        acc.push(Outcome::Nan, None, Some(Outcome::Nan), 0.0, false, (false, false), 1.0);
+        acc.push(Outcome::Inf, None, Some(Outcome::Inf), 0.0, false, (false, false), 1.0);
+        // rel 2⁻¹⁰, below the floor.
+        acc.push(
+            Outcome::of_f32(1.0 + 1.0 / 1024.0, 1.0, f),
+            None,
+            None,
+            0.0,
+            true,
+            (false, false),
+            1.0,
+        );
+        // Zero references: lit; NaN (lit in f64); dark (lit in f64); −inf.
+        acc.push_zero(0.5, Some(0.0));
+        acc.push_zero(f32::NAN, Some(1.0));
+        acc.push_zero(0.0, Some(0.25));
+        acc.push_zero(f32::NEG_INFINITY, None);
+        for r in [0.125, 0.5, 0.25] {
+            acc.push_input_rounding(r);
+        }
+    }
+
+    #[test]
+    fn a_bin_by_hand_and_merged_from_parts_as_one_pass() {
+        let mut acc = BinAccumulator::default();
+        fill(&mut acc);
+        let s = acc.finish_bounded(0.5);
+        assert_eq!((s.count, s.nan, s.inf, s.nan_f64), (3, 1, 1, 2));
+        assert_eq!((s.lit_configurations(), s.configurations()), (5, 9));
+        assert_eq!((s.dark, s.dark_f64, s.below_floor), (1, 1, 1));
+        let fl = &s.false_light;
+        assert_eq!((fl.configurations, fl.lit, fl.nonfinite, fl.lit_f64), (4, 1, 2, 2));
+        assert_eq!(fl.value.unwrap().max, 0.5);
+        // rel: 2⁻¹⁰, 0.25, 1; within 1e-3 only the first, of 5 (NaN and inf outside).
+        let rel = s.rel.unwrap();
+        assert_eq!((rel.median, rel.max), (0.25, 1.0));
+        assert_eq!(s.within, [0.2, 0.2, 0.2]);
+        assert_eq!(s.rel_lit.unwrap().max, 0.25);
+        assert_eq!((s.rel_f64.unwrap().max, s.rel_f64_lit.unwrap().max), (1.0, 0.5));
+        assert_eq!(s.rel_cpu_f32.unwrap().max, 0.0);
+        assert_eq!(s.reference.unwrap().max, 2.0);
+        assert_eq!(s.reference_rel.unwrap().max, 1e-9);
+        let rounding = s.input_rounding.unwrap();
+        assert_eq!((rounding.median, rounding.max), (0.25, 0.5));
+        // The median of 0.125, 0.25, 0.5 at rank ⌈1.5⌉ = 2.
+        assert_eq!(s.input_rounding_at_budget, Some(0.25));
+        // n = 9 judged: 1 exact zero, 3 finite, 5 infinite (NaN, inf, the lit zero, two
+        // non-finite zeros). P(Binomial(9, ½) ≥ 8) = 10/512 ≤ 0.05 < P(≥ 7) = 46/512: rank 8,
+        // an infinite one; the point estimate at rank 5 is infinite too.
+        assert_eq!(
+            s.bound,
+            Some(QuantileBound {
+                quantile: 0.5,
+                confidence: BOUND_CONFIDENCE,
+                n: 9,
+                rank: Some(8),
+                bound: Bound::Infinite,
+                point: None,
+            })
+        );
+        assert_eq!(
+            (acc.finish().bound, acc.finish().input_rounding_at_budget),
+            (None, None)
+        );
+        // Two fills merged with one: every count three times (a sum, not a product of 2c and c).
+        let (mut a, mut b, mut one) = (
+            BinAccumulator::default(),
+            BinAccumulator::default(),
+            BinAccumulator::default(),
+        );
+        fill(&mut a);
+        fill(&mut a);
+        fill(&mut b);
+        (0..3).for_each(|_| fill(&mut one));
+        a.merge(&b);
+        let (merged, one) = (a.finish_bounded(0.5), one.finish_bounded(0.5));
+        assert_eq!(format!("{merged:?}"), format!("{one:?}"));
+        assert_eq!(
+            (one.count, one.nan, one.inf, one.nan_f64, one.dark, one.dark_f64),
+            (9, 3, 3, 6, 3, 3)
+        );
+        let fl = &one.false_light;
+        assert_eq!((fl.configurations, fl.lit, fl.nonfinite, fl.lit_f64), (12, 3, 6, 6));
+        assert_eq!((one.below_floor, one.within), (3, [0.2, 0.2, 0.2]));
+    }
+
+    #[test]
+    fn quantile_at_is_the_nearest_rank_exact_and_sketched() {
+        let mut d = Distribution::default();
+        assert_eq!(d.quantile_at(0.5), None);
+        for v in [5.0, 1.0, 3.0, 2.0, 4.0] {
+            d.push(v);
+        }
+        // Ranks ⌈p·5⌉: 0 → 1 (at least 1), 0.2 → 1, 0.21 → 2, 0.5 → 3, 1 → 5.
+        let at: Vec<_> = [0.0, 0.2, 0.21, 0.5, 1.0].map(|p| d.quantile_at(p).unwrap()).into();
+        assert_eq!(at, [1.0, 1.0, 2.0, 3.0, 5.0]);
+        // Sketched, with a jump from 1e-10 to 1 after rank m: the rank read is the nearest
+        // rank itself (the sketch is within α of the value there), not one either side.
+        let (n, m) = (2576, 2318);
+        let mut d = Distribution::default();
+        (0..n).for_each(|i| d.push(if i < m { 1e-10 } else { 1.0 }));
+        assert!(matches!(d, Distribution::Sketch(_)));
+        let low = d.quantile_at((m as f64 - 0.5) / n as f64).unwrap();
+        assert!(low <= 1e-10 * (1.0 + SKETCH_ALPHA), "rank {m}: {low}");
+        assert_eq!(d.quantile_at((m as f64 + 0.5) / n as f64), Some(1.0), "rank {}", m + 1);
+        // The same for the p90 of `quantiles`: ⌈0.9·n⌉ values of 1e-10, the rest 1.
+        let n = 2560;
+        let m = (0.9 * n as f64).ceil() as usize;
+        let mut d = Distribution::default();
+        (0..n).for_each(|i| d.push(if i < m { 1e-10 } else { 1.0 }));
+        let q = d.quantiles().unwrap();
+        assert_eq!(q.kind, QuantileKind::Sketch);
+        assert!(q.p90 <= 1e-10 * (1.0 + SKETCH_ALPHA), "p90 {}", q.p90);
+        assert_eq!((q.p99, q.max), (1.0, 1.0));
+    }
+
+    #[test]
+    fn the_point_estimate_takes_the_exact_zeros_first_then_the_errors_by_rank() {
+        // 10 exact zeros and the errors 1/8, 2/8, 3/8, 4/8: n = 14, rank ⌈p·14⌉.
+        let mut acc = BinAccumulator::default();
+        (0..10).for_each(|_| acc.push_zero(0.0, None));
+        let point =
+            |acc: &BinAccumulator, rank: usize, n: usize| acc.quantile_bound((rank as f64 - 0.5) / n as f64).point;
+        assert_eq!(point(&acc, 7, 10), Some(0.0), "only zeros");
+        for e in [4.0, 1.0, 3.0, 2.0] {
+            acc.push_gpu(Outcome::of_f64(1.0 + e / 8.0, 1.0, 1e-6));
+        }
+        let points: Vec<_> = [7, 10, 11, 12, 13, 14].map(|k| point(&acc, k, 14)).into();
+        assert_eq!(points, [0.0, 0.0, 0.125, 0.25, 0.375, 0.5].map(Some));
+        // Sketched errors (3000 > EXACT_LIMIT) after the same 10 zeros: m = 2000 of about 1e-10,
+        // then 1. Rank 10 + m is the last small one, 10 + m + 1 the first 1.
+        let mut acc = BinAccumulator::default();
+        (0..10).for_each(|_| acc.push_zero(0.0, None));
+        let m = 2000;
+        for i in 0..3000 {
+            acc.push_gpu(Outcome::of_f64(if i < m { 1.0 + 1e-10 } else { 2.0 }, 1.0, 1e-6));
+        }
+        let (last_small, first_one) = (point(&acc, 10 + m, 3010).unwrap(), point(&acc, 11 + m, 3010).unwrap());
+        assert!(last_small < 1e-9, "{last_small}");
+        assert!((1.0 - SKETCH_ALPHA..=1.0).contains(&first_one), "{first_one}");
+    }
+
+    #[test]
+    fn a_reference_exactly_the_margin_below_the_median_is_not_flagged() {
+        // rel 100/1024 in every configuration, the reference's estimate 1/1024: exactly
+        // ACCURACY_MARGIN below, so not flagged; a little more and it is.
+        let flag = |estimate: f64| {
+            let mut acc = BinAccumulator::default();
+            let gpu = Outcome::of_f32(1.0 + 100.0 / 1024.0, 1.0, 1e-6);
+            acc.push(gpu, None, None, estimate, false, (false, false), 1.0);
+            acc.finish().reference_flag
+        };
+        assert_eq!(ACCURACY_MARGIN, 100.0);
+        assert!(!flag(1.0 / 1024.0));
+        assert!(flag(1.0 / 1024.0 * (1.0 + 1e-12)));
+    }
+
     #[test]
     fn bins() {
         let e = [0.0, 1.0, 10.0];
