@@ -908,9 +908,15 @@ fn checks(case: &Case, methods: &[MethodStats]) -> Vec<Check> {
                 nan,
                 false_light,
             } = tol;
-            let q = mat.all.rel.unwrap_or_default();
+            // A tolerance with nothing to judge fails rather than passing on zeros: a family
+            // that received no configuration (or, for the error quantiles, none with a
+            // non-zero reference) is reported as NaN, which no limit admits.
+            let measured_any = mat.all.count > 0;
+            let q = mat.all.rel;
+            let quantile = |f: fn(&Quantiles) -> f64| q.as_ref().map_or(f64::NAN, f);
             let mut check = |what: &str, limit: Option<f64>, measured: f64| {
                 if let Some(limit) = limit {
+                    let measured = if measured_any { measured } else { f64::NAN };
                     out.push(Check {
                         method: m.label.clone(),
                         material: mat.material.clone(),
@@ -921,9 +927,9 @@ fn checks(case: &Case, methods: &[MethodStats]) -> Vec<Check> {
                     });
                 }
             };
-            check("median rel. error", *median, q.median);
-            check("p99 rel. error", *p99, q.p99);
-            check("max rel. error", *max, q.max);
+            check("median rel. error", *median, quantile(|q| q.median));
+            check("p99 rel. error", *p99, quantile(|q| q.p99));
+            check("max rel. error", *max, quantile(|q| q.max));
             // NaN where no light arrives is a NaN pixel all the same.
             check(
                 "NaN/inf count",
@@ -1282,13 +1288,14 @@ false_light = 1
                 ("false light (configurations with reference 0 lit)", 1.0, 1.0, true),
             ]
         );
-        // Family b is checked too (empty: every measure 0).
+        // Family b is checked too, and fails: it received no configuration, so there is
+        // nothing to judge (NaN), not a pass on zeros.
         assert_eq!(a.checks.len(), 8);
         assert!(a
             .checks
             .iter()
             .filter(|c| c.material == "b")
-            .all(|c| c.pass && c.measured == 0.0));
+            .all(|c| !c.pass && c.measured.is_nan()));
         assert_eq!(a.verdict, Verdict::Fail);
     }
 
