@@ -8,6 +8,7 @@ pub mod claims;
 pub mod envelope;
 pub mod gate;
 pub mod render_gate;
+pub mod resolution;
 pub mod scan;
 pub mod ship;
 pub mod stats;

@@ -11,6 +11,7 @@ pub mod fit;
 pub mod gate;
 pub mod options;
 pub mod render;
+pub mod resolution;
 pub mod shard;
 mod status;
 pub mod sweep;

@@ -8,6 +8,7 @@ pub mod envelope;
 pub mod eval_rows;
 pub mod gpu;
 pub mod progress;
+pub mod resolution;
 pub mod scan;
 pub mod search;
 pub mod sweep;

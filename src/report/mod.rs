@@ -15,6 +15,7 @@ pub mod html;
 pub mod image;
 mod markdown;
 pub mod markup;
+pub mod resolution;
 pub mod scan;
 mod svg;
 
