@@ -220,6 +220,10 @@ enum Command {
         /// Entries per axis of the anisotropic table: θ,φ,α_max,ratio.
         #[arg(long, value_delimiter = ',', default_values_t = linelight::input::ltc::aniso::SIZE)]
         aniso_size: Vec<usize>,
+        /// With --aniso: fit a fine slice instead, one view azimuth φ (radians, in [0, π/2])
+        /// and one ratio r (in [0.25, 1]), with --aniso-size Nθ,1,Nα,1 (docs/ggx.md).
+        #[arg(long, value_delimiter = ',', value_name = "PHI,R")]
+        aniso_slice: Option<Vec<f64>>,
         /// With --aniso: the checkpoint file (default: the table's path with
         /// `.checkpoint.csv`); a run finding one resumes from it, a finished run removes it.
         #[arg(long)]
@@ -266,6 +270,21 @@ enum Command {
         count: Option<usize>,
         #[command(flatten)]
         gpu: GpuArgs,
+    },
+    /// The anisotropic table's resolution study (issue 24, seed 004 Fig. 12): tables of other
+    /// resolutions fed to a case of anisotropic ggx families, error against GGX truth near the
+    /// highlight and overall; writes OUT/resolution.{md,csv,json} (OUT: reports/ggx-resolution).
+    Resolution {
+        /// Case file with anisotropic ggx families (a `slice` family for a slice table).
+        #[arg(default_value = "cases/ggx_resolution.toml")]
+        case: PathBuf,
+        /// An anisotropic table file (repeatable, coarsest first; default: the 4⁴ table, the
+        /// committed 8⁴ and the fine slice in data/).
+        #[arg(long = "table")]
+        tables: Vec<PathBuf>,
+        /// Output folder (default: reports/<case name with - for _>).
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
     /// Compare two methods, or two revisions of one kernel file, on a case's configurations:
     /// paired statistics, where they disagree, and a verdict. Exit 1 when B is less accurate
@@ -452,11 +471,15 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             size,
             aniso,
             aniso_size,
+            aniso_slice,
             checkpoint,
             checkpoint_every,
             objective,
             sw_steps,
         } => {
+            if !aniso && aniso_slice.is_some() {
+                anyhow::bail!("--aniso-slice is for --aniso fits");
+            }
             if !aniso && checkpoint.is_some() {
                 anyhow::bail!("--checkpoint is for --aniso fits (the isotropic table takes minutes, not hours)");
             }
@@ -478,7 +501,13 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
                     .map_err(|v: Vec<usize>| anyhow::anyhow!("--aniso-size takes 4 numbers, got {}", v.len()))?;
                 let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_aniso.csv"));
                 let checkpoint = checkpoint.unwrap_or_else(|| linelight::app::fit::default_checkpoint(&out));
-                linelight::app::fit::aniso(&out, size, &checkpoint, checkpoint_every)?;
+                let slice = aniso_slice
+                    .map(|v| {
+                        <[f64; 2]>::try_from(v)
+                            .map_err(|v| anyhow::anyhow!("--aniso-slice takes 2 numbers (φ,r), got {}", v.len()))
+                    })
+                    .transpose()?;
+                linelight::app::fit::aniso(&out, size, slice, &checkpoint, checkpoint_every)?;
             } else {
                 let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_iso.csv"));
                 linelight::app::fit::iso(&out, size)?;
@@ -487,6 +516,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
         }
         Command::Objectives { subset, out, lines } => linelight::app::objectives::run(&subset, &out, lines),
         Command::Chain { case, out, count, gpu } => linelight::app::chain::run(&case, out, count, &gpu.options()),
+        Command::Resolution { case, tables, out } => linelight::app::resolution::run(&case, tables, out),
         Command::Diff {
             case,
             a,

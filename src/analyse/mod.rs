@@ -9,6 +9,7 @@ pub mod envelope;
 pub mod gate;
 pub mod objectives;
 pub mod render_gate;
+pub mod resolution;
 pub mod scan;
 pub mod ship;
 pub mod stats;

@@ -97,7 +97,7 @@ pub fn default_checkpoint(out: &Path) -> std::path::PathBuf {
 }
 
 /// Reads the checkpoint at `path` if there is one (a run to resume); refuses one of another size.
-fn read_checkpoint(path: &Path, size: [usize; 4]) -> anyhow::Result<Option<aniso::Checkpoint>> {
+fn read_checkpoint(path: &Path, size: [usize; 4], slice: aniso::Slice) -> anyhow::Result<Option<aniso::Checkpoint>> {
     if !path.exists() {
         return Ok(None);
     }
@@ -113,17 +113,37 @@ fn read_checkpoint(path: &Path, size: [usize; 4]) -> anyhow::Result<Option<aniso
         ))
         .into());
     }
+    if c.slice != slice {
+        return Err(crate::io::InputError(format!(
+            "{}: a checkpoint of the slice {:?}, not of the {slice:?} asked for (remove it or pass that --aniso-slice)",
+            path.display(),
+            c.slice
+        ))
+        .into());
+    }
     Ok(Some(c))
 }
 
 /// `linelight fit --aniso`: the anisotropic table (seed 004), resumable: every `every` chains
 /// the finished chains go to `checkpoint` (written whole through io, so a killed run leaves
 /// the last one intact), a run finding a checkpoint resumes from it, and a finished run
-/// removes it. The table is the same bytes however often it was interrupted.
-pub fn aniso(out: &Path, size: [usize; 4], checkpoint: &Path, every: usize) -> anyhow::Result<()> {
+/// removes it. The table is the same bytes however often it was interrupted. With `slice`
+/// (φ, r), a fine slice (size [nθ, 1, nα, 1]) at that view azimuth and ratio.
+pub fn aniso(out: &Path, size: [usize; 4], slice: aniso::Slice, checkpoint: &Path, every: usize) -> anyhow::Result<()> {
     use aniso::{ALPHA_MIN, RATIO_MIN, THETA_MAX};
-    if size.iter().any(|&n| n < 2) {
-        anyhow::bail!("--aniso-size: every axis needs at least 2 entries, got {size:?}");
+    match slice {
+        Some(s) => {
+            aniso::check_slice(size, s).map_err(anyhow::Error::msg)?;
+            if size[0] < 2 || size[2] < 2 {
+                anyhow::bail!("--aniso-size: a slice needs at least 2 entries on θ and on α_max, got {size:?}");
+            }
+        }
+        None if size.iter().any(|&n| n < 2) => {
+            anyhow::bail!(
+                "--aniso-size: every axis needs at least 2 entries, got {size:?} (one entry on φ and r is a slice: --aniso-slice φ,r)"
+            );
+        }
+        None => {}
     }
     if every == 0 {
         anyhow::bail!("--checkpoint-every must be at least 1 chain");
@@ -134,7 +154,7 @@ pub fn aniso(out: &Path, size: [usize; 4], checkpoint: &Path, every: usize) -> a
         .file("the run record", &out.with_extension("run.json"))
         .file("--checkpoint", checkpoint)
         .check()?;
-    let resumed = read_checkpoint(checkpoint, size)?;
+    let resumed = read_checkpoint(checkpoint, size, slice)?;
     let threads = rayon::current_num_threads();
     let fitted = aniso::fitted_count(size);
     let (done, before) = resumed.map_or((Vec::new(), 0.0), |c| (c.entries, c.seconds));
@@ -164,13 +184,14 @@ pub fn aniso(out: &Path, size: [usize; 4], checkpoint: &Path, every: usize) -> a
         sorted.sort_by_key(|(i, _)| aniso::index(size, *i));
         let c = aniso::Checkpoint {
             size,
+            slice,
             seconds: before + start.elapsed().as_secs_f64(),
             entries: sorted,
         };
         crate::io::write_atomic(checkpoint, c.to_text().as_bytes())
     };
     let failed = std::sync::Mutex::new(None::<anyhow::Error>);
-    let table = aniso::fit_table(size, &done, &|chain| {
+    let table = aniso::fit_table_in(size, slice, &done, &|chain| {
         pb.inc(chain.len() as u64);
         let mut s = state.lock().unwrap_or_else(|e| e.into_inner());
         s.0.extend_from_slice(chain);
@@ -194,6 +215,12 @@ pub fn aniso(out: &Path, size: [usize; 4], checkpoint: &Path, every: usize) -> a
          fit_l1 = ∫|mag·D_ltc − D|/∫D and fit_l3 = ∫|mag·D_ltc − D|³ of the stored M; origin: fit (chains over α_max from 1 down, warm-started), theta0 (copy of φ = 0).",
         size[0], size[1], size[2], size[3]
     );
+    let header = match slice {
+        None => header,
+        Some([phi, r]) => format!(
+            "{header}\nA fine slice (issue 24's resolution study): φ = {phi} and r = {r} fixed (the phi and ratio columns), θ and α_max as above."
+        ),
+    };
     let l1: Vec<f64> = table.entries.iter().map(|e| e.l1).collect();
     let worst = l1.iter().copied().fold(0.0, f64::max);
     let median = crate::analyse::stats::median(&l1).unwrap_or(f64::NAN);
@@ -210,6 +237,7 @@ pub fn aniso(out: &Path, size: [usize; 4], checkpoint: &Path, every: usize) -> a
         "fit_l1_median": median,
         "flipped": table.entries.iter().filter(|e| crate::input::geometry::det(&e.m) < 0.0).count(),
         "resumed": !done.is_empty(),
+        "slice": slice.map(|[phi, r]| serde_json::json!({"phi": phi, "ratio": r})),
     });
     let run = write(out, table.to_csv(&header), record)?;
     if checkpoint.exists() {

@@ -12,6 +12,7 @@ pub mod gate;
 pub mod objectives;
 pub mod options;
 pub mod render;
+pub mod resolution;
 pub mod shard;
 mod status;
 pub mod sweep;

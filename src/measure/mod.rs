@@ -9,6 +9,7 @@ pub mod eval_rows;
 pub mod gpu;
 pub mod objectives;
 pub mod progress;
+pub mod resolution;
 pub mod scan;
 pub mod search;
 pub mod sweep;

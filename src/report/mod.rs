@@ -16,6 +16,7 @@ pub mod image;
 mod markdown;
 pub mod markup;
 pub mod objectives;
+pub mod resolution;
 pub mod scan;
 mod svg;
 

@@ -91,6 +91,30 @@ pub struct AnisoTable {
     pub size: [usize; 4],
     /// Entry (iθ, iφ, iα, ir) at `index`.
     pub entries: Vec<Entry>,
+    /// A fine slice's fixed (φ, r) (size [nθ, 1, nα, 1]), None for a full table.
+    pub slice: Slice,
+}
+
+/// A fine slice (issue 24's resolution study): one view azimuth φ and one ratio r, fixed, with
+/// the θ and α_max axes as in a full table; its size is [nθ, 1, nα, 1]. None: a full table.
+pub type Slice = Option<[f64; 2]>;
+
+/// Checks a slice request against its size: (φ, r) finite and inside the table's domain,
+/// φ ∈ [0, π/2] and r ∈ [RATIO_MIN, 1], and the size one entry on φ and on r.
+pub fn check_slice(size: [usize; 4], slice: [f64; 2]) -> Result<(), String> {
+    let [phi, r] = slice;
+    if !phi.is_finite() || !(0.0..=FRAC_PI_2).contains(&phi) {
+        return Err(format!("--aniso-slice: φ = {phi} is not in [0, π/2] (radians)"));
+    }
+    if !r.is_finite() || !(RATIO_MIN..=1.0).contains(&r) {
+        return Err(format!("--aniso-slice: r = {r} is not in [{RATIO_MIN}, 1]"));
+    }
+    if size[1] != 1 || size[3] != 1 {
+        return Err(format!(
+            "--aniso-slice needs one entry on φ and on r (--aniso-size Nθ,1,Nα,1), got {size:?}"
+        ));
+    }
+    Ok(())
 }
 
 fn axis_value(i: usize, n: usize, lo: f64, hi: f64) -> f64 {
@@ -102,12 +126,21 @@ fn axis_value(i: usize, n: usize, lo: f64, hi: f64) -> f64 {
 
 /// (θ, φ, α_max, r) of entry (iθ, iφ, iα, ir).
 pub fn entry_point(size: [usize; 4], i: [usize; 4]) -> [f64; 4] {
-    [
+    entry_point_in(size, None, i)
+}
+
+/// (θ, φ, α_max, r) of entry (iθ, iφ, iα, ir) of a full table or a slice (its fixed φ and r).
+pub fn entry_point_in(size: [usize; 4], slice: Slice, i: [usize; 4]) -> [f64; 4] {
+    let mut p = [
         axis_value(i[0], size[0], 0.0, THETA_MAX),
         axis_value(i[1], size[1], 0.0, FRAC_PI_2),
         axis_value(i[2], size[2], ALPHA_MIN, 1.0),
         axis_value(i[3], size[3], RATIO_MIN, 1.0),
-    ]
+    ];
+    if let Some([phi, r]) = slice {
+        (p[1], p[3]) = (phi, r);
+    }
+    p
 }
 
 pub fn index(size: [usize; 4], i: [usize; 4]) -> usize {
@@ -197,10 +230,15 @@ fn unit_third_column(m: &M3) -> M3 {
 }
 
 /// Eq. 16: the entries the lobe's symmetries make zero. φ = 0 (view in the xz-plane): the
-/// lobe is symmetric under y → −y; φ = π/2: under x → −x; θ = 0: under both.
-fn symmetrize(m: &mut M3, i: [usize; 4], size: [usize; 4]) {
-    let sym_y = i[1] == 0 || i[0] == 0;
-    let sym_x = i[1] == size[1] - 1 || i[0] == 0;
+/// lobe is symmetric under y → −y; φ = π/2: under x → −x; θ = 0: under both. A slice's φ is
+/// its fixed value, so these hold there only when it is 0 or π/2.
+fn symmetrize(m: &mut M3, i: [usize; 4], size: [usize; 4], slice: Slice) {
+    let (phi0, phi1) = match slice {
+        None => (i[1] == 0, i[1] == size[1] - 1),
+        Some([phi, _]) => (phi == 0.0, phi == FRAC_PI_2),
+    };
+    let sym_y = phi0 || i[0] == 0;
+    let sym_x = phi1 || i[0] == 0;
     if sym_y {
         m[0][1] = 0.0;
         m[1][0] = 0.0;
@@ -236,10 +274,15 @@ pub fn fit_entry(size: [usize; 4], i: [usize; 4]) -> Entry {
 /// [`fit_entry`] warm-started from a neighbour's parameters (fit::fit_general_from); returns
 /// the entry and the parameters for the next.
 pub fn fit_entry_from(size: [usize; 4], i: [usize; 4], warm: Option<[f64; 6]>) -> (Entry, [f64; 6]) {
-    let g = lobe(entry_point(size, i));
+    fit_entry_from_in(size, None, i, warm)
+}
+
+/// [`fit_entry_from`] in a full table or a slice.
+pub fn fit_entry_from_in(size: [usize; 4], slice: Slice, i: [usize; 4], warm: Option<[f64; 6]>) -> (Entry, [f64; 6]) {
+    let g = lobe(entry_point_in(size, slice, i));
     let (f, params) = fit::fit_general_from(&g, warm);
     let mut m = unit_third_column(&align(&geometry::inverse(&f.minv)));
-    symmetrize(&mut m, i, size);
+    symmetrize(&mut m, i, size, slice);
     let m = unit_third_column(&m);
     (finish(&g, m, f.magnitude, f.fresnel, Origin::Fit), params)
 }
@@ -250,7 +293,7 @@ pub fn fit_entry_from(size: [usize; 4], i: [usize; 4], warm: Option<[f64; 6]>) -
 pub fn post_process(size: [usize; 4], i: [usize; 4], m: &M3, magnitude: f64, fresnel: f64) -> Entry {
     let g = lobe(entry_point(size, i));
     let mut m = unit_third_column(&align(m));
-    symmetrize(&mut m, i, size);
+    symmetrize(&mut m, i, size, None);
     let m = unit_third_column(&m);
     finish(&g, m, magnitude, fresnel, Origin::Fit)
 }
@@ -265,7 +308,7 @@ pub fn entries_csv(size: [usize; 4], entries: &[Fitted], header: &str) -> String
     s.push_str(COLUMNS);
     s.push('\n');
     for (i, e) in entries {
-        s.push_str(&row(size, *i, e));
+        s.push_str(&row(size, None, *i, e));
     }
     s
 }
@@ -327,12 +370,17 @@ pub fn chains(size: [usize; 4]) -> Vec<[usize; 3]> {
 /// Fits one chain (see [`chains`]): the entries (iθ, iφ, iα, ir) for iα from the top down,
 /// returned in that order with their indices.
 pub fn fit_chain(size: [usize; 4], chain: [usize; 3]) -> Vec<Fitted> {
+    fit_chain_in(size, None, chain)
+}
+
+/// [`fit_chain`] in a full table or a slice.
+pub fn fit_chain_in(size: [usize; 4], slice: Slice, chain: [usize; 3]) -> Vec<Fitted> {
     let [a, b, d] = chain;
     let mut warm = None;
     let mut out = Vec::with_capacity(size[2]);
     for c in (0..size[2]).rev() {
         let i = [a, b, c, d];
-        let (e, params) = fit_entry_from(size, i, warm);
+        let (e, params) = fit_entry_from_in(size, slice, i, warm);
         warm = Some(params);
         out.push((i, e));
     }
@@ -343,6 +391,16 @@ pub fn fit_chain(size: [usize; 4], chain: [usize; 3]) -> Vec<Fitted> {
 /// it finishes, for checkpoints and progress), then the copies. `done` holds whole chains of
 /// an earlier run (a checkpoint) and is trusted as fitted by this code.
 pub fn fit_table(size: [usize; 4], done: &[Fitted], on_chain: &(dyn Fn(&[Fitted]) + Sync)) -> AnisoTable {
+    fit_table_in(size, None, done, on_chain)
+}
+
+/// [`fit_table`] of a full table or a slice (a slice has no copies: its θ = 0 entry is fitted).
+pub fn fit_table_in(
+    size: [usize; 4],
+    slice: Slice,
+    done: &[Fitted],
+    on_chain: &(dyn Fn(&[Fitted]) + Sync),
+) -> AnisoTable {
     use rayon::prelude::*;
     let mut slots: Vec<Option<Entry>> = vec![None; size.iter().product()];
     for (i, e) in done {
@@ -355,7 +413,7 @@ pub fn fit_table(size: [usize; 4], done: &[Fitted], on_chain: &(dyn Fn(&[Fitted]
     let fitted: Vec<Vec<Fitted>> = todo
         .par_iter()
         .map(|&chain| {
-            let entries = fit_chain(size, chain);
+            let entries = fit_chain_in(size, slice, chain);
             on_chain(&entries);
             entries
         })
@@ -371,12 +429,12 @@ pub fn fit_table(size: [usize; 4], done: &[Fitted], on_chain: &(dyn Fn(&[Fitted]
                 let base = slots[index(size, [0, 0, i[2], i[3]])]
                     .as_ref()
                     .expect("φ = 0 is fitted");
-                let g = lobe(entry_point(size, i));
+                let g = lobe(entry_point_in(size, slice, i));
                 finish(&g, base.m, base.magnitude, base.fresnel, Origin::Theta0)
             }
         })
         .collect();
-    AnisoTable { size, entries }
+    AnisoTable { size, entries, slice }
 }
 
 const COLUMNS: &str = "i_theta,i_phi,i_alpha,i_ratio,theta,phi,alpha_max,ratio,m00,m01,m02,m10,m11,m12,m20,m21,m22,magnitude,fresnel,fit_l1,fit_l3,origin";
@@ -518,11 +576,16 @@ impl AnisoTable {
         s.push_str(COLUMNS);
         s.push('\n');
         for i in all_indices(self.size) {
-            s.push_str(&row(self.size, i, &self.entries[index(self.size, i)]));
+            s.push_str(&row(self.size, self.slice, i, &self.entries[index(self.size, i)]));
         }
         s
     }
 
+    /// Reads a table written by [`AnisoTable::to_csv`], checked as an input: every entry once,
+    /// at most `fit::MAX_TABLE_ENTRIES` of them, every number finite, M invertible
+    /// and the magnitude positive, and the (θ, φ, α_max, r) columns the grid's own (to 1e-12):
+    /// a table of one entry on φ and on r is a slice (its fixed φ and r read from those
+    /// columns, the same on every row, inside the table's domain).
     pub fn parse(text: &str, source: &str) -> Result<AnisoTable, String> {
         let rows = parse_rows(text, source)?;
         let mut size = [0usize; 4];
@@ -531,19 +594,82 @@ impl AnisoTable {
                 size[k] = size[k].max(i[k] + 1);
             }
         }
+        let cells = size.iter().try_fold(1usize, |n, &k| n.checked_mul(k));
+        if cells.is_none_or(|n| n > fit::MAX_TABLE_ENTRIES) {
+            return Err(format!(
+                "{source}: a {size:?} table, more than the {} entries a table may have",
+                fit::MAX_TABLE_ENTRIES
+            ));
+        }
         if rows.len() != size.iter().product::<usize>() || rows.is_empty() {
             return Err(format!("{source}: {} entries, not a full {size:?} table", rows.len()));
         }
+        let slice = if size[1] == 1 && size[3] == 1 {
+            let points = grid_columns(text);
+            let first = points.first().copied().unwrap_or([f64::NAN; 4]);
+            let s = [first[1], first[3]];
+            check_slice(size, s).map_err(|e| format!("{source}: a slice table's (φ, r) columns: {e}"))?;
+            Some(s)
+        } else if size[1] == 1 || size[3] == 1 {
+            return Err(format!(
+                "{source}: a {size:?} table: one entry on φ or on r alone is neither a full table nor a slice (one on both)"
+            ));
+        } else {
+            None
+        };
         let mut entries: Vec<Option<Entry>> = vec![None; rows.len()];
-        for (i, e) in rows {
-            entries[index(size, i)] = Some(e);
+        for ((i, e), p) in rows.into_iter().zip(grid_columns(text)) {
+            let want = entry_point_in(size, slice, i);
+            if (0..4).any(|k| (p[k] - want[k]).abs() > 1e-12) {
+                return Err(format!(
+                    "{source}: entry {i:?} has (θ, φ, α_max, r) = {p:?}, not its grid point {want:?}"
+                ));
+            }
+            let tail = [e.magnitude, e.fresnel, e.l1, e.l3];
+            if e.m.iter().flatten().chain(&tail).any(|x| !x.is_finite()) {
+                return Err(format!("{source}: entry {i:?} has a number that is not finite"));
+            }
+            if geometry::det(&e.m) == 0.0 || !(e.magnitude > 0.0) {
+                return Err(format!(
+                    "{source}: entry {i:?}: M is singular or the magnitude not positive (det {}, magnitude {})",
+                    geometry::det(&e.m),
+                    e.magnitude
+                ));
+            }
+            let slot = &mut entries[index(size, i)];
+            if slot.is_some() {
+                return Err(format!("{source}: entry {i:?} appears twice"));
+            }
+            *slot = Some(e);
         }
         let entries = entries
             .into_iter()
             .collect::<Option<Vec<_>>>()
             .ok_or_else(|| format!("{source}: an entry appears twice"))?;
-        Ok(AnisoTable { size, entries })
+        Ok(AnisoTable { size, entries, slice })
     }
+
+    /// Reads a table file (`--aniso-table`, a study's other resolutions) through io, checked
+    /// as [`AnisoTable::parse`] checks.
+    pub fn load(path: &std::path::Path, what: &str) -> anyhow::Result<AnisoTable> {
+        let bytes = crate::io::read_regular(path, what, crate::limits::MAX_TEXT_INPUT)?;
+        let text = String::from_utf8(bytes)
+            .map_err(|_| crate::io::InputError(format!("{}: {what} is not UTF-8", path.display())))?;
+        Ok(AnisoTable::parse(&text, &path.display().to_string()).map_err(crate::io::InputError)?)
+    }
+}
+
+/// The (θ, φ, α_max, r) columns of the rows, in the order of `parse_rows` (NaN where a field
+/// does not read; `parse_rows` has refused such a row already).
+fn grid_columns(text: &str) -> Vec<[f64; 4]> {
+    text.lines()
+        .map(str::trim)
+        .filter(|l| !(l.is_empty() || l.starts_with('#') || l.starts_with("i_theta,")))
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            [4, 5, 6, 7].map(|k| f.get(k).and_then(|x| x.parse::<f64>().ok()).unwrap_or(f64::NAN))
+        })
+        .collect()
 }
 
 /// The rows of a table or checkpoint text (comments and the column line skipped).
@@ -584,8 +710,8 @@ fn parse_rows(text: &str, source: &str) -> Result<Vec<Fitted>, String> {
     Ok(rows)
 }
 
-fn row(size: [usize; 4], i: [usize; 4], e: &Entry) -> String {
-    let p = entry_point(size, i);
+fn row(size: [usize; 4], slice: Slice, i: [usize; 4], e: &Entry) -> String {
+    let p = entry_point_in(size, slice, i);
     let mut line = format!("{},{},{},{}", i[0], i[1], i[2], i[3]);
     for v in p
         .iter()
@@ -603,6 +729,8 @@ fn row(size: [usize; 4], i: [usize; 4], e: &Entry) -> String {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Checkpoint {
     pub size: [usize; 4],
+    /// A slice's fixed (φ, r) (a `# slice φ,r` line), None for a full table.
+    pub slice: Slice,
     pub seconds: f64,
     pub entries: Vec<Fitted>,
 }
@@ -614,11 +742,16 @@ impl Checkpoint {
     pub fn to_text(&self) -> String {
         let [a, b, c, d] = self.size;
         let mut s = format!(
-            "{CHECKPOINT_TAG}\n# size {a},{b},{c},{d}\n# seconds {:e}\n{COLUMNS}\n",
+            "{CHECKPOINT_TAG}\n# size {a},{b},{c},{d}\n# seconds {:e}\n",
             self.seconds
         );
+        if let Some([phi, r]) = self.slice {
+            s.push_str(&format!("# slice {phi:e},{r:e}\n"));
+        }
+        s.push_str(COLUMNS);
+        s.push('\n');
         for (i, e) in &self.entries {
-            s.push_str(&row(self.size, *i, e));
+            s.push_str(&row(self.size, self.slice, *i, e));
         }
         s
     }
@@ -650,6 +783,21 @@ impl Checkpoint {
         let seconds = seconds_text
             .parse::<f64>()
             .map_err(|e| format!("{source}: seconds `{seconds_text}`: {e}"))?;
+        let slice = match lines.next().and_then(|l| l.strip_prefix("# slice ")) {
+            None => None,
+            Some(t) => {
+                let v: Vec<f64> = t
+                    .split(',')
+                    .map(|x| x.parse::<f64>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|e| format!("{source}: slice `{t}`: {e}"))?;
+                let v: [f64; 2] = v
+                    .try_into()
+                    .map_err(|_| format!("{source}: slice `{t}` is not 2 numbers"))?;
+                check_slice(size, v).map_err(|e| format!("{source}: {e}"))?;
+                Some(v)
+            }
+        };
         let entries = parse_rows(text, source)?;
         let mut per_chain = std::collections::BTreeMap::<[usize; 3], usize>::new();
         for (i, e) in &entries {
@@ -663,7 +811,12 @@ impl Checkpoint {
         if let Some((chain, n)) = per_chain.iter().find(|(_, &n)| n != size[2]) {
             return Err(format!("{source}: chain {chain:?} has {n} of {} entries", size[2]));
         }
-        Ok(Checkpoint { size, seconds, entries })
+        Ok(Checkpoint {
+            size,
+            slice,
+            seconds,
+            entries,
+        })
     }
 }
 

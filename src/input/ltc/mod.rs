@@ -143,17 +143,7 @@ pub fn feed(alpha: [f64; 2], view: [f64; 3], feed: Feed) -> Result<Fed, String> 
             } else {
                 Storage::F32
             };
-            let (minv, magnitude, fresnel) = aniso::ours().sample(alpha, view, storage);
-            // The look-up is in the roughness frame; the methods see the configuration
-            // turned by R_z(−φ), so M⁻¹·R_z(φ).
-            let r_inv = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]];
-            Fed {
-                minv: geometry::mat_mul(&minv, &r_inv),
-                magnitude,
-                fresnel,
-                rotation,
-                fit_l1: None,
-            }
+            feed_aniso(aniso::ours(), alpha, view, storage)
         }
         Feed::Table | Feed::TableF16 | Feed::Published | Feed::PublishedF16 => {
             if !iso {
@@ -217,6 +207,28 @@ pub fn feed(alpha: [f64; 2], view: [f64; 3], feed: Feed) -> Result<Fed, String> 
         remember(&mut cache().lock().expect("cache"), key, fed);
     }
     Ok(fed)
+}
+
+/// The feed of an anisotropic table `t` (ours for `Feed::Aniso`, or another resolution read
+/// from a file by the resolution study): its look-up (`AnisoTable::sample`, in the roughness
+/// frame) turned into the frame where the view lies in the xz-plane.
+pub fn feed_aniso(t: &aniso::AnisoTable, alpha: [f64; 2], view: [f64; 3], storage: Storage) -> Fed {
+    let (s, c) = if view[0] == 0.0 && view[1] == 0.0 {
+        (0.0, 1.0)
+    } else {
+        view[1].atan2(view[0]).sin_cos()
+    };
+    let (minv, magnitude, fresnel) = t.sample(alpha, view, storage);
+    // The look-up is in the roughness frame; the methods see the configuration turned by
+    // R_z(−φ), so M⁻¹·R_z(φ).
+    let r_inv = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]];
+    Fed {
+        minv: geometry::mat_mul(&minv, &r_inv),
+        magnitude,
+        fresnel,
+        rotation: [c, s],
+        fit_l1: None,
+    }
 }
 
 /// The fitted parameters of our table's entry nearest (α, cos θ): the start of an exact fit.

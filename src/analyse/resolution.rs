@@ -1,0 +1,276 @@
+//! The resolution study's statistics (`linelight resolution`; docs in src/app/resolution.rs):
+//! per family and region (the natural sample overall, and each bin of the case's `highlight`
+//! axis with its top-ups), the error against GGX truth of each table, its table link (against
+//! the exact fit) and the fit link, as nearest-rank medians and p90s with their counts; paired
+//! ratios between resolutions with bootstrap intervals; and the findings, computed here.
+
+use crate::analyse::gate::paired;
+use crate::analyse::stats::nearest_rank;
+use crate::input::case::Case;
+use crate::measure::resolution::{Point, ResolutionRun};
+use serde::Serialize;
+
+/// Nearest-rank median and p90 of a set of relative errors, with its count.
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    pub n: usize,
+    pub median: f64,
+    pub p90: f64,
+}
+
+fn summary(mut v: Vec<f64>) -> Summary {
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        return Summary {
+            n: 0,
+            median: f64::NAN,
+            p90: f64::NAN,
+        };
+    }
+    Summary {
+        n: v.len(),
+        median: nearest_rank(&v, 0.5),
+        p90: nearest_rank(&v, 0.9),
+    }
+}
+
+/// One table in one region.
+#[derive(Clone, Debug, Serialize)]
+pub struct TableRow {
+    pub table: String,
+    /// |E_table − T|/T: what users see.
+    pub error: Summary,
+    /// |E_table − E_fit|/T: the discretisation (the table's interpolation of the fits).
+    pub table_link: Summary,
+}
+
+/// The geometric mean over configurations of error(coarse)/error(fine), with its 95 %
+/// bootstrap interval (`analyse::gate::paired`, errors floored at 2⁻²⁴).
+#[derive(Clone, Debug, Serialize)]
+pub struct Ratio {
+    pub coarse: String,
+    pub fine: String,
+    /// Of the error against truth, and of the table link.
+    pub error: [f64; 3],
+    pub table_link: [f64; 3],
+    pub pairs: usize,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Region {
+    pub family: String,
+    /// "all (natural sample)" or "highlight [lo, hi)°".
+    pub region: String,
+    /// Configurations in the region, and those left out because the truth is 0 (no light:
+    /// a relative error is undefined there) with how many of them a table lights anyway.
+    pub configurations: usize,
+    pub dark: usize,
+    pub dark_lit_by_a_table: usize,
+    /// |E_fit − T|/T.
+    pub fit_link: Summary,
+    pub tables: Vec<TableRow>,
+    pub ratios: Vec<Ratio>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Resolution {
+    pub regions: Vec<Region>,
+    pub findings: Vec<String>,
+    pub labels: Vec<String>,
+    pub configurations: usize,
+    pub seconds: f64,
+}
+
+/// Bootstrap resamples of every ratio's interval.
+pub const RESAMPLES: usize = 2000;
+/// "Within x % of the finest": a coarser table whose error ratio's interval lies below 1 + this.
+pub const WITHIN: f64 = 0.1;
+
+fn region(family: &str, name: String, points: &[&Point], labels: &[String]) -> Region {
+    let lit: Vec<&&Point> = points.iter().filter(|p| p.truth > 0.0).collect();
+    let dark: Vec<&&Point> = points.iter().filter(|p| !(p.truth > 0.0)).collect();
+    let rel = |a: f64, b: f64, t: f64| (a - b).abs() / t;
+    let fit_link = summary(lit.iter().map(|p| rel(p.fit, p.truth, p.truth)).collect());
+    let applies = |p: &Point, k: usize| p.tables[k].is_finite();
+    let tables: Vec<TableRow> = labels
+        .iter()
+        .enumerate()
+        .map(|(k, label)| TableRow {
+            table: label.clone(),
+            error: summary(
+                lit.iter()
+                    .filter(|p| applies(p, k))
+                    .map(|p| rel(p.tables[k], p.truth, p.truth))
+                    .collect(),
+            ),
+            table_link: summary(
+                lit.iter()
+                    .filter(|p| applies(p, k))
+                    .map(|p| rel(p.tables[k], p.fit, p.truth))
+                    .collect(),
+            ),
+        })
+        .collect();
+    // Every pair (coarse, fine), in the order given (coarsest first), on the configurations
+    // both apply to.
+    let mut ratios = Vec::new();
+    for (i, coarse) in labels.iter().enumerate() {
+        for (j, fine) in labels.iter().enumerate().skip(i + 1) {
+            let both: Vec<&&Point> = lit.iter().filter(|p| applies(p, i) && applies(p, j)).copied().collect();
+            if both.is_empty() {
+                continue;
+            }
+            let pairs = |f: &dyn Fn(&Point, usize) -> f64| -> Vec<(f64, f64)> {
+                both.iter().map(|p| (f(p, j), f(p, i))).collect()
+            };
+            let err = pairs(&|p, k| rel(p.tables[k], p.truth, p.truth));
+            let link = pairs(&|p, k| rel(p.tables[k], p.fit, p.truth));
+            ratios.push(Ratio {
+                coarse: coarse.clone(),
+                fine: fine.clone(),
+                error: paired(&err, RESAMPLES, 0.0).geomean,
+                table_link: paired(&link, RESAMPLES, 0.0).geomean,
+                pairs: both.len(),
+            });
+        }
+    }
+    Region {
+        family: family.to_string(),
+        region: name,
+        configurations: points.len(),
+        dark: dark.len(),
+        dark_lit_by_a_table: dark
+            .iter()
+            .filter(|p| p.tables.iter().any(|&v| v.is_finite() && v != 0.0))
+            .count(),
+        fit_link,
+        tables,
+        ratios,
+    }
+}
+
+fn pct(x: f64) -> String {
+    format!("{:.1} %", 100.0 * x)
+}
+
+fn sci(x: f64) -> String {
+    format!("{x:.2e}")
+}
+
+/// The findings of one region: per table, its table link's median against the fit link's,
+/// and per ratio to the finest table, whether it is within [`WITHIN`] of it; then the coarsest
+/// table at which discretisation stops mattering by both.
+fn findings_of(r: &Region) -> Vec<String> {
+    let mut out = Vec::new();
+    let finest = r.tables.iter().rev().find(|t| t.error.n > 0);
+    let Some(finest) = finest else {
+        return out;
+    };
+    let mut settled = None;
+    for t in &r.tables {
+        if t.error.n == 0 {
+            continue;
+        }
+        let below = t.table_link.median < r.fit_link.median;
+        let ratio = r.ratios.iter().find(|q| q.coarse == t.table && q.fine == finest.table);
+        let within = match ratio {
+            None => Some(true),
+            Some(q) if q.error[2] <= 1.0 + WITHIN => Some(true),
+            Some(q) if q.error[0] > 1.0 + WITHIN => Some(false),
+            Some(_) => None,
+        };
+        let ratio_text = ratio.map_or(String::new(), |q| {
+            format!(
+                "; its error is {:.3}× the {}'s (geometric mean over {} paired configurations, 95 % interval [{:.3}, {:.3}]){}",
+                q.error[1],
+                q.fine,
+                q.pairs,
+                q.error[0],
+                q.error[2],
+                match within {
+                    Some(true) => format!(", within {} of it", pct(WITHIN)),
+                    Some(false) => format!(", not within {} of it", pct(WITHIN)),
+                    None => format!(", undecided against {} (the interval straddles it)", pct(WITHIN)),
+                }
+            )
+        });
+        out.push(format!(
+            "`{}`, {}: the {} table's link to the exact fit has median {} (p90 {}, n = {}), {} the fit link's median {}{ratio_text}.",
+            r.family,
+            r.region,
+            t.table,
+            sci(t.table_link.median),
+            sci(t.table_link.p90),
+            t.table_link.n,
+            if below { "below" } else { "not below" },
+            sci(r.fit_link.median),
+        ));
+        if settled.is_none() && below && within == Some(true) {
+            settled = Some(t.table.clone());
+        }
+    }
+    out.push(match settled {
+        Some(t) if t == finest.table => format!(
+            "`{}`, {}: discretisation stops mattering only at the finest table studied, {t} (its table link's median is below the fit link's; no coarser table is both below it and within {} of the {t}'s).",
+            r.family,
+            r.region,
+            pct(WITHIN),
+        ),
+        Some(t) => format!(
+            "`{}`, {}: discretisation stops mattering at the {t} table (the coarsest whose table link's median is below the fit link's and whose error is within {} of the {}'s).",
+            r.family,
+            r.region,
+            pct(WITHIN),
+            finest.table
+        ),
+        None => format!(
+            "`{}`, {}: no table of the study is both below the fit link and within {} of the {}'s: discretisation still matters here.",
+            r.family,
+            r.region,
+            pct(WITHIN),
+            finest.table
+        ),
+    });
+    out
+}
+
+/// The regions of every family and their findings.
+pub fn analyse(case: &Case, run: &ResolutionRun) -> Resolution {
+    let axis = case.bins.iter().find(|b| b.axis == "highlight");
+    let mut regions = Vec::new();
+    for family in &case.materials {
+        let members: Vec<&Point> = run.points.iter().filter(|p| p.family == family.name).collect();
+        let natural: Vec<&Point> = members.iter().filter(|p| p.natural).copied().collect();
+        regions.push(region(
+            &family.name,
+            "all (natural sample)".to_string(),
+            &natural,
+            &run.labels,
+        ));
+        if let Some(axis) = axis {
+            for k in 0..axis.edges.len() - 1 {
+                let inside: Vec<&Point> = members
+                    .iter()
+                    .filter(|p| {
+                        if p.natural {
+                            axis.index(p.highlight) == Some(k)
+                        } else {
+                            p.strata.contains(&k)
+                        }
+                    })
+                    .copied()
+                    .collect();
+                let name = format!("highlight [{}, {})°", axis.edges[k], axis.edges[k + 1]);
+                regions.push(region(&family.name, name, &inside, &run.labels));
+            }
+        }
+    }
+    let findings = regions.iter().flat_map(findings_of).collect();
+    Resolution {
+        regions,
+        findings,
+        labels: run.labels.clone(),
+        configurations: run.points.len(),
+        seconds: run.seconds,
+    }
+}
