@@ -548,6 +548,51 @@ mod tests {
     }
 
     #[test]
+    fn settled_is_a_range_within_the_share_and_a_settled_method_stops() {
+        assert!(settled(&[1.0, 1.1, 1.05], 0.2));
+        assert!(settled(&[2.0], 0.0));
+        assert!(!settled(&[1.0, 1.3, 1.1], 0.2), "1.3 is 30 % above 1.0");
+        assert!(!settled(&[], 0.2));
+        assert!(!settled(&[1.0, f64::NAN], 0.2));
+        assert!(!settled(&[0.0, 0.0], 0.2));
+        assert!(!settled(&[1.0, f64::INFINITY], 0.2));
+        // Any spread is settled under a huge share: every method stops after the minimum of
+        // rounds, marked settled, its GPU and CPU rounds paired; a zero share never settles
+        // two different values, so the methods run every round.
+        let kernels = crate::kernel::methods::kernel_set(&[]).unwrap();
+        let methods: Vec<Method> = ["line.numeric@8", "line.ltc2017"]
+            .iter()
+            .map(|s| crate::kernel::methods::resolve(s, &kernels).unwrap())
+            .collect();
+        let configs = configs(300);
+        let rounds = |settle| Rounds {
+            warmup: 0,
+            repeats: 6,
+            min_repeats: 2,
+            budget: None,
+            cpu_run_seconds: None,
+            envelope: None,
+            beside_interpreter: false,
+            settle: Some(settle),
+        };
+        let mut last = (0, 0);
+        let quick = bench_methods_with(gpu(), &methods, &configs, rounds(1e9), &mut |d, t| last = (d, t)).unwrap();
+        assert_eq!(last.0, last.1, "the progress ends complete: {last:?}");
+        for t in &quick {
+            assert_eq!(
+                (t.repeats, t.cpu_f32_ns_per_eval_runs.len(), t.settled),
+                (2, 2, true),
+                "{}",
+                t.label
+            );
+        }
+        let all = bench_methods_with(gpu(), &methods, &configs, rounds(0.0), &mut |_, _| {}).unwrap();
+        for t in &all {
+            assert_eq!((t.repeats, t.settled), (6, false), "{}", t.label);
+        }
+    }
+
+    #[test]
     fn split_evenly_takes_count_over_the_materials() {
         let case = Case::load(std::path::Path::new(concat!(
             env!("CARGO_MANIFEST_DIR"),
