@@ -133,9 +133,12 @@ impl Rounds {
 /// distribution with probability 1 − 2^(1−k) (75 % at 3 rounds, 97 % at 6), whatever the
 /// distribution; the median is inside it, so every round is within `share` of the median.
 pub fn settled(values: &[f64], share: f64) -> bool {
+    if values.is_empty() || !values.iter().all(|v| v.is_finite() && *v > 0.0) {
+        return false;
+    }
     let min = values.iter().copied().fold(f64::INFINITY, f64::min);
     let max = values.iter().copied().fold(0.0, f64::max);
-    !values.is_empty() && min > 0.0 && max.is_finite() && max <= min * (1.0 + share)
+    max <= min * (1.0 + share)
 }
 
 /// Every `n / k`-th of `n` configurations, `k` of them (all when `k >= n`): a subset spread over
