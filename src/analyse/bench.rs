@@ -222,6 +222,9 @@ mod tests {
         let r = Ratio::per_round(&[2.0, 6.0, 3.0], &[1.0, 2.0, 3.0]).unwrap();
         assert_eq!((r.median, r.min, r.max, r.rounds), (2.0, 1.0, 3.0, 3));
         assert_eq!(Ratio::per_round(&[], &[]), None);
-        assert_eq!(Ratio::per_round(&[1.0], &[1.0, 2.0]), None);
+        assert_eq!(Ratio::per_round(&[1.0], &[]), None);
+        // A method that stopped early (settled) is compared over the rounds both have.
+        let r = Ratio::per_round(&[3.0], &[1.5, 2.0]).unwrap();
+        assert_eq!((r.median, r.rounds), (2.0, 1));
     }
 }
