@@ -304,3 +304,33 @@ fn an_unknown_construct_falls_back_to_the_interpreter_with_its_reason() {
     let configs = &case_configs()[..2];
     assert!(m.cpu_column(configs, Mode::F32).is_err());
 }
+
+/// `min`, `max` and `clamp` are compares and selects in compiled code, no longer calls of
+/// Rust's functions: on every pair of ±0, ±1, ±∞ and NaN they return what the interpreter's
+/// Rust `min`/`max` return, the sign of a zero included (`1/x` tells +0 from −0).
+#[test]
+fn min_max_and_clamp_of_signed_zeros_and_nans_give_the_interpreters_bits() {
+    let values = [0.0, -0.0, 1.0, -1.0, f64::INFINITY, f64::NEG_INFINITY, f64::NAN];
+    let base = case_configs().swap_remove(0);
+    let mut configs = Vec::new();
+    for &x in &values {
+        for &y in &values {
+            for &z in &values {
+                let mut c = base.clone();
+                c.p1 = [x, y, z];
+                configs.push(c);
+            }
+        }
+    }
+    for (id, body) in [
+        ("test.max", "1.0 / max(scene.p1.x, scene.p1.y)"),
+        ("test.min", "1.0 / min(scene.p1.x, scene.p1.y)"),
+        ("test.clamp", "1.0 / clamp(scene.p1.x, scene.p1.y, scene.p1.z)"),
+        ("test.max0", "1.0 / max(0.0, scene.p1.x) + 1.0 / min(-0.0, scene.p1.y)"),
+    ] {
+        let text = format!("//! id: {id}\n//! target: line\nfn method(scene: Scene) -> f32 {{ return {body}; }}\n");
+        let m = user(&text, id);
+        assert_eq!(program(&m).unwrap().not_compiled(Mode::F32), None, "{id}");
+        assert_eq!(compare(&m, &configs), Some(configs.len() * 2), "{id}");
+    }
+}

@@ -65,6 +65,9 @@ pub struct Cost {
     /// the per-round ratios interpreter ns / compiled ns, with their range.
     pub compiled_speedup: Option<Ratio>,
     pub interp_f32_ns_per_eval_runs: Vec<f64>,
+    /// Whether the timing of this method stopped because it was settled (a sweep's cost
+    /// pass: `measure::bench::Rounds::settle`).
+    pub settled: bool,
 }
 
 impl Cost {
@@ -101,6 +104,7 @@ impl Cost {
                 .then(|| Spread::of(&t.interp_f32_ns_per_eval_runs).median),
             compiled_speedup: Ratio::per_round(&t.interp_f32_ns_per_eval_runs, cpu),
             interp_f32_ns_per_eval_runs: t.interp_f32_ns_per_eval_runs.clone(),
+            settled: t.settled,
         }
     }
 }
@@ -141,13 +145,20 @@ pub struct Ratio {
 }
 
 impl Ratio {
-    /// The per-round ratios `numerator[r] / denominator[r]`; None if either is empty or
-    /// their lengths differ.
+    /// The per-round ratios `numerator[r] / denominator[r]` over the rounds both have (the
+    /// first ones); None if either is empty.
     pub fn per_round(numerator: &[f64], denominator: &[f64]) -> Option<Ratio> {
-        if numerator.is_empty() || numerator.len() != denominator.len() {
+        // Round r is index r of both; a method whose timing settled stops early, so two
+        // methods are compared over the rounds both were timed in (the first ones).
+        let k = numerator.len().min(denominator.len());
+        if k == 0 {
             return None;
         }
-        let ratios: Vec<f64> = numerator.iter().zip(denominator).map(|(a, b)| a / b).collect();
+        let ratios: Vec<f64> = numerator[..k]
+            .iter()
+            .zip(&denominator[..k])
+            .map(|(a, b)| a / b)
+            .collect();
         let s = Spread::of(&ratios);
         Some(Ratio {
             median: s.median,
@@ -211,6 +222,9 @@ mod tests {
         let r = Ratio::per_round(&[2.0, 6.0, 3.0], &[1.0, 2.0, 3.0]).unwrap();
         assert_eq!((r.median, r.min, r.max, r.rounds), (2.0, 1.0, 3.0, 3));
         assert_eq!(Ratio::per_round(&[], &[]), None);
-        assert_eq!(Ratio::per_round(&[1.0], &[1.0, 2.0]), None);
+        assert_eq!(Ratio::per_round(&[1.0], &[]), None);
+        // A method that stopped early (settled) is compared over the rounds both have.
+        let r = Ratio::per_round(&[3.0], &[1.5, 2.0]).unwrap();
+        assert_eq!((r.median, r.rounds), (2.0, 1));
     }
 }

@@ -423,6 +423,7 @@ mod tests {
             interp_f32_ns_per_eval: None,
             compiled_speedup: None,
             interp_f32_ns_per_eval_runs: Vec::new(),
+            settled: false,
         }
     }
 

@@ -629,6 +629,52 @@ pub struct SceneInput {
     pub magnitude: f64,
 }
 
+/// The `Scene` members in declaration order with their scalar components (kernels/prelude.wgsl):
+/// the layout of [`SceneInput::flatten`].
+pub const SCENE_MEMBERS: [(&str, usize); 17] = [
+    ("p1", 3),
+    ("radius", 1),
+    ("p2", 3),
+    ("rect_width", 1),
+    ("rect_normal", 3),
+    ("flags", 1),
+    ("minv", 9),
+    ("view", 3),
+    ("alpha_x", 1),
+    ("tangent", 3),
+    ("alpha_y", 1),
+    ("tex_origin", 3),
+    ("f0", 1),
+    ("tex_kind", 1),
+    ("tex_offset", 1),
+    ("tex_nu", 1),
+    ("tex_nv", 1),
+];
+
+/// Scalar components of all `Scene` members.
+pub const SCENE_COMPONENTS: usize = 37;
+const _: () = {
+    let (mut sum, mut i) = (0, 0);
+    while i < SCENE_MEMBERS.len() {
+        sum += SCENE_MEMBERS[i].1;
+        i += 1;
+    }
+    assert!(sum == SCENE_COMPONENTS);
+};
+
+/// A member's first component in [`SceneInput::flatten`]'s layout and its count; None for a
+/// name the contract does not have.
+pub fn scene_member(name: &str) -> Option<(usize, usize)> {
+    let mut off = 0;
+    for (n, len) in SCENE_MEMBERS {
+        if n == name {
+            return Some((off, len));
+        }
+        off += len;
+    }
+    None
+}
+
 impl SceneInput {
     pub fn new(config: &Config) -> SceneInput {
         let (fed, magnitude) = config.fed();
@@ -683,26 +729,42 @@ impl SceneInput {
     /// A `Scene` member by its WGSL name, flattened as the evaluator lays values out
     /// (matrices column by column); None for a name the contract does not have.
     pub fn member(&self, name: &str) -> Option<Vec<f64>> {
-        Some(match name {
-            "p1" => self.p1.to_vec(),
-            "radius" => vec![self.radius],
-            "p2" => self.p2.to_vec(),
-            "rect_width" => vec![self.rect_width],
-            "rect_normal" => self.rect_normal.to_vec(),
-            "flags" => vec![f64::from(self.flags)],
-            "minv" => (0..3).flat_map(|j| (0..3).map(move |i| self.minv[i][j])).collect(),
-            "view" => self.view.to_vec(),
-            "alpha_x" => vec![self.alpha_x],
-            "tangent" => self.tangent.to_vec(),
-            "alpha_y" => vec![self.alpha_y],
-            "tex_origin" => self.tex_origin.to_vec(),
-            "f0" => vec![self.f0],
-            "tex_kind" => vec![f64::from(self.tex_kind)],
-            "tex_offset" => vec![f64::from(self.tex_offset)],
-            "tex_nu" => vec![f64::from(self.tex_nu)],
-            "tex_nv" => vec![f64::from(self.tex_nv)],
-            _ => return None,
-        })
+        let (off, len) = scene_member(name)?;
+        let mut all = [0.0; SCENE_COMPONENTS];
+        self.flatten(&mut all);
+        Some(all[off..off + len].to_vec())
+    }
+
+    /// Every member's components in [`SCENE_MEMBERS`] order (matrices column by column), as
+    /// [`SceneInput::member`] gives them one by one, without allocating: the compiled
+    /// evaluator fills each configuration's scene from it.
+    pub fn flatten(&self, out: &mut [f64; SCENE_COMPONENTS]) {
+        let mut k = 0;
+        let mut put = |x: f64| {
+            out[k] = x;
+            k += 1;
+        };
+        self.p1.iter().for_each(|&x| put(x));
+        put(self.radius);
+        self.p2.iter().for_each(|&x| put(x));
+        put(self.rect_width);
+        self.rect_normal.iter().for_each(|&x| put(x));
+        put(f64::from(self.flags));
+        for j in 0..3 {
+            for i in 0..3 {
+                put(self.minv[i][j]);
+            }
+        }
+        self.view.iter().for_each(|&x| put(x));
+        put(self.alpha_x);
+        self.tangent.iter().for_each(|&x| put(x));
+        put(self.alpha_y);
+        self.tex_origin.iter().for_each(|&x| put(x));
+        put(self.f0);
+        put(f64::from(self.tex_kind));
+        put(f64::from(self.tex_offset));
+        put(f64::from(self.tex_nu));
+        put(f64::from(self.tex_nv));
     }
 }
 

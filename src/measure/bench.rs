@@ -68,6 +68,9 @@ pub struct Times {
     /// The interpreter's ns per evaluation of the same f32 column, timed in the same rounds
     /// beside the compiled evaluator ([`Rounds::beside_interpreter`]; empty otherwise).
     pub interp_f32_ns_per_eval_runs: Vec<f64>,
+    /// Whether this method's timing stopped because it was settled ([`Rounds::settle`])
+    /// before the budget or the last round.
+    pub settled: bool,
 }
 
 /// Whether the CPU evaluator runs `method` (every kernel it can compose and evaluate:
@@ -99,6 +102,11 @@ pub struct Rounds {
     /// Also time the interpreter on the same CPU column in every round, where the compiled
     /// evaluator runs the method (`bench`: the two side by side, their ratio from one run).
     pub beside_interpreter: bool,
+    /// Stop timing a method once it is settled ([`settled`]): after at least `min_repeats`
+    /// timed rounds, when the largest of its per-round ratios CPU f32 ns / GPU ns (of its GPU
+    /// ns without a CPU column) is at most 1 + this share times the smallest. The other
+    /// methods go on; None: every method runs every round.
+    pub settle: Option<f64>,
 }
 
 /// Configurations of the CPU column's first warm-up run, which sizes the timed runs.
@@ -115,8 +123,22 @@ impl Rounds {
             cpu_run_seconds: None,
             envelope: None,
             beside_interpreter: true,
+            settle: None,
         }
     }
+}
+
+/// Whether per-round values are settled: all positive and finite, the largest at most
+/// `1 + share` times the smallest. Over k rounds that range covers the median of the rounds'
+/// distribution with probability 1 − 2^(1−k) (75 % at 3 rounds, 97 % at 6), whatever the
+/// distribution; the median is inside it, so every round is within `share` of the median.
+pub fn settled(values: &[f64], share: f64) -> bool {
+    if values.is_empty() || !values.iter().all(|v| v.is_finite() && *v > 0.0) {
+        return false;
+    }
+    let min = values.iter().copied().fold(f64::INFINITY, f64::min);
+    let max = values.iter().copied().fold(0.0, f64::max);
+    max <= min * (1.0 + share)
 }
 
 /// Every `n / k`-th of `n` configurations, `k` of them (all when `k >= n`): a subset spread over
@@ -158,6 +180,7 @@ pub fn bench_methods_with(
         cpu_run_seconds,
         envelope,
         beside_interpreter,
+        settle,
     } = rounds;
     anyhow::ensure!(repeats > 0, "bench: at least one timed repeat is needed");
     anyhow::ensure!(!configs.is_empty(), "bench: no configurations to time");
@@ -218,6 +241,10 @@ pub fn bench_methods_with(
     let mut cpu_ns = vec![Vec::with_capacity(repeats); methods.len()];
     let mut envelope_ns = vec![Vec::with_capacity(repeats); methods.len()];
     let mut interp_ns = vec![Vec::with_capacity(repeats); methods.len()];
+    // Methods still timed, and those that stopped because they were settled.
+    let mut active = vec![true; methods.len()];
+    let mut settled_early = vec![false; methods.len()];
+    let steps_of = |i: usize| 1 + usize::from(evaluated[i]) + usize::from(enveloped[i]) + usize::from(beside[i]);
     for round in 0..warmup + repeats {
         let timed = round >= warmup;
         if timed && round - warmup >= min_repeats && budget.is_some_and(|b| start.elapsed() >= b) {
@@ -227,7 +254,10 @@ pub fn bench_methods_with(
             break;
         }
         // Rotate the order: every method is first, second, … equally often.
-        let order: Vec<usize> = (0..methods.len()).map(|k| (k + round) % methods.len()).collect();
+        let order: Vec<usize> = (0..methods.len())
+            .map(|k| (k + round) % methods.len())
+            .filter(|&i| active[i])
+            .collect();
         for &i in &order {
             let ns = timer.time(&pipelines[i])?;
             if timed {
@@ -279,6 +309,25 @@ pub fn bench_methods_with(
                 progress(done, total);
             }
         }
+        if let Some(share) = settle.filter(|_| timed && round + 1 - warmup >= min_repeats) {
+            let rounds_left = warmup + repeats - round - 1;
+            for i in 0..methods.len() {
+                let per_round: Vec<f64> = if cpu_ns[i].len() == gpu_ns[i].len() {
+                    cpu_ns[i].iter().zip(&gpu_ns[i]).map(|(c, g)| c / g).collect()
+                } else {
+                    gpu_ns[i].clone()
+                };
+                if active[i] && settled(&per_round, share) {
+                    active[i] = false;
+                    settled_early[i] = rounds_left > 0;
+                    total -= rounds_left * steps_of(i);
+                }
+            }
+            if !active.contains(&true) {
+                progress(done, total);
+                break;
+            }
+        }
     }
     let cpu_counts: Vec<usize> = cpu_configs.iter().map(|c| c.as_ref().map_or(n, Vec::len)).collect();
 
@@ -290,10 +339,14 @@ pub fn bench_methods_with(
         .zip(cpu_counts)
         .zip(envelope_ns.into_iter().zip(envelope_error))
         .zip(interp_ns.into_iter().zip(engines))
+        .zip(settled_early)
         .map(
             |(
-                (((m, (gpu_runs, cpu_runs)), cpu_configurations), (envelope_runs, envelope_error)),
-                (interp_runs, (_, engine)),
+                (
+                    (((m, (gpu_runs, cpu_runs)), cpu_configurations), (envelope_runs, envelope_error)),
+                    (interp_runs, (_, engine)),
+                ),
+                settled,
             )| {
                 let (ops, ops_error) = match crate::eval::cost::method_cost_of(m) {
                     Ok(ops) => (Some(ops), None),
@@ -314,6 +367,7 @@ pub fn bench_methods_with(
                     gpu_ns_per_eval: gpu_runs,
                     cpu_f32_ns_per_eval_runs: cpu_runs,
                     interp_f32_ns_per_eval_runs: interp_runs,
+                    settled,
                 }
             },
         )
@@ -455,6 +509,7 @@ mod tests {
             cpu_run_seconds: Some(1e-9),
             envelope: None,
             beside_interpreter: true,
+            settle: None,
         };
         let mut last = (0, 0);
         let times = bench_methods_with(gpu(), &methods, &configs, rounds, &mut |d, t| last = (d, t)).unwrap();
@@ -495,6 +550,51 @@ mod tests {
                 configs[1500].clone()
             ]
         );
+    }
+
+    #[test]
+    fn settled_is_a_range_within_the_share_and_a_settled_method_stops() {
+        assert!(settled(&[1.0, 1.1, 1.05], 0.2));
+        assert!(settled(&[2.0], 0.0));
+        assert!(!settled(&[1.0, 1.3, 1.1], 0.2), "1.3 is 30 % above 1.0");
+        assert!(!settled(&[], 0.2));
+        assert!(!settled(&[1.0, f64::NAN], 0.2));
+        assert!(!settled(&[0.0, 0.0], 0.2));
+        assert!(!settled(&[1.0, f64::INFINITY], 0.2));
+        // Any spread is settled under a huge share: every method stops after the minimum of
+        // rounds, marked settled, its GPU and CPU rounds paired; a zero share never settles
+        // two different values, so the methods run every round.
+        let kernels = crate::kernel::methods::kernel_set(&[]).unwrap();
+        let methods: Vec<Method> = ["line.numeric@8", "line.ltc2017"]
+            .iter()
+            .map(|s| crate::kernel::methods::resolve(s, &kernels).unwrap())
+            .collect();
+        let configs = configs(300);
+        let rounds = |settle| Rounds {
+            warmup: 0,
+            repeats: 6,
+            min_repeats: 2,
+            budget: None,
+            cpu_run_seconds: None,
+            envelope: None,
+            beside_interpreter: false,
+            settle: Some(settle),
+        };
+        let mut last = (0, 0);
+        let quick = bench_methods_with(gpu(), &methods, &configs, rounds(1e9), &mut |d, t| last = (d, t)).unwrap();
+        assert_eq!(last.0, last.1, "the progress ends complete: {last:?}");
+        for t in &quick {
+            assert_eq!(
+                (t.repeats, t.cpu_f32_ns_per_eval_runs.len(), t.settled),
+                (2, 2, true),
+                "{}",
+                t.label
+            );
+        }
+        let all = bench_methods_with(gpu(), &methods, &configs, rounds(0.0), &mut |_, _| {}).unwrap();
+        for t in &all {
+            assert_eq!((t.repeats, t.settled), (6, false), "{}", t.label);
+        }
     }
 
     #[test]

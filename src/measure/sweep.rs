@@ -87,6 +87,15 @@ pub struct Timing {
     pub disagree_seconds: f64,
     pub disagree_evaluations: usize,
     pub cost_seconds: f64,
+    /// The rule the cost pass stopped by, in words ([`COST_SETTLE`], its budget).
+    #[serde(default)]
+    pub cost_rule: String,
+    /// The cost pass's budget in seconds (a share of the sweep's wall before it).
+    #[serde(default)]
+    pub cost_budget_seconds: f64,
+    /// (method label, timed rounds, whether its timing stopped because it was settled).
+    #[serde(default)]
+    pub cost_rounds: Vec<(String, usize, bool)>,
     /// Folding each chunk into the statistics (`analysis::Accumulators::add`, by the app layer).
     pub statistics_seconds: f64,
     /// Drawing the configurations (natural sample and top-ups). A shard draws them all (the
@@ -220,6 +229,9 @@ const COST_REPEATS: usize = 7;
 const COST_MIN_REPEATS: usize = 3;
 /// The cost pass's budget as a share of the sweep's measuring wall before it.
 const COST_SHARE: f64 = 0.1;
+/// A method's timing is settled, and stops, when the largest of its per-round ratios CPU f32
+/// ns / GPU ns is at most 1 + this times the smallest (`measure::bench::settled`).
+const COST_SETTLE: f64 = 0.2;
 /// Seconds one CPU-column run aims at (the interpreter is slow on the quadratures: a few
 /// hundred configurations time it as well as 16384 do).
 const COST_CPU_RUN_SECONDS: f64 = 0.05;
@@ -599,13 +611,26 @@ pub fn search_and_cost(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<M
         cpu_run_seconds: Some(COST_CPU_RUN_SECONDS),
         envelope: None,
         beside_interpreter: false,
+        settle: Some(COST_SETTLE),
     };
+    timing.cost_budget_seconds = so_far * COST_SHARE;
+    timing.cost_rule = format!(
+        "each method timed in interleaved rounds after {COST_WARMUP} warm-up rounds, at least {COST_MIN_REPEATS} and at \
+         most {COST_REPEATS} timed rounds; a method stops once settled: the largest of its per-round ratios CPU f32 ns \
+         / GPU ns (of its GPU ns without a CPU column) at most {:.0} % above the smallest (over k rounds that range \
+         covers the median with probability 1 − 2^(1−k): 75 % at 3, 97 % at 6); every method stops once the pass \
+         has taken its budget, {:.0} % of the sweep's wall before it ({:.2} s)",
+        COST_SETTLE * 100.0,
+        COST_SHARE * 100.0,
+        timing.cost_budget_seconds
+    );
     let costs = crate::measure::bench::bench_methods_with(gpu, methods, &cost_configs, rounds, &mut |done, total| {
         pb.set_length(total as u64);
         pb.set_position(done as u64)
     })?;
     pb.finish_and_clear();
     timing.cost_seconds = t.elapsed().as_secs_f64();
+    timing.cost_rounds = costs.iter().map(|c| (c.label.clone(), c.repeats, c.settled)).collect();
     let t = Instant::now();
     let subsets: Vec<Vec<crate::input::scene::Config>> = kept
         .attribution

@@ -670,7 +670,7 @@ impl Program {
             let c = self
                 .compiled(mode)
                 .map_err(|e| anyhow!("the kernel is not compiled: {e}"))?;
-            return c.eval(self, configs);
+            return c.eval(configs);
         }
         let parts = configs
             .par_chunks(CHUNK)

@@ -14,12 +14,20 @@ pub(super) fn speed_against_accuracy(w: &mut String, input: &Summary) {
     let _ = writeln!(w, "## Speed against accuracy\n");
     let cpu_min = input.costs.iter().map(|c| c.cpu_configurations).min().unwrap_or(0);
     let cpu_max = input.costs.iter().map(|c| c.cpu_configurations).max().unwrap_or(0);
+    let (r_min, r_max) = (
+        input.costs.iter().map(|c| c.repeats).min().unwrap_or(0),
+        input.costs.iter().map(|c| c.repeats).max().unwrap_or(0),
+    );
+    let rule = if input.timing.cost_rule.is_empty() {
+        String::new()
+    } else {
+        format!(" Timing rule: {}.", input.timing.cost_rule)
+    };
     let _ = writeln!(
         w,
         "Cost per evaluation on {} ({} clock), {} configurations per dispatch, {} interleaved repeats \
-         after warm-up; median [min–max]. The timing stops after the round in which it has taken a tenth of \
-         the sweep's measuring wall before it (at least 3 and at most 7 timed rounds), so it costs about a \
-         tenth of the run. CPU f32: the kernel on the CPU evaluator on all cores, in the same rounds, on a \
+         after warm-up (per method: the rounds column); median [min–max].{rule} CPU f32: the kernel on the CPU \
+         evaluator on all cores, in the same rounds, on a \
          spread subset of {} configurations per method sized from a first warm-up run to about 50 ms. \
          ops: one invocation's operation count from the naga IR (a deterministic cost; \
          total = arithmetic + other + 8 × transcendental + branches). Timings are measured in this run, \
@@ -27,7 +35,11 @@ pub(super) fn speed_against_accuracy(w: &mut String, input: &Summary) {
         input.timing.adapter,
         c0.clock,
         c0.configurations,
-        c0.repeats,
+        if r_min == r_max {
+            r_min.to_string()
+        } else {
+            format!("{r_min}–{r_max}")
+        },
         if cpu_min == cpu_max {
             cpu_min.to_string()
         } else {
@@ -40,6 +52,7 @@ pub(super) fn speed_against_accuracy(w: &mut String, input: &Summary) {
         ("Mconfigs/s", Align::Right),
         ("CPU f32 ns/eval", Align::Right),
         ("ops arith / transc / total", Align::Right),
+        ("rounds", Align::Right),
     ]);
     for c in &input.costs {
         let ops = c.ops.as_ref().map_or("—".to_string(), |o| {
@@ -55,6 +68,7 @@ pub(super) fn speed_against_accuracy(w: &mut String, input: &Summary) {
             format!("{:.2}", c.configs_per_second / 1e6),
             cpu,
             ops,
+            format!("{}{}", c.repeats, if c.settled { " (settled)" } else { "" }),
         ]);
     }
     let _ = writeln!(w, "{}", table.markdown());
@@ -153,6 +167,8 @@ pub(super) fn throughput(w: &mut String, input: &Summary) {
         - gpu
         - evaluator
         - t.references_seconds
+        - t.references_f32_seconds
+        - t.attribution_seconds
         - t.search_seconds
         - t.disagree_seconds
         - t.cost_seconds
@@ -164,8 +180,9 @@ pub(super) fn throughput(w: &mut String, input: &Summary) {
         w,
         "Harness throughput: {} configurations × {} methods measured in {:.2} s, {:.0} configurations per \
          second end to end (finishing the statistics and the claims, and writing the report, excluded). Split: drawing the configurations {:.2} s ({:.0} %, one \
-         thread), GPU runs {:.2} s ({:.0} %), CPU evaluator (f64 and f32) {:.2} s ({:.0} %), references {:.2} s ({:.0} %), worst-case search {:.2} s ({:.0} %), \
-         disagreement search {:.2} s ({:.0} %, {} candidates), cost measurement {:.2} s ({:.0} %), folding into the \
+         thread), GPU runs {:.2} s ({:.0} %), CPU evaluator (f64 and f32) {:.2} s ({:.0} %), references {:.2} s ({:.0} %), references at the f32-rounded inputs {:.2} s ({:.0} %), \
+         attribution (\"where the bits go\", interpreted) {:.2} s ({:.0} %), worst-case search {:.2} s ({:.0} %), \
+         disagreement search {:.2} s ({:.0} %, {} candidates), cost measurement {:.2} s ({:.0} %, budget {:.2} s), folding into the \
          statistics {:.2} s ({:.0} %), set-up and the rest {:.2} s ({:.0} %).\n",
         t.configurations,
         t.gpu.len(),
@@ -179,6 +196,10 @@ pub(super) fn throughput(w: &mut String, input: &Summary) {
         pct(evaluator),
         t.references_seconds,
         pct(t.references_seconds),
+        t.references_f32_seconds,
+        pct(t.references_f32_seconds),
+        t.attribution_seconds,
+        pct(t.attribution_seconds),
         t.search_seconds,
         pct(t.search_seconds),
         t.disagree_seconds,
@@ -186,6 +207,7 @@ pub(super) fn throughput(w: &mut String, input: &Summary) {
         t.disagree_evaluations,
         t.cost_seconds,
         pct(t.cost_seconds),
+        t.cost_budget_seconds,
         t.statistics_seconds,
         pct(t.statistics_seconds),
         other,

@@ -386,6 +386,19 @@ impl<'p> Lower<'p, '_> {
         }
     }
 
+    /// Rust's `f32::max`/`f64::max` (or `min`), which the interpreter calls, inline: a NaN
+    /// `x` gives `y`; else `y` where it is strictly greater (less), else `x`. So a NaN `y`
+    /// gives `x`, and of two equal values (`+0`, `−0`) the first, as the Rust functions
+    /// return them on this target (`tests/compiled.rs` checks every pair of ±0, ±1, ±∞ and
+    /// NaN against the interpreter). No call: a call in a loop makes every live float spill.
+    fn min_max(&mut self, max: bool, x: Value, y: Value) -> Value {
+        let cc = if max { FloatCC::GreaterThan } else { FloatCC::LessThan };
+        let wins = self.b.ins().fcmp(cc, y, x);
+        let r = self.b.ins().select(wins, y, x);
+        let nan = self.b.ins().fcmp(FloatCC::Unordered, x, x);
+        self.b.ins().select(nan, y, r)
+    }
+
     fn fail_block(&mut self) -> Block {
         if let Some(b) = self.fail {
             return b;
@@ -1268,8 +1281,8 @@ impl<'p> Lower<'p, '_> {
                     .map(|i| {
                         let (x, y) = (pick(a, i), pick(&b, i));
                         match f {
-                            M::Min => self.call_shim(F::Min, &[x, y]),
-                            M::Max => self.call_shim(F::Max, &[x, y]),
+                            M::Min => self.min_max(false, x, y),
+                            M::Max => self.min_max(true, x, y),
                             M::Atan2 => self.call_shim(F::Atan2, &[x, y]),
                             M::Pow => self.call_shim(F::Pow, &[x, y]),
                             _ => {
@@ -1289,8 +1302,8 @@ impl<'p> Lower<'p, '_> {
                         let (x, y, z) = (pick(a, i), pick(&b, i), pick(&c, i));
                         match f {
                             M::Clamp => {
-                                let m = self.call_shim(F::Max, &[x, y]);
-                                self.call_shim(F::Min, &[m, z])
+                                let m = self.min_max(true, x, y);
+                                self.min_max(false, m, z)
                             }
                             M::Fma => self.call_shim(F::Fma, &[x, y, z]),
                             _ => {

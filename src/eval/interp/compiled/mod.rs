@@ -9,7 +9,7 @@ mod lower;
 mod shims;
 
 use super::{Mode, Program};
-use crate::input::scene::{Config, SceneInput};
+use crate::input::scene::{scene_member, Config, SceneInput, SCENE_COMPONENTS};
 use anyhow::{bail, Result};
 use rayon::prelude::*;
 
@@ -17,6 +17,9 @@ use rayon::prelude::*;
 pub(super) struct Compiled {
     native: lower::Native,
     mode: Mode,
+    /// Where each component of the kernel's scene comes from in [`SceneInput::flatten`]'s
+    /// layout (the kernel's components in its own order).
+    from: Vec<usize>,
 }
 
 /// Configurations per parallel task (as the interpreter's chunk).
@@ -24,45 +27,54 @@ const CHUNK: usize = 1024;
 
 impl Compiled {
     pub(super) fn new(p: &Program, mode: Mode) -> Result<Compiled, String> {
+        let mut from = vec![0; p.scene.iter().map(|s| s.2).sum()];
+        for (name, off, len) in &p.scene {
+            let (src, n) = scene_member(name).ok_or_else(|| format!("no Scene member `{name}`"))?;
+            if n != *len {
+                return Err(format!("Scene member `{name}` has {len} components, the contract {n}"));
+            }
+            for k in 0..n {
+                from[off + k] = src + k;
+            }
+        }
         Ok(Compiled {
             native: lower::compile(p, mode)?,
             mode,
+            from,
         })
     }
 
     /// `method` on every configuration: what [`Program::eval`] returns, in the same order,
-    /// with the same error for a loop past the limit.
-    pub(super) fn eval(&self, p: &Program, configs: &[&Config]) -> Result<Vec<f64>> {
-        let total: usize = p.scene.iter().map(|s| s.2).sum();
-        let parts = configs
-            .par_chunks(CHUNK)
-            .map(|chunk| {
-                let mut scene = vec![0.0f64; total];
-                let mut out = Vec::with_capacity(chunk.len());
-                for c in chunk {
-                    let input = SceneInput::new(c);
-                    for (name, off, _) in &p.scene {
-                        let v = input.member(name).expect("checked in prepare");
-                        for (k, x) in v.into_iter().enumerate() {
-                            // The f32 mode reads its scene in f32, as the interpreter's f32 lanes.
-                            scene[off + k] = match self.mode {
-                                Mode::F32 => x as f32 as f64,
-                                Mode::F64 => x,
-                            };
-                        }
+    /// with the same error for a loop past the limit. Each configuration's scene is filled
+    /// in place (no allocation per configuration), results are written where they go.
+    pub(super) fn eval(&self, configs: &[&Config]) -> Result<Vec<f64>> {
+        let mut out = vec![0.0f64; configs.len()];
+        let over = out
+            .par_chunks_mut(CHUNK)
+            .zip(configs.par_chunks(CHUNK))
+            .any(|(out, chunk)| {
+                let mut all = [0.0f64; SCENE_COMPONENTS];
+                let mut scene = vec![0.0f64; self.from.len()];
+                for (v, c) in out.iter_mut().zip(chunk) {
+                    SceneInput::new(c).flatten(&mut all);
+                    for (s, &k) in scene.iter_mut().zip(&self.from) {
+                        // The f32 mode reads its scene in f32, as the interpreter's f32 lanes.
+                        *s = match self.mode {
+                            Mode::F32 => all[k] as f32 as f64,
+                            Mode::F64 => all[k],
+                        };
                     }
-                    let mut v = 0.0f64;
                     // SAFETY: `scene` holds every component the code reads (the Scene's
                     // `total`, checked when compiling) and `v` is the one f64 it writes.
-                    let status = unsafe { (self.native.entry)(scene.as_ptr(), &mut v) };
-                    if status != 0 {
-                        bail!("CPU evaluator: a loop ran more than 2^24 iterations");
+                    if unsafe { (self.native.entry)(scene.as_ptr(), v) } != 0 {
+                        return true;
                     }
-                    out.push(v);
                 }
-                Ok(out)
-            })
-            .collect::<Result<Vec<_>>>()?;
-        Ok(parts.concat())
+                false
+            });
+        if over {
+            bail!("CPU evaluator: a loop ran more than 2^24 iterations");
+        }
+        Ok(out)
     }
 }

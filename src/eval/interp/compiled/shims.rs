@@ -2,9 +2,10 @@
 //! very functions the interpreter (`../exec.rs`) calls, so that every bit matches.
 //!
 //! - transcendentals: the `libm` crate's, f32 and f64;
-//! - `min`/`max`: Rust's `f32::min`/`f64::max` (IEEE minNum: a NaN argument gives the
-//!   other), whose handling of ±0 Cranelift's `fmin`/`fmax` would not reproduce;
 //! - `%` (fmod) and `fma` (`mul_add`): Rust's, as the interpreter's closures are.
+//!
+//! `min`/`max` are not called: they are compares and selects with Rust's rules (`lower.rs`,
+//! `min_max`), since a call in a loop makes every live float spill around it.
 
 /// A shim: its address and its argument count (each argument and the result in the
 /// mode's float type).
@@ -37,8 +38,6 @@ shims! {
     log2_32: f32, libm::log2f, (x);
     atan2_32: f32, libm::atan2f, (y, x);
     pow32: f32, libm::powf, (x, y);
-    min32: f32, f32::min, (x, y);
-    max32: f32, f32::max, (x, y);
     rem32: f32, |x: f32, y: f32| x % y, (x, y);
     fma32: f32, f32::mul_add, (x, y, z);
     sin64: f64, libm::sin, (x);
@@ -53,8 +52,6 @@ shims! {
     log2_64: f64, libm::log2, (x);
     atan2_64: f64, libm::atan2, (y, x);
     pow64: f64, libm::pow, (x, y);
-    min64: f64, f64::min, (x, y);
-    max64: f64, f64::max, (x, y);
     rem64: f64, |x: f64, y: f64| x % y, (x, y);
     fma64: f64, f64::mul_add, (x, y, z);
 }
@@ -74,8 +71,6 @@ pub(super) enum F {
     Log2,
     Atan2,
     Pow,
-    Min,
-    Max,
     Rem,
     Fma,
 }
@@ -110,8 +105,6 @@ pub(super) fn shim(f: F, wide: bool) -> Shim {
         F::Log2 => pick!(1, log2_32, log2_64),
         F::Atan2 => pick!(2, atan2_32, atan2_64),
         F::Pow => pick!(2, pow32, pow64),
-        F::Min => pick!(2, min32, min64),
-        F::Max => pick!(2, max32, max64),
         F::Rem => pick!(2, rem32, rem64),
         F::Fma => pick!(3, fma32, fma64),
     }
