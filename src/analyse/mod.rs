@@ -7,6 +7,7 @@ pub mod chain;
 pub mod claims;
 pub mod envelope;
 pub mod gate;
+pub mod measured;
 pub mod render_gate;
 pub mod scan;
 pub mod ship;

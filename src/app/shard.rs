@@ -117,7 +117,7 @@ impl Partial {
         for p in it {
             Accumulate::merge(&mut all.accumulators, &p.accumulators).map_err(anyhow::Error::msg)?;
             Accumulate::merge(&mut all.leak, &p.leak).map_err(anyhow::Error::msg)?;
-            all.measured.merge(p.measured, &setup.case);
+            Accumulate::merge(&mut all.measured, &p.measured).map_err(anyhow::Error::msg)?;
         }
         // The top-ups the whole sample's counts call for are folded in now, as the unsharded
         // run folds them; the shards' extra ones are dropped.

@@ -759,13 +759,40 @@ pub fn top_up(case: &Case, natural: &[Sample]) -> (Vec<Sample>, Vec<TopUp>) {
 
 /// [`top_up`] from the natural sample's counts alone (a streamed sweep keeps no sample).
 pub fn top_up_counted(case: &Case, counts: &[FamilyCounts]) -> (Vec<Sample>, Vec<TopUp>) {
-    use rayon::prelude::*;
-    let plan = topup_plan(case, &topup_needs(case, counts), (0, 1));
-    let drawn: Vec<(TopUpKey, (usize, Option<Sample>))> =
-        plan.into_par_iter().map(|k| (k, top_up_one(case, k))).collect();
-    let done: Vec<(TopUpKey, usize, bool)> = drawn.iter().map(|(k, (d, s))| (*k, *d, s.is_some())).collect();
+    let drawn = draw_topups(case, &topup_needs(case, counts), (0, 1));
+    let done: Vec<(TopUpKey, usize, bool)> = drawn.iter().map(|(k, d, s)| (*k, *d, s.is_some())).collect();
     let reports = topup_reports(case, counts, &done);
-    (drawn.into_iter().filter_map(|(_, (_, s))| s).collect(), reports)
+    (drawn.into_iter().filter_map(|(_, _, s)| s).collect(), reports)
+}
+
+/// The top-ups of shard i of n's share of `needs` ([`topup_plan`]), drawn in parallel: (key,
+/// draws made, the configuration or None). A bin whose top-up 0 exhausts its draws is out of
+/// reach: its other top-ups are not drawn (every part draws top-up 0 of every bin it needs to
+/// know this, and keeps it only when it is its share), so such a bin costs one cap of draws.
+pub fn draw_topups(case: &Case, needs: &[usize], shard: (usize, usize)) -> Vec<(TopUpKey, usize, Option<Sample>)> {
+    use rayon::prelude::*;
+    let firsts: Vec<TopUpKey> = topup_plan(case, &needs.iter().map(|&n| n.min(1)).collect::<Vec<_>>(), (0, 1));
+    let probes: Vec<(TopUpKey, (usize, Option<Sample>))> =
+        firsts.into_par_iter().map(|k| (k, top_up_one(case, k))).collect();
+    let reachable = |k: &TopUpKey| {
+        probes
+            .iter()
+            .find(|(p, _)| (p.family, p.axis, p.bin) == (k.family, k.axis, k.bin))
+            .is_some_and(|(_, (_, s))| s.is_some())
+    };
+    let plan: Vec<TopUpKey> = topup_plan(case, needs, shard)
+        .into_iter()
+        .filter(|k| k.j == 0 || reachable(k))
+        .collect();
+    plan.into_par_iter()
+        .map(|k| {
+            let (draws, s) = match probes.iter().find(|(p, _)| k.j == 0 && *p == k) {
+                Some((_, (d, s))) => (*d, s.clone()),
+                None => top_up_one(case, k),
+            };
+            (k, draws, s)
+        })
+        .collect()
 }
 
 /// The configuration a vector of uniforms stands for in a family (the search moves in these);

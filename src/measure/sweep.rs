@@ -276,16 +276,47 @@ pub struct Kept {
     natural: Vec<usize>,
     /// Configurations measured (this part's).
     seen: usize,
+    /// Every `attribution_step`-th configuration (by global index) joins the attribution's
+    /// subset; each family keeps its first `cost_limit` natural ones for the cost pass.
+    attribution_step: usize,
+    cost_limit: usize,
+}
+
+/// One measured chunk offered to the kept state (`Kept::add_chunk`; the analysis stage's
+/// `Accumulate` for `Kept` folds it in).
+#[derive(Clone, Copy)]
+pub struct Keep<'a> {
+    pub case: &'a Case,
+    pub methods: &'a [Method],
+    pub chunk: &'a MeasuredChunk<'a>,
 }
 
 impl Kept {
+    /// Folds one measured chunk in (the best starts, the first non-finite configurations, the
+    /// cost pass's and the attribution's subsets).
+    pub fn add_chunk(&mut self, k: Keep) {
+        let steps = (self.attribution_step, self.cost_limit);
+        let c = k.chunk;
+        keep(
+            k.case,
+            k.methods,
+            (c.samples, c.global),
+            c.references,
+            c.runs,
+            self,
+            steps,
+        );
+    }
+
     /// Adds another part's state (other configurations of the same sweep).
-    fn merge(&mut self, o: Kept, per_family_cost: usize) {
+    pub fn merge_from(&mut self, o: &Kept) {
+        let o = o.clone();
+        let per_family_cost = self.cost_limit;
         for (a, b) in self.search.iter_mut().zip(o.search) {
-            a.2.merge(b.2);
+            crate::measure::search::TopK::merge_from(&mut a.2, &b.2);
         }
         for (a, b) in self.disagree.iter_mut().zip(o.disagree) {
-            a.3.merge(b.3);
+            crate::measure::search::TopK::merge_from(&mut a.3, &b.3);
         }
         self.nonfinite.extend(o.nonfinite);
         self.nonfinite.sort_by_key(|x| x.0);
@@ -355,10 +386,17 @@ pub struct Part {
 }
 
 impl Part {
-    /// Adds another part (other configurations of the same sweep).
-    pub fn merge(&mut self, o: Part, case: &Case) {
-        self.kept
-            .merge(o.kept, COST_CONFIGURATIONS.div_ceil(case.materials.len().max(1)));
+    /// Adds another part (other configurations of the same sweep); an `Err` when the two are
+    /// not parts of one sweep's families.
+    pub fn merge_from(&mut self, o: &Part) -> Result<(), String> {
+        if self.draws.len() != o.draws.len() || self.counts.len() != o.counts.len() {
+            return Err(format!(
+                "parts of {} and {} families do not merge",
+                self.draws.len(),
+                o.draws.len()
+            ));
+        }
+        self.kept.merge_from(&o.kept);
         self.timing.add(&o.timing);
         for (a, b) in self.draws.iter_mut().zip(&o.draws) {
             a.merge(b);
@@ -366,8 +404,9 @@ impl Part {
         for (a, b) in self.counts.iter_mut().zip(&o.counts) {
             a.merge(b);
         }
-        self.topup_rows.extend(o.topup_rows);
-        self.cover.extend(o.cover);
+        self.topup_rows.extend(o.topup_rows.iter().cloned());
+        self.cover.extend(o.cover.iter().cloned());
+        Ok(())
     }
 
     /// Configurations measured.
@@ -510,6 +549,8 @@ pub fn measure_chunks(
         attribution: vec![Vec::new(); methods.len()],
         natural: vec![0; families],
         seen: 0,
+        attribution_step,
+        cost_limit: per_family_cost,
     };
     let part_of = shard.unwrap_or((0, 1));
     let mut stream = sampler::NaturalStream::sharded(case, part_of);
@@ -539,15 +580,17 @@ pub fn measure_chunks(
             references_f32: &references_f32,
             runs: &runs,
         })?;
-        keep(
+        kept.add_chunk(Keep {
             case,
             methods,
-            (&samples, &global),
-            &references,
-            &runs,
-            &mut kept,
-            (attribution_step, per_family_cost),
-        );
+            chunk: &MeasuredChunk {
+                samples: &samples,
+                global: &global,
+                references: &references,
+                references_f32: &references_f32,
+                runs: &runs,
+            },
+        });
         if let Some(w) = raw.as_mut() {
             write_raw(*w, setup, &samples, (&references, &references_f32), &runs)?;
         }
@@ -558,10 +601,9 @@ pub fn measure_chunks(
     // the whole sample's).
     let t = Instant::now();
     let needs = sampler::topup_needs(case, &stream.counts);
-    let plan = sampler::topup_plan(case, &needs, part_of);
-    let drawn: Vec<(sampler::TopUpKey, (usize, Option<Sample>))> = plan
-        .into_par_iter()
-        .map(|k| (k, sampler::top_up_one(case, k)))
+    let drawn: Vec<(sampler::TopUpKey, (usize, Option<Sample>))> = sampler::draw_topups(case, &needs, part_of)
+        .into_iter()
+        .map(|(k, d, s)| (k, (d, s)))
         .collect();
     timing.sampling_seconds += t.elapsed().as_secs_f64();
     let mut topup_rows = Vec::with_capacity(drawn.len());
@@ -670,10 +712,6 @@ pub fn settle_topups(
     part.topups = sampler::topup_reports(case, &part.counts, &done);
     part.cover = Vec::new();
     let natural: usize = case.materials.iter().map(|m| m.count).sum();
-    let steps = (
-        attribution_step(case),
-        COST_CONFIGURATIONS.div_ceil(case.materials.len().max(1)),
-    );
     let mut measured = rows.into_iter().filter_map(|r| r.measured).enumerate().peekable();
     while measured.peek().is_some() {
         let chunk: Vec<(usize, Row)> = measured.by_ref().take(MEASURE_CHUNK).collect();
@@ -707,15 +745,17 @@ pub fn settle_topups(
             references_f32: &references_f32,
             runs: &runs,
         })?;
-        keep(
+        part.kept.add_chunk(Keep {
             case,
-            &setup.methods,
-            (&samples, &global),
-            &references,
-            &runs,
-            &mut part.kept,
-            steps,
-        );
+            methods: &setup.methods,
+            chunk: &MeasuredChunk {
+                samples: &samples,
+                global: &global,
+                references: &references,
+                references_f32: &references_f32,
+                runs: &runs,
+            },
+        });
         if let Some(w) = raw.as_mut() {
             write_raw(*w, setup, &samples, (&references, &references_f32), &runs)?;
         }
