@@ -345,15 +345,12 @@ struct Refused {
     parameters: &'static str,
 }
 
+/// A configuration drawn (None past the redraw limit), its draws, and its last refusal.
+type Drawn = (Option<Sample>, Draws, Option<Refused>);
+
 /// One configuration drawn from its own stream, redrawn in that stream while degenerate (at
 /// most `limit` times; `None` past that). Counts its draws in a [`Draws`] of its own.
-fn draw_valid(
-    source: &mut Stream,
-    case: &Case,
-    family: usize,
-    id: String,
-    limit: usize,
-) -> (Option<Sample>, Draws, Option<Refused>) {
+fn draw_valid(source: &mut Stream, case: &Case, family: usize, id: String, limit: usize) -> Drawn {
     let mut draws = Draws::default();
     let mut last = None;
     while draws.rejected <= limit {
@@ -381,7 +378,7 @@ fn draw_valid(
 
 /// Configuration `index` of family `family`'s natural sample (redrawn in its own stream while
 /// degenerate), with its draws.
-fn natural_one(case: &Case, family: usize, index: usize) -> (Option<Sample>, Draws, Option<Refused>) {
+fn natural_one(case: &Case, family: usize, index: usize) -> Drawn {
     let mut source = counter_stream(stream_key(&[case.seed, family as u64, NATURAL_TAG]), index as u64);
     let f = &case.materials[family];
     draw_valid(
@@ -554,7 +551,7 @@ impl<'a> NaturalStream<'a> {
             self.next = end;
         }
         let starts = &self.starts;
-        let drawn: Vec<(usize, usize, (Option<Sample>, Draws, Option<Refused>))> = indices
+        let drawn: Vec<(usize, usize, Drawn)> = indices
             .par_iter()
             .map(|&g| {
                 let f = starts.partition_point(|&s| s <= g) - 1;
