@@ -51,12 +51,22 @@ fn merged_shards_give_the_unsharded_report() {
     assert!(o.status.code().is_some_and(|c| c <= 1), "{}", stderr(&o));
     let n = 3;
     let mut dirs = Vec::new();
+    let mut measured = Vec::new();
     for i in 0..n {
         let dir = d.join(format!("shard{i}"));
         let o = linelight(&["sweep", &s(&case), "--shard", &format!("{i}/{n}"), "--out", &s(&dir)]);
         assert!(o.status.success(), "{}", stderr(&o));
         assert!(dir.join(format!("shard-{i}-of-{n}.cbor")).is_file());
         dirs.push(s(&dir));
+        // "shard I/N: C configurations in …": what this shard drew and measured.
+        let out = String::from_utf8_lossy(&o.stdout).to_string();
+        let c: usize = out
+            .split(": ")
+            .nth(1)
+            .and_then(|t| t.split(' ').next())
+            .and_then(|t| t.parse().ok())
+            .unwrap_or_else(|| panic!("{out}"));
+        measured.push(c);
     }
     // A shard missing is refused, naming what is missing.
     let merged = d.join("merged");
@@ -75,6 +85,24 @@ fn merged_shards_give_the_unsharded_report() {
     // Counts exact, sketches merged bucket for bucket, worst cases and searches the same.
     for key in ["analysis", "configurations", "disagreements", "leak", "draws", "topups"] {
         assert_eq!(a[key], b[key], "{key} differs");
+    }
+    // The case's thin bins were topped up, and each shard drew and measured about a third of
+    // the natural sample (6400 configurations in blocks of 1024: 3072 or 2048 and 1280) plus
+    // its share of the top-ups its own counts call for (a superset of its share of the whole's).
+    let kept: u64 = a["topups"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["kept"].as_u64().unwrap())
+        .sum();
+    assert!(kept > 0, "no top-ups: the test would not cover them: {}", a["topups"]);
+    let whole_configurations = a["configurations"].as_u64().unwrap() as usize;
+    assert!(measured.iter().sum::<usize>() >= whole_configurations, "{measured:?}");
+    for (i, &c) in measured.iter().enumerate() {
+        assert!(
+            c <= 3072 + kept as usize,
+            "shard {i} measured {c} of {whole_configurations}"
+        );
     }
     // The CPU evaluator's measuring times, one (label, seconds) per method, added over the
     // shards; named for what they hold.
@@ -98,7 +126,12 @@ fn merged_shards_give_the_unsharded_report() {
         "no sketched bin: the test would not cover sketches"
     );
     assert!(stats(&whole).contains(",exact"));
-    for f in ["worst.jsonl", "disagreements.jsonl"] {
+    for f in [
+        "worst.jsonl",
+        "disagreements.jsonl",
+        "comparisons.csv",
+        "nonfinite.jsonl",
+    ] {
         assert_eq!(
             std::fs::read(whole.join("sharded").join(f)).ok(),
             std::fs::read(merged.join("sharded").join(f)).ok(),

@@ -8,6 +8,7 @@ pub mod claims;
 pub mod envelope;
 pub mod gate;
 pub mod objectives;
+pub mod measured;
 pub mod render_gate;
 pub mod resolution;
 pub mod scan;

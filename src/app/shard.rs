@@ -5,8 +5,9 @@
 //! every method's kernel (built-ins included): a merge refuses a file changed since sharding,
 //! which would otherwise mix the old statistics with the new file's op counts and attribution.
 
+use crate::analyse::analysis::Fold;
 use crate::analyse::analysis::{Accumulators, LeakAccumulator};
-use crate::analyse::stats::Accumulate;
+use crate::analyse::stats::{add_to_each, Accumulate};
 use crate::app::gate::Observations;
 use crate::kernel::methods::Method;
 use crate::measure::sweep::{self, Setup};
@@ -18,8 +19,10 @@ use std::path::{Path, PathBuf};
 /// case and kernels, `app::shard`; 5 adds the `line_upper` view's per-bin accumulators, the
 /// error apart from missed light, the references' brightness and the lights wholly below the
 /// surface; 6 names the measuring times of the CPU evaluator's columns `cpu_f64_seconds` and
-/// `cpu_f32_seconds`, once `f64_ports` and `f32_ports`).
-pub const SHARD_FORMAT: u32 = 6;
+/// `cpu_f32_seconds`, once `f64_ports` and `f32_ports`; 7 draws each configuration from its
+/// own counter-based stream, so a shard draws only its own, and keeps its natural bin counts,
+/// its draws and its measured top-ups whole until the merge settles them, issue 23).
+pub const SHARD_FORMAT: u32 = 7;
 
 /// What measuring a sweep's configurations, or one shard's, leaves before the searches and
 /// the cost pass: mergeable (`linelight merge`). Written by `sweep --shard i/n`.
@@ -114,8 +117,26 @@ impl Partial {
         for p in it {
             Accumulate::merge(&mut all.accumulators, &p.accumulators).map_err(anyhow::Error::msg)?;
             Accumulate::merge(&mut all.leak, &p.leak).map_err(anyhow::Error::msg)?;
-            all.measured.merge(p.measured, &setup.case);
+            Accumulate::merge(&mut all.measured, &p.measured).map_err(anyhow::Error::msg)?;
         }
+        // The top-ups the whole sample's counts call for are folded in now, as the unsharded
+        // run folds them; the shards' extra ones are dropped.
+        let Partial {
+            accumulators,
+            leak,
+            measured,
+            ..
+        } = &mut all;
+        let case = &setup.case;
+        sweep::settle_topups(
+            setup,
+            measured,
+            &mut |c| {
+                add_to_each(&mut [&mut *accumulators, &mut *leak], Fold { case, chunk: c });
+                Ok(())
+            },
+            None,
+        )?;
         all.shard = (0, 1);
         Ok(all)
     }
@@ -321,9 +342,9 @@ pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Shards> {
         })?;
         anyhow::ensure!(
             probe.state.format == SHARD_FORMAT,
-            "merge: {} is a shard record of format {}; this linelight reads format {SHARD_FORMAT} (which records \
-             the case's and kernels' contents): re-run the shards with this linelight (`linelight sweep CASE \
-             --shard I/N --out DIR`)",
+            "merge: {} is a shard record of format {}; this linelight reads format {SHARD_FORMAT} (which draws \
+             each configuration from its own stream, so the sample differs from older shards'): re-run the \
+             shards with this linelight (`linelight sweep CASE --shard I/N --out DIR`)",
             p.display(),
             probe.state.format
         );

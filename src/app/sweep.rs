@@ -159,7 +159,7 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
         let (case_record, kernel_records) = recorded.expect("recorded for a shard");
         let path = write_shard(&out, case_record, kernel_records, &setup.methods, &part)?;
         println!(
-            "shard {}/{}: {} configurations in {:.1} s (drawing all of the sweep's: {:.1} s); state: {}",
+            "shard {}/{}: {} configurations in {:.1} s (drawing its own: {:.1} s); state: {}",
             shard.0,
             shard.1,
             part.measured.configurations(),

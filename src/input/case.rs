@@ -297,7 +297,8 @@ pub struct Case {
     /// topped up by rejection sampling where it is thinner (src/input/sampler.rs, `top_up`).
     #[serde(default = "default_min_per_bin")]
     pub min_per_bin: usize,
-    /// Top-up draws allowed per family, as a multiple of its count.
+    /// The top-up budget, as a multiple of the family's count: each bin's top-ups draw at most
+    /// `sampler::TOPUP_CAP_FACTOR` times it (`sampler::topup_cap`).
     #[serde(default = "default_topup_draws")]
     pub topup_draws: usize,
     /// The disagreement search between compared pairs (on by default when `compare` is set).

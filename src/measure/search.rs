@@ -249,9 +249,9 @@ impl TopK {
     }
 
     /// Adds another part's starts: the k best of both.
-    pub fn merge(&mut self, o: TopK) {
-        for (index, start) in o.items {
-            self.push(index, start);
+    pub fn merge_from(&mut self, o: &TopK) {
+        for (index, start) in &o.items {
+            self.push(*index, start.clone());
         }
     }
 

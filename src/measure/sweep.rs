@@ -138,9 +138,10 @@ pub struct Measured {
 /// memory together, then folded into the statistics and dropped.
 pub const MEASURE_CHUNK: usize = 1 << 16;
 
-/// Configurations per block of the shard partition: shard i of n evaluates the blocks
-/// k ≡ i (mod n) of the global order (natural sample family by family, then top-ups).
-pub const SHARD_BLOCK: usize = 1024;
+/// Configurations per block of the shard partition: shard i of n draws and evaluates the
+/// blocks k ≡ i (mod n) of the natural sample's global order (family by family); the top-ups
+/// are shared out bin by bin (`sampler::topup_plan`).
+pub const SHARD_BLOCK: usize = sampler::SHARD_BLOCK;
 
 /// Non-finite configurations kept for `nonfinite.jsonl` (the count is always complete).
 pub const NONFINITE_KEPT: usize = 1000;
@@ -287,16 +288,47 @@ pub struct Kept {
     natural: Vec<usize>,
     /// Configurations measured (this part's).
     seen: usize,
+    /// Every `attribution_step`-th configuration (by global index) joins the attribution's
+    /// subset; each family keeps its first `cost_limit` natural ones for the cost pass.
+    attribution_step: usize,
+    cost_limit: usize,
+}
+
+/// One measured chunk offered to the kept state (`Kept::add_chunk`; the analysis stage's
+/// `Accumulate` for `Kept` folds it in).
+#[derive(Clone, Copy)]
+pub struct Keep<'a> {
+    pub case: &'a Case,
+    pub methods: &'a [Method],
+    pub chunk: &'a MeasuredChunk<'a>,
 }
 
 impl Kept {
+    /// Folds one measured chunk in (the best starts, the first non-finite configurations, the
+    /// cost pass's and the attribution's subsets).
+    pub fn add_chunk(&mut self, k: Keep) {
+        let steps = (self.attribution_step, self.cost_limit);
+        let c = k.chunk;
+        keep(
+            k.case,
+            k.methods,
+            (c.samples, c.global),
+            c.references,
+            c.runs,
+            self,
+            steps,
+        );
+    }
+
     /// Adds another part's state (other configurations of the same sweep).
-    fn merge(&mut self, o: Kept, per_family_cost: usize) {
+    pub fn merge_from(&mut self, o: &Kept) {
+        let o = o.clone();
+        let per_family_cost = self.cost_limit;
         for (a, b) in self.search.iter_mut().zip(o.search) {
-            a.2.merge(b.2);
+            crate::measure::search::TopK::merge_from(&mut a.2, &b.2);
         }
         for (a, b) in self.disagree.iter_mut().zip(o.disagree) {
-            a.3.merge(b.3);
+            crate::measure::search::TopK::merge_from(&mut a.3, &b.3);
         }
         self.nonfinite.extend(o.nonfinite);
         self.nonfinite.sort_by_key(|x| x.0);
@@ -322,22 +354,71 @@ impl Kept {
     }
 }
 
+/// One measured top-up configuration, kept whole until the run knows which top-ups it keeps:
+/// a shard measures every top-up its own counts could call for (a superset of the unsharded
+/// run's), and the merge keeps those the whole sample's counts call for (`settle_topups`).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct TopUpRow {
+    pub key: sampler::TopUpKey,
+    /// Draws made for it (`sampler::top_up_one`).
+    pub draws: usize,
+    /// None when its draws ran out before one fell in its bin.
+    pub measured: Option<Row>,
+}
+
+/// Everything the statistics and the kept state take from one configuration.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Row {
+    pub sample: Sample,
+    pub references: BTreeMap<Target, Estimate>,
+    pub references_f32: BTreeMap<Target, Estimate>,
+    /// Per method: GPU f32, CPU f32, CPU f64.
+    pub f32: Vec<f32>,
+    pub f32_cpu: Vec<Option<f32>>,
+    pub f64: Vec<Option<f64>>,
+}
+
 /// What measuring a sweep's configurations, or one shard's, leaves before the searches and
-/// the cost pass: the bounded kept state, the draws and the times; mergeable across shards.
+/// the cost pass: the bounded kept state, the draws and times, and (until settled) the natural
+/// counts and the measured top-ups; mergeable across shards.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Part {
     pub kept: Kept,
     pub draws: Vec<sampler::Draws>,
+    /// Filled once the top-ups are settled.
     pub topups: Vec<sampler::TopUp>,
     pub timing: Timing,
+    /// The natural sample's bin counts per family (this part's).
+    pub counts: Vec<sampler::FamilyCounts>,
+    /// Top-ups measured and not yet folded (a shard's superset).
+    pub topup_rows: Vec<TopUpRow>,
+    /// Per part merged: how many top-ups of each bin (`sampler::bin_ordinal`) it covered, its
+    /// own j < cover[o] (those of its share).
+    pub cover: Vec<Vec<usize>>,
 }
 
 impl Part {
-    /// Adds another part (other configurations of the same sweep).
-    pub fn merge(&mut self, o: Part, case: &Case) {
-        self.kept
-            .merge(o.kept, COST_CONFIGURATIONS.div_ceil(case.materials.len().max(1)));
+    /// Adds another part (other configurations of the same sweep); an `Err` when the two are
+    /// not parts of one sweep's families.
+    pub fn merge_from(&mut self, o: &Part) -> Result<(), String> {
+        if self.draws.len() != o.draws.len() || self.counts.len() != o.counts.len() {
+            return Err(format!(
+                "parts of {} and {} families do not merge",
+                self.draws.len(),
+                o.draws.len()
+            ));
+        }
+        self.kept.merge_from(&o.kept);
         self.timing.add(&o.timing);
+        for (a, b) in self.draws.iter_mut().zip(&o.draws) {
+            a.merge(b);
+        }
+        for (a, b) in self.counts.iter_mut().zip(&o.counts) {
+            a.merge(b);
+        }
+        self.topup_rows.extend(o.topup_rows.iter().cloned());
+        self.cover.extend(o.cover.iter().cloned());
+        Ok(())
     }
 
     /// Configurations measured.
@@ -346,8 +427,93 @@ impl Part {
     }
 }
 
+/// Seconds per method of each measuring column, added up over the chunks.
+struct ColumnSeconds {
+    gpu: Vec<f64>,
+    f64: Vec<f64>,
+    f32: Vec<f64>,
+}
+
+/// One chunk's configurations measured: every method on the GPU and in the CPU evaluator's
+/// f64 and f32 columns, and the references (exact, and at the configuration rounded to f32).
+fn measure_samples(
+    setup: &Setup,
+    gpu: &Gpu,
+    (pipelines, chunk): (&[crate::measure::gpu::MethodPipeline], usize),
+    samples: &[Sample],
+    (timing, columns): (&mut Timing, &mut ColumnSeconds),
+) -> anyhow::Result<(Vec<MethodRun>, References, References)> {
+    let case = &setup.case;
+    let targets = needed_targets(&setup.methods);
+    let configs: Vec<_> = samples.iter().map(|s| s.config.clone()).collect();
+    let (scenes, texels): (Vec<GpuScene>, _) = crate::input::scene::gpu_scenes(&configs);
+    let mut runs = Vec::new();
+    for (j, (m, pipeline)) in setup.methods.iter().zip(pipelines).enumerate() {
+        let out = gpu.run_textured(pipeline, &scenes, &texels, chunk, &mut |_| {})?;
+        columns.gpu[j] += out.wall.as_secs_f64();
+        // The kernel's f64 and cpu_f32 columns, from the CPU evaluator.
+        let t = Instant::now();
+        let f64 = m.cpu_column_or_none(&configs, crate::eval::interp::Mode::F64);
+        columns.f64[j] += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let f32_cpu: Vec<Option<f32>> = m
+            .cpu_column_or_none(&configs, crate::eval::interp::Mode::F32)
+            .into_iter()
+            .map(|v| v.map(|x| x as f32))
+            .collect();
+        columns.f32[j] += t.elapsed().as_secs_f64();
+        let f32 = out
+            .values
+            .iter()
+            .zip(&configs)
+            .map(|(&v, c)| if m.applies(c) { v } else { f32::NAN })
+            .collect();
+        runs.push(MethodRun {
+            method: m.clone(),
+            f32,
+            f32_cpu,
+            f64,
+        });
+    }
+    let t = Instant::now();
+    let references = references(&configs, &targets, &ProgressBar::hidden());
+    timing.references_seconds += t.elapsed().as_secs_f64();
+    timing.references_evaluated += references.iter().map(BTreeMap::len).sum::<usize>();
+    // A reference that cannot be computed is an error, never a NaN row in the report.
+    crate::measure::eval_rows::check_references(
+        std::path::Path::new(&format!("case `{}`", case.name)),
+        &configs,
+        &references,
+    )?;
+    let t = Instant::now();
+    let references_f32: References = configs
+        .par_iter()
+        .zip(&references)
+        .map(|(c, exact)| crate::measure::eval_rows::references_f32_inputs(c, &targets, exact))
+        .collect();
+    timing.references_f32_seconds += t.elapsed().as_secs_f64();
+    timing.references_f32_evaluated += configs
+        .iter()
+        .zip(&references_f32)
+        .filter(|(c, _)| c.rounded_to_f32() != **c)
+        .map(|(_, r)| r.len())
+        .sum::<usize>();
+    timing.chunks += 1;
+    timing.configurations += samples.len();
+    Ok((runs, references, references_f32))
+}
+
+/// Every `k`-th configuration (by global index) joins the attribution's subset.
+fn attribution_step(case: &Case) -> usize {
+    let expected: usize = case.materials.iter().map(|m| m.count).sum();
+    expected.div_ceil(ATTRIBUTION_CONFIGURATIONS).max(1)
+}
+
 /// Measures the configurations (all, or one shard's) chunk by chunk into a [`Part`], handing
-/// each measured chunk to `fold` before it is dropped.
+/// each measured chunk to `fold` before it is dropped. A shard draws only its own blocks of
+/// the natural sample, and measures the top-ups of its share that its own counts could call
+/// for, kept whole in the part until the merge settles them ([`settle_topups`]); an unsharded
+/// run settles them at once, through the same code.
 pub fn measure_chunks(
     setup: &Setup,
     gpu: &Gpu,
@@ -363,7 +529,6 @@ pub fn measure_chunks(
     for m in methods {
         pipelines.push(gpu.pipeline(m)?);
     }
-    let targets = needed_targets(methods);
     let families = case.materials.len();
     let mut timing = Timing {
         adapter: gpu.adapter.to_string(),
@@ -373,7 +538,7 @@ pub fn measure_chunks(
     let restarts = case.search.as_ref().map_or(0, |s| s.restarts);
     let disagree_spec = case.disagreements.clone().unwrap_or_default();
     let expected: usize = case.materials.iter().map(|m| m.count).sum();
-    let attribution_step = expected.div_ceil(ATTRIBUTION_CONFIGURATIONS).max(1);
+    let attribution_step = attribution_step(case);
     let per_family_cost = COST_CONFIGURATIONS.div_ceil(families.max(1));
     let mut kept = Kept {
         search: case
@@ -396,106 +561,30 @@ pub fn measure_chunks(
         attribution: vec![Vec::new(); methods.len()],
         natural: vec![0; families],
         seen: 0,
+        attribution_step,
+        cost_limit: per_family_cost,
     };
-    let mut stream = sampler::NaturalStream::new(case);
-    let mut topups: Option<(std::vec::IntoIter<Sample>, Vec<sampler::TopUp>)> = None;
-    // Configurations drawn before the current chunk (every chunk, this shard's or not).
-    let mut offset = 0;
-    let pb = bar(expected, "measuring (GPU, CPU, references)");
-    let (mut gpu_seconds, mut f64_seconds, mut f32_seconds) = (
-        vec![0.0; methods.len()],
-        vec![0.0; methods.len()],
-        vec![0.0; methods.len()],
-    );
+    let part_of = shard.unwrap_or((0, 1));
+    let mut stream = sampler::NaturalStream::sharded(case, part_of);
+    let pb = bar(expected / part_of.1, "measuring (GPU, CPU, references)");
+    let mut columns = ColumnSeconds {
+        gpu: vec![0.0; methods.len()],
+        f64: vec![0.0; methods.len()],
+        f32: vec![0.0; methods.len()],
+    };
     loop {
-        // The natural sample a chunk at a time, then the top-ups its counts call for.
+        // This shard's blocks of the natural sample, a chunk at a time.
         let t = Instant::now();
-        let samples: Vec<Sample> = match &mut topups {
-            None => {
-                let c = stream
-                    .next_chunk(MEASURE_CHUNK)
-                    .map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?;
-                if c.is_empty() {
-                    let (extra, reports) = sampler::top_up_counted(case, &stream.counts);
-                    let mut it = extra.into_iter();
-                    let c: Vec<Sample> = it.by_ref().take(MEASURE_CHUNK).collect();
-                    topups = Some((it, reports));
-                    c
-                } else {
-                    c
-                }
-            }
-            Some((it, _)) => it.by_ref().take(MEASURE_CHUNK).collect(),
-        };
+        let drawn = stream
+            .next_indexed(MEASURE_CHUNK)
+            .map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?;
         timing.sampling_seconds += t.elapsed().as_secs_f64();
-        if samples.is_empty() {
+        if drawn.is_empty() {
             break;
         }
-        // Every configuration's global index; a shard keeps the blocks of SHARD_BLOCK that are its.
-        let first = offset;
-        offset += samples.len();
-        let (samples, global): (Vec<Sample>, Vec<usize>) = samples
-            .into_iter()
-            .zip(first..)
-            .filter(|&(_, g)| shard.is_none_or(|(i, n)| (g / SHARD_BLOCK) % n == i))
-            .unzip();
-        if samples.is_empty() {
-            continue;
-        }
-        timing.chunks += 1;
-        let configs: Vec<_> = samples.iter().map(|s| s.config.clone()).collect();
-        let (scenes, texels): (Vec<GpuScene>, _) = crate::input::scene::gpu_scenes(&configs);
-        let mut runs = Vec::new();
-        for (j, (m, pipeline)) in methods.iter().zip(&pipelines).enumerate() {
-            let out = gpu.run_textured(pipeline, &scenes, &texels, chunk, &mut |_| {})?;
-            gpu_seconds[j] += out.wall.as_secs_f64();
-            // The kernel's f64 and cpu_f32 columns, from the CPU evaluator.
-            let t = Instant::now();
-            let f64 = m.cpu_column_or_none(&configs, crate::eval::interp::Mode::F64);
-            f64_seconds[j] += t.elapsed().as_secs_f64();
-            let t = Instant::now();
-            let f32_cpu: Vec<Option<f32>> = m
-                .cpu_column_or_none(&configs, crate::eval::interp::Mode::F32)
-                .into_iter()
-                .map(|v| v.map(|x| x as f32))
-                .collect();
-            f32_seconds[j] += t.elapsed().as_secs_f64();
-            let f32 = out
-                .values
-                .iter()
-                .zip(&configs)
-                .map(|(&v, c)| if m.applies(c) { v } else { f32::NAN })
-                .collect();
-            runs.push(MethodRun {
-                method: m.clone(),
-                f32,
-                f32_cpu,
-                f64,
-            });
-        }
-        let t = Instant::now();
-        let references = references(&configs, &targets, &ProgressBar::hidden());
-        timing.references_seconds += t.elapsed().as_secs_f64();
-        timing.references_evaluated += references.iter().map(BTreeMap::len).sum::<usize>();
-        // A reference that cannot be computed is an error, never a NaN row in the report.
-        crate::measure::eval_rows::check_references(
-            std::path::Path::new(&format!("case `{}`", case.name)),
-            &configs,
-            &references,
-        )?;
-        let t = Instant::now();
-        let references_f32: References = configs
-            .par_iter()
-            .zip(&references)
-            .map(|(c, exact)| crate::measure::eval_rows::references_f32_inputs(c, &targets, exact))
-            .collect();
-        timing.references_f32_seconds += t.elapsed().as_secs_f64();
-        timing.references_f32_evaluated += configs
-            .iter()
-            .zip(&references_f32)
-            .filter(|(c, _)| c.rounded_to_f32() != **c)
-            .map(|(_, r)| r.len())
-            .sum::<usize>();
+        let (global, samples): (Vec<usize>, Vec<Sample>) = drawn.into_iter().unzip();
+        let (runs, references, references_f32) =
+            measure_samples(setup, gpu, (&pipelines, chunk), &samples, (&mut timing, &mut columns))?;
         fold(&MeasuredChunk {
             samples: &samples,
             global: &global,
@@ -503,37 +592,187 @@ pub fn measure_chunks(
             references_f32: &references_f32,
             runs: &runs,
         })?;
-        keep(
+        kept.add_chunk(Keep {
             case,
             methods,
-            (&samples, &global),
-            &references,
-            &runs,
-            &mut kept,
-            (attribution_step, per_family_cost),
-        );
+            chunk: &MeasuredChunk {
+                samples: &samples,
+                global: &global,
+                references: &references,
+                references_f32: &references_f32,
+                runs: &runs,
+            },
+        });
         if let Some(w) = raw.as_mut() {
             write_raw(*w, setup, &samples, (&references, &references_f32), &runs)?;
         }
-        timing.configurations += samples.len();
+        pb.inc(samples.len() as u64);
+    }
+    // The top-ups this part's counts could call for, of its share: exactly the unsharded
+    // run's when unsharded, a superset of its share otherwise (a shard's counts are at most
+    // the whole sample's).
+    let t = Instant::now();
+    let needs = sampler::topup_needs(case, &stream.counts);
+    let drawn: Vec<(sampler::TopUpKey, (usize, Option<Sample>))> = sampler::draw_topups(case, &needs, part_of)
+        .into_iter()
+        .map(|(k, d, s)| (k, (d, s)))
+        .collect();
+    timing.sampling_seconds += t.elapsed().as_secs_f64();
+    let mut topup_rows = Vec::with_capacity(drawn.len());
+    let mut pending: Vec<(sampler::TopUpKey, usize, Sample)> = Vec::new();
+    let mut drawn = drawn.into_iter().peekable();
+    while drawn.peek().is_some() || !pending.is_empty() {
+        for (key, (draws, s)) in drawn.by_ref() {
+            match s {
+                Some(s) => pending.push((key, draws, s)),
+                None => topup_rows.push(TopUpRow {
+                    key,
+                    draws,
+                    measured: None,
+                }),
+            }
+            if pending.len() == MEASURE_CHUNK {
+                break;
+            }
+        }
+        if pending.is_empty() {
+            break;
+        }
+        let samples: Vec<Sample> = pending.iter().map(|(_, _, s)| s.clone()).collect();
+        let (runs, references, references_f32) =
+            measure_samples(setup, gpu, (&pipelines, chunk), &samples, (&mut timing, &mut columns))?;
+        for (i, ((key, draws, sample), (r, r32))) in pending
+            .drain(..)
+            .zip(references.into_iter().zip(references_f32))
+            .enumerate()
+        {
+            topup_rows.push(TopUpRow {
+                key,
+                draws,
+                measured: Some(Row {
+                    sample,
+                    references: r,
+                    references_f32: r32,
+                    f32: runs.iter().map(|m| m.f32[i]).collect(),
+                    f32_cpu: runs.iter().map(|m| m.f32_cpu[i]).collect(),
+                    f64: runs.iter().map(|m| m.f64[i]).collect(),
+                }),
+            });
+        }
         pb.inc(samples.len() as u64);
     }
     pb.finish_and_clear();
-    let (_, topups) = topups.unwrap_or_default();
     for (j, m) in methods.iter().enumerate() {
-        timing.gpu.push((m.label.clone(), gpu_seconds[j], 0.0));
-        timing.cpu_f64_seconds.push((m.label.clone(), f64_seconds[j]));
-        timing.cpu_f32_seconds.push((m.label.clone(), f32_seconds[j]));
+        timing.gpu.push((m.label.clone(), columns.gpu[j], 0.0));
+        timing.cpu_f64_seconds.push((m.label.clone(), columns.f64[j]));
+        timing.cpu_f32_seconds.push((m.label.clone(), columns.f32[j]));
         let engines = crate::eval::interp::program(m).map_or_else(|e| format!("none ({e:#})"), |p| p.engines());
         timing.cpu_engines.push((m.label.clone(), engines));
     }
     timing.total_seconds = start.elapsed().as_secs_f64();
-    Ok(Part {
+    let mut part = Part {
         kept,
         draws: stream.draws,
-        topups,
+        topups: Vec::new(),
         timing,
-    })
+        counts: stream.counts,
+        topup_rows,
+        cover: vec![needs],
+    };
+    if shard.is_none() {
+        settle_topups(setup, &mut part, fold, raw)?;
+    }
+    Ok(part)
+}
+
+/// Keeps the top-ups the whole natural sample calls for, and folds them in: from the merged
+/// counts c_b, bin b keeps its top-ups j < T_b = min_per_bin − c_b (each part measured its own
+/// share of j < min_per_bin − c_b^part ≥ T_b) in the unsharded order (family, axis, bin, j),
+/// numbered after the natural sample; the rest is dropped. Then the part holds what the
+/// unsharded run's holds.
+pub fn settle_topups(
+    setup: &Setup,
+    part: &mut Part,
+    fold: &mut dyn FnMut(&MeasuredChunk) -> anyhow::Result<()>,
+    mut raw: Option<&mut dyn std::io::Write>,
+) -> anyhow::Result<()> {
+    let case = &setup.case;
+    for (d, m) in part.draws.iter().zip(&case.materials) {
+        d.check(m.count)
+            .map_err(|e| anyhow::anyhow!("case `{}`: {e}", case.name))?;
+    }
+    let needs = sampler::topup_needs(case, &part.counts);
+    let parts = part.cover.len();
+    for (k, cover) in part.cover.iter().enumerate() {
+        if let Some(o) = (0..needs.len()).find(|&o| cover.get(o).copied().unwrap_or(0) < needs[o]) {
+            anyhow::bail!(
+                "case `{}`: part {k} of {parts} drew {} top-ups of bin {o}, and the whole sample's counts call for {}: \
+                 its counts were not a part of these (re-run the shards with this linelight)",
+                case.name,
+                cover.get(o).copied().unwrap_or(0),
+                needs[o]
+            );
+        }
+    }
+    let mut rows: Vec<TopUpRow> = std::mem::take(&mut part.topup_rows)
+        .into_iter()
+        .filter(|r| r.key.j < needs[sampler::bin_ordinal(case, r.key.family, r.key.axis, r.key.bin)])
+        .collect();
+    rows.sort_by_key(|r| r.key);
+    let done: Vec<(sampler::TopUpKey, usize, bool)> =
+        rows.iter().map(|r| (r.key, r.draws, r.measured.is_some())).collect();
+    part.topups = sampler::topup_reports(case, &part.counts, &done);
+    part.cover = Vec::new();
+    let natural: usize = case.materials.iter().map(|m| m.count).sum();
+    let mut measured = rows.into_iter().filter_map(|r| r.measured).enumerate().peekable();
+    while measured.peek().is_some() {
+        let chunk: Vec<(usize, Row)> = measured.by_ref().take(MEASURE_CHUNK).collect();
+        let global: Vec<usize> = chunk.iter().map(|(rank, _)| natural + rank).collect();
+        let mut samples = Vec::with_capacity(chunk.len());
+        let (mut references, mut references_f32) = (Vec::new(), Vec::new());
+        let mut runs: Vec<MethodRun> = setup
+            .methods
+            .iter()
+            .map(|m| MethodRun {
+                method: m.clone(),
+                f32: Vec::new(),
+                f32_cpu: Vec::new(),
+                f64: Vec::new(),
+            })
+            .collect();
+        for (_, row) in chunk {
+            for (j, run) in runs.iter_mut().enumerate() {
+                run.f32.push(row.f32[j]);
+                run.f32_cpu.push(row.f32_cpu[j]);
+                run.f64.push(row.f64[j]);
+            }
+            samples.push(row.sample);
+            references.push(row.references);
+            references_f32.push(row.references_f32);
+        }
+        fold(&MeasuredChunk {
+            samples: &samples,
+            global: &global,
+            references: &references,
+            references_f32: &references_f32,
+            runs: &runs,
+        })?;
+        part.kept.add_chunk(Keep {
+            case,
+            methods: &setup.methods,
+            chunk: &MeasuredChunk {
+                samples: &samples,
+                global: &global,
+                references: &references,
+                references_f32: &references_f32,
+                runs: &runs,
+            },
+        });
+        if let Some(w) = raw.as_mut() {
+            write_raw(*w, setup, &samples, (&references, &references_f32), &runs)?;
+        }
+    }
+    Ok(())
 }
 
 /// The searches from the kept starts, the cost pass and the attribution: a measured sweep.
@@ -551,6 +790,7 @@ pub fn search_and_cost(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<M
         draws,
         topups: topup_reports,
         mut timing,
+        ..
     } = part;
     for g in &mut timing.gpu {
         g.2 = timing.configurations as f64 / g.1;
