@@ -304,14 +304,15 @@ fn baseline_from_other_configurations_is_bad_input() {
     assert!(err.contains("baseline.json") && err.contains("paired"), "{err}");
     assert!(!d.join("junit.xml").exists());
     // A baseline of another format version is refused with the command that saves it again;
-    // one saved before the surface views and f32-input references (format 1) says why.
+    // one saved before the surface views and f32-input references (format 1), or before the
+    // per-configuration streams (format 2), says why.
     let json_path = baseline.join("baseline.json");
     let json = std::fs::read_to_string(&json_path).unwrap();
-    assert!(json.contains("\"format\": 2,"), "{json}");
-    for old in [0, 1] {
+    assert!(json.contains("\"format\": 3,"), "{json}");
+    for old in [0, 1, 2] {
         std::fs::write(
             &json_path,
-            json.replace("\"format\": 2,", &format!("\"format\": {old},")),
+            json.replace("\"format\": 3,", &format!("\"format\": {old},")),
         )
         .unwrap();
         let o = gate(&[CASE, b, "--count", "100"], d);
@@ -321,6 +322,7 @@ fn baseline_from_other_configurations_is_bad_input() {
             err.contains(&format!("baseline format {old}"))
                 && err.contains("what the surface receives")
                 && err.contains("f32-rounded inputs")
+                && err.contains("counter-based stream")
                 && err.contains("save it again")
                 && err.contains("--save-baseline"),
             "{err}"
@@ -441,4 +443,69 @@ fn diff_two_revisions_of_one_kernel_file() {
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+}
+
+/// A baseline saved from other configurations (another sampling scheme, say) is refused with
+/// exit 2 before any report is written: the comparison pairs configuration by configuration.
+#[test]
+fn a_baseline_of_other_configurations_is_refused_before_any_report() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let baseline = dir.path().join("baseline");
+    std::fs::create_dir_all(baseline.join("errors")).unwrap();
+    let from = root.join("docs/ci/example/baseline");
+    for entry in walk(&from) {
+        let rel = entry.strip_prefix(&from).unwrap();
+        std::fs::create_dir_all(baseline.join(rel).parent().unwrap()).unwrap();
+        std::fs::copy(&entry, baseline.join(rel)).unwrap();
+    }
+    let json = std::fs::read_to_string(baseline.join("baseline.json")).unwrap();
+    let mut value: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let saved = value["sample_sha256"]
+        .as_str()
+        .expect("a format-3 baseline records its sample")
+        .to_string();
+    assert_eq!(saved.len(), 64, "{saved}");
+    value["sample_sha256"] = serde_json::Value::String("0".repeat(64));
+    std::fs::write(
+        baseline.join("baseline.json"),
+        serde_json::to_string_pretty(&value).unwrap(),
+    )
+    .unwrap();
+    let out = dir.path().join("reports");
+    let o = Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .args([
+            "sweep",
+            "docs/ci/example/gate.toml",
+            "--kernel",
+            "docs/ci/example/my_line.wgsl",
+            "--baseline",
+        ])
+        .arg(&baseline)
+        .arg("--out")
+        .arg(&out)
+        .current_dir(root)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("saved from other configurations") && stderr.contains(&saved),
+        "{}",
+        text(&o)
+    );
+    assert!(!out.exists(), "a report was written before the refusal");
+}
+
+fn walk(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
 }

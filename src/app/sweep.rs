@@ -338,7 +338,7 @@ fn report_sweep(
         analysis_seconds: measured.timing.statistics_seconds + t.elapsed().as_secs_f64(),
         until_report_seconds: started.elapsed().as_secs_f64(),
     };
-    let gate_report = gate.compare(setup, (measured, swept.observations.as_ref()));
+    let gate_report = gate.compare(setup, (measured, swept.observations.as_ref()))?;
     let mut input = Summary::new(
         crate::analyse::summary::RunInfo {
             case_path,

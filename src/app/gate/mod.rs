@@ -27,7 +27,7 @@ pub mod render;
 /// is judged against what the surface receives (`line_upper`, `cylinder_upper`, …, the
 /// headline's target) and its f32 result against the reference at the f32-rounded
 /// configuration; format 1 judged against the method's own target and the exact reference.
-pub const FORMAT: u32 = 2;
+pub const FORMAT: u32 = 3;
 
 /// One natural configuration of one method, as the gate sees it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -95,6 +95,9 @@ pub struct Baseline {
     pub adapter: String,
     /// The materials in case order, with their natural configurations.
     pub materials: Vec<MaterialCount>,
+    /// SHA-256 of the natural configurations in sample order (format 3): the comparison pairs
+    /// configuration by configuration, so a run that draws others is refused, not compared.
+    pub sample_sha256: String,
     pub methods: Vec<MethodEntry>,
 }
 
@@ -303,6 +306,7 @@ pub fn save(
         count_override: setup.count_override,
         adapter: measured.timing.adapter.clone(),
         materials: natural_counts(setup),
+        sample_sha256: sample_digest(observations),
         methods,
     };
     let timings = Timings {
@@ -317,6 +321,21 @@ pub fn save(
     files.push(Box::new(Json::new("baseline.json", baseline, Layout::PrettyLine)));
     files.push(Box::new(Json::new("timings.json", timings, Layout::PrettyLine)));
     crate::report::format::write_set(dir, crate::io::SetKind::Baseline, &files)
+}
+
+/// SHA-256 over every natural configuration (its eval-format JSON), family by family in
+/// sample order: what a baseline was saved from, checked before a comparison pairs them.
+pub fn sample_digest(observations: &Observations) -> String {
+    use sha2::Digest;
+    let mut h = sha2::Sha256::new();
+    for (family, configs) in observations.configs.iter().enumerate() {
+        h.update(format!("family {family}\n").as_bytes());
+        for (c, _) in configs {
+            h.update(serde_json::to_vec(c).unwrap_or_default());
+            h.update(b"\n");
+        }
+    }
+    format!("{:x}", h.finalize())
 }
 
 fn natural_counts(setup: &Setup) -> Vec<MaterialCount> {
@@ -373,9 +392,12 @@ pub fn load(dir: &Path, setup: &Setup) -> anyhow::Result<Loaded> {
             "baseline format {} (this linelight reads format {FORMAT}): save it again on this \
              linelight with the same case and kernels, `linelight sweep {} --kernel … \
              --save-baseline {}` (or `scripts/ci-gate --save …`), and commit the new folder.\n\
-             Why: format 2 judges every method against what the surface receives (`line_upper`, \
-             `cylinder_upper`, …) and f32 results against the reference at the f32-rounded \
-             inputs, so errors saved before are not comparable.",
+             Why: format 3 records which configurations it was saved from (their SHA-256), and \
+             this linelight draws every configuration from its own counter-based stream (issue \
+             23), so the same seed gives other configurations than a format-2 baseline holds; \
+             format 2 judged every method against what the surface receives and f32 results \
+             against the reference at the f32-rounded inputs, so format-1 errors are not \
+             comparable either.",
             baseline.format,
             setup.case.name,
             dir.display()
@@ -517,15 +539,25 @@ impl GateRun {
         &self,
         setup: &Setup,
         (measured, observations): (&Measured, Option<&Observations>),
-    ) -> Option<GateReport> {
-        let report = self.baseline.as_ref().map(|b| {
-            let observations = observations.expect("the gate's sweep keeps its observations (wants_observations)");
-            compare(b, setup, (measured, observations), self.options)
-        });
-        if let Some(g) = &report {
-            eprint!("{}", g.details());
+    ) -> anyhow::Result<Option<GateReport>> {
+        let Some(b) = self.baseline.as_ref() else {
+            return Ok(None);
+        };
+        let observations = observations.expect("the gate's sweep keeps its observations (wants_observations)");
+        // Checked before any report is written: pairing other configurations is no comparison.
+        let here = sample_digest(observations);
+        if b.baseline.sample_sha256 != here {
+            return Err(anyhow::Error::new(crate::io::InputError(format!(
+                "the baseline was saved from other configurations than this run draws (sample \
+                 SHA-256 {} in the baseline, {here} here; the case, seed and counts agree): the \
+                 comparison is paired configuration by configuration, so save the baseline again \
+                 with this linelight (`--save-baseline`, or `scripts/ci-gate --save …`)",
+                b.baseline.sample_sha256
+            ))));
         }
-        report
+        let g = compare(b, setup, (measured, observations), self.options);
+        eprint!("{}", g.details());
+        Ok(Some(g))
     }
 
     /// After the report: saves the baseline and writes the JUnit file.
