@@ -277,7 +277,7 @@ pub fn analyse(run: &Run) -> Objectives {
             .map(|g| g.label.clone())
             .collect();
         findings.push(format!(
-            "{}: the SW fit's median is lower in {} ({}) and higher in {} ({}).",
+            "{}: the SW fit's median is lower in {} ({}) and higher in {} ({}) of the 3 slices and the 8 α_max values (two groupings of the same lines).",
             if name == "highlight" {
                 "Near the highlight, by slice and α_max"
             } else {
@@ -299,10 +299,11 @@ pub fn analyse(run: &Run) -> Objectives {
     }
     for (name, c) in &entries_sw_better {
         findings.push(format!(
-            "Per entry ({name} lines): the SW fit's median line-light error is lower at {} of {} entries, higher at {}.",
+            "Per entry ({name} lines): the SW fit's median line-light error is lower at {} of {} entries, higher at {}, tied or not comparable at {}.",
             c[0],
             run.lobes.len(),
-            c[1]
+            c[1],
+            run.lobes.len().saturating_sub(c[0] + c[1])
         ));
     }
     let l = &lobes[0];

@@ -66,8 +66,12 @@ pub fn outputs(o: &Objectives, inputs: &Inputs) -> Vec<Box<dyn Format>> {
          (SGD, `data/ltc_ggx_aniso_sw_subset.csv`, src/input/ltc/sw.rs), both aligned and post-processed alike. \
          Each entry is judged at its own node (its lobe exactly, no look-up): {} lines per region drawn from the \
          entry's own seeded stream, the GGX truth T of the `line` target against the magnitude times the exact \
-         LTC line integral of each M. Error |value − T|/T over the lines with T > 0, no floor; lines with T = 0 \
-         counted apart. Measured in {:.1} s.\n",
+         LTC line integral of each M, over the whole segment (the `line` target: the part of the lobe below the \
+         horizon included, which is why a fit can light a line whose T is 0). Error |value − T|/T over the lines \
+         with T > 0, no floor; lines with T = 0 counted apart. Medians and p90 are nearest-rank (for an even \
+         count the median is the lower middle value). SW distances are estimates from 4096 samples × 256 \
+         directions, whose own sampling floor is of the order of the sharpest lobes' values (α_max = 0.02). \
+         Measured in {:.1} s of wall time.\n",
         inputs.command, o.entries, o.size[0], o.size[1], o.size[2], o.size[3], o.lines_per_region, o.seconds
     );
     let _ = writeln!(md, "## Findings\n");
