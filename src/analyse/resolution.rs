@@ -83,7 +83,8 @@ pub struct Resolution {
 
 /// Bootstrap resamples of every ratio's interval.
 pub const RESAMPLES: usize = 2000;
-/// "Within x % of the finest": a coarser table whose error ratio's interval lies below 1 + this.
+/// "At most x % worse than the finest": a coarser table whose error ratio's 95 % interval lies
+/// below 1 + this (one-sided: a table far better than the finest passes too).
 pub const WITHIN: f64 = 0.1;
 
 fn region(family: &str, name: String, points: &[&Point], labels: &[String]) -> Region {
@@ -188,8 +189,8 @@ fn findings_of(r: &Region) -> Vec<String> {
                 q.error[0],
                 q.error[2],
                 match within {
-                    Some(true) => format!(", within {} of it", pct(WITHIN)),
-                    Some(false) => format!(", not within {} of it", pct(WITHIN)),
+                    Some(true) => format!(", at most {} worse than it (the interval's upper end below {:.2})", pct(WITHIN), 1.0 + WITHIN),
+                    Some(false) => format!(", more than {} worse than it (the interval's lower end above {:.2})", pct(WITHIN), 1.0 + WITHIN),
                     None => format!(", undecided against {} (the interval straddles it)", pct(WITHIN)),
                 }
             )
@@ -211,20 +212,20 @@ fn findings_of(r: &Region) -> Vec<String> {
     }
     out.push(match settled {
         Some(t) if t == finest.table => format!(
-            "`{}`, {}: discretisation stops mattering only at the finest table studied, {t} (its table link's median is below the fit link's; no coarser table is both below it and within {} of the {t}'s).",
+            "`{}`, {}: no coarser table is both below the fit link and at most {} worse than the {t}, the finest table studied, whose own table link's median is below the fit link's; whether a finer table would still help is not measured in this family.",
             r.family,
             r.region,
             pct(WITHIN),
         ),
         Some(t) => format!(
-            "`{}`, {}: discretisation stops mattering at the {t} table (the coarsest whose table link's median is below the fit link's and whose error is within {} of the {}'s).",
+            "`{}`, {}: discretisation stops mattering at the {t} table, in this sense: it is the coarsest whose table link's median is below the fit link's and whose error is at most {} worse than the {}'s (one-sided: its table link may still be far above the finer table's).",
             r.family,
             r.region,
             pct(WITHIN),
             finest.table
         ),
         None => format!(
-            "`{}`, {}: no table of the study is both below the fit link and within {} of the {}'s: discretisation still matters here.",
+            "`{}`, {}: no table of the study is both below the fit link and at most {} worse than the {}: discretisation still matters here.",
             r.family,
             r.region,
             pct(WITHIN),
