@@ -254,7 +254,10 @@ impl TextureSpec {
                 let [a, b, c, e] = d.step;
                 let inside = match w {
                     None => {
-                        let in_u = along >= a && along <= a + c;
+                        // Along the light u clamps, so the box stays on it: its start is
+                        // uniform in [0, 1 − wu] (around the light v wraps).
+                        let u0 = a * (1.0 - c);
+                        let in_u = along >= u0 && along <= u0 + c;
                         let in_v = (around - b).rem_euclid(1.0) <= e;
                         in_u && in_v
                     }
