@@ -91,10 +91,6 @@ pub struct EntryRow {
 /// Highlight-angle bins (degrees) of the natural sample, as cases/ggx.toml's.
 pub const HIGHLIGHT_EDGES: [f64; 6] = [0.0, 5.0, 15.0, 45.0, 90.0, 180.0];
 
-fn quantiles(mut v: Vec<f64>) -> Option<Quantiles> {
-    Quantiles::of(&mut v)
-}
-
 fn group(label: String, lines: &[&Line]) -> Group {
     let (mut e1, mut e2) = (Vec::new(), Vec::new());
     let (mut sw_nearer, mut l1_nearer, mut equal) = (0, 0, 0);
@@ -121,7 +117,7 @@ fn group(label: String, lines: &[&Line]) -> Group {
         }
     }
     let n = e1.len();
-    let error = [quantiles(e1), quantiles(e2)];
+    let error = [Quantiles::of(&mut e1), Quantiles::of(&mut e2)];
     Group {
         label,
         n,
@@ -135,10 +131,6 @@ fn group(label: String, lines: &[&Line]) -> Group {
         false_light,
         not_finite,
     }
-}
-
-fn median(v: &[f64]) -> Option<f64> {
-    crate::analyse::stats::median(v)
 }
 
 fn slice_label(run: &Run, i: [usize; 4]) -> String {
@@ -192,8 +184,9 @@ pub fn analyse(run: &Run) -> Objectives {
 
     let lobe_group = |label: String, pick: &dyn Fn(&crate::measure::objectives::Lobe) -> bool| {
         let ls: Vec<_> = run.lobes.iter().filter(|l| pick(l)).collect();
-        let col =
-            |f: &dyn Fn(&crate::measure::objectives::Lobe) -> f64| median(&ls.iter().map(|l| f(l)).collect::<Vec<_>>());
+        let col = |f: &dyn Fn(&crate::measure::objectives::Lobe) -> f64| {
+            crate::analyse::stats::median(&ls.iter().map(|l| f(l)).collect::<Vec<_>>())
+        };
         LobeGroup {
             label,
             n: ls.len(),

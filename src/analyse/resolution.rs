@@ -159,8 +159,8 @@ fn sci(x: f64) -> String {
 }
 
 /// The findings of one region: per table, its table link's median against the fit link's,
-/// and per ratio to the finest table, whether it is within [`WITHIN`] of it; then the coarsest
-/// table at which discretisation stops mattering by both.
+/// and per ratio to the finest table, whether it is at most [`WITHIN`] worse (one-sided); then
+/// the coarsest table at which discretisation stops mattering by both.
 fn findings_of(r: &Region) -> Vec<String> {
     let mut out = Vec::new();
     let finest = r.tables.iter().rev().find(|t| t.error.n > 0);
