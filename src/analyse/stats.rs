@@ -1083,6 +1083,29 @@ mod tests {
     }
 
     #[test]
+    fn clopper_pearson_matches_closed_forms_and_an_independent_inverse() {
+        let close = |got: f64, want: f64| (got - want).abs() <= 1e-9 * want;
+        // One event in 10: the lower bound solves I_p(1, 10) = 1 − (1 − p)^10 = 0.025.
+        let (lo, hi) = clopper_pearson(1, 10);
+        assert!(close(lo, 1.0 - 0.975f64.powf(0.1)), "{lo}");
+        // Its upper bound has no closed form: I_p(2, 9) = 0.975, SciPy 1.17's
+        // `beta.ppf(0.975, 2, 9)` (an independent inverse) gives 0.4450161170281954.
+        assert!(close(hi, 0.445_016_117_028_195_4), "{hi}");
+        // Nine in 10: the upper bound solves I_p(10, 1) = p^10 = 0.975.
+        let (lo, hi) = clopper_pearson(9, 10);
+        assert!(close(hi, 0.975f64.powf(0.1)), "{hi}");
+        assert!(close(lo, 0.554_983_882_971_804_7), "{lo}"); // beta.ppf(0.025, 9, 2)
+        // All 10: the lower bound solves p^10 = 0.025, the upper is 1.
+        let (lo, hi) = clopper_pearson(10, 10);
+        assert!(close(lo, 0.025f64.powf(0.1)), "{lo}");
+        assert_eq!(hi, 1.0);
+        // An interior rate, both ends against beta.ppf(0.025, 3, 5) and beta.ppf(0.975, 4, 4).
+        let (lo, hi) = clopper_pearson(3, 7);
+        assert!(close(lo, 0.098_988_278_442_507_86), "{lo}");
+        assert!(close(hi, 0.815_948_432_359_916_9), "{hi}");
+    }
+
+    #[test]
     fn bits_count_ulps() {
         assert_eq!(bits_of_error(1.0, 1.0), 0.0);
         let next = f32::from_bits(1.0f32.to_bits() + 1);
