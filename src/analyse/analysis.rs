@@ -1208,6 +1208,15 @@ edges = [0.0, 45.0, 90.0]
                 error: 1e-9,
             },
         );
+        // The reference 2 of configuration 1 carries an estimate of 4e-9: 2e-9 relative, the
+        // largest (a value other than 1 tells a division from a product or a remainder).
+        rows[1].refs.insert(
+            ISO,
+            Estimate {
+                value: 2.0,
+                error: 4e-9,
+            },
+        );
         rows[9].refs32 = refs(&[(ISO, 2.5)]);
         rows
     }
@@ -1256,8 +1265,8 @@ false_light = 1
         assert_eq!(s.rel_cpu_f32.unwrap().max, 0.0);
         assert_eq!(s.abs.unwrap().max, 0.5);
         assert_eq!(s.reference.unwrap().max, 2.0);
-        assert_eq!(s.reference_rel.unwrap().max, 1e-9);
-        assert!(!s.reference_flag, "1e-9·100 is far below the median 3/64");
+        assert_eq!(s.reference_rel.unwrap().max, 2e-9);
+        assert!(!s.reference_flag, "2e-9·100 is far below the median 3/64");
         assert_eq!(s.input_rounding.unwrap().max, 0.25);
         assert_eq!(s.input_rounding.unwrap().median, 0.25);
         let fl = &s.false_light;
@@ -1676,5 +1685,47 @@ methods = ["line.ltc2017"]
         );
         // A case without tolerances has no checks and no verdict.
         assert_eq!(case_iso().verdict, Verdict::NoVerdict);
+    }
+
+    #[test]
+    fn a_reference_exactly_at_the_floor_is_not_below_it() {
+        // The segment is at distance 1, so the floor of `line_isotropic` is the default 1e-6
+        // exactly: a reference of 1e-6 is not below it, one of 5e-7 is.
+        let case = case(&["line_isotropic.closest_point"], "");
+        let methods = methods(&case);
+        let rows = vec![
+            row(&[(ISO, 1e-6)], vec![(1.5e-6, None, None)]),
+            row(&[(ISO, 5e-7)], vec![(1e-6, None, None)]),
+        ];
+        let (a, _) = analyse(&case, &methods, &rows);
+        let s = &a.methods[0].materials[0].all;
+        assert_eq!((s.count, s.below_floor), (2, 1));
+    }
+
+    #[test]
+    fn a_bin_folds_and_merges_judged_configurations_through_the_trait() {
+        // `Accumulate<Judged>` must do what `push` and the inherent merge do: a lit
+        // configuration 0.25 off, a missed one (rel 1) in another part, and a false light.
+        let lit = |v: f32| Judged::Lit {
+            gpu: Outcome::of_f32(v, 1.0, 1e-6),
+            cpu: None,
+            f64: None,
+            reference_rel: 0.0,
+            below_floor: false,
+            dark: (v == 0.0, false),
+            reference: 1.0,
+            input_rounding: None,
+        };
+        let mut a = BinAccumulator::default();
+        Accumulate::<Judged>::add(&mut a, lit(1.25));
+        Accumulate::<Judged>::add(&mut a, Judged::Zero { gpu: 0.5, f64: None });
+        let mut b = BinAccumulator::default();
+        Accumulate::<Judged>::add(&mut b, lit(0.0));
+        <BinAccumulator as Accumulate<Judged>>::merge(&mut a, &b).unwrap();
+        let s = a.finish();
+        assert_eq!((s.count, s.dark), (2, 1));
+        let rel = s.rel.unwrap();
+        assert_eq!((rel.median, rel.max), (0.25, 1.0));
+        assert_eq!((s.false_light.configurations, s.false_light.lit), (1, 1));
     }
 }
