@@ -1129,6 +1129,20 @@ edges = [0.0, 45.0, 90.0]
 
     /// Folds `rows` in as one chunk.
     fn fold(case: &Case, methods: &[Method], rows: &[Row], accs: &mut Accumulators, leak: &mut LeakAccumulator) {
+        fold_by(case, methods, rows, accs, leak, false)
+    }
+
+    /// The same; `through_parts`: each method's and pair's accumulator fed through its own
+    /// `Accumulate` impl, as a caller holding them one by one would, not through
+    /// `Accumulators`' parallel fold.
+    fn fold_by(
+        case: &Case,
+        methods: &[Method],
+        rows: &[Row],
+        accs: &mut Accumulators,
+        leak: &mut LeakAccumulator,
+        through_parts: bool,
+    ) {
         let samples: Vec<Sample> = rows.iter().map(|r| r.sample.clone()).collect();
         let global: Vec<usize> = (0..rows.len()).collect();
         let references: Vec<_> = rows.iter().map(|r| r.refs.clone()).collect();
@@ -1150,6 +1164,18 @@ edges = [0.0, 45.0, 90.0]
             references_f32: &references_f32,
             runs: &runs,
         };
+        if through_parts {
+            let placed: Vec<Placement> = samples.iter().map(|s| place(case, s)).collect();
+            for (m, run) in accs.methods.iter_mut().zip(&runs) {
+                Accumulate::add(m, (case, &chunk, &placed[..], run));
+            }
+            for p in accs.pairs.iter_mut() {
+                Accumulate::add(p, (&chunk, &placed[..]));
+            }
+            accs.configurations += rows.len();
+            Accumulate::<Fold>::add(leak, Fold { case, chunk: &chunk });
+            return;
+        }
         add_to_each(
             &mut [accs as &mut dyn Accumulate<Fold>, leak],
             Fold { case, chunk: &chunk },
@@ -1157,9 +1183,13 @@ edges = [0.0, 45.0, 90.0]
     }
 
     fn analyse(case: &Case, methods: &[Method], rows: &[Row]) -> (Analysis, Vec<Leak>) {
+        analyse_by(case, methods, rows, false)
+    }
+
+    fn analyse_by(case: &Case, methods: &[Method], rows: &[Row], through_parts: bool) -> (Analysis, Vec<Leak>) {
         let mut accs = Accumulators::new(case, methods);
         let mut leak = LeakAccumulator::new(case.materials.len());
-        fold(case, methods, rows, &mut accs, &mut leak);
+        fold_by(case, methods, rows, &mut accs, &mut leak, through_parts);
         (accs.finish(case, methods), leak.finish(case))
     }
 
@@ -1233,79 +1263,81 @@ false_light = 1
     fn each_configuration_is_judged_by_hand() {
         let case = case(&["line_isotropic.closest_point", "cylinder.line"], JUDGED_EXTRA);
         let methods = methods(&case);
-        let (a, _) = analyse(&case, &methods, &judged_rows());
-        let m = &a.methods[0];
-        assert_eq!((m.target, m.judged, m.has_f64), (ISO, ISO, true));
-        let s = &m.materials[0].all;
-        // Finite with a non-zero reference: 0, 1, 2, 3, 5, 9, 11, 12; NaN: 4.
-        assert_eq!((s.count, s.nan, s.inf), (8, 1, 0));
-        assert_eq!((s.dark, s.dark_f64, s.below_floor, s.nan_f64), (2, 1, 1, 1));
-        // Sorted: 0, 2⁻¹⁰, 2⁻⁸, 3/64, 0.25, 0.5(f32 of 1.5e-9), 1, 1; median at rank 4.
-        let rel = s.rel.unwrap();
-        assert_eq!((rel.median, rel.max), (3.0 / 64.0, 1.0));
-        // Within 1e-3: 0 and 9; 1e-2: and 12; 1e-1: and 11; of 9 (the NaN counts as outside).
-        assert_eq!(s.within, [2.0 / 9.0, 3.0 / 9.0, 4.0 / 9.0]);
-        // Apart from the missed ones (2, 3), the worst is configuration 5.
-        let lit = s.rel_lit.unwrap();
-        assert!((lit.max - 0.5).abs() < 1e-7 && lit.median == 1.0 / 256.0, "{lit:?}");
-        // Floored: configuration 5's 0.5e-9 over the floor 1e-6 instead of over 1e-9.
-        let floored = s.rel_floored.unwrap();
-        assert_eq!(floored.max, 1.0);
-        let five = {
-            let mut v: Vec<f64> = vec![0.0, 1.0 / 1024.0, 1.0 / 256.0, 3.0 / 64.0, 0.25, 1.0, 1.0];
-            v.push(((1.5e-9f32 as f64) - 1e-9).abs() / 1e-6);
-            v.sort_by(f64::total_cmp);
-            v
-        };
-        assert_eq!(floored.median, five[3]);
-        // f64: 0, 1, 2, 3, 9 (the NaN counted apart): 2⁻¹⁰, 0.25, 1, 0.5, 0.25; lit without 2.
-        let f = s.rel_f64.unwrap();
-        assert_eq!((f.median, f.max), (0.25, 1.0));
-        assert_eq!(s.rel_f64_lit.unwrap().max, 0.5);
-        assert_eq!(s.rel_cpu_f32.unwrap().max, 0.0);
-        assert_eq!(s.abs.unwrap().max, 0.5);
-        assert_eq!(s.reference.unwrap().max, 2.0);
-        assert_eq!(s.reference_rel.unwrap().max, 2e-9);
-        assert!(!s.reference_flag, "2e-9·100 is far below the median 3/64");
-        assert_eq!(s.input_rounding.unwrap().max, 0.25);
-        assert_eq!(s.input_rounding.unwrap().median, 0.25);
-        let fl = &s.false_light;
-        assert_eq!((fl.configurations, fl.lit, fl.nonfinite, fl.lit_f64), (3, 1, 1, 1));
-        assert_eq!(fl.value.unwrap().max, 0.125);
-        // No surface view: no own-target rows.
-        let mat = &m.materials[0];
-        assert!(mat.own_target.is_none() && mat.wholly_below.is_none() && mat.own_axes.is_empty());
-        // Family b saw nothing.
-        assert_eq!(m.materials[1].all.configurations(), 0);
-        // The method that applies to none of them (no radius) judged nothing.
-        let c = &a.methods[1].materials[0];
-        assert_eq!(c.all.configurations(), 0);
-        assert_eq!(c.own_target.as_ref().unwrap().configurations(), 0);
-        // The checks: median and false light pass, max and NaN/inf (4 and 8) fail.
-        let checks: Vec<_> = a
-            .checks
-            .iter()
-            .filter(|c| c.material == "a")
-            .map(|c| (c.what.as_str(), c.limit, c.measured, c.pass))
-            .collect();
-        assert_eq!(
-            checks,
-            [
-                ("median rel. error", 0.1, 3.0 / 64.0, true),
-                ("max rel. error", 0.5, 1.0, false),
-                ("NaN/inf count", 0.0, 2.0, false),
-                ("false light (configurations with reference 0 lit)", 1.0, 1.0, true),
-            ]
-        );
-        // Family b is checked too, and fails: it received no configuration, so there is
-        // nothing to judge (NaN), not a pass on zeros.
-        assert_eq!(a.checks.len(), 8);
-        assert!(a
-            .checks
-            .iter()
-            .filter(|c| c.material == "b")
-            .all(|c| !c.pass && c.measured.is_nan()));
-        assert_eq!(a.verdict, Verdict::Fail);
+        for through_parts in [false, true] {
+            let (a, _) = analyse_by(&case, &methods, &judged_rows(), through_parts);
+            let m = &a.methods[0];
+            assert_eq!((m.target, m.judged, m.has_f64), (ISO, ISO, true));
+            let s = &m.materials[0].all;
+            // Finite with a non-zero reference: 0, 1, 2, 3, 5, 9, 11, 12; NaN: 4.
+            assert_eq!((s.count, s.nan, s.inf), (8, 1, 0));
+            assert_eq!((s.dark, s.dark_f64, s.below_floor, s.nan_f64), (2, 1, 1, 1));
+            // Sorted: 0, 2⁻¹⁰, 2⁻⁸, 3/64, 0.25, 0.5(f32 of 1.5e-9), 1, 1; median at rank 4.
+            let rel = s.rel.unwrap();
+            assert_eq!((rel.median, rel.max), (3.0 / 64.0, 1.0));
+            // Within 1e-3: 0 and 9; 1e-2: and 12; 1e-1: and 11; of 9 (the NaN counts as outside).
+            assert_eq!(s.within, [2.0 / 9.0, 3.0 / 9.0, 4.0 / 9.0]);
+            // Apart from the missed ones (2, 3), the worst is configuration 5.
+            let lit = s.rel_lit.unwrap();
+            assert!((lit.max - 0.5).abs() < 1e-7 && lit.median == 1.0 / 256.0, "{lit:?}");
+            // Floored: configuration 5's 0.5e-9 over the floor 1e-6 instead of over 1e-9.
+            let floored = s.rel_floored.unwrap();
+            assert_eq!(floored.max, 1.0);
+            let five = {
+                let mut v: Vec<f64> = vec![0.0, 1.0 / 1024.0, 1.0 / 256.0, 3.0 / 64.0, 0.25, 1.0, 1.0];
+                v.push(((1.5e-9f32 as f64) - 1e-9).abs() / 1e-6);
+                v.sort_by(f64::total_cmp);
+                v
+            };
+            assert_eq!(floored.median, five[3]);
+            // f64: 0, 1, 2, 3, 9 (the NaN counted apart): 2⁻¹⁰, 0.25, 1, 0.5, 0.25; lit without 2.
+            let f = s.rel_f64.unwrap();
+            assert_eq!((f.median, f.max), (0.25, 1.0));
+            assert_eq!(s.rel_f64_lit.unwrap().max, 0.5);
+            assert_eq!(s.rel_cpu_f32.unwrap().max, 0.0);
+            assert_eq!(s.abs.unwrap().max, 0.5);
+            assert_eq!(s.reference.unwrap().max, 2.0);
+            assert_eq!(s.reference_rel.unwrap().max, 2e-9);
+            assert!(!s.reference_flag, "2e-9·100 is far below the median 3/64");
+            assert_eq!(s.input_rounding.unwrap().max, 0.25);
+            assert_eq!(s.input_rounding.unwrap().median, 0.25);
+            let fl = &s.false_light;
+            assert_eq!((fl.configurations, fl.lit, fl.nonfinite, fl.lit_f64), (3, 1, 1, 1));
+            assert_eq!(fl.value.unwrap().max, 0.125);
+            // No surface view: no own-target rows.
+            let mat = &m.materials[0];
+            assert!(mat.own_target.is_none() && mat.wholly_below.is_none() && mat.own_axes.is_empty());
+            // Family b saw nothing.
+            assert_eq!(m.materials[1].all.configurations(), 0);
+            // The method that applies to none of them (no radius) judged nothing.
+            let c = &a.methods[1].materials[0];
+            assert_eq!(c.all.configurations(), 0);
+            assert_eq!(c.own_target.as_ref().unwrap().configurations(), 0);
+            // The checks: median and false light pass, max and NaN/inf (4 and 8) fail.
+            let checks: Vec<_> = a
+                .checks
+                .iter()
+                .filter(|c| c.material == "a")
+                .map(|c| (c.what.as_str(), c.limit, c.measured, c.pass))
+                .collect();
+            assert_eq!(
+                checks,
+                [
+                    ("median rel. error", 0.1, 3.0 / 64.0, true),
+                    ("max rel. error", 0.5, 1.0, false),
+                    ("NaN/inf count", 0.0, 2.0, false),
+                    ("false light (configurations with reference 0 lit)", 1.0, 1.0, true),
+                ]
+            );
+            // Family b is checked too, and fails: it received no configuration, so there is
+            // nothing to judge (NaN), not a pass on zeros.
+            assert_eq!(a.checks.len(), 8);
+            assert!(a
+                .checks
+                .iter()
+                .filter(|c| c.material == "b")
+                .all(|c| !c.pass && c.measured.is_nan()));
+            assert_eq!(a.verdict, Verdict::Fail);
+        }
     }
 
     #[test]
@@ -1500,22 +1532,24 @@ methods = ["line_isotropic.closest_point"]
                 ..pair(&[(l, 1.0)], (1.0, None), (0.5, None))
             },
         ];
-        let (a, _) = analyse(&case, &methods, &rows);
-        let c = &a.comparisons[0];
-        assert_eq!((c.a.as_str(), c.b.as_str()), ("line.ltc2023", "line.ltc2017"));
-        let all = &c.materials[0].all;
-        let d32 = all.diff_f32.unwrap();
-        assert_eq!((all.count, d32.median, d32.max), (3, 0.25, 0.75));
-        let d64 = all.diff_f64.unwrap();
-        assert_eq!((d64.median, d64.max), (0.125, 0.125));
-        let length = &c.materials[0].axes[0];
-        assert_eq!(length.axis, "length");
-        assert_eq!((length.bins[0].lo, length.bins[0].hi), (0.1, 1.0));
-        assert_eq!((length.bins[0].stats.count, length.bins[1].stats.count), (3, 1));
-        assert_eq!(length.bins[1].stats.diff_f32.unwrap().max, 0.5);
-        assert_eq!(c.materials[0].axes[1].bins[0].stats.count, 3);
-        assert_eq!(c.materials[1].all.count, 0);
-        assert_eq!(c.materials[1].material, "b");
+        for through_parts in [false, true] {
+            let (a, _) = analyse_by(&case, &methods, &rows, through_parts);
+            let c = &a.comparisons[0];
+            assert_eq!((c.a.as_str(), c.b.as_str()), ("line.ltc2023", "line.ltc2017"));
+            let all = &c.materials[0].all;
+            let d32 = all.diff_f32.unwrap();
+            assert_eq!((all.count, d32.median, d32.max), (3, 0.25, 0.75));
+            let d64 = all.diff_f64.unwrap();
+            assert_eq!((d64.median, d64.max), (0.125, 0.125));
+            let length = &c.materials[0].axes[0];
+            assert_eq!(length.axis, "length");
+            assert_eq!((length.bins[0].lo, length.bins[0].hi), (0.1, 1.0));
+            assert_eq!((length.bins[0].stats.count, length.bins[1].stats.count), (3, 1));
+            assert_eq!(length.bins[1].stats.diff_f32.unwrap().max, 0.5);
+            assert_eq!(c.materials[0].axes[1].bins[0].stats.count, 3);
+            assert_eq!(c.materials[1].all.count, 0);
+            assert_eq!(c.materials[1].material, "b");
+        }
     }
 
     #[test]
@@ -1727,5 +1761,23 @@ methods = ["line.ltc2017"]
         let rel = s.rel.unwrap();
         assert_eq!((rel.median, rel.max), (0.25, 1.0));
         assert_eq!((s.false_light.configurations, s.false_light.lit), (1, 1));
+    }
+
+    #[test]
+    fn a_pair_bin_folds_and_merges_through_the_trait() {
+        // Differences 0.25 (f64 0.125) and 0.5 (no f64) in one part, 0.75 (f64 0.5) in another.
+        let mut a = PairAccumulator::default();
+        Accumulate::add(&mut a, (0.25, Some(0.125)));
+        Accumulate::add(&mut a, (0.5, None));
+        let mut b = PairAccumulator::default();
+        Accumulate::add(&mut b, (0.75, Some(0.5)));
+        Accumulate::merge(&mut a, &b).unwrap();
+        let s = a.finish();
+        assert_eq!(s.count, 3);
+        let d32 = s.diff_f32.unwrap();
+        assert_eq!((d32.median, d32.max), (0.5, 0.75));
+        // Nearest rank of two: the lower.
+        let d64 = s.diff_f64.unwrap();
+        assert_eq!((d64.median, d64.max), (0.125, 0.5));
     }
 }

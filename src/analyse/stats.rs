@@ -1094,7 +1094,8 @@ mod tests {
         // Nine in 10: the upper bound solves I_p(10, 1) = p^10 = 0.975.
         let (lo, hi) = clopper_pearson(9, 10);
         assert!(close(hi, 0.975f64.powf(0.1)), "{hi}");
-        assert!(close(lo, 0.554_983_882_971_804_7), "{lo}"); // beta.ppf(0.025, 9, 2)
+        // Its lower bound against beta.ppf(0.025, 9, 2).
+        assert!(close(lo, 0.554_983_882_971_804_7), "{lo}");
         // All 10: the lower bound solves p^10 = 0.025, the upper is 1.
         let (lo, hi) = clopper_pearson(10, 10);
         assert!(close(lo, 0.025f64.powf(0.1)), "{lo}");
