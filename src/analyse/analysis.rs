@@ -1531,6 +1531,14 @@ methods = ["line_isotropic.closest_point"]
                 sample: sample(0, 5.0, 10.0, vec![(0, 1)], false),
                 ..pair(&[(l, 1.0)], (1.0, None), (0.5, None))
             },
+            // A full M⁻¹, which `line.ltc2023` does not claim (both apply): left out.
+            {
+                let mut r = pair(&[(l, 1.0)], (4.0, Some(4.0)), (1.0, Some(1.0)));
+                r.sample.config.material = Material::Ltc {
+                    minv: [[1.0, 0.5, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                };
+                r
+            },
         ];
         for through_parts in [false, true] {
             let (a, _) = analyse_by(&case, &methods, &rows, through_parts);
