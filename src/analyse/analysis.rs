@@ -1788,4 +1788,31 @@ methods = ["line.ltc2017"]
         let d64 = s.diff_f64.unwrap();
         assert_eq!((d64.median, d64.max), (0.125, 0.5));
     }
+
+    #[test]
+    fn the_nan_inf_check_counts_nans_infinities_and_non_finite_false_light() {
+        // One NaN and one +inf against references of 1, and one +inf where the reference is 0:
+        // three non-finite values, none cancelling another (and one exact value, so that the
+        // family has something to judge).
+        let case = case(
+            &["line_isotropic.closest_point"],
+            "[tolerances.\"line_isotropic.closest_point\"]\nnan = 2\n",
+        );
+        let methods = methods(&case);
+        let rows = vec![
+            row(&[(ISO, 1.0)], vec![(1.0, None, None)]),
+            row(&[(ISO, 1.0)], vec![(f32::NAN, None, None)]),
+            row(&[(ISO, 1.0)], vec![(f32::INFINITY, None, None)]),
+            row(&[(ISO, 0.0)], vec![(f32::INFINITY, None, None)]),
+        ];
+        let (a, _) = analyse(&case, &methods, &rows);
+        let s = &a.methods[0].materials[0].all;
+        assert_eq!((s.nan, s.inf, s.false_light.nonfinite), (1, 1, 1));
+        let c = a
+            .checks
+            .iter()
+            .find(|c| c.material == "a" && c.what == "NaN/inf count")
+            .unwrap();
+        assert_eq!((c.limit, c.measured, c.pass), (2.0, 3.0, false));
+    }
 }
