@@ -1567,13 +1567,13 @@ methods = ["line_isotropic.closest_point"]
         let (l, u) = (Target::Line, Target::LineUpper);
         let one = |refs_: &[(Target, f64)]| row(refs_, vec![(1.0, None, None)]);
         let mut rows = vec![
-            one(&[(l, 1.0), (u, 0.75)]),       // 0.25
-            one(&[(l, 2.0), (u, 1.0)]),        // 0.5
-            one(&[(l, 1.0), (u, 1.0)]),        // 0
-            one(&[(l, 1.0), (u, 1.0 - 5e-7)]), // 5e-7: not past 1e-6
-            one(&[(l, 1.0), (u, 1.25)]),       // more above than in all: 0
-            one(&[(l, 4.0), (u, 3.0)]),        // 0.25
-            one(&[(l, 1.0)]),                  // no surface view: not counted
+            one(&[(l, 1.0), (u, 0.75)]),      // 0.25
+            one(&[(l, 2.0), (u, 1.0)]),       // 0.5
+            one(&[(l, 1.0), (u, 1.0)]),       // 0
+            one(&[(l, 1e6), (u, 999_999.0)]), // 1/1e6, exactly the double 1e-6: not past it
+            one(&[(l, 1.0), (u, 1.25)]),      // more above than in all: 0
+            one(&[(l, 4.0), (u, 3.0)]),       // 0.25
+            one(&[(l, 1.0)]),                 // no surface view: not counted
         ];
         // Family b: only configurations without both references.
         rows.push(Row {
