@@ -98,12 +98,7 @@ pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
             drop((scenes, texels));
             let references: Vec<_> = configs
                 .par_iter()
-                .map(|c| {
-                    crate::measure::eval_rows::targets_of(c, &methods)
-                        .into_iter()
-                        .filter_map(|t| crate::reference::reference(c, t).map(|e| (t, e)))
-                        .collect::<std::collections::BTreeMap<_, _>>()
-                })
+                .map(|c| crate::reference::references(c, &crate::measure::eval_rows::targets_of(c, &methods)))
                 .collect();
             crate::measure::eval_rows::check_references(&input, &configs, &references)?;
             // The same targets at the configuration rounded to f32 (input rounding apart).

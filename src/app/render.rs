@@ -199,12 +199,7 @@ pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status
     let started = Instant::now();
     let references: Vec<BTreeMap<Target, crate::reference::Estimate>> = configs
         .par_iter()
-        .map(|c| {
-            eval_rows::targets_of(c, &methods)
-                .into_iter()
-                .filter_map(|t| crate::reference::reference(c, t).map(|e| (t, e)))
-                .collect()
-        })
+        .map(|c| crate::reference::references(c, &eval_rows::targets_of(c, &methods)))
         .collect();
     eval_rows::check_references(&options.scene, &configs, &references)?;
     let time_references = secs(started);

@@ -284,9 +284,8 @@ pub fn references_f32_inputs(
     if rounded.validate().is_err() {
         return BTreeMap::new();
     }
-    targets
-        .iter()
-        .filter_map(|&t| crate::reference::reference(&rounded, t).map(|e| (t, e)))
+    crate::reference::references(&rounded, targets)
+        .into_iter()
         .filter(|(_, e)| e.value.is_finite() && e.error.is_finite())
         .collect()
 }

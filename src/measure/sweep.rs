@@ -258,10 +258,7 @@ pub fn references(samples: &[crate::input::scene::Config], targets: &BTreeSet<Ta
     samples
         .par_iter()
         .map(|c| {
-            let r: BTreeMap<Target, Estimate> = targets
-                .iter()
-                .filter_map(|&t| reference::reference(c, t).map(|e| (t, e)))
-                .collect();
+            let r: BTreeMap<Target, Estimate> = reference::references(c, targets);
             pb.inc(1);
             r
         })

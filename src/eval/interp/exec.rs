@@ -94,12 +94,11 @@ fn or_into(a: &mut [bool], b: &[bool]) {
 
 /// log2(1 + ulp distance) between two f32 values (docs/statistics.md bits); 32 when one is NaN.
 pub fn ulp_bits(a: f32, b: f32) -> f64 {
-    if a == b || (a.is_nan() && b.is_nan()) {
-        return 0.0;
-    }
     if a.is_nan() || b.is_nan() {
-        return 32.0;
+        return if a.is_nan() && b.is_nan() { 0.0 } else { 32.0 };
     }
+    // Equal values (0 and −0 too) are 0 ULPs apart, log2(1) = 0: no branch on whether they
+    // are equal, which the attribution's lanes take at random.
     let ord = |x: f32| {
         let i = x.to_bits() as i32;
         if i < 0 {
@@ -108,8 +107,18 @@ pub fn ulp_bits(a: f32, b: f32) -> f64 {
             i as i64
         }
     };
-    ((ord(a) - ord(b)).unsigned_abs() as f64 + 1.0).log2()
+    let ulps = (ord(a) - ord(b)).unsigned_abs();
+    match SMALL_ULP_BITS.get(ulps as usize) {
+        Some(&bits) => bits,
+        None => (ulps as f64 + 1.0).log2(),
+    }
 }
+
+/// `log2(1 + k)` for the small ULP distances most operations lose, computed once by the same
+/// expression as the general case (the same bits): the attribution calls `ulp_bits` for every
+/// lane of every rounding operation, and `log2` was a tenth of its time (issue 23).
+static SMALL_ULP_BITS: std::sync::LazyLock<Vec<f64>> =
+    std::sync::LazyLock::new(|| (0..256u64).map(|k| (k as f64 + 1.0).log2()).collect());
 
 fn kind(inner: &TypeInner) -> Option<ScalarKind> {
     inner.scalar_kind()
@@ -156,17 +165,24 @@ impl<'p> Exec<'p> {
         }
     }
 
-    fn record(&mut self, i: usize, local: f32, exact: f64) {
-        if self.line == NO_LINE || !self.mask[i] {
+    /// Records the local error of one operation on every active shadow lane: `local(i)` is the
+    /// operation in f32 on lane i's shadow arguments rounded to f32, `exact` the shadow's result.
+    fn record(&mut self, exact: &[f64], local: impl Fn(usize) -> f32) {
+        let s = self.split;
+        if self.line == NO_LINE || !any(&self.mask[s..self.n]) {
             return;
         }
-        let bits = ulp_bits(local, exact as f32);
-        let cfg = i - self.split;
-        let slot = self.errors[self.line as usize].get_or_insert_with(|| vec![(0.0, 0, 0.0); self.split]);
-        let e = &mut slot[cfg];
-        e.0 += bits;
-        e.1 += 1;
-        e.2 = e.2.max(bits);
+        let slot = self.errors[self.line as usize].get_or_insert_with(|| vec![(0.0, 0, 0.0); s]);
+        for (cfg, (e, &on)) in slot.iter_mut().zip(&self.mask[s..self.n]).enumerate() {
+            if !on {
+                continue;
+            }
+            let i = s + cfg;
+            let bits = ulp_bits(local(i), exact[i] as f32);
+            e.0 += bits;
+            e.1 += 1;
+            e.2 = e.2.max(bits);
+        }
     }
 
     /// A float operation of one argument, component by component.
@@ -177,9 +193,7 @@ impl<'p> Exec<'p> {
         v.extend(a[s..].iter().map(|&x| f64f(x)));
         let out: Lanes = std::rc::Rc::new(v);
         if self.shadow && rounding {
-            for i in s..self.n {
-                self.record(i, f32f(a[i] as f32), out[i]);
-            }
+            self.record(&out, |i| f32f(a[i] as f32));
         }
         out
     }
@@ -203,9 +217,7 @@ impl<'p> Exec<'p> {
         v.extend(a[s..].iter().zip(&b[s..]).map(|(&x, &y)| f64f(x, y)));
         let out: Lanes = std::rc::Rc::new(v);
         if self.shadow && rounding {
-            for i in s..self.n {
-                self.record(i, f32f(a[i] as f32, b[i] as f32), out[i]);
-            }
+            self.record(&out, |i| f32f(a[i] as f32, b[i] as f32));
         }
         out
     }
@@ -231,9 +243,7 @@ impl<'p> Exec<'p> {
             })
             .lanes();
         if self.shadow && rounding {
-            for i in s..self.n {
-                self.record(i, f32f(a[i] as f32, b[i] as f32, c[i] as f32), out[i]);
-            }
+            self.record(&out, |i| f32f(a[i] as f32, b[i] as f32, c[i] as f32));
         }
         out
     }

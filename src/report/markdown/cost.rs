@@ -151,7 +151,7 @@ pub(super) fn timing(w: &mut String, input: &Summary) {
     w.push_str(&table.markdown());
     let _ = writeln!(
         w,
-        "\nReferences: {} integrals in {:.2} s ({:.0} per second).\n",
+        "\nReferences: {} values (a target at a configuration; what targets share, `tube`'s `cylinder` and `caps` or a `_upper` target the clip leaves unchanged, integrated once: src/reference/mod.rs) in {:.2} s ({:.0} per second).\n",
         t.references_evaluated,
         t.references_seconds,
         t.references_evaluated as f64 / t.references_seconds,
