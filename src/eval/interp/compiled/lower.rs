@@ -1,4 +1,6 @@
-//! naga IR → Cranelift IR, one configuration per call.
+//! naga IR → Cranelift IR: one configuration per call ([`Lower::block`], control flow as
+//! branches), or several with the interpreter's execution masks ([`Lower::lblock`]): f32 in
+//! SIMD vectors of [`SIMD_LANES`] configurations, or interleaved scalar lanes (f64).
 //!
 //! The interpreter (`../exec.rs`) is the specification; this file mirrors it operation by
 //! operation, scalar by scalar, in the same order:
@@ -780,11 +782,11 @@ impl<'p> Lower<'p, '_> {
             if fp.emitted[h.index()] || matches!(e, E::CallResult(_)) {
                 continue;
             }
-            for lane in 0..n {
+            for (lane, lane_args) in args.iter().enumerate() {
                 self.lane = lane;
                 match e {
                     E::FunctionArgument(i) => {
-                        let a = args[lane].get(*i as usize).cloned().ok_or("missing argument")?;
+                        let a = lane_args.get(*i as usize).cloned().ok_or("missing argument")?;
                         fr.vals[lane][h.index()] = Some(a);
                     }
                     E::LocalVariable(lv) => {
