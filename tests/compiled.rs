@@ -5,7 +5,7 @@
 //! division by zero, min/max of NaN, select, switch fall-through, dynamic indices, the loop
 //! limit).
 
-use linelight::eval::interp::{program, CpuColumns, Engine, Mode};
+use linelight::eval::interp::{program, CpuColumns, Engine, Mode, Path, LANES};
 use linelight::input::case::Case;
 use linelight::input::scene::{Config, Material};
 use linelight::kernel::methods::{resolve, Method};
@@ -65,6 +65,14 @@ fn odd_configs(like: &[Config]) -> Vec<Config> {
     out
 }
 
+/// The path every built-in kernel takes: f32 in SIMD vectors, f64 on interleaved lanes.
+fn expected_path(mode: Mode) -> Path {
+    match mode {
+        Mode::F32 => Path::Simd,
+        Mode::F64 => Path::Lanes(LANES, None),
+    }
+}
+
 fn same_bits(a: &[Option<f64>], b: &[Option<f64>]) -> Option<usize> {
     a.iter().zip(b).position(|(x, y)| match (x, y) {
         (Some(x), Some(y)) => !(x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan())),
@@ -111,6 +119,11 @@ fn compare(m: &Method, configs: &[Config]) -> Option<usize> {
         }
         compiled = true;
         assert_eq!(p.engine(mode), Engine::Compiled, "{}", m.label);
+        // The SIMD path (f32) and the lane path (f64) are what run, unless LINELIGHT_LANES
+        // asks for another.
+        if std::env::var("LINELIGHT_LANES").is_err() {
+            assert_eq!(p.path(mode), Some(expected_path(mode)), "{} {mode:?}", m.label);
+        }
         let native = m.cpu_column_on(configs, mode, Engine::Compiled);
         match (interp, native) {
             (Ok(a), Ok(b)) => {
@@ -333,4 +346,97 @@ fn min_max_and_clamp_of_signed_zeros_and_nans_give_the_interpreters_bits() {
         assert_eq!(program(&m).unwrap().not_compiled(Mode::F32), None, "{id}");
         assert_eq!(compare(&m, &configs), Some(configs.len() * 2), "{id}");
     }
+}
+
+/// Lanes that part: early returns on some lanes, loops left by `break`, `continue` and a
+/// NaN at different passes, a data-dependent trip count, a switch whose cases differ per
+/// lane with a `break` inside an `if`, and private state written under a mask.
+const DIVERGE: &str = "\
+//! id: test.diverge
+//! target: line
+var<private> seen: f32 = 0.0;
+
+fn f(x: f32) -> f32 {
+    if (x < 0.0) {
+        return -x;
+    }
+    var s = 0.0;
+    for (var i = 0; i < 40; i++) {
+        if (s > x * 10.0) { break; }
+        if (i % 3 == 0) { continue; }
+        s += x + f32(i) / (x - 0.5);
+        seen += 1.0;
+        if (s != s) { return s + 1.0; }
+    }
+    return s;
+}
+
+fn method(scene: Scene) -> f32 {
+    var acc = f(scene.p1.x) + f(scene.p2.y);
+    let n = u32(abs(scene.p1.z) * 3.0) % 6u;
+    var k = 0u;
+    loop {
+        if (k >= n) { break; }
+        acc += sqrt(abs(acc) + f32(k));
+        k++;
+        if (acc > 50.0) { break; }
+    }
+    switch (n) {
+        case 1u: { acc *= 2.0; }
+        case 2u, 3u: {
+            if (acc > 1.0) { break; }
+            acc -= 1.0;
+        }
+        default: { acc += cos(acc); }
+    }
+    return acc + seen;
+}
+";
+
+#[test]
+fn lanes_that_diverge_give_the_interpreters_bits_for_any_chunk_length() {
+    let m = user(DIVERGE, "test.diverge");
+    let p = program(&m).unwrap();
+    for mode in [Mode::F32, Mode::F64] {
+        assert_eq!(p.not_compiled(mode), None);
+        if std::env::var("LINELIGHT_LANES").is_err() {
+            assert_eq!(p.path(mode), Some(expected_path(mode)), "{mode:?}");
+        }
+    }
+    let base = case_configs().swap_remove(0);
+    let xs = [
+        -2.0,
+        -0.0,
+        0.0,
+        0.25,
+        0.5,
+        0.7,
+        1.3,
+        3.0,
+        f64::NAN,
+        f64::INFINITY,
+        -f64::INFINITY,
+        1e-30,
+    ];
+    let mut configs = Vec::new();
+    for (i, &x) in xs.iter().enumerate() {
+        for (j, &y) in xs.iter().enumerate() {
+            let mut c = base.clone();
+            c.p1 = [x, 0.3, 0.2 + 0.37 * ((i * 7 + j) % 9) as f64];
+            c.p2 = [0.1, y, 1.0];
+            configs.push(c);
+        }
+    }
+    // Every chunk length up to three calls' worth, so the last call's lanes are padded in
+    // every way, and the whole set (144 configurations, neighbours on different paths).
+    for len in 1..=3 * LANES + 1 {
+        for start in [0, 5, 17] {
+            let part = &configs[start..start + len];
+            assert!(
+                compare(&m, part).is_some_and(|n| n == 2 * len),
+                "length {len} from {start}"
+            );
+        }
+    }
+    assert_eq!(compare(&m, &configs), Some(2 * configs.len()));
 }

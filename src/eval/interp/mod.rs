@@ -31,6 +31,7 @@ use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
+pub use compiled::{Path, LANES};
 pub use envelope::{Outcome as EnvelopeOutcome, Stop as EnvelopeStop};
 pub use exec::ulp_bits;
 
@@ -623,6 +624,12 @@ impl Program {
         self.compiled(mode).err().map(str::to_string)
     }
 
+    /// How the compiled kernel in `mode` runs (SIMD, interleaved lanes, one configuration
+    /// per call, with the reasons), or None where it is not compiled.
+    pub fn path(&self, mode: Mode) -> Option<Path> {
+        self.compiled(mode).ok().map(|c| c.path.clone())
+    }
+
     /// The evaluator [`Program::eval`] uses in `mode`: the compiled one where the kernel
     /// compiles (and `LINELIGHT_EVALUATOR=interpreter` is not set), else the interpreter.
     pub fn engine(&self, mode: Mode) -> Engine {
@@ -637,7 +644,10 @@ impl Program {
     /// does not (the sweep's timing and `bench` print it).
     pub fn engines(&self) -> String {
         let one = |mode| match (self.engine(mode), self.not_compiled(mode)) {
-            (Engine::Compiled, _) => Engine::Compiled.name().to_string(),
+            (Engine::Compiled, _) => match self.path(mode) {
+                Some(p @ Path::One(_)) => format!("compiled, {}", p.describe()),
+                _ => Engine::Compiled.name().to_string(),
+            },
             (Engine::Interpreter, Some(why)) => format!("interpreter ({why})"),
             (Engine::Interpreter, None) => "interpreter (LINELIGHT_EVALUATOR=interpreter)".to_string(),
         };

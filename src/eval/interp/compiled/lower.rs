@@ -1,4 +1,6 @@
-//! naga IR → Cranelift IR, one configuration per call.
+//! naga IR → Cranelift IR: one configuration per call ([`Lower::block`], control flow as
+//! branches), or several with the interpreter's execution masks ([`Lower::lblock`]): f32 in
+//! SIMD vectors of [`SIMD_LANES`] configurations, or interleaved scalar lanes (f64).
 //!
 //! The interpreter (`../exec.rs`) is the specification; this file mirrors it operation by
 //! operation, scalar by scalar, in the same order:
@@ -45,6 +47,8 @@ const MAX_DEPTH: usize = 16;
 pub(super) struct Native {
     _module: cranelift_jit::JITModule,
     pub entry: Entry,
+    /// Configurations per call: `scene` holds this many scenes, `out` this many results.
+    pub per_call: usize,
 }
 
 // SAFETY: the module's code memory is finalized (read-and-execute) and never changed
@@ -54,7 +58,17 @@ unsafe impl Send for Native {}
 unsafe impl Sync for Native {}
 
 /// Compiles `method` of `p` in `mode`, or says what it cannot compile.
-pub(super) fn compile(p: &Program, mode: Mode) -> Result<Native, String> {
+/// Configurations per call on the SIMD path: one 128-bit vector of f32.
+pub(super) const SIMD_LANES: usize = 4;
+
+/// Compiles `method` of `p` in `mode` for `lanes` configurations per call (1: the
+/// one-configuration path; more: the lane path, each lane's values side by side), or with
+/// `simd` (f32 only) for [`SIMD_LANES`] configurations per call in vector registers, or says
+/// what it cannot compile.
+pub(super) fn compile(p: &Program, mode: Mode, lanes: usize, simd: bool) -> Result<Native, String> {
+    if simd && mode != Mode::F32 {
+        return Err("the SIMD path is f32 only".into());
+    }
     let mut flags = settings::builder();
     let set = |f: &mut settings::Builder, k: &str, v: &str| f.set(k, v).map_err(|e| format!("cranelift {k}: {e}"));
     set(&mut flags, "opt_level", "speed")?;
@@ -89,6 +103,12 @@ pub(super) fn compile(p: &Program, mode: Mode) -> Result<Native, String> {
             stores: Vec::new(),
             globals: vec![None; p.module.global_variables.len()],
             targets: Vec::new(),
+            lanes: if simd { 1 } else { lanes },
+            simd,
+            lane: 0,
+            cur: Vec::new(),
+            ltargets: Vec::new(),
+            loops: 0,
             open: true,
             fail: None,
             sigs: HashMap::new(),
@@ -110,7 +130,11 @@ pub(super) fn compile(p: &Program, mode: Mode) -> Result<Native, String> {
     // SAFETY: the function was declared with exactly this signature (two pointers in, a
     // u32 status out, the platform's C calling convention).
     let entry = unsafe { std::mem::transmute::<*const u8, Entry>(code) };
-    Ok(Native { _module: module, entry })
+    Ok(Native {
+        _module: module,
+        entry,
+        per_call: if simd { SIMD_LANES } else { lanes },
+    })
 }
 
 /// One compiled value: its scalar components (matrices column by column), or a pointer.
@@ -140,12 +164,21 @@ enum Off {
     },
 }
 
+/// One inlined call. With several lanes, every value, local and return slot is kept per
+/// lane (`[lane][…]`); the lane being lowered is `Lower::lane`.
 struct Frame {
     fun: Handle<naga::Function>,
-    vals: Vec<Option<Slot>>,
-    locals: Vec<usize>,
-    ret: Option<usize>,
+    vals: Vec<Vec<Option<Slot>>>,
+    locals: Vec<Vec<usize>>,
+    ret: Option<Vec<usize>>,
     exit: Block,
+}
+
+/// Where `break` and `continue` send a lane in the lane path: the lanes that left, kept per
+/// lane in variables (0/1) until the construct ends.
+enum LTarget {
+    Loop { brk: Vec<Variable>, cont: Vec<Variable> },
+    Switch { brk: Vec<Variable> },
 }
 
 struct Lower<'p, 'b> {
@@ -154,10 +187,27 @@ struct Lower<'p, 'b> {
     b: FunctionBuilder<'b>,
     /// Locals and private globals: one variable per scalar component, with its type.
     stores: Vec<Vec<(Variable, Type)>>,
-    globals: Vec<Option<usize>>,
+    /// Private globals: their storage per lane.
+    globals: Vec<Option<Vec<usize>>>,
     /// Innermost last: where `break` goes, and `continue` (loops only).
     targets: Vec<(Block, Option<Block>)>,
-    /// Whether the current block still takes instructions (no jump or return yet).
+    /// Configurations per call: 1 is the one-configuration path (control flow as branches),
+    /// more is the lane path (see [`Lower::lblock`]).
+    lanes: usize,
+    /// The SIMD path: every value is a vector of [`SIMD_LANES`] configurations' (f32 as
+    /// F32X4, integers as I32X4, booleans as I32X4 masks of all ones or zeros), masks are
+    /// one vector, operations without a vector form are made lane by lane (`per_lane`).
+    simd: bool,
+    /// The lane whose values are being lowered.
+    lane: usize,
+    /// The lane path's execution mask: per lane 1 while the lane runs the current statement.
+    cur: Vec<Variable>,
+    /// The lane path's `break`/`continue` targets, innermost last.
+    ltargets: Vec<LTarget>,
+    /// Loops the code being lowered is in (shim calls are cached there).
+    loops: usize,
+    /// Whether the current block still takes instructions (no jump or return yet). In the
+    /// lane path: whether any lane can still run the rest of the current naga block.
     open: bool,
     /// The block that returns status 1 (a loop past the limit), made on first use.
     fail: Option<Block>,
@@ -175,17 +225,123 @@ type R<T> = Result<T, String>;
 
 impl<'p> Lower<'p, '_> {
     fn fty(&self) -> Type {
+        self.vt(self.sty())
+    }
+
+    /// The mode's scalar float type.
+    fn sty(&self) -> Type {
         match self.mode {
             Mode::F32 => types::F32,
             Mode::F64 => types::F64,
         }
     }
 
+    /// The machine type holding a scalar of type `t` (a vector of it on the SIMD path;
+    /// booleans there are I32X4 masks).
+    fn vt(&self, t: Type) -> Type {
+        if !self.simd {
+            return t;
+        }
+        match t {
+            types::F32 => types::F32X4,
+            types::I8 | types::I32 => types::I32X4,
+            other => other,
+        }
+    }
+
+    /// Whether control flow goes through execution masks (the lane and SIMD paths).
+    fn masked(&self) -> bool {
+        self.lanes > 1 || self.simd
+    }
+
+    /// `c ? a : b`, `c` a boolean (a mask on the SIMD path: lane by lane).
+    fn sel(&mut self, c: Value, a: Value, b: Value) -> Value {
+        if !self.b.func.dfg.value_type(c).is_vector() {
+            return self.b.ins().select(c, a, b);
+        }
+        let t = self.b.func.dfg.value_type(a);
+        let c = if t == types::I32X4 {
+            c
+        } else {
+            self.b.ins().bitcast(t, MemFlagsData::new(), c)
+        };
+        self.b.ins().bitselect(c, a, b)
+    }
+
+    /// `x cc k` for an integer `x` (a vector compared lane by lane on the SIMD path).
+    fn icmp_k(&mut self, cc: IntCC, x: Value, k: i64) -> Value {
+        let t = self.b.func.dfg.value_type(x);
+        if !t.is_vector() {
+            return self.b.ins().icmp_imm_s(cc, x, k);
+        }
+        let s = self.b.ins().iconst(t.lane_type(), k);
+        let v = self.b.ins().splat(t, s);
+        self.b.ins().icmp(cc, x, v)
+    }
+
+    /// A mask of every lane (`on`) or none, in the path's mask type.
+    fn mask_const(&mut self, on: bool) -> Value {
+        if self.simd {
+            let s = self.b.ins().iconst(types::I32, -i64::from(on));
+            self.b.ins().splat(types::I32X4, s)
+        } else {
+            self.b.ins().iconst(types::I8, i64::from(on))
+        }
+    }
+
+    /// An i32 constant (splat on the SIMD path).
+    fn iconst32(&mut self, v: i64) -> Value {
+        let s = self.b.ins().iconst(types::I32, i64::from(v as u32));
+        if self.simd {
+            self.b.ins().splat(types::I32X4, s)
+        } else {
+            s
+        }
+    }
+
+    /// A boolean as the integer 0 or 1.
+    fn bool_to_int(&mut self, x: Value) -> Value {
+        if self.simd {
+            let one = self.iconst32(1);
+            self.b.ins().band(x, one)
+        } else {
+            self.b.ins().uextend(types::I32, x)
+        }
+    }
+
+    /// `f` on each lane's scalars on the SIMD path (what has no vector instruction, or none
+    /// this file trusts: calls, integer division, shifts, conversions, rounding); `f`
+    /// itself elsewhere.
+    fn per_lane(&mut self, args: &[Value], f: &mut dyn FnMut(&mut Self, &[Value]) -> Value) -> Value {
+        if !self.simd {
+            return f(self, args);
+        }
+        self.simd = false;
+        let mut out: Option<Value> = None;
+        for l in 0..SIMD_LANES as u8 {
+            let a: Vec<Value> = args.iter().map(|&x| self.b.ins().extractlane(x, l)).collect();
+            let r = f(self, &a);
+            out = Some(match out {
+                None => {
+                    let t = self.b.func.dfg.value_type(r);
+                    let vt = match t {
+                        types::F32 => types::F32X4,
+                        _ => types::I32X4,
+                    };
+                    self.b.ins().splat(vt, r)
+                }
+                Some(v) => self.b.ins().insertlane(v, r, l),
+            });
+        }
+        self.simd = true;
+        out.expect("SIMD_LANES > 0")
+    }
+
     /// Each scalar component's machine type and kind.
     fn comps(&self, inner: &TypeInner) -> R<Vec<(Type, ScalarKind)>> {
         let scalar = |s: naga::Scalar| -> R<(Type, ScalarKind)> {
             match (s.kind, s.width) {
-                (ScalarKind::Float, 4) => Ok((self.fty(), s.kind)),
+                (ScalarKind::Float, 4) => Ok((self.sty(), s.kind)),
                 (ScalarKind::Sint | ScalarKind::Uint, 4) => Ok((types::I32, s.kind)),
                 (ScalarKind::Bool, _) => Ok((types::I8, s.kind)),
                 _ => Err(format!("scalar {s:?} is not compiled")),
@@ -236,6 +392,19 @@ impl<'p> Lower<'p, '_> {
 
     /// A constant `v` (a value as the interpreter holds it, in f64) of machine type `t`.
     fn konst(&mut self, t: Type, v: f64) -> Value {
+        if self.simd {
+            return match t {
+                types::I8 => self.mask_const(v != 0.0),
+                types::I32 => self.iconst32(v as i64),
+                _ => {
+                    self.simd = false;
+                    let s = self.konst(t, v);
+                    self.simd = true;
+                    let vt = self.vt(t);
+                    self.b.ins().splat(vt, s)
+                }
+            };
+        }
         match t {
             types::F32 => self.b.ins().f32const(v as f32),
             types::F64 => self.b.ins().f64const(v),
@@ -245,7 +414,7 @@ impl<'p> Lower<'p, '_> {
     }
 
     fn fconst(&mut self, v: f64) -> Value {
-        let t = self.fty();
+        let t = self.sty();
         self.konst(t, v)
     }
 
@@ -253,7 +422,8 @@ impl<'p> Lower<'p, '_> {
     fn storage(&mut self, comps: &[(Type, ScalarKind)], init: Option<&[Value]>) -> usize {
         let mut vars = Vec::with_capacity(comps.len());
         for (i, &(t, _)) in comps.iter().enumerate() {
-            let v = self.b.declare_var(t);
+            let vt = self.vt(t);
+            let v = self.b.declare_var(vt);
             let x = match init {
                 Some(init) => init[i],
                 None => self.konst(t, 0.0),
@@ -290,7 +460,7 @@ impl<'p> Lower<'p, '_> {
         if let Some(&v) = self.memo.get(&(f, args.to_vec())) {
             return v;
         }
-        let v = if self.targets.iter().any(|t| t.1.is_some()) {
+        let v = if self.loops > 0 {
             self.cached_call(f, args)
         } else {
             self.raw_call(f, args)
@@ -306,7 +476,11 @@ impl<'p> Lower<'p, '_> {
     /// reads them as zero there, so the first call always misses.
     fn cached_call(&mut self, f: F, args: &[Value]) -> Value {
         let t = self.fty();
-        let it = if t == types::F32 { types::I32 } else { types::I64 };
+        let it = match t {
+            types::F32 => types::I32,
+            types::F32X4 => types::I32X4,
+            _ => types::I64,
+        };
         let valid = self.b.declare_var(types::I8);
         let last: Vec<Variable> = args.iter().map(|_| self.b.declare_var(it)).collect();
         let (res, out) = (self.b.declare_var(t), self.b.declare_var(t));
@@ -317,7 +491,11 @@ impl<'p> Lower<'p, '_> {
         let mut same = self.b.use_var(valid);
         for (k, &b) in bits.iter().enumerate() {
             let l = self.b.use_var(last[k]);
-            let eq = self.b.ins().icmp(IntCC::Equal, b, l);
+            let mut eq = self.b.ins().icmp(IntCC::Equal, b, l);
+            if self.simd {
+                // A hit only when every lane's argument is unchanged.
+                eq = self.b.ins().vall_true(eq);
+            }
             same = self.b.ins().band(same, eq);
         }
         let (hit, miss, join) = (self.b.create_block(), self.b.create_block(), self.b.create_block());
@@ -341,6 +519,9 @@ impl<'p> Lower<'p, '_> {
     }
 
     fn raw_call(&mut self, f: F, args: &[Value]) -> Value {
+        if self.simd {
+            return self.per_lane(args, &mut |s, a| s.raw_call(f, a));
+        }
         let wide = self.mode == Mode::F64;
         let s = shim(f, wide);
         debug_assert_eq!(s.args, args.len());
@@ -370,6 +551,30 @@ impl<'p> Lower<'p, '_> {
     }
     /// `inverseSqrt`: in f32, `1/√x` in f64 rounded once (as the interpreter has it).
     fn rsqrt(&mut self, x: Value) -> Value {
+        if self.simd {
+            // Lanes 0 and 1 promoted together, 2 and 3 by hand; each pair in f64 as below,
+            // rounded to f32 once.
+            let lo = self.b.ins().fvpromote_low(x);
+            let (x2, x3) = (self.b.ins().extractlane(x, 2), self.b.ins().extractlane(x, 3));
+            let (w2, w3) = (
+                self.b.ins().fpromote(types::F64, x2),
+                self.b.ins().fpromote(types::F64, x3),
+            );
+            let hi = self.b.ins().splat(types::F64X2, w2);
+            let hi = self.b.ins().insertlane(hi, w3, 1);
+            let one = self.b.ins().f64const(1.0);
+            let one = self.b.ins().splat(types::F64X2, one);
+            let (sl, sh) = (self.b.ins().sqrt(lo), self.b.ins().sqrt(hi));
+            let (rl, rh) = (self.b.ins().fdiv(one, sl), self.b.ins().fdiv(one, sh));
+            let r = self.b.ins().fvdemote(rl);
+            let (h0, h1) = (self.b.ins().extractlane(rh, 0), self.b.ins().extractlane(rh, 1));
+            let (h0, h1) = (
+                self.b.ins().fdemote(types::F32, h0),
+                self.b.ins().fdemote(types::F32, h1),
+            );
+            let r = self.b.ins().insertlane(r, h0, 2);
+            return self.b.ins().insertlane(r, h1, 3);
+        }
         match self.mode {
             Mode::F32 => {
                 let w = self.b.ins().fpromote(types::F64, x);
@@ -394,9 +599,9 @@ impl<'p> Lower<'p, '_> {
     fn min_max(&mut self, max: bool, x: Value, y: Value) -> Value {
         let cc = if max { FloatCC::GreaterThan } else { FloatCC::LessThan };
         let wins = self.b.ins().fcmp(cc, y, x);
-        let r = self.b.ins().select(wins, y, x);
+        let r = self.sel(wins, y, x);
         let nan = self.b.ins().fcmp(FloatCC::Unordered, x, x);
-        self.b.ins().select(nan, y, r)
+        self.sel(nan, y, r)
     }
 
     fn fail_block(&mut self) -> Block {
@@ -424,53 +629,98 @@ impl<'p> Lower<'p, '_> {
         if comps.len() != total {
             return Err("`method`'s argument is not the Scene".into());
         }
-        let mut scene = Vec::with_capacity(total);
-        for (k, &(t, kind)) in comps.iter().enumerate() {
-            let x = self
-                .b
-                .ins()
-                .load(types::F64, MemFlagsData::trusted(), scene_ptr, (8 * k) as i32);
-            scene.push(match (t, kind) {
-                (types::F32, _) => self.b.ins().fdemote(types::F32, x),
-                (types::F64, _) => x,
-                (_, ScalarKind::Sint) => self.b.ins().fcvt_to_sint_sat(types::I32, x),
-                (_, ScalarKind::Uint) => self.b.ins().fcvt_to_uint_sat(types::I32, x),
-                _ => {
-                    let z = self.b.ins().f64const(0.0);
-                    self.b.ins().fcmp(FloatCC::NotEqual, x, z)
+        // Lane `l`'s scene is the `l`-th run of `total` components, its result `out[l]`.
+        // On the SIMD path the one lane's values are vectors of SIMD_LANES scenes.
+        let per = if self.simd { SIMD_LANES } else { 1 };
+        let mut scenes = Vec::with_capacity(self.lanes);
+        for lane in 0..self.lanes {
+            let mut scene = Vec::with_capacity(total);
+            for (k, &(t, kind)) in comps.iter().enumerate() {
+                let mut vec: Option<Value> = None;
+                for v in 0..per {
+                    let at = (8 * ((lane + v) * total + k)) as i32;
+                    let x = self.b.ins().load(types::F64, MemFlagsData::trusted(), scene_ptr, at);
+                    let x = match (t, kind) {
+                        (types::F32, _) => self.b.ins().fdemote(types::F32, x),
+                        (types::F64, _) => x,
+                        (_, ScalarKind::Sint) => self.b.ins().fcvt_to_sint_sat(types::I32, x),
+                        (_, ScalarKind::Uint) => self.b.ins().fcvt_to_uint_sat(types::I32, x),
+                        _ => {
+                            let z = self.b.ins().f64const(0.0);
+                            let c = self.b.ins().fcmp(FloatCC::NotEqual, x, z);
+                            if self.simd {
+                                self.b.ins().bmask(types::I32, c)
+                            } else {
+                                c
+                            }
+                        }
+                    };
+                    vec = Some(match vec {
+                        _ if !self.simd => x,
+                        None => {
+                            let vt = self.vt(t);
+                            self.b.ins().splat(vt, x)
+                        }
+                        Some(w) => self.b.ins().insertlane(w, x, v as u8),
+                    });
                 }
-            });
+                scene.push(vec.ok_or("no lanes")?);
+            }
+            scenes.push(scene);
         }
         for (h, g) in p.module.global_variables.iter() {
             if g.space != naga::AddressSpace::Private {
                 continue;
             }
             let comps = self.ty_comps(g.ty)?;
-            let init: Vec<Value> = match g.name.as_deref() {
-                Some("ll_scene") => scene.clone(),
-                Some("Minv") => {
-                    let (off, len) = p.scene_minv;
-                    scene[off..off + len].to_vec()
+            let mut per_lane = Vec::with_capacity(self.lanes);
+            for scene in &scenes {
+                let init: Vec<Value> = match g.name.as_deref() {
+                    Some("ll_scene") => scene.clone(),
+                    Some("Minv") => {
+                        let (off, len) = p.scene_minv;
+                        scene[off..off + len].to_vec()
+                    }
+                    _ => match g.init {
+                        Some(init) => self.global_const(init, &comps)?,
+                        None => comps.iter().map(|&(t, _)| self.konst(t, 0.0)).collect(),
+                    },
+                };
+                if init.len() != comps.len() {
+                    return Err(format!("private global `{:?}` does not match its type", g.name));
                 }
-                _ => match g.init {
-                    Some(init) => self.global_const(init, &comps)?,
-                    None => comps.iter().map(|&(t, _)| self.konst(t, 0.0)).collect(),
-                },
-            };
-            if init.len() != comps.len() {
-                return Err(format!("private global `{:?}` does not match its type", g.name));
+                per_lane.push(self.storage(&comps, Some(&init)));
             }
-            let s = self.storage(&comps, Some(&init));
-            self.globals[h.index()] = Some(s);
+            self.globals[h.index()] = Some(per_lane);
         }
-        let ret = self
-            .call(p.method, vec![Slot::Val(scene)])?
-            .ok_or("`method` returned nothing")?;
-        let v = match self.mode {
-            Mode::F32 => self.b.ins().fpromote(types::F64, ret[0]),
-            Mode::F64 => ret[0],
-        };
-        self.b.ins().store(MemFlagsData::trusted(), v, out_ptr, 0);
+        if self.masked() {
+            // Every lane runs `method`.
+            for _ in 0..self.lanes {
+                let t = self.vt(types::I8);
+                let v = self.b.declare_var(t);
+                let one = self.mask_const(true);
+                self.b.def_var(v, one);
+                self.cur.push(v);
+            }
+        }
+        let args = scenes.into_iter().map(|s| vec![Slot::Val(s)]).collect();
+        let ret = self.call(p.method, args)?.ok_or("`method` returned nothing")?;
+        for (lane, r) in ret.iter().enumerate() {
+            for v in 0..per {
+                let x = if self.simd {
+                    self.b.ins().extractlane(r[0], v as u8)
+                } else {
+                    r[0]
+                };
+                let x = match self.mode {
+                    Mode::F32 => self.b.ins().fpromote(types::F64, x),
+                    Mode::F64 => x,
+                };
+                self.b
+                    .ins()
+                    .store(MemFlagsData::trusted(), x, out_ptr, (8 * (lane + v)) as i32);
+            }
+        }
         let ok = self.b.ins().iconst(types::I32, 0);
         self.b.ins().return_(&[ok]);
         if let Some(fail) = self.fail {
@@ -495,29 +745,33 @@ impl<'p> Lower<'p, '_> {
     }
 
     /// A call, inlined: arguments, locals, the body, and its return value.
-    fn call(&mut self, fun: Handle<naga::Function>, args: Vec<Slot>) -> R<Option<Vec<Value>>> {
+    /// `args` and the result per lane.
+    fn call(&mut self, fun: Handle<naga::Function>, args: Vec<Vec<Slot>>) -> R<Option<Vec<Vec<Value>>>> {
         let p = self.p;
         if self.depth >= MAX_DEPTH {
             return Err(format!("calls nested deeper than {MAX_DEPTH}"));
         }
         self.depth += 1;
+        let n = self.lanes;
         let f = &p.module.functions[fun];
         let exit = self.b.create_block();
         let ret = match &f.result {
             Some(r) => {
                 let c = self.ty_comps(r.ty)?;
-                Some(self.storage(&c, None))
+                Some((0..n).map(|_| self.storage(&c, None)).collect::<Vec<_>>())
             }
             None => None,
         };
-        let mut locals = Vec::new();
+        let mut locals = vec![Vec::new(); n];
         for (_, lv) in f.local_variables.iter() {
             let c = self.ty_comps(lv.ty)?;
-            locals.push(self.storage(&c, None));
+            for l in &mut locals {
+                l.push(self.storage(&c, None));
+            }
         }
         let mut fr = Frame {
             fun,
-            vals: vec![None; f.expressions.len()],
+            vals: vec![vec![None; f.expressions.len()]; n],
             locals,
             ret,
             exit,
@@ -528,38 +782,57 @@ impl<'p> Lower<'p, '_> {
             if fp.emitted[h.index()] || matches!(e, E::CallResult(_)) {
                 continue;
             }
-            match e {
-                E::FunctionArgument(i) => {
-                    fr.vals[h.index()] = Some(args.get(*i as usize).cloned().ok_or("missing argument")?);
+            for (lane, lane_args) in args.iter().enumerate() {
+                self.lane = lane;
+                match e {
+                    E::FunctionArgument(i) => {
+                        let a = lane_args.get(*i as usize).cloned().ok_or("missing argument")?;
+                        fr.vals[lane][h.index()] = Some(a);
+                    }
+                    E::LocalVariable(lv) => {
+                        fr.vals[lane][h.index()] = Some(Slot::Ptr(Ptr {
+                            store: fr.locals[lane][lv.index()],
+                            off: Off::Const(0),
+                            len: p.flat[f.local_variables[*lv].ty.index()],
+                        }));
+                    }
+                    _ => self.expr(&mut fr, h)?,
                 }
-                E::LocalVariable(lv) => {
-                    fr.vals[h.index()] = Some(Slot::Ptr(Ptr {
-                        store: fr.locals[lv.index()],
-                        off: Off::Const(0),
-                        len: p.flat[f.local_variables[*lv].ty.index()],
-                    }));
-                }
-                _ => self.expr(&mut fr, h)?,
             }
         }
         for (lv, v) in f.local_variables.iter() {
             if let Some(init) = v.init {
-                if fr.vals[init.index()].is_none() {
-                    self.expr(&mut fr, init)?;
+                for lane in 0..n {
+                    self.lane = lane;
+                    if fr.vals[lane][init.index()].is_none() {
+                        self.expr(&mut fr, init)?;
+                    }
+                    let val = self.val(&fr, init)?;
+                    let store = fr.locals[lane][lv.index()];
+                    self.write(store, 0, &val);
                 }
-                let val = self.val(&fr, init)?;
-                let store = fr.locals[lv.index()];
-                self.write(store, 0, &val);
             }
         }
-        self.block(&mut fr, &f.body)?;
-        if self.open {
+        if self.masked() {
+            // The lanes that call leave together at the end (those that returned early
+            // hold their result in `ret`).
+            let entry = self.mask();
+            self.lblock(&mut fr, &f.body)?;
             self.b.ins().jump(exit, &[]);
+            self.switch(exit);
+            self.set_mask(&entry);
+        } else {
+            self.block(&mut fr, &f.body)?;
+            if self.open {
+                self.b.ins().jump(exit, &[]);
+            }
+            self.switch(exit);
         }
-        self.switch(exit);
         self.open = true;
         self.depth -= 1;
-        Ok(fr.ret.map(|s| self.read(s, 0, self.stores[s].len())))
+        Ok(fr
+            .ret
+            .map(|ids| ids.iter().map(|&s| self.read(s, 0, self.stores[s].len())).collect()))
     }
 
     fn read(&mut self, store: usize, off: usize, len: usize) -> Vec<Value> {
@@ -571,15 +844,25 @@ impl<'p> Lower<'p, '_> {
             .collect()
     }
 
+    /// Stores `vals` from component `off` of `store`. In the lane path only where the
+    /// current lane runs (a select on its mask): a lane that left keeps what it had.
     fn write(&mut self, store: usize, off: usize, vals: &[Value]) {
+        let mask = self.masked().then(|| self.b.use_var(self.cur[self.lane]));
         for (k, &x) in vals.iter().enumerate() {
             let v = self.stores[store][off + k].0;
+            let x = match mask {
+                Some(m) => {
+                    let old = self.b.use_var(v);
+                    self.sel(m, x, old)
+                }
+                None => x,
+            };
             self.b.def_var(v, x);
         }
     }
 
     fn val(&self, fr: &Frame, h: Handle<naga::Expression>) -> R<Vec<Value>> {
-        match &fr.vals[h.index()] {
+        match &fr.vals[self.lane][h.index()] {
             Some(Slot::Val(v)) => Ok(v.clone()),
             Some(Slot::Ptr(_)) => Err(self.at(fr.fun, h, "a pointer used as a value")),
             None => Err(self.at(fr.fun, h, "value used before it is computed")),
@@ -587,7 +870,7 @@ impl<'p> Lower<'p, '_> {
     }
 
     fn ptr(&self, fr: &Frame, h: Handle<naga::Expression>) -> R<Ptr> {
-        match &fr.vals[h.index()] {
+        match &fr.vals[self.lane][h.index()] {
             Some(Slot::Ptr(p)) => Ok(p.clone()),
             _ => Err(self.at(fr.fun, h, "not a pointer")),
         }
@@ -606,8 +889,8 @@ impl<'p> Lower<'p, '_> {
                     let mut v = self.read(ptr.store, base + c, 1)[0];
                     for k in 1..count {
                         let x = self.read(ptr.store, base + k * stride + c, 1)[0];
-                        let hit = self.b.ins().icmp_imm_s(IntCC::Equal, idx, k as i64);
-                        v = self.b.ins().select(hit, x, v);
+                        let hit = self.icmp_k(IntCC::Equal, idx, k as i64);
+                        v = self.sel(hit, x, v);
                     }
                     v
                 })
@@ -625,11 +908,11 @@ impl<'p> Lower<'p, '_> {
                 count,
             } => {
                 for k in 0..count {
-                    let hit = self.b.ins().icmp_imm_s(IntCC::Equal, idx, k as i64);
+                    let hit = self.icmp_k(IntCC::Equal, idx, k as i64);
                     for (c, &x) in vals[..ptr.len].iter().enumerate() {
                         let at = base + k * stride + c;
                         let old = self.read(ptr.store, at, 1)[0];
-                        let new = self.b.ins().select(hit, x, old);
+                        let new = self.sel(hit, x, old);
                         self.write(ptr.store, at, &[new]);
                     }
                 }
@@ -640,12 +923,12 @@ impl<'p> Lower<'p, '_> {
     /// An index as the interpreter takes it: `max(idx, 0)` then at most `count − 1`.
     fn clamp_index(&mut self, idx: Value, signed: bool, count: usize) -> Value {
         let idx = if signed {
-            let zero = self.b.ins().iconst(types::I32, 0);
+            let zero = self.iconst32(0);
             self.b.ins().smax(idx, zero)
         } else {
             idx
         };
-        let top = self.b.ins().iconst(types::I32, count.saturating_sub(1) as i64);
+        let top = self.iconst32(count.saturating_sub(1) as i64);
         self.b.ins().umin(idx, top)
     }
 
@@ -696,7 +979,7 @@ impl<'p> Lower<'p, '_> {
                             }
                         };
                         let next = self.b.create_block();
-                        let hit = self.b.ins().icmp_imm_s(IntCC::Equal, sel, v);
+                        let hit = self.icmp_k(IntCC::Equal, sel, v);
                         self.b.ins().brif(hit, body, &[], next, &[]);
                         self.switch(next);
                     }
@@ -737,12 +1020,13 @@ impl<'p> Lower<'p, '_> {
                     let n = self.b.use_var(count);
                     let n = self.b.ins().iadd_imm_s(n, 1);
                     self.b.def_var(count, n);
-                    let over = self.b.ins().icmp_imm_s(IntCC::SignedGreaterThan, n, LOOP_LIMIT);
+                    let over = self.icmp_k(IntCC::SignedGreaterThan, n, LOOP_LIMIT);
                     let fail = self.fail_block();
                     self.b.ins().brif(over, fail, &[], first, &[]);
                     self.switch(first);
                     self.open = true;
                     self.targets.push((exit, Some(cont)));
+                    self.loops += 1;
                     self.block(fr, body)?;
                     if self.open {
                         self.b.ins().jump(cont, &[]);
@@ -762,6 +1046,7 @@ impl<'p> Lower<'p, '_> {
                         }
                     }
                     self.targets.pop();
+                    self.loops -= 1;
                     self.switch(exit);
                     self.open = true;
                 }
@@ -783,7 +1068,7 @@ impl<'p> Lower<'p, '_> {
                 S::Return { value } => {
                     if let Some(v) = value {
                         let v = self.val(fr, *v)?;
-                        let ret = fr.ret.ok_or("return value in a void function")?;
+                        let ret = fr.ret.as_ref().ok_or("return value in a void function")?[0];
                         self.write(ret, 0, &v);
                     }
                     self.b.ins().jump(fr.exit, &[]);
@@ -798,20 +1083,338 @@ impl<'p> Lower<'p, '_> {
                     function,
                     arguments,
                     result,
-                } => {
-                    let args = arguments
-                        .iter()
-                        .map(|a| {
-                            fr.vals[a.index()]
-                                .clone()
-                                .ok_or_else(|| "argument not computed".to_string())
-                        })
-                        .collect::<R<Vec<_>>>()?;
-                    let r = self.call(*function, args)?;
-                    if let (Some(h), Some(r)) = (result, r) {
-                        fr.vals[h.index()] = Some(Slot::Val(r));
+                } => self.call_stmt(fr, *function, arguments, *result)?,
+                other => return Err(format!("statement {other:?} is not compiled")),
+            }
+        }
+        Ok(())
+    }
+
+    /// A call statement: its arguments and result per lane.
+    fn call_stmt(
+        &mut self,
+        fr: &mut Frame,
+        function: Handle<naga::Function>,
+        arguments: &[Handle<naga::Expression>],
+        result: Option<Handle<naga::Expression>>,
+    ) -> R<()> {
+        let args = (0..self.lanes)
+            .map(|lane| {
+                arguments
+                    .iter()
+                    .map(|a| {
+                        fr.vals[lane][a.index()]
+                            .clone()
+                            .ok_or_else(|| "argument not computed".to_string())
+                    })
+                    .collect::<R<Vec<_>>>()
+            })
+            .collect::<R<Vec<_>>>()?;
+        let r = self.call(function, args)?;
+        if let (Some(h), Some(r)) = (result, r) {
+            for (lane, r) in r.into_iter().enumerate() {
+                fr.vals[lane][h.index()] = Some(Slot::Val(r));
+            }
+        }
+        Ok(())
+    }
+
+    /// The lane path's mask as values (per lane 0 or 1).
+    fn mask(&mut self) -> Vec<Value> {
+        (0..self.lanes).map(|l| self.b.use_var(self.cur[l])).collect()
+    }
+
+    fn set_mask(&mut self, m: &[Value]) {
+        for (l, &v) in m.iter().enumerate() {
+            self.b.def_var(self.cur[l], v);
+        }
+    }
+
+    /// New per-lane 0/1 variables holding `init`.
+    fn lane_vars(&mut self, init: &[Value]) -> Vec<Variable> {
+        let t = self.vt(types::I8);
+        init.iter()
+            .map(|&x| {
+                let v = self.b.declare_var(t);
+                self.b.def_var(v, x);
+                v
+            })
+            .collect()
+    }
+
+    fn zeros(&mut self) -> Vec<Value> {
+        (0..self.lanes).map(|_| self.mask_const(false)).collect()
+    }
+
+    fn or(&mut self, a: &[Value], b: &[Value]) -> Vec<Value> {
+        a.iter().zip(b).map(|(&x, &y)| self.b.ins().bor(x, y)).collect()
+    }
+
+    fn and(&mut self, a: &[Value], b: &[Value]) -> Vec<Value> {
+        a.iter().zip(b).map(|(&x, &y)| self.b.ins().band(x, y)).collect()
+    }
+
+    fn and_not(&mut self, a: &[Value], b: &[Value]) -> Vec<Value> {
+        a.iter().zip(b).map(|(&x, &y)| self.b.ins().band_not(x, y)).collect()
+    }
+
+    /// Whether any lane of `m` is set.
+    fn any(&mut self, m: &[Value]) -> Value {
+        if self.simd {
+            return self.b.ins().vany_true(m[0]);
+        }
+        let mut acc = m[0];
+        for &x in &m[1..] {
+            acc = self.b.ins().bor(acc, x);
+        }
+        acc
+    }
+
+    /// Adds the current lanes to `to` and stops them (`break`, `continue`, `return`).
+    fn leave(&mut self, to: Option<Vec<Variable>>) {
+        let m = self.mask();
+        if let Some(to) = to {
+            for (l, &x) in m.iter().enumerate() {
+                let old = self.b.use_var(to[l]);
+                let v = self.b.ins().bor(old, x);
+                self.b.def_var(to[l], v);
+            }
+        }
+        let z = self.zeros();
+        self.set_mask(&z);
+        self.open = false;
+    }
+
+    /// A boolean expression's value in every lane.
+    fn lane_bools(&mut self, fr: &Frame, h: Handle<naga::Expression>) -> R<Vec<Value>> {
+        (0..self.lanes)
+            .map(|lane| {
+                self.lane = lane;
+                self.val(fr, h).map(|v| v[0])
+            })
+            .collect()
+    }
+
+    /// `body` on the lanes of `m`, skipped when there are none; the lanes still running at
+    /// its end.
+    fn arm(&mut self, fr: &mut Frame, body: &naga::Block, m: &[Value]) -> R<Vec<Value>> {
+        if body.is_empty() {
+            return Ok(m.to_vec());
+        }
+        self.set_mask(m);
+        let any = self.any(m);
+        let (run, join) = (self.b.create_block(), self.b.create_block());
+        self.b.ins().brif(any, run, &[], join, &[]);
+        self.switch(run);
+        self.open = true;
+        self.lblock(fr, body)?;
+        self.b.ins().jump(join, &[]);
+        self.switch(join);
+        self.open = true;
+        Ok(self.mask())
+    }
+
+    /// The lane path: `lanes` configurations per call, each naga value computed once per
+    /// lane (the lanes' operations side by side, independent chains the processor overlaps),
+    /// and control flow as the interpreter has it, with execution masks: a divergent `if`
+    /// runs each side on its lanes (a side no lane takes is jumped over), a loop runs while
+    /// any lane is in it, `break`/`continue`/`return` take lanes out of the mask, every
+    /// store is a select on the lane's mask. Uniform control flow thus still costs a branch
+    /// per construct; nothing here changes a value's bits (selects only choose).
+    fn lblock(&mut self, fr: &mut Frame, block: &naga::Block) -> R<()> {
+        let n = self.lanes;
+        for st in block.iter() {
+            if !self.open {
+                // Every lane that ran this block has left it.
+                return Ok(());
+            }
+            match st {
+                S::Emit(range) => {
+                    for h in range.clone() {
+                        for lane in 0..n {
+                            self.lane = lane;
+                            self.expr(fr, h)?;
+                        }
                     }
                 }
+                S::Block(b) => self.lblock(fr, b)?,
+                S::If {
+                    condition,
+                    accept,
+                    reject,
+                } => {
+                    let parent = self.mask();
+                    let c = self.lane_bools(fr, *condition)?;
+                    let yes = self.and(&parent, &c);
+                    let no = self.and_not(&parent, &c);
+                    let a = self.arm(fr, accept, &yes)?;
+                    let r = self.arm(fr, reject, &no)?;
+                    let m = self.or(&a, &r);
+                    self.set_mask(&m);
+                    self.open = true;
+                }
+                S::Switch { selector, cases } => {
+                    let entry = self.mask();
+                    let sel: Vec<Value> = (0..n)
+                        .map(|lane| {
+                            self.lane = lane;
+                            self.val(fr, *selector).map(|v| v[0])
+                        })
+                        .collect::<R<_>>()?;
+                    let mut hits = Vec::with_capacity(cases.len());
+                    let mut matched = self.zeros();
+                    for case in cases {
+                        let v = match case.value {
+                            naga::SwitchValue::I32(i) => i64::from(i),
+                            naga::SwitchValue::U32(u) => i64::from(u as i32),
+                            naga::SwitchValue::Default => {
+                                hits.push(None);
+                                continue;
+                            }
+                        };
+                        let h: Vec<Value> = sel.iter().map(|&s| self.icmp_k(IntCC::Equal, s, v)).collect();
+                        matched = self.or(&matched, &h);
+                        hits.push(Some(h));
+                    }
+                    let zeros = self.zeros();
+                    let brk = self.lane_vars(&zeros);
+                    self.ltargets.push(LTarget::Switch { brk: brk.clone() });
+                    let (mut carry, mut done) = (zeros.clone(), zeros);
+                    for (case, hit) in cases.iter().zip(hits) {
+                        let hit = match hit {
+                            Some(h) => self.and(&entry, &h),
+                            None => self.and_not(&entry, &matched),
+                        };
+                        let m = self.or(&hit, &carry);
+                        let end = self.arm(fr, &case.body, &m)?;
+                        if case.fall_through {
+                            carry = end;
+                        } else {
+                            done = self.or(&done, &end);
+                            carry = self.zeros();
+                        }
+                    }
+                    self.ltargets.pop();
+                    let b: Vec<Value> = brk.iter().map(|&v| self.b.use_var(v)).collect();
+                    let m = self.or(&done, &carry);
+                    let m = self.or(&m, &b);
+                    self.set_mask(&m);
+                    self.open = true;
+                }
+                S::Loop {
+                    body,
+                    continuing,
+                    break_if,
+                } => {
+                    let entry = self.mask();
+                    // `live`: lanes still looping; `brk`: lanes that left by `break` or
+                    // `break if`; `cont`: lanes that took `continue` this pass.
+                    let live = self.lane_vars(&entry);
+                    let zeros = self.zeros();
+                    let brk = self.lane_vars(&zeros);
+                    let cont = self.lane_vars(&zeros);
+                    let count = self.b.declare_var(types::I32);
+                    let zero = self.b.ins().iconst(types::I32, 0);
+                    self.b.def_var(count, zero);
+                    let (head, first, exit) = (self.b.create_block(), self.b.create_block(), self.b.create_block());
+                    let any = self.any(&entry);
+                    self.b.ins().brif(any, head, &[], exit, &[]);
+                    self.switch(head);
+                    let c = self.b.use_var(count);
+                    let c = self.b.ins().iadd_imm_s(c, 1);
+                    self.b.def_var(count, c);
+                    let over = self.icmp_k(IntCC::SignedGreaterThan, c, LOOP_LIMIT);
+                    let fail = self.fail_block();
+                    self.b.ins().brif(over, fail, &[], first, &[]);
+                    self.switch(first);
+                    let m: Vec<Value> = live.iter().map(|&v| self.b.use_var(v)).collect();
+                    self.set_mask(&m);
+                    let z = self.zeros();
+                    for (&v, &x) in cont.iter().zip(&z) {
+                        self.b.def_var(v, x);
+                    }
+                    self.ltargets.push(LTarget::Loop {
+                        brk: brk.clone(),
+                        cont: cont.clone(),
+                    });
+                    self.loops += 1;
+                    self.open = true;
+                    self.lblock(fr, body)?;
+                    self.open = true;
+                    let m = self.mask();
+                    let k: Vec<Value> = cont.iter().map(|&v| self.b.use_var(v)).collect();
+                    let m = self.or(&m, &k);
+                    self.set_mask(&m);
+                    self.lblock(fr, continuing)?;
+                    self.open = true;
+                    let m = self.mask();
+                    let stay = match break_if {
+                        Some(c) => {
+                            let c = self.lane_bools(fr, *c)?;
+                            let out = self.and(&m, &c);
+                            for (l, &x) in out.iter().enumerate() {
+                                let old = self.b.use_var(brk[l]);
+                                let v = self.b.ins().bor(old, x);
+                                self.b.def_var(brk[l], v);
+                            }
+                            self.and_not(&m, &c)
+                        }
+                        None => m,
+                    };
+                    for (&v, &x) in live.iter().zip(&stay) {
+                        self.b.def_var(v, x);
+                    }
+                    let again = self.any(&stay);
+                    self.b.ins().brif(again, head, &[], exit, &[]);
+                    self.ltargets.pop();
+                    self.loops -= 1;
+                    self.switch(exit);
+                    let m: Vec<Value> = brk.iter().map(|&v| self.b.use_var(v)).collect();
+                    self.set_mask(&m);
+                    self.open = true;
+                }
+                S::Break => {
+                    let to = match self.ltargets.last().ok_or("`break` outside a loop")? {
+                        LTarget::Loop { brk, .. } | LTarget::Switch { brk } => brk.clone(),
+                    };
+                    self.leave(Some(to));
+                }
+                S::Continue => {
+                    let to = self
+                        .ltargets
+                        .iter()
+                        .rev()
+                        .find_map(|t| match t {
+                            LTarget::Loop { cont, .. } => Some(cont.clone()),
+                            LTarget::Switch { .. } => None,
+                        })
+                        .ok_or("`continue` outside a loop")?;
+                    self.leave(Some(to));
+                }
+                S::Return { value } => {
+                    if let Some(v) = value {
+                        let ids = fr.ret.clone().ok_or("return value in a void function")?;
+                        for (lane, &ret) in ids.iter().enumerate() {
+                            self.lane = lane;
+                            let v = self.val(fr, *v)?;
+                            self.write(ret, 0, &v);
+                        }
+                    }
+                    self.leave(None);
+                }
+                S::Store { pointer, value } => {
+                    for lane in 0..n {
+                        self.lane = lane;
+                        let ptr = self.ptr(fr, *pointer)?;
+                        let v = self.val(fr, *value)?;
+                        self.store(&ptr, &v);
+                    }
+                }
+                S::Call {
+                    function,
+                    arguments,
+                    result,
+                } => self.call_stmt(fr, *function, arguments, *result)?,
                 other => return Err(format!("statement {other:?} is not compiled")),
             }
         }
@@ -826,7 +1429,7 @@ impl<'p> Lower<'p, '_> {
         let slot = match &f.expressions[h] {
             E::Literal(l) => Slot::Val(vec![match *l {
                 naga::Literal::F32(x) => match self.mode {
-                    Mode::F32 => self.b.ins().f32const(x),
+                    Mode::F32 => self.konst(types::F32, f64::from(x)),
                     Mode::F64 => {
                         let v = p.funs[fun.index()].lit64[h.index()]
                             .clone()
@@ -834,9 +1437,9 @@ impl<'p> Lower<'p, '_> {
                         self.b.ins().f64const(v)
                     }
                 },
-                naga::Literal::U32(x) => self.b.ins().iconst(types::I32, i64::from(x)),
-                naga::Literal::I32(x) => self.b.ins().iconst(types::I32, i64::from(x as u32)),
-                naga::Literal::Bool(x) => self.b.ins().iconst(types::I8, x as i64),
+                naga::Literal::U32(x) => self.iconst32(i64::from(x)),
+                naga::Literal::I32(x) => self.iconst32(i64::from(x)),
+                naga::Literal::Bool(x) => self.mask_const(x),
                 other => return Err(self.at(fun, h, &format!("literal {other:?} is not compiled"))),
             }]),
             E::Constant(c) => {
@@ -872,7 +1475,7 @@ impl<'p> Lower<'p, '_> {
             }
             E::AccessIndex { base, index } => {
                 let bty = self.inner(fun, *base);
-                match fr.vals[base.index()].clone() {
+                match fr.vals[self.lane][base.index()].clone() {
                     Some(Slot::Ptr(ptr)) => {
                         let (off, len) = p.child(&p.pointee(bty), *index as usize);
                         let off = match ptr.off {
@@ -906,7 +1509,7 @@ impl<'p> Lower<'p, '_> {
                 let bty = self.inner(fun, *base);
                 let signed = self.inner(fun, *index).scalar_kind() == Some(ScalarKind::Sint);
                 let raw = self.val(fr, *index)?[0];
-                match fr.vals[base.index()].clone() {
+                match fr.vals[self.lane][base.index()].clone() {
                     Some(Slot::Ptr(ptr)) => {
                         let (count, stride) = p.elements(&p.pointee(bty));
                         let idx = self.clamp_index(raw, signed, count);
@@ -931,8 +1534,8 @@ impl<'p> Lower<'p, '_> {
                             .map(|c| {
                                 let mut x = v[c];
                                 for k in 1..count {
-                                    let hit = self.b.ins().icmp_imm_s(IntCC::Equal, idx, k as i64);
-                                    x = self.b.ins().select(hit, v[k * stride + c], x);
+                                    let hit = self.icmp_k(IntCC::Equal, idx, k as i64);
+                                    x = self.sel(hit, v[k * stride + c], x);
                                 }
                                 x
                             })
@@ -944,6 +1547,8 @@ impl<'p> Lower<'p, '_> {
             }
             E::GlobalVariable(g) => {
                 let store = self.globals[g.index()]
+                    .as_ref()
+                    .map(|s| s[self.lane])
                     .ok_or_else(|| self.at(fun, h, "a global outside the private space is not compiled"))?;
                 Slot::Ptr(Ptr {
                     store,
@@ -963,7 +1568,7 @@ impl<'p> Lower<'p, '_> {
                     out.push(match (op, kind) {
                         (U::Negate, Some(ScalarKind::Float)) => self.b.ins().fneg(x),
                         (U::Negate, Some(ScalarKind::Sint)) => self.b.ins().ineg(x),
-                        (U::LogicalNot, _) => self.b.ins().icmp_imm_s(IntCC::Equal, x, 0),
+                        (U::LogicalNot, _) => self.icmp_k(IntCC::Equal, x, 0),
                         (U::BitwiseNot, Some(ScalarKind::Sint | ScalarKind::Uint)) => self.b.ins().bnot(x),
                         _ => return Err(self.at(fun, h, &format!("{op:?} on {kind:?} is not compiled"))),
                     });
@@ -985,7 +1590,7 @@ impl<'p> Lower<'p, '_> {
                 let a = self.val(fr, *accept)?;
                 let r = self.val(fr, *reject)?;
                 let out = (0..a.len())
-                    .map(|k| self.b.ins().select(c[k.min(c.len() - 1)], a[k], r[k]))
+                    .map(|k| self.sel(c[k.min(c.len() - 1)], a[k], r[k]))
                     .collect();
                 Slot::Val(out)
             }
@@ -1050,23 +1655,28 @@ impl<'p> Lower<'p, '_> {
                     out.push(match (to, from) {
                         (ScalarKind::Float, Some(ScalarKind::Float)) => x,
                         (ScalarKind::Float, Some(ScalarKind::Sint)) => self.b.ins().fcvt_from_sint(ft, x),
-                        (ScalarKind::Float, Some(ScalarKind::Uint)) => self.b.ins().fcvt_from_uint(ft, x),
+                        (ScalarKind::Float, Some(ScalarKind::Uint)) => self.per_lane(&[x], &mut |s, a| {
+                            let ft = s.fty();
+                            s.b.ins().fcvt_from_uint(ft, a[0])
+                        }),
                         (ScalarKind::Float, Some(ScalarKind::Bool)) => {
-                            let w = self.b.ins().uextend(types::I32, x);
-                            self.b.ins().fcvt_from_uint(ft, w)
+                            let w = self.bool_to_int(x);
+                            self.b.ins().fcvt_from_sint(ft, w)
                         }
-                        (ScalarKind::Uint, Some(ScalarKind::Float)) => self.b.ins().fcvt_to_uint_sat(types::I32, x),
-                        (ScalarKind::Sint, Some(ScalarKind::Float)) => self.b.ins().fcvt_to_sint_sat(types::I32, x),
+                        (ScalarKind::Uint, Some(ScalarKind::Float)) => {
+                            self.per_lane(&[x], &mut |s, a| s.b.ins().fcvt_to_uint_sat(types::I32, a[0]))
+                        }
+                        (ScalarKind::Sint, Some(ScalarKind::Float)) => {
+                            self.per_lane(&[x], &mut |s, a| s.b.ins().fcvt_to_sint_sat(types::I32, a[0]))
+                        }
                         (ScalarKind::Uint | ScalarKind::Sint, Some(ScalarKind::Uint | ScalarKind::Sint)) => x,
-                        (ScalarKind::Uint | ScalarKind::Sint, Some(ScalarKind::Bool)) => {
-                            self.b.ins().uextend(types::I32, x)
-                        }
+                        (ScalarKind::Uint | ScalarKind::Sint, Some(ScalarKind::Bool)) => self.bool_to_int(x),
                         (ScalarKind::Bool, Some(ScalarKind::Float)) => {
                             let z = self.fconst(0.0);
                             self.b.ins().fcmp(FloatCC::NotEqual, x, z)
                         }
                         (ScalarKind::Bool, Some(ScalarKind::Uint | ScalarKind::Sint)) => {
-                            self.b.ins().icmp_imm_s(IntCC::NotEqual, x, 0)
+                            self.icmp_k(IntCC::NotEqual, x, 0)
                         }
                         (ScalarKind::Bool, Some(ScalarKind::Bool)) => x,
                         other => return Err(self.at(fun, h, &format!("conversion {other:?} is not compiled"))),
@@ -1077,7 +1687,7 @@ impl<'p> Lower<'p, '_> {
             E::CallResult(_) => return Err(self.at(fun, h, "call result read before the call")),
             other => return Err(self.at(fun, h, &format!("expression {other:?} is not compiled"))),
         };
-        fr.vals[h.index()] = Some(slot);
+        fr.vals[self.lane][h.index()] = Some(slot);
         Ok(())
     }
 
@@ -1147,7 +1757,12 @@ impl<'p> Lower<'p, '_> {
                 B::Subtract => ins.isub(x, y),
                 B::Multiply => ins.imul(x, y),
                 B::Divide | B::Modulo if k == Some(ScalarKind::Bool) => return Err(format!("{op:?} on bool")),
-                B::Divide | B::Modulo => self.int_div(op, x, y, signed),
+                B::Divide | B::Modulo => self.per_lane(&[x, y], &mut |s, a| s.int_div(op, a[0], a[1], signed)),
+                B::ShiftLeft | B::ShiftRight if self.simd => self.per_lane(&[x, y], &mut |s, a| match op {
+                    B::ShiftLeft => s.b.ins().ishl(a[0], a[1]),
+                    _ if signed => s.b.ins().sshr(a[0], a[1]),
+                    _ => s.b.ins().ushr(a[0], a[1]),
+                }),
                 B::And => ins.band(x, y),
                 B::InclusiveOr => ins.bor(x, y),
                 B::ExclusiveOr => ins.bxor(x, y),
@@ -1195,11 +1810,11 @@ impl<'p> Lower<'p, '_> {
     fn int_div(&mut self, op: B, x: Value, y: Value, signed: bool) -> Value {
         let one = self.b.ins().iconst(types::I32, 1);
         let zero = self.b.ins().iconst(types::I32, 0);
-        let is_zero = self.b.ins().icmp_imm_s(IntCC::Equal, y, 0);
+        let is_zero = self.icmp_k(IntCC::Equal, y, 0);
         let safe = if signed {
-            let minus = self.b.ins().icmp_imm_s(IntCC::Equal, y, -1);
+            let minus = self.icmp_k(IntCC::Equal, y, -1);
             let bad = self.b.ins().bor(is_zero, minus);
-            let safe = self.b.ins().select(bad, one, y);
+            let safe = self.sel(bad, one, y);
             let q = match op {
                 B::Divide => self.b.ins().sdiv(x, safe),
                 _ => self.b.ins().srem(x, safe),
@@ -1209,9 +1824,9 @@ impl<'p> Lower<'p, '_> {
                 B::Divide => self.b.ins().ineg(x),
                 _ => zero,
             };
-            self.b.ins().select(minus, neg, q)
+            self.sel(minus, neg, q)
         } else {
-            let safe = self.b.ins().select(is_zero, one, y);
+            let safe = self.sel(is_zero, one, y);
             match op {
                 B::Divide => self.b.ins().udiv(x, safe),
                 _ => self.b.ins().urem(x, safe),
@@ -1221,7 +1836,7 @@ impl<'p> Lower<'p, '_> {
             B::Divide => x,
             _ => zero,
         };
-        self.b.ins().select(is_zero, by_zero, safe)
+        self.sel(is_zero, by_zero, safe)
     }
 
     fn math(&mut self, f: M, at: &TypeInner, a: &[Value], b: Option<&[Value]>, c: Option<&[Value]>) -> R<Vec<Value>> {
@@ -1252,28 +1867,28 @@ impl<'p> Lower<'p, '_> {
             M::Exp2 => shim1(self, F::Exp2),
             M::Log => shim1(self, F::Log),
             M::Log2 => shim1(self, F::Log2),
-            M::Floor => unary(self, &|s, x| s.b.ins().floor(x)),
-            M::Ceil => unary(self, &|s, x| s.b.ins().ceil(x)),
-            M::Trunc => unary(self, &|s, x| s.b.ins().trunc(x)),
-            M::Round => unary(self, &|s, x| s.b.ins().nearest(x)),
+            M::Floor => unary(self, &|s, x| s.per_lane(&[x], &mut |s, a| s.b.ins().floor(a[0]))),
+            M::Ceil => unary(self, &|s, x| s.per_lane(&[x], &mut |s, a| s.b.ins().ceil(a[0]))),
+            M::Trunc => unary(self, &|s, x| s.per_lane(&[x], &mut |s, a| s.b.ins().trunc(a[0]))),
+            M::Round => unary(self, &|s, x| s.per_lane(&[x], &mut |s, a| s.b.ins().nearest(a[0]))),
             M::Fract => unary(self, &|s, x| {
-                let fl = s.b.ins().floor(x);
+                let fl = s.per_lane(&[x], &mut |s, a| s.b.ins().floor(a[0]));
                 s.b.ins().fsub(x, fl)
             }),
             M::Saturate => unary(self, &|s, x| {
                 // Rust's clamp: below 0 → 0, above 1 → 1, NaN and −0 kept.
                 let (zero, one) = (s.fconst(0.0), s.fconst(1.0));
                 let lo = s.b.ins().fcmp(FloatCC::LessThan, x, zero);
-                let x = s.b.ins().select(lo, zero, x);
+                let x = s.sel(lo, zero, x);
                 let hi = s.b.ins().fcmp(FloatCC::GreaterThan, x, one);
-                s.b.ins().select(hi, one, x)
+                s.sel(hi, one, x)
             }),
             M::Sign => unary(self, &|s, x| {
                 let (zero, one, minus) = (s.fconst(0.0), s.fconst(1.0), s.fconst(-1.0));
                 let lt = s.b.ins().fcmp(FloatCC::LessThan, x, zero);
-                let neg = s.b.ins().select(lt, minus, zero);
+                let neg = s.sel(lt, minus, zero);
                 let gt = s.b.ins().fcmp(FloatCC::GreaterThan, x, zero);
-                s.b.ins().select(gt, one, neg)
+                s.sel(gt, one, neg)
             }),
             M::Min | M::Max | M::Atan2 | M::Pow | M::Step => {
                 let b = need(b)?;
@@ -1289,7 +1904,7 @@ impl<'p> Lower<'p, '_> {
                                 // step(edge, v) = v >= edge
                                 let ge = self.b.ins().fcmp(FloatCC::GreaterThanOrEqual, y, x);
                                 let (one, zero) = (self.fconst(1.0), self.fconst(0.0));
-                                self.b.ins().select(ge, one, zero)
+                                self.sel(ge, one, zero)
                             }
                         }
                     })

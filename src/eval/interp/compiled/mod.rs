@@ -13,9 +13,73 @@ use crate::input::scene::{scene_member, Config, SceneInput, SCENE_COMPONENTS};
 use anyhow::{bail, Result};
 use rayon::prelude::*;
 
+/// Configurations per call on the interleaved lane path (`lower.rs`, [`lower::compile`]),
+/// and on the SIMD path ([`lower::SIMD_LANES`], one 128-bit vector of f32).
+pub const LANES: usize = 4;
+
+/// `LINELIGHT_LANES=N` (1 to 16): N configurations per call on the interleaved lane path,
+/// no SIMD; 1 is the one-configuration path (to time the paths, or to rule one out).
+fn lanes_wanted() -> Option<usize> {
+    static WANTED: std::sync::OnceLock<Option<usize>> = std::sync::OnceLock::new();
+    *WANTED.get_or_init(|| {
+        std::env::var("LINELIGHT_LANES")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .filter(|n| (1..=16).contains(n))
+    })
+}
+
+/// How a compiled kernel runs its configurations.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Path {
+    /// f32 in vector registers, [`lower::SIMD_LANES`] configurations per call.
+    Simd,
+    /// N configurations per call, each lane's scalar operations side by side; why not
+    /// SIMD where it was tried.
+    Lanes(usize, Option<String>),
+    /// One configuration per call, and why.
+    One(String),
+}
+
+impl Path {
+    /// Configurations per call.
+    pub fn per_call(&self) -> usize {
+        match self {
+            Path::Simd => lower::SIMD_LANES,
+            Path::Lanes(n, _) => *n,
+            Path::One(_) => 1,
+        }
+    }
+
+    pub fn describe(&self) -> String {
+        match self {
+            Path::Simd => format!("SIMD, {} configurations per call", lower::SIMD_LANES),
+            Path::Lanes(n, None) => format!("{n} interleaved lanes per call"),
+            Path::Lanes(n, Some(why)) => format!("{n} interleaved lanes per call (not SIMD: {why})"),
+            Path::One(why) => format!("one configuration per call ({why})"),
+        }
+    }
+}
+
+/// The interleaved lane path with `n` lanes, or the one-configuration path with why not.
+fn lanes(p: &Program, mode: Mode, n: usize) -> Result<(lower::Native, Path), String> {
+    if n == 1 {
+        return Ok((
+            lower::compile(p, mode, 1, false)?,
+            Path::One("LINELIGHT_LANES=1".into()),
+        ));
+    }
+    match lower::compile(p, mode, n, false) {
+        Ok(native) => Ok((native, Path::Lanes(n, None))),
+        Err(why) => Ok((lower::compile(p, mode, 1, false)?, Path::One(why))),
+    }
+}
+
 /// A kernel compiled in one mode.
 pub(super) struct Compiled {
     native: lower::Native,
+    /// How it runs (SIMD, interleaved lanes, one configuration per call).
+    pub path: Path,
     mode: Mode,
     /// Where each component of the kernel's scene comes from in [`SceneInput::flatten`]'s
     /// layout (the kernel's components in its own order).
@@ -37,38 +101,61 @@ impl Compiled {
                 from[off + k] = src + k;
             }
         }
+        let (native, path) = match (lanes_wanted(), mode) {
+            (Some(n), _) => lanes(p, mode, n)?,
+            (None, Mode::F32) => match lower::compile(p, mode, 0, true) {
+                Ok(native) => (native, Path::Simd),
+                Err(why) => {
+                    let (native, path) = lanes(p, mode, LANES)?;
+                    let path = match path {
+                        Path::Lanes(n, _) => Path::Lanes(n, Some(why)),
+                        other => other,
+                    };
+                    (native, path)
+                }
+            },
+            (None, Mode::F64) => lanes(p, mode, LANES)?,
+        };
         Ok(Compiled {
-            native: lower::compile(p, mode)?,
+            native,
+            path,
             mode,
             from,
         })
     }
 
     /// `method` on every configuration: what [`Program::eval`] returns, in the same order,
-    /// with the same error for a loop past the limit. Each configuration's scene is filled
-    /// in place (no allocation per configuration), results are written where they go.
+    /// with the same error for a loop past the limit. Each call takes `per_call` configurations'
+    /// scenes, filled in place (no allocation per configuration); a last group short of
+    /// `per_call` is padded with copies of its last configuration, whose results are dropped.
     pub(super) fn eval(&self, configs: &[&Config]) -> Result<Vec<f64>> {
         let mut out = vec![0.0f64; configs.len()];
+        let (n, total) = (self.native.per_call, self.from.len());
         let over = out
             .par_chunks_mut(CHUNK)
             .zip(configs.par_chunks(CHUNK))
             .any(|(out, chunk)| {
                 let mut all = [0.0f64; SCENE_COMPONENTS];
-                let mut scene = vec![0.0f64; self.from.len()];
-                for (v, c) in out.iter_mut().zip(chunk) {
-                    SceneInput::new(c).flatten(&mut all);
-                    for (s, &k) in scene.iter_mut().zip(&self.from) {
-                        // The f32 mode reads its scene in f32, as the interpreter's f32 lanes.
-                        *s = match self.mode {
-                            Mode::F32 => all[k] as f32 as f64,
-                            Mode::F64 => all[k],
-                        };
+                let mut scene = vec![0.0f64; total * n];
+                let mut res = vec![0.0f64; n];
+                for (outs, group) in out.chunks_mut(n).zip(chunk.chunks(n)) {
+                    for (lane, s) in scene.chunks_mut(total).enumerate() {
+                        SceneInput::new(group[lane.min(group.len() - 1)]).flatten(&mut all);
+                        for (s, &k) in s.iter_mut().zip(&self.from) {
+                            // The f32 mode reads its scene in f32, as the interpreter's f32 lanes.
+                            *s = match self.mode {
+                                Mode::F32 => all[k] as f32 as f64,
+                                Mode::F64 => all[k],
+                            };
+                        }
                     }
-                    // SAFETY: `scene` holds every component the code reads (the Scene's
-                    // `total`, checked when compiling) and `v` is the one f64 it writes.
-                    if unsafe { (self.native.entry)(scene.as_ptr(), v) } != 0 {
+                    // SAFETY: `scene` holds `n` scenes of every component the code reads
+                    // (the Scene's `total`, checked when compiling) and `res` the `n` f64
+                    // it writes.
+                    if unsafe { (self.native.entry)(scene.as_ptr(), res.as_mut_ptr()) } != 0 {
                         return true;
                     }
+                    outs.copy_from_slice(&res[..outs.len()]);
                 }
                 false
             });
