@@ -74,7 +74,7 @@ const ANISO_LINE_TOL: [f64; 2] = [7.7e-3, 9.3e-5];
 fn points() -> Vec<(f64, f64, f64, f64, bool)> {
     let mut out = Vec::new();
     let thetas = [0.0, 0.2243, 0.61, 1.0, 1.3457, 1.55];
-    let phis = [0.0, 0.3, 1.2, 1.5708, 2.4, 3.5, 5.1];
+    let phis = [0.0, 0.3, 1.2, std::f64::consts::FRAC_PI_2, 2.4, 3.5, 5.1];
     let alphas = [0.01, 0.02, 0.09, 0.3, 0.58, 1.0];
     let ratios = [0.2, 0.25, 0.4, 0.7857142857142857, 1.0];
     let mut k = 0usize;
@@ -171,11 +171,19 @@ fn measuring() -> bool {
 
 fn check(what: &str, worst: [[f64; 2]; 2], minv_tol: [f64; 2], channel_tol: [f64; 2]) {
     if measuring() {
-        println!("{what}: M⁻¹ GPU {:.2e} CPU {:.2e}; channels GPU {:.2e} CPU {:.2e}", worst[0][0], worst[0][1], worst[1][0], worst[1][1]);
+        println!(
+            "{what}: M⁻¹ GPU {:.2e} CPU {:.2e}; channels GPU {:.2e} CPU {:.2e}",
+            worst[0][0], worst[0][1], worst[1][0], worst[1][1]
+        );
         return;
     }
     for (e, name) in ["GPU", "CPU f32"].into_iter().enumerate() {
-        assert!(worst[0][e] <= minv_tol[e], "{what}: {name} M⁻¹ differs by {:e} > {:e}", worst[0][e], minv_tol[e]);
+        assert!(
+            worst[0][e] <= minv_tol[e],
+            "{what}: {name} M⁻¹ differs by {:e} > {:e}",
+            worst[0][e],
+            minv_tol[e]
+        );
         assert!(
             worst[1][e] <= channel_tol[e],
             "{what}: {name} magnitude/Fresnel differ by {:e} > {:e}",
@@ -187,7 +195,11 @@ fn check(what: &str, worst: [[f64; 2]; 2], minv_tol: [f64; 2], channel_tol: [f64
 
 #[test]
 fn the_device_aniso_lookup_is_the_host_feed() {
-    let configs: Vec<Config> = points().into_iter().enumerate().map(|(i, p)| config(i, p, false)).collect();
+    let configs: Vec<Config> = points()
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| config(i, p, false))
+        .collect();
     // The host feed the scenes carry is `feed_aniso` of our table.
     let c = &configs[9];
     let Material::Ggx { alpha, view, fed, .. } = &c.material else {
@@ -205,7 +217,11 @@ fn the_device_aniso_lookup_is_the_host_feed() {
 
 #[test]
 fn the_device_iso_lookup_is_the_host_feed() {
-    let configs: Vec<Config> = points().into_iter().enumerate().map(|(i, p)| config(i, p, true)).collect();
+    let configs: Vec<Config> = points()
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| config(i, p, true))
+        .collect();
     let c = &configs[3];
     let Material::Ggx { fed, view, alpha, .. } = &c.material else {
         unreachable!()
@@ -218,7 +234,11 @@ fn the_device_iso_lookup_is_the_host_feed() {
 /// √(αx·αy) is the host's table at that α (computed here in f64, so within the same tolerances).
 #[test]
 fn the_device_iso_lookup_falls_back_to_the_geometric_mean() {
-    let configs: Vec<Config> = points().into_iter().enumerate().map(|(i, p)| config(i, p, false)).collect();
+    let configs: Vec<Config> = points()
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| config(i, p, false))
+        .collect();
     let mut kernels = builtin_kernels();
     kernels.push(KernelFile::parse("iso_probe.wgsl", ISO_PROBE).unwrap());
     let mut worst = 0.0f64;
@@ -260,8 +280,15 @@ fn the_device_iso_lookup_falls_back_to_the_geometric_mean() {
 #[test]
 fn the_device_fed_line_is_the_host_fed_line() {
     let kernels = builtin_kernels();
-    for (iso, spec) in [(false, "line.ltc_lookup_aniso[line.ltc2017]"), (true, "line.ltc_lookup_iso[line.ltc2017]")] {
-        let configs: Vec<Config> = points().into_iter().enumerate().map(|(i, p)| config(i, p, iso)).collect();
+    for (iso, spec) in [
+        (false, "line.ltc_lookup_aniso[line.ltc2017]"),
+        (true, "line.ltc_lookup_iso[line.ltc2017]"),
+    ] {
+        let configs: Vec<Config> = points()
+            .into_iter()
+            .enumerate()
+            .map(|(i, p)| config(i, p, iso))
+            .collect();
         let device = resolve(spec, &kernels).unwrap();
         let fed = resolve("line.ltc2017", &kernels).unwrap();
         assert!(!device.scaled_by_magnitude() && fed.scaled_by_magnitude());
@@ -270,7 +297,10 @@ fn the_device_fed_line_is_the_host_fed_line() {
         let fc = fed.cpu_column(&configs, Mode::F32).unwrap();
         let mut worst = [0.0f64; 2];
         for i in 0..configs.len() {
-            for (e, (a, b)) in [(dg[i], fg[i]), (dc[i].unwrap(), fc[i].unwrap())].into_iter().enumerate() {
+            for (e, (a, b)) in [(dg[i], fg[i]), (dc[i].unwrap(), fc[i].unwrap())]
+                .into_iter()
+                .enumerate()
+            {
                 if b != 0.0 {
                     let d = ((a - b) / b).abs();
                     worst[e] = worst[e].max(if d.is_nan() { f64::INFINITY } else { d });
@@ -283,7 +313,12 @@ fn the_device_fed_line_is_the_host_fed_line() {
         }
         let tol = if iso { [0.0; 2] } else { ANISO_LINE_TOL };
         for e in 0..2 {
-            assert!(worst[e] <= tol[e], "{spec}: engine {e} differs by {:e} > {:e}", worst[e], tol[e]);
+            assert!(
+                worst[e] <= tol[e],
+                "{spec}: engine {e} differs by {:e} > {:e}",
+                worst[e],
+                tol[e]
+            );
         }
     }
 }

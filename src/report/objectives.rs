@@ -108,7 +108,10 @@ pub fn outputs(o: &Objectives, inputs: &Inputs) -> Vec<Box<dyn Format>> {
                 "seconds"
             ]
         ),
-        record_line(&inputs.l1_record, &["objective", "objective_grid", "fitted", "threads", "seconds"])
+        record_line(
+            &inputs.l1_record,
+            &["objective", "objective_grid", "fitted", "threads", "seconds"]
+        )
     );
     for (name, groups) in &o.regions {
         let _ = writeln!(

@@ -504,9 +504,11 @@ impl Program {
         }
         let reads_ltc = m.global_variables.iter().any(|(g, v)| {
             v.name.as_deref() == Some("ll_ltc")
-                && m.functions
-                    .iter()
-                    .any(|(_, f)| f.expressions.iter().any(|(_, e)| matches!(e, E::GlobalVariable(h) if *h == g)))
+                && m.functions.iter().any(|(_, f)| {
+                    f.expressions
+                        .iter()
+                        .any(|(_, e)| matches!(e, E::GlobalVariable(h) if *h == g))
+                })
         });
         Ok(Program {
             reads_ltc,

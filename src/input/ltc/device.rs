@@ -104,6 +104,9 @@ mod tests {
         let i = [3, 2, 7, 1];
         let at = t[2] as usize + ANISO_TEXEL * aniso::index(an.size, i);
         assert_eq!(&t[at..at + ANISO_TEXEL], &an.texel(i, Storage::F32));
-        assert_eq!(t[at + 9] as f64, an.entries[aniso::index(an.size, i)].magnitude as f32 as f64);
+        assert_eq!(
+            t[at + 9] as f64,
+            an.entries[aniso::index(an.size, i)].magnitude as f32 as f64
+        );
     }
 }
