@@ -1,15 +1,22 @@
 //! Seed 004's objective (issue 24): the sliced-Wasserstein fit (src/input/ltc/sw.rs), its
-//! committed subset (data/ltc_ggx_aniso_sw_subset.csv) and the comparison command
-//! (`linelight objectives`). The suite refits one entry, never the subset.
+//! committed subsets (data/ltc_ggx_aniso_sw_subset.csv at 2 000 steps,
+//! data/ltc_ggx_aniso_sw10000_subset.csv at the seed's 10 000) and the comparison command
+//! (`linelight objectives`). The suite refits one entry of each, never a subset.
 
 use linelight::input::geometry::det;
 use linelight::input::ltc::{aniso, sw};
 use std::process::{Command, Output};
 
-fn subset() -> Vec<aniso::Fitted> {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/data/ltc_ggx_aniso_sw_subset.csv");
-    let text = std::fs::read_to_string(path).expect("the committed subset");
-    aniso::parse_entries(&text, path).expect("it parses")
+/// The committed subsets and their SGD steps.
+const SUBSETS: [(&str, usize); 2] = [
+    ("data/ltc_ggx_aniso_sw_subset.csv", 2000),
+    ("data/ltc_ggx_aniso_sw10000_subset.csv", 10000),
+];
+
+fn subset_at(file: &str) -> Vec<aniso::Fitted> {
+    let path = format!("{}/{file}", env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(&path).expect("the committed subset");
+    aniso::parse_entries(&text, &path).expect("it parses")
 }
 
 fn linelight(args: &[&str]) -> Output {
@@ -25,8 +32,13 @@ fn linelight(args: &[&str]) -> Output {
 /// (positive diagonal), and the same magnitude as the L1 table's entry (the same quadrature
 /// of the same lobe).
 #[test]
-fn the_committed_subset_is_the_documented_one_and_well_formed() {
-    let entries = subset();
+fn the_committed_subsets_are_the_documented_ones_and_well_formed() {
+    for (file, _) in SUBSETS {
+        subset_is_well_formed(&subset_at(file));
+    }
+}
+
+fn subset_is_well_formed(entries: &[aniso::Fitted]) {
     let size = aniso::SIZE;
     let indices: Vec<[usize; 4]> = entries.iter().map(|(i, _)| *i).collect();
     assert_eq!(
@@ -36,7 +48,7 @@ fn the_committed_subset_is_the_documented_one_and_well_formed() {
     );
     assert_eq!(indices.len(), 192);
     let table = aniso::ours();
-    for (i, e) in &entries {
+    for (i, e) in entries {
         let [a, b, _, _] = *i;
         assert!(
             e.m.iter().flatten().all(|x| x.is_finite()) && det(&e.m) > 0.0,
@@ -62,11 +74,13 @@ fn the_committed_subset_is_the_documented_one_and_well_formed() {
 /// hyperparameters) gives the committed bytes.
 #[test]
 fn one_entry_refits_to_the_committed_bits() {
-    let entries = subset();
-    let i = [3, 3, 7, 0];
-    let committed = &entries.iter().find(|(j, _)| *j == i).expect("in the subset").1;
-    let e = sw::fit_entry(aniso::SIZE, i, &sw::PARAMS);
-    assert_eq!(&e, committed);
+    for (file, steps) in SUBSETS {
+        let entries = subset_at(file);
+        let i = [3, 3, 7, 0];
+        let committed = &entries.iter().find(|(j, _)| *j == i).expect("in the subset").1;
+        let e = sw::fit_entry(aniso::SIZE, i, &sw::Params { steps, ..sw::PARAMS });
+        assert_eq!(&e, committed, "{file}");
+    }
 }
 
 /// The comparison's plumbing: the L1 table's entries compared with themselves give equal

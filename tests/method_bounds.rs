@@ -78,6 +78,9 @@ enum Family {
     Textured,
     /// The same with a 4×4-per-face cubemap (a smooth gradient over the faces plus a step).
     TexturedCube,
+    /// Issue 24: [`AboveThin`]'s geometry on two anisotropic GGX lobes (fed our 4D table), for
+    /// the device look-ups of kernels/ltc/ (`minv: ggx`: they feed themselves).
+    GgxAniso,
 }
 
 use Family::*;
@@ -95,6 +98,10 @@ fn materials() -> Vec<(&'static str, Material)> {
     let view = |deg: f64| {
         let t = deg.to_radians();
         [t.sin(), 0.0, t.cos()]
+    };
+    let azimuth = |deg: f64, phi: f64| {
+        let (t, p) = (deg.to_radians(), phi.to_radians());
+        [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()]
     };
     let ltc = |minv| Material::Ltc { minv };
     vec![
@@ -118,6 +125,14 @@ fn materials() -> Vec<(&'static str, Material)> {
             "ggx_0.6_f0.9",
             Material::ggx_fresnel(Roughness::Iso(0.6), view(60.0), Some(0.9), Some("table")).unwrap(),
         ),
+        (
+            "ggx_0.4x0.12",
+            Material::ggx(Roughness::Aniso([0.4, 0.12]), azimuth(40.0, 35.0), Some("aniso")).unwrap(),
+        ),
+        (
+            "ggx_0.08x0.3",
+            Material::ggx(Roughness::Aniso([0.08, 0.3]), azimuth(65.0, 200.0), Some("aniso")).unwrap(),
+        ),
     ]
 }
 
@@ -129,6 +144,7 @@ fn family_materials(f: Family) -> std::ops::Range<usize> {
         BelowLeak => 1..4,
         Fresnel => 6..8,
         Textured | TexturedCube => 0..4,
+        GgxAniso => 8..10,
     }
 }
 
@@ -185,7 +201,7 @@ fn family(f: Family, mi: usize) -> Vec<Config> {
         };
         let along = |c: Vec3, t: Vec3, a: f64| [0, 1, 2].map(|k| c[k] + a * t[k]);
         let (p1, p2) = match f {
-            AboveThin | AboveThick | CrossingThin | CrossingThick | Fresnel | Textured | TexturedCube => {
+            AboveThin | AboveThick | CrossingThin | CrossingThick | Fresnel | Textured | TexturedCube | GgxAniso => {
                 // The centre at distance 1 and elevation 10°–80°, any tangent, L/d in [0.1, 4].
                 let c = centre(&mut rng, 10.0);
                 let t = random_unit(&mut rng);
@@ -234,13 +250,15 @@ fn family(f: Family, mi: usize) -> Vec<Config> {
         };
         let margin = 0.05;
         let keep = match f {
-            AboveThin | AboveThick | NearPlane | Fresnel | Textured | TexturedCube => p1[2] > margin && p2[2] > margin,
+            AboveThin | AboveThick | NearPlane | Fresnel | Textured | TexturedCube | GgxAniso => {
+                p1[2] > margin && p2[2] > margin
+            }
             CrossingThin | CrossingThick => p1[2].min(p2[2]) < -margin && p1[2].max(p2[2]) > margin,
             _ => true,
         };
         // Drawn even when unused, so that every family keeps one stream of draws.
         let ratio = match f {
-            AboveThin | CrossingThin | Fresnel => 10f64.powf(rng.random_range(-4.0..-3.0f64)),
+            AboveThin | CrossingThin | Fresnel | GgxAniso => 10f64.powf(rng.random_range(-4.0..-3.0f64)),
             _ => 10f64.powf(rng.random_range(-1.7..-0.7f64)),
         };
         let mut normal = random_unit(&mut rng);
@@ -664,6 +682,14 @@ fn the_configuration_set_is_fixed() {
 
 #[rustfmt::skip]
 const ROWS: &[Row] = &[
+    // Issue 24: our tables looked up on the device (kernels/ltc/), fed to line.ltc2017: the table's
+    // LTC against GGX truth (the isotropic one at the geometric-mean α on anisotropic lobes).
+    row("line.ltc_lookup_iso[line.ltc2017]", ALL, Model, 1.00e0, 1.00e0, -1.5066e-1),
+    row("line.ltc_lookup_iso[line.ltc2017]", &[Fresnel], Model, 7.14e-1, 7.14e-1, -8.5772e-2),
+    row("line.ltc_lookup_iso[line.ltc2017]", &[GgxAniso], Model, 6.44e0, 6.44e0, 6.1760e-1),
+    row("line.ltc_lookup_aniso[line.ltc2017]", ALL, Model, 1.00e0, 1.00e0, -1.4515e-1),
+    row("line.ltc_lookup_aniso[line.ltc2017]", &[Fresnel], Model, 7.05e-1, 7.05e-1, -7.6518e-2),
+    row("line.ltc_lookup_aniso[line.ltc2017]", &[GgxAniso], Model, 1.54e0, 1.54e0, -8.8497e-2),
     // Issue 25: the one-look-up tints of seed 002 and ours, against the textured references.
     row("line.texture_closest[line.ltc2023_full]", &[Textured], Model, 7.54e-1, 7.54e-1, -1.4847e-1),
     row("line.texture_cube[line.ltc2023_full]", &[TexturedCube], Model, 1.11e0, 1.11e0, 6.3825e-2),

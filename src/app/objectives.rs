@@ -51,6 +51,8 @@ pub fn run(subset: &Path, out: &Path, lines: usize) -> anyhow::Result<super::Sta
     let inputs = crate::report::objectives::Inputs {
         command: format!("linelight objectives --subset {} --lines {lines}", subset.display()),
         sw_record: record(&subset.with_extension("run.json")),
+        subset: subset.display().to_string(),
+        sw_record_path: subset.with_extension("run.json").display().to_string(),
         l1_record: record(&Path::new(env!("CARGO_MANIFEST_DIR")).join("data/ltc_ggx_aniso.run.json")),
     };
     let outputs = crate::report::objectives::outputs(&analysis, &inputs);

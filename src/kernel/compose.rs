@@ -22,8 +22,9 @@ const ENTRY_POINT: &str = "\
 @group(0) @binding(0) var<storage, read> ll_scenes: array<Scene>;
 @group(0) @binding(1) var<storage, read_write> ll_results: array<f32>;
 @group(0) @binding(2) var<uniform> ll_count: u32;
-// Binding 3, `ll_texels` (light textures' texels), is declared in the prelude beside the
-// routine that reads it, so a kernel parses before this entry point is appended.
+// Binding 3, `ll_texels` (light textures' texels), and binding 4, `ll_ltc` (our LTC tables,
+// read by kernels/ltc/), are declared in the prelude beside what reads them, so a kernel parses
+// before this entry point is appended.
 
 @compute @workgroup_size(64)
 fn ll_main(@builtin(global_invocation_id) ll_id: vec3<u32>) {

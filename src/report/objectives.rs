@@ -12,6 +12,10 @@ use std::fmt::Write;
 pub struct Inputs {
     pub command: String,
     pub sw_record: Option<serde_json::Value>,
+    /// The SW subset's path, as given.
+    pub subset: String,
+    /// Where `sw_record` was read from (the subset's `.run.json`).
+    pub sw_record_path: String,
     pub l1_record: Option<serde_json::Value>,
 }
 
@@ -63,7 +67,7 @@ pub fn outputs(o: &Objectives, inputs: &Inputs) -> Vec<Box<dyn Format>> {
         "# Seed 004's objective beside ours: sliced Wasserstein (SGD) against L1 (Nelder–Mead)\n\n\
          `{}` (issue 24; docs/ggx.md). {} entries of the {}×{}×{}×{} anisotropic table, each fitted twice: \
          by our L1 lobe error (Nelder–Mead, `data/ltc_ggx_aniso.csv`) and by seed 004's sliced-Wasserstein loss \
-         (SGD, `data/ltc_ggx_aniso_sw_subset.csv`, src/input/ltc/sw.rs), both aligned and post-processed alike. \
+         (SGD, `{}`, src/input/ltc/sw.rs), both aligned and post-processed alike. \
          Each entry is judged at its own node (its lobe exactly, no look-up): {} lines per region drawn from the \
          entry's own seeded stream, the GGX truth T of the `line` target against the magnitude times the exact \
          LTC line integral of each M, over the whole segment (the `line` target: the part of the lobe below the \
@@ -72,7 +76,15 @@ pub fn outputs(o: &Objectives, inputs: &Inputs) -> Vec<Box<dyn Format>> {
          count the median is the lower middle value). SW distances are estimates from 4096 samples × 256 \
          directions, whose own sampling floor is of the order of the sharpest lobes' values (α_max = 0.02). \
          Measured in {:.1} s of wall time.\n",
-        inputs.command, o.entries, o.size[0], o.size[1], o.size[2], o.size[3], o.lines_per_region, o.seconds
+        inputs.command,
+        o.entries,
+        o.size[0],
+        o.size[1],
+        o.size[2],
+        o.size[3],
+        inputs.subset,
+        o.lines_per_region,
+        o.seconds
     );
     let _ = writeln!(md, "## Findings\n");
     for f in &o.findings {
@@ -80,7 +92,8 @@ pub fn outputs(o: &Objectives, inputs: &Inputs) -> Vec<Box<dyn Format>> {
     }
     let _ = writeln!(
         md,
-        "\n## The fits\n\n- SW (`data/ltc_ggx_aniso_sw_subset.run.json`): {}.\n- L1 (`data/ltc_ggx_aniso.run.json`, the whole table): {}.\n",
+        "\n## The fits\n\n- SW (`{}`): {}.\n- L1 (`data/ltc_ggx_aniso.run.json`, the whole table): {}.\n",
+        inputs.sw_record_path,
         record_line(
             &inputs.sw_record,
             &[
@@ -95,7 +108,10 @@ pub fn outputs(o: &Objectives, inputs: &Inputs) -> Vec<Box<dyn Format>> {
                 "seconds"
             ]
         ),
-        record_line(&inputs.l1_record, &["objective", "objective_grid", "fitted", "threads", "seconds"])
+        record_line(
+            &inputs.l1_record,
+            &["objective", "objective_grid", "fitted", "threads", "seconds"]
+        )
     );
     for (name, groups) in &o.regions {
         let _ = writeln!(

@@ -140,6 +140,19 @@ impl<'p> Walk<'p> {
                 self.heap.push(texels.take().unwrap_or_default());
                 continue;
             }
+            if g.name.as_deref() == Some("ll_ltc") {
+                // The LTC tables (binding 4), f32 texels, points; unbound when no function reads them.
+                if p.reads_ltc {
+                    self.globals[h.index()] = Some(self.heap.len());
+                    self.heap.push(
+                        crate::input::ltc::device::ours()
+                            .iter()
+                            .map(|&x| Iv::point(f64::from(x)))
+                            .collect(),
+                    );
+                }
+                continue;
+            }
             if g.space != naga::AddressSpace::Private {
                 continue;
             }

@@ -284,6 +284,15 @@ impl<'p> Exec<'p> {
                 self.heap.push(texels.take().unwrap_or_else(|| Val(Vec::new())));
                 continue;
             }
+            if g.name.as_deref() == Some("ll_ltc") {
+                // The LTC tables, one-lane components shared by every lane (`Program::ltc_lanes`);
+                // left unbound when no function reads them.
+                if let Some(t) = p.ltc_lanes() {
+                    self.globals[h.index()] = Some(self.heap.len());
+                    self.heap.push(t);
+                }
+                continue;
+            }
             if g.space != naga::AddressSpace::Private {
                 continue;
             }
@@ -721,10 +730,28 @@ impl<'p> Exec<'p> {
             E::Load { pointer } => {
                 let ptr = self.ptr(fr, *pointer)?;
                 let src = &self.heap[ptr.slot];
+                // A one-lane component (the shared LTC tables, `ll_ltc`) is every lane's value.
+                let n = self.n;
                 let out = match &ptr.off {
-                    Off::Uniform(o) => src.0[*o..*o + ptr.len].to_vec(),
+                    Off::Uniform(o) => src.0[*o..*o + ptr.len]
+                        .iter()
+                        .map(|l| {
+                            if l.len() == n {
+                                l.clone()
+                            } else {
+                                std::rc::Rc::new(vec![l[0]; n])
+                            }
+                        })
+                        .collect(),
                     Off::PerLane(o) => (0..ptr.len)
-                        .map(|c| (0..self.n).map(|i| src.0[o[i] + c][i]).lanes())
+                        .map(|c| {
+                            (0..n)
+                                .map(|i| {
+                                    let l = &src.0[o[i] + c];
+                                    l[if l.len() == n { i } else { 0 }]
+                                })
+                                .lanes()
+                        })
                         .collect(),
                 };
                 Slot::Val(Val(out))

@@ -106,6 +106,9 @@ pub struct Program {
     /// `Scene` members: name, component offset, length.
     scene: Vec<(String, usize, usize)>,
     scene_minv: (usize, usize),
+    /// Whether a function reads `ll_ltc` (the harness's LTC tables, binding 4): only then is
+    /// the table given to the run ([`ltc_tables`]).
+    reads_ltc: bool,
     /// Constants of a translated kernel (GLSL, HLSL) whose written digits are lost: the f64
     /// evaluation is refused (src/kernel/written.rs).
     lost_digits: Vec<String>,
@@ -131,6 +134,20 @@ pub fn program(method: &Method) -> Result<Arc<Program>> {
     let p = Arc::new(Program::new(method).with_context(|| format!("CPU evaluator for {}", method.describe()))?);
     cache.lock().expect("cache lock").insert(key, p.clone());
     Ok(p)
+}
+
+/// [`Program::ltc_lanes`]'s value, made once per thread (its components are `Rc`s): one
+/// one-lane component per float.
+fn ltc_tables() -> exec::Val {
+    thread_local! {
+        static T: exec::Val = exec::Val(
+            crate::input::ltc::device::ours()
+                .iter()
+                .map(|&x| std::rc::Rc::new(vec![f64::from(x)]))
+                .collect(),
+        );
+    }
+    T.with(Clone::clone)
 }
 
 /// A method's `f64` and `cpu_f32` columns from its own kernel on the CPU evaluator. A trait
@@ -486,7 +503,16 @@ impl Program {
                 anyhow::bail!("`Scene` member `{name}` has no CPU input (src/input/scene.rs `SceneInput::member`)");
             }
         }
+        let reads_ltc = m.global_variables.iter().any(|(g, v)| {
+            v.name.as_deref() == Some("ll_ltc")
+                && m.functions.iter().any(|(_, f)| {
+                    f.expressions
+                        .iter()
+                        .any(|(_, e)| matches!(e, E::GlobalVariable(h) if *h == g))
+                })
+        });
         Ok(Program {
+            reads_ltc,
             module: c.module,
             info: c.info,
             method,
@@ -577,6 +603,14 @@ impl Program {
             }
         }
         exec::Val(comps.into_iter().map(Into::into).collect())
+    }
+
+    /// The harness's LTC tables as the kernel reads them through `ll_ltc` (binding 4,
+    /// `input::ltc::device`): the same f32 texels on every lane, f32 and f64 lanes alike (the
+    /// table is data a shader reads as f32), held once as one-lane components that a load
+    /// gives every lane (`exec.rs`); None when no function reads it.
+    fn ltc_lanes(&self) -> Option<exec::Val> {
+        self.reads_ltc.then(ltc_tables)
     }
 
     fn scene_lanes(&self, configs: &[&Config], n: usize, split: usize, shadow_f32: bool) -> exec::Val {

@@ -487,7 +487,9 @@ fn inverse_f32(m: &[[f32; 3]; 3]) -> [[f32; 3]; 3] {
 }
 
 impl AnisoTable {
-    fn texel(&self, i: [usize; 4], storage: Storage) -> [f32; 11] {
+    /// Entry `i` as a shader's textures hold it: M row-major (third column of unit length),
+    /// magnitude, Fresnel term, each rounded to `storage` (the device tables, `device.rs`).
+    pub(crate) fn texel(&self, i: [usize; 4], storage: Storage) -> [f32; 11] {
         let e = &self.entries[index(self.size, i)];
         let mut t = [0.0f32; 11];
         for r in 0..3 {

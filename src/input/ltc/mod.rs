@@ -4,6 +4,7 @@
 //! and the magnitude, as a shader samples them (docs/ggx.md).
 
 pub mod aniso;
+pub mod device;
 pub mod fit;
 pub mod ggx;
 pub mod sw;

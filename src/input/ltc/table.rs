@@ -58,7 +58,10 @@ fn f16_round(x: f64) -> f32 {
 }
 
 impl Table {
-    fn texel(&self, a: usize, t: usize, storage: Storage) -> [f32; 6] {
+    /// Entry (a, t) as a shader's two textures hold it: (a, b, c, d) of the sparse M⁻¹ with
+    /// its last entry divided out, magnitude, Fresnel term, rounded to `storage` (the device
+    /// tables, `device.rs`).
+    pub(crate) fn texel(&self, a: usize, t: usize, storage: Storage) -> [f32; 6] {
         let e = &self.entries[a + self.size * t];
         let s = e.minv[2][2];
         let v = [

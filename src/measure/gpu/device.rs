@@ -106,6 +106,9 @@ pub struct Gpu {
     pub(crate) capabilities: Capabilities,
     /// The loop limit, once probed (loops.rs).
     pub(crate) loop_limit: std::sync::OnceLock<Option<u64>>,
+    /// Our LTC tables (binding 4, `ll_ltc`; src/input/ltc/device.rs), uploaded once: every
+    /// chunk's bind group binds this buffer.
+    pub(crate) ltc_tables: wgpu::Buffer,
 }
 
 impl Gpu {
@@ -145,7 +148,9 @@ impl Gpu {
                 adapter: summary.to_string(),
                 message: e.to_string(),
             })?;
+        let ltc_tables = ltc_table_buffer(&device, &queue);
         Ok(Gpu {
+            ltc_tables,
             adapter: summary,
             capabilities: naga_capabilities(device.features()),
             loop_limit: std::sync::OnceLock::new(),
@@ -206,6 +211,8 @@ fn layouts(device: &wgpu::Device) -> (wgpu::BindGroupLayout, wgpu::PipelineLayou
             },
             // The light textures' texels (issue 25).
             storage(3, true),
+            // Our LTC tables (issue 24), read by the device look-ups of kernels/ltc/.
+            storage(4, true),
         ],
     });
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -214,6 +221,20 @@ fn layouts(device: &wgpu::Device) -> (wgpu::BindGroupLayout, wgpu::PipelineLayou
         immediate_size: 0,
     });
     (bind_group_layout, pipeline_layout)
+}
+
+/// The buffer of binding 4, `ll_ltc`: our LTC tables as the device look-ups read them
+/// (`input::ltc::device::ours`, about 280 kB).
+fn ltc_table_buffer(device: &wgpu::Device, queue: &wgpu::Queue) -> wgpu::Buffer {
+    let data = crate::input::ltc::device::ours();
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("ll_ltc"),
+        size: std::mem::size_of_val(data) as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    queue.write_buffer(&buffer, 0, bytemuck::cast_slice(data));
+    buffer
 }
 
 /// Runs `f` inside validation and out-of-memory error scopes, so wgpu's errors come back

@@ -319,6 +319,10 @@ impl ChunkBuffers {
                     binding: 3,
                     resource: texel_buffer.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: gpu.ltc_tables.as_entire_binding(),
+                },
             ],
         });
         ChunkBuffers {

@@ -251,6 +251,10 @@ impl Gpu {
                     binding: 3,
                     resource: texels.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: self.ltc_tables.as_entire_binding(),
+                },
             ],
         });
         Chunk {
