@@ -350,28 +350,35 @@ pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Shards> {
     for p in files {
         // A FIFO named like a shard would block; a state larger than the memory limit cannot be held.
         let bytes = crate::io::read_regular(&p, "shard state", crate::limits::max_memory().0)?;
-        let probe: Probe = ciborium::from_reader(bytes.as_slice()).map_err(|e| {
+        let old_format = |format: u32| {
             anyhow::anyhow!(
-                "merge: {} is not a linelight shard record: {}",
-                p.display(),
-                cbor_error(&e)
+                "merge: {} is a shard record of format {format}; this linelight reads format {SHARD_FORMAT} (whose \
+                 shards run their own searches and whose shard 0 times the methods, so that the merge needs no \
+                 GPU): re-run the shards with this linelight (`linelight sweep CASE --shard I/N --out DIR`)",
+                p.display()
             )
-        })?;
-        anyhow::ensure!(
-            probe.state.format == SHARD_FORMAT,
-            "merge: {} is a shard record of format {}; this linelight reads format {SHARD_FORMAT} (whose shards \
-             run their own searches and whose shard 0 times the methods, so that the merge needs no GPU): \
-             re-run the shards with this linelight (`linelight sweep CASE --shard I/N --out DIR`)",
-            p.display(),
-            probe.state.format
-        );
-        let f: ShardFile = ciborium::from_reader(bytes.as_slice()).map_err(|e| {
-            anyhow::anyhow!(
-                "merge: {} is not a linelight shard record: {}",
-                p.display(),
-                cbor_error(&e)
-            )
-        })?;
+        };
+        // Decoded once (a record is hundreds of MB at a large count); only a record that does not
+        // decode is probed for its format, to say why.
+        let f: ShardFile = match ciborium::from_reader(bytes.as_slice()) {
+            Ok(f) => f,
+            Err(e) => {
+                if let Ok(probe) = ciborium::from_reader::<Probe, _>(bytes.as_slice()) {
+                    if probe.state.format != SHARD_FORMAT {
+                        return Err(old_format(probe.state.format));
+                    }
+                }
+                anyhow::bail!(
+                    "merge: {} is not a linelight shard record: {}",
+                    p.display(),
+                    cbor_error(&e)
+                );
+            }
+        };
+        drop(bytes);
+        if f.state.format != SHARD_FORMAT {
+            return Err(old_format(f.state.format));
+        }
         let ShardFile {
             case,
             kernels,

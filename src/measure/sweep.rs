@@ -1262,3 +1262,95 @@ pub fn parse_shard(text: &str) -> anyhow::Result<(usize, usize)> {
     }
     Ok((i, n))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::measure::search::{Start, TopK};
+
+    /// A case of one family, drawn: distinct samples to stand for starts.
+    fn samples(n: usize) -> Vec<Sample> {
+        let case = crate::input::case::Case::parse(
+            "t.toml",
+            &format!(
+                r#"
+name = "t"
+title = "t"
+seed = 1
+methods = ["line.ltc2017"]
+[geometry]
+elevation = {{ dist = "uniform", min = 10.0, max = 90.0 }}
+tilt_angle = {{ dist = "uniform", min = 0.0, max = 180.0 }}
+length = {{ dist = "log_uniform", min = 0.1, max = 10.0 }}
+center = {{ dist = "uniform", min = -2.0, max = 2.0 }}
+[[materials]]
+name = "d"
+kind = "diffuse"
+count = {n}
+"#
+            ),
+        )
+        .unwrap();
+        crate::input::sampler::sample_case(&case)
+    }
+
+    fn start(sample: &Sample, score: f64) -> Start {
+        Start {
+            sample: sample.clone(),
+            values: vec![0.0],
+            reference: crate::reference::Estimate { value: 1.0, error: 0.0 },
+            score,
+        }
+    }
+
+    fn row(sample: &Sample, bin: usize, j: usize, score: f64) -> TopUpRow {
+        TopUpRow {
+            key: sampler::TopUpKey {
+                family: 0,
+                axis: 0,
+                bin,
+                j,
+            },
+            draws: 1,
+            measured: Some(Row {
+                sample: sample.clone(),
+                references: BTreeMap::new(),
+                references_f32: BTreeMap::new(),
+                // The score stands in the f32 column.
+                f32: vec![score as f32],
+                f32_cpu: vec![None],
+                f64: vec![None],
+            }),
+        }
+    }
+
+    /// A shard climbs its own best natural starts and every measured top-up that fewer than k
+    /// of the starts certain to be in the whole sample beside it (its natural ones, the earlier
+    /// top-ups of its bin) outscore, ties counting against the top-up (the lower global index
+    /// wins a tie).
+    #[test]
+    fn a_shard_climbs_every_top_up_that_could_be_among_the_best() {
+        let s = samples(9);
+        let mut top = TopK::new(2);
+        top.push(0, start(&s[0], 5.0));
+        top.push(1, start(&s[1], 3.0));
+        top.push(2, start(&s[2], 1.0));
+        let rows = [
+            row(&s[3], 0, 0, 4.0), // one natural above: climbed
+            row(&s[4], 0, 1, 3.5), // the natural 5 and the top-up 4 before it: not
+            row(&s[5], 0, 2, 6.0), // none above: climbed
+            row(&s[6], 1, 0, 3.0), // ties the natural 3, which wins the tie: with 5, two: not
+            row(&s[7], 1, 1, 4.5), // the 5 only (bin 0's top-ups need not be kept): climbed
+            row(&s[8], 1, 2, 0.5), // below two naturals: not
+        ];
+        let refs: Vec<&TopUpRow> = rows.iter().collect();
+        let scored = |r: &Row| Some(start(&r.sample, r.f32[0] as f64));
+        let climbed: Vec<f64> = starts_to_climb(&top, &refs, &scored)
+            .into_iter()
+            .map(|x| x.score)
+            .collect();
+        assert_eq!(climbed, [5.0, 3.0, 4.0, 6.0, 4.5]);
+        // No start kept at all: nothing climbs.
+        assert!(starts_to_climb(&TopK::new(0), &refs, &scored).is_empty());
+    }
+}
