@@ -171,7 +171,12 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
             part.measured.configurations(),
             part.measured.timing.total_seconds,
             part.measured.timing.sampling_seconds,
-            climbs.search.iter().chain(&climbs.disagree).map(Vec::len).sum::<usize>(),
+            climbs
+                .search
+                .iter()
+                .chain(&climbs.disagree)
+                .map(Vec::len)
+                .sum::<usize>(),
             path.display()
         );
         return Ok(Status::Ok);

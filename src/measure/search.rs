@@ -319,8 +319,7 @@ impl TopK {
 /// The climbs of the starts `starts` (best first), found among `climbs` by key: every start a
 /// search keeps must have been climbed (by the run, or by the shard that measured it).
 fn climbs_of<'a>(starts: &[Start], climbs: &'a [Climbed], what: &str) -> anyhow::Result<Vec<&'a Climbed>> {
-    let by_key: std::collections::HashMap<&[u64], &Climbed> =
-        climbs.iter().map(|c| (c.key.as_slice(), c)).collect();
+    let by_key: std::collections::HashMap<&[u64], &Climbed> = climbs.iter().map(|c| (c.key.as_slice(), c)).collect();
     starts
         .iter()
         .map(|s| {
