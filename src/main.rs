@@ -93,7 +93,8 @@ enum Command {
         gate: GateArgs,
     },
     /// Merge the shard states of a sharded sweep (`sweep --shard i/n`) into the report the
-    /// unsharded sweep writes (docs/scale.md).
+    /// unsharded sweep writes (docs/scale.md). Needs no GPU: the shards ran the searches and
+    /// shard 0 timed the methods.
     Merge {
         /// Directories holding the shard-I-of-N.cbor files (every shard exactly once).
         #[arg(required = true)]
@@ -101,8 +102,6 @@ enum Command {
         /// Reports go to OUT/<case name>/.
         #[arg(long, default_value = "reports")]
         out: PathBuf,
-        #[command(flatten)]
-        gpu: GpuArgs,
     },
     /// Render a floor under the light, one configuration per floor pixel, per method, with
     /// relative-error and FLIP images against the reference (docs/render.md).
@@ -385,7 +384,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
             },
             &gpu.options(),
         ),
-        Command::Merge { shards, out, gpu } => app::sweep::merge(&shards, &out, &gpu.options()),
+        Command::Merge { shards, out } => app::sweep::merge(&shards, &out),
         Command::Render {
             scene,
             out,

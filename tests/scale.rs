@@ -126,18 +126,182 @@ fn merged_shards_give_the_unsharded_report() {
         "no sketched bin: the test would not cover sketches"
     );
     assert!(stats(&whole).contains(",exact"));
+    // The searches ran in the shards, each start's climb the one the unsharded run makes of
+    // it, and the merge kept the climbs of the whole sample's best starts: the same findings.
     for f in [
         "worst.jsonl",
         "disagreements.jsonl",
         "comparisons.csv",
         "nonfinite.jsonl",
     ] {
+        assert!(whole.join("sharded").join(f).is_file(), "{f}");
         assert_eq!(
             std::fs::read(whole.join("sharded").join(f)).ok(),
             std::fs::read(merged.join("sharded").join(f)).ok(),
             "{f}"
         );
     }
+    assert!(
+        !std::fs::read_to_string(whole.join("sharded/disagreements.jsonl"))
+            .unwrap()
+            .is_empty(),
+        "no disagreement found: the test would not cover the searches"
+    );
+    // Shard 0 alone timed the methods and attributed; the report says so.
+    assert_eq!(b["timing"]["shards"], 3);
+    assert!(b["timing"]["cost_rounds"].as_array().is_some_and(|r| r.len() == 2));
+    let report = std::fs::read_to_string(merged.join("sharded/report.md")).unwrap();
+    assert!(report.contains("Merged from 3 shards"), "timing section");
+    assert!(report.contains("ran in shard 0 of 3 alone"), "timing section");
+
+    // No Vulkan adapter (the loader pointed at nothing), the shards given in another order:
+    // the same files.
+    let bare = d.join("bare");
+    let mut args = vec!["merge".to_string()];
+    args.extend(dirs.iter().rev().cloned());
+    args.extend(["--out".to_string(), s(&bare)]);
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .args(&args)
+        .env("VK_ICD_FILENAMES", "/nonexistent")
+        .env("VK_DRIVER_FILES", "/nonexistent")
+        .output()
+        .unwrap();
+    assert!(o.status.code().is_some_and(|c| c <= 1), "{}", stderr(&o));
+    // That environment has no adapter: a sweep there is refused for want of one.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_linelight"))
+        .args(["sweep", &s(&case), "--shard", "0/3", "--out", &s(&d.join("none"))])
+        .env("VK_ICD_FILENAMES", "/nonexistent")
+        .env("VK_DRIVER_FILES", "/nonexistent")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    for f in [
+        "stats.csv",
+        "worst.jsonl",
+        "disagreements.jsonl",
+        "comparisons.csv",
+        "nonfinite.jsonl",
+    ] {
+        assert_eq!(
+            std::fs::read(merged.join("sharded").join(f)).ok(),
+            std::fs::read(bare.join("sharded").join(f)).ok(),
+            "{f}"
+        );
+    }
+    let mut c = json(&bare.join("sharded/summary.json"));
+    let mut m = b.clone();
+    for v in [&mut c, &mut m] {
+        let o = v.as_object_mut().unwrap();
+        // When and how it was called.
+        o.remove("stages");
+        o.remove("command_line");
+    }
+    assert_eq!(c, m, "summary.json");
+
+    // Malformed search or timing state in a record: refused with exit 2, naming it, nothing written.
+    let refused = |dirs: &[String], why: &str| {
+        let out = d.join("refused");
+        let mut args = vec!["merge".to_string()];
+        args.extend(dirs.iter().cloned());
+        args.extend(["--out".to_string(), s(&out)]);
+        let o = linelight(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        assert_eq!(o.status.code(), Some(2), "{why}: {}", stderr(&o));
+        assert!(stderr(&o).contains(why), "{why}: {}", stderr(&o));
+        assert!(!out.exists(), "{why}: written");
+    };
+    let edited = |i: usize, what: &str, edit: &dyn Fn(&mut ciborium::Value, &ciborium::Value)| -> Vec<String> {
+        let copy = d.join(format!("edited-{what}"));
+        let _ = std::fs::remove_dir_all(&copy);
+        let mut out = Vec::new();
+        for (k, dir) in dirs.iter().enumerate() {
+            let to = copy.join(format!("shard{k}"));
+            std::fs::create_dir_all(&to).unwrap();
+            let name = format!("shard-{k}-of-{n}.cbor");
+            let bytes = std::fs::read(std::path::Path::new(dir).join(&name)).unwrap();
+            if k == i {
+                let zero = std::fs::read(std::path::Path::new(&dirs[0]).join(format!("shard-0-of-{n}.cbor"))).unwrap();
+                let zero: ciborium::Value = ciborium::from_reader(zero.as_slice()).unwrap();
+                let mut value: ciborium::Value = ciborium::from_reader(bytes.as_slice()).unwrap();
+                edit(measured_mut(&mut value), &measured_of(&zero));
+                let mut w = Vec::new();
+                ciborium::into_writer(&value, &mut w).unwrap();
+                std::fs::write(to.join(&name), w).unwrap();
+            } else {
+                std::fs::write(to.join(&name), bytes).unwrap();
+            }
+            // The case file is found at its absolute path, as the shards ran it.
+            out.push(s(&to));
+        }
+        out
+    };
+    let set = |v: &mut ciborium::Value, key: &str, to: ciborium::Value| {
+        for (k, x) in v.as_map_mut().unwrap() {
+            if k.as_text() == Some(key) {
+                *x = to;
+                return;
+            }
+        }
+        panic!("no {key}");
+    };
+    let get = |v: &ciborium::Value, key: &str| -> ciborium::Value {
+        v.as_map()
+            .unwrap()
+            .iter()
+            .find(|(k, _)| k.as_text() == Some(key))
+            .map(|(_, x)| x.clone())
+            .unwrap()
+    };
+    // Shard 0 without its timing of methods.
+    let dirs2 = edited(0, "untimed", &|m, _| set(m, "timed", ciborium::Value::Null));
+    refused(&dirs2, "no part timed the methods");
+    // A second shard with a timing of methods.
+    let dirs2 = edited(1, "timed-twice", &|m, zero| set(m, "timed", get(zero, "timed")));
+    refused(&dirs2, "both timed the methods");
+    // A shard whose climbs are gone: the whole sample's best starts it measured were not climbed.
+    let dirs2 = edited(0, "unclimbed", &|m, _| {
+        let mut climbs = get(m, "climbs");
+        for (_, v) in climbs.as_map_mut().unwrap() {
+            for list in v.as_array_mut().unwrap() {
+                *list = ciborium::Value::Array(Vec::new());
+            }
+        }
+        set(m, "climbs", climbs);
+    });
+    refused(&dirs2, "was not climbed by any part");
+    // Climbs of another set of searches.
+    let dirs2 = edited(1, "other-searches", &|m, _| {
+        let mut climbs = get(m, "climbs");
+        for (_, v) in climbs.as_map_mut().unwrap() {
+            v.as_array_mut().unwrap().pop();
+        }
+        set(m, "climbs", climbs);
+    });
+    refused(&dirs2, "different searches");
+}
+
+/// The measure stage's part of a shard record (`state.measured`).
+fn measured_mut(record: &mut ciborium::Value) -> &mut ciborium::Value {
+    fn field<'a>(v: &'a mut ciborium::Value, key: &str) -> &'a mut ciborium::Value {
+        v.as_map_mut()
+            .unwrap()
+            .iter_mut()
+            .find(|(k, _)| k.as_text() == Some(key))
+            .map(|(_, x)| x)
+            .unwrap()
+    }
+    field(field(record, "state"), "measured")
+}
+
+fn measured_of(record: &ciborium::Value) -> ciborium::Value {
+    let field = |v: &ciborium::Value, key: &str| -> ciborium::Value {
+        v.as_map()
+            .unwrap()
+            .iter()
+            .find(|(k, _)| k.as_text() == Some(key))
+            .map(|(_, x)| x.clone())
+            .unwrap()
+    };
+    field(&field(record, "state"), "measured")
 }
 
 #[test]

@@ -21,8 +21,10 @@ use std::path::{Path, PathBuf};
 /// surface; 6 names the measuring times of the CPU evaluator's columns `cpu_f64_seconds` and
 /// `cpu_f32_seconds`, once `f64_ports` and `f32_ports`; 7 draws each configuration from its
 /// own counter-based stream, so a shard draws only its own, and keeps its natural bin counts,
-/// its draws and its measured top-ups whole until the merge settles them, issue 23).
-pub const SHARD_FORMAT: u32 = 7;
+/// its draws and its measured top-ups whole until the merge settles them, issue 23; 8 holds the
+/// shard's search climbs and, in shard 0, the timing of methods, the attribution and the
+/// envelope, so that the merge needs no GPU, issue 23).
+pub const SHARD_FORMAT: u32 = 8;
 
 /// What measuring a sweep's configurations, or one shard's, leaves before the searches and
 /// the cost pass: mergeable (`linelight merge`). Written by `sweep --shard i/n`.
@@ -138,6 +140,7 @@ impl Partial {
             None,
         )?;
         all.shard = (0, 1);
+        all.measured.timing.shards = n;
         Ok(all)
     }
 }
@@ -230,6 +233,15 @@ struct ShardFile {
     state: Partial,
 }
 
+/// [`ShardFile`] as written: the same fields, borrowed.
+#[derive(serde::Serialize)]
+struct ShardFileRef<'a> {
+    case: &'a Recorded,
+    kernels: &'a [Recorded],
+    sources: Vec<(String, String)>,
+    state: &'a Partial,
+}
+
 /// The shard records given to a merge, checked against each other and against the files now.
 pub struct Shards {
     /// The case file as found now (its contents are those the shards ran).
@@ -282,15 +294,20 @@ pub fn write_shard(
 ) -> anyhow::Result<PathBuf> {
     let (i, n) = part.shard;
     let path = shard_path(out, i, n);
-    let file = ShardFile {
-        case,
-        kernels,
+    // Encoded straight into the file from the state, neither copied nor held as bytes: a
+    // shard's peak memory is its statistics once, as the unsharded run's is.
+    let file = ShardFileRef {
+        case: &case,
+        kernels: &kernels,
         sources: methods.iter().map(|m| (m.label.clone(), source_sha256(m))).collect(),
-        state: part.clone(),
+        state: part,
     };
-    let mut bytes = Vec::new();
-    ciborium::into_writer(&file, &mut bytes).context("cannot encode the shard state")?;
-    crate::io::write_bytes(&path, &bytes)?;
+    crate::io::write_output(&path, &mut |w| {
+        ciborium::into_writer(&file, w).map_err(|e| match e {
+            ciborium::ser::Error::Io(io) => io,
+            ciborium::ser::Error::Value(m) => std::io::Error::other(format!("cannot encode the shard state: {m}")),
+        })
+    })?;
     Ok(path)
 }
 
@@ -333,28 +350,35 @@ pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Shards> {
     for p in files {
         // A FIFO named like a shard would block; a state larger than the memory limit cannot be held.
         let bytes = crate::io::read_regular(&p, "shard state", crate::limits::max_memory().0)?;
-        let probe: Probe = ciborium::from_reader(bytes.as_slice()).map_err(|e| {
+        let old_format = |format: u32| {
             anyhow::anyhow!(
-                "merge: {} is not a linelight shard record: {}",
-                p.display(),
-                cbor_error(&e)
+                "merge: {} is a shard record of format {format}; this linelight reads format {SHARD_FORMAT} (whose \
+                 shards run their own searches and whose shard 0 times the methods, so that the merge needs no \
+                 GPU): re-run the shards with this linelight (`linelight sweep CASE --shard I/N --out DIR`)",
+                p.display()
             )
-        })?;
-        anyhow::ensure!(
-            probe.state.format == SHARD_FORMAT,
-            "merge: {} is a shard record of format {}; this linelight reads format {SHARD_FORMAT} (which draws \
-             each configuration from its own stream, so the sample differs from older shards'): re-run the \
-             shards with this linelight (`linelight sweep CASE --shard I/N --out DIR`)",
-            p.display(),
-            probe.state.format
-        );
-        let f: ShardFile = ciborium::from_reader(bytes.as_slice()).map_err(|e| {
-            anyhow::anyhow!(
-                "merge: {} is not a linelight shard record: {}",
-                p.display(),
-                cbor_error(&e)
-            )
-        })?;
+        };
+        // Decoded once (a record is hundreds of MB at a large count); only a record that does not
+        // decode is probed for its format, to say why.
+        let f: ShardFile = match ciborium::from_reader(bytes.as_slice()) {
+            Ok(f) => f,
+            Err(e) => {
+                if let Ok(probe) = ciborium::from_reader::<Probe, _>(bytes.as_slice()) {
+                    if probe.state.format != SHARD_FORMAT {
+                        return Err(old_format(probe.state.format));
+                    }
+                }
+                anyhow::bail!(
+                    "merge: {} is not a linelight shard record: {}",
+                    p.display(),
+                    cbor_error(&e)
+                );
+            }
+        };
+        drop(bytes);
+        if f.state.format != SHARD_FORMAT {
+            return Err(old_format(f.state.format));
+        }
         let ShardFile {
             case,
             kernels,

@@ -146,7 +146,7 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
         setup.methods.len()
     );
     if let Some(shard) = shard {
-        let part = measure_part(
+        let mut part = measure_part(
             &setup,
             &device,
             crate::measure::sweep::MeasureOptions {
@@ -156,15 +156,27 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
             },
             false,
         )?;
+        // Each shard climbs its own starts; shard 0 alone times the methods and attributes.
+        sweep::search_part(&setup, &device, &mut part.measured)?;
+        if shard.0 == 0 {
+            sweep::time_part(&setup, &device, &mut part.measured, shard)?;
+        }
         let (case_record, kernel_records) = recorded.expect("recorded for a shard");
         let path = write_shard(&out, case_record, kernel_records, &setup.methods, &part)?;
+        let climbs = &part.measured.climbs;
         println!(
-            "shard {}/{}: {} configurations in {:.1} s (drawing its own: {:.1} s); state: {}",
+            "shard {}/{}: {} configurations in {:.1} s (drawing its own: {:.1} s; {} search climbs); state: {}",
             shard.0,
             shard.1,
             part.measured.configurations(),
             part.measured.timing.total_seconds,
             part.measured.timing.sampling_seconds,
+            climbs
+                .search
+                .iter()
+                .chain(&climbs.disagree)
+                .map(Vec::len)
+                .sum::<usize>(),
             path.display()
         );
         return Ok(Status::Ok);
@@ -252,8 +264,10 @@ impl Named<'_> {
 }
 
 /// `linelight merge`: the shard states of a sharded sweep merged into the report the unsharded
-/// sweep writes.
-pub fn merge(dirs: &[PathBuf], out: &Path, gpu: &GpuOptions) -> anyhow::Result<Status> {
+/// sweep writes. No GPU: the shards climbed the searches and shard 0 timed the methods; the
+/// merge adds the statistics, settles the top-ups and keeps the climbs of the whole sample's
+/// best starts (`measure::sweep::assemble`).
+pub fn merge(dirs: &[PathBuf], out: &Path) -> anyhow::Result<Status> {
     let started = std::time::Instant::now();
     let command_line = shell_words::join(std::env::args());
     // The case and kernels are found beside the records and must be what the shards ran.
@@ -280,8 +294,12 @@ pub fn merge(dirs: &[PathBuf], out: &Path, gpu: &GpuOptions) -> anyhow::Result<S
     shards.check_sources(&setup.methods)?;
     let part = Partial::merge_all(&setup, shards.parts)?;
     let gate = crate::app::gate::GateRun::prepare(None, None, None, Default::default(), &setup)?;
-    let device = open_gpu(gpu.adapter.as_deref())?;
-    let measured = finish(&setup, &device, part)?;
+    let measured = Swept {
+        measured: sweep::assemble(&setup, part.measured)?,
+        accumulators: part.accumulators,
+        leak: part.leak.finish(&setup.case),
+        observations: part.observations,
+    };
     report_sweep(
         SweepRun {
             case_path: &case_path,

@@ -94,7 +94,7 @@ pub const TRANSCENDENTAL_WEIGHT: u64 = 8;
 
 /// The operations one invocation of an entry point executes (see the module doc for what
 /// each field counts and the weights of `total`).
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct OpCount {
     /// Operators, comparisons, selects, conversions; geometric built-ins by component cost.
     pub arithmetic: u64,

@@ -36,7 +36,7 @@ use std::time::Instant;
 
 /// What timing one method measured, raw: one value per timed round. Its statistics (medians,
 /// spreads, ratios) are the analyse stage's (`analyse::bench::Cost`).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Times {
     /// The method label (`Method.label`).
     pub label: String,

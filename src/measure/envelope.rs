@@ -14,7 +14,7 @@ use std::collections::BTreeMap;
 pub const FREEDOM_CONFIGURATIONS: usize = 32;
 
 /// One configuration's envelope.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct EnvelopeRow {
     /// Index into the case's materials.
     pub material: usize,
@@ -28,7 +28,7 @@ pub struct EnvelopeRow {
 }
 
 /// One method's envelopes and freedom.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct MethodEnvelope {
     pub label: String,
     pub target: Target,

@@ -80,14 +80,6 @@ pub fn disagreement_ratio(err_a: f64, err_b: f64, epsilon: f64) -> f64 {
     }
 }
 
-/// A candidate scored: its sample, each method's value, its reference and its score.
-struct Point {
-    sample: Sample,
-    values: Vec<f32>,
-    reference: Estimate,
-    score: f64,
-}
-
 /// Evaluates candidates: each method on the GPU (one dispatch each), references on all cores,
 /// then `score` on (values, reference). One result per candidate, in order.
 fn evaluate(
@@ -95,7 +87,7 @@ fn evaluate(
     methods: &[(&Method, &MethodPipeline)],
     candidates: Vec<Sample>,
     score: &(dyn Fn(&[f32], &Estimate) -> Option<f64> + Sync),
-) -> anyhow::Result<Vec<Option<Point>>> {
+) -> anyhow::Result<Vec<Option<Start>>> {
     let target = methods[0].0.target();
     let configs: Vec<_> = candidates.iter().map(|s| s.config.clone()).collect();
     let (scenes, texels): (Vec<GpuScene>, _) = crate::input::scene::gpu_scenes(&configs);
@@ -111,7 +103,7 @@ fn evaluate(
             let reference = reference::reference(&sample.config, target)?;
             let values: Vec<f32> = per_method.iter().map(|v| v[k]).collect();
             let score = score(&values, &reference)?;
-            Some(Point {
+            Some(Start {
                 sample,
                 values,
                 reference,
@@ -128,18 +120,56 @@ struct Climb {
     seed: u64,
 }
 
-/// Moves every start to the best-scoring candidate near it, step after step; returns the final
-/// points (one per start) and the number of candidates evaluated.
+/// What a start is known by: its uniforms, bit for bit (a configuration is a pure function of
+/// them, so two starts with one key are one configuration and climb alike).
+pub fn start_key(sample: &Sample) -> Vec<u64> {
+    sample.units.iter().map(|u| u.to_bits()).collect()
+}
+
+/// SplitMix64's finaliser: a well-mixed word from a counter.
+fn mix(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The seed of one start's climb: the search's seed and the start's uniforms. A start climbs
+/// alike whatever other starts climb beside it (in a shard or in the whole run).
+fn start_seed(search: u64, key: &[u64]) -> u64 {
+    key.iter()
+        .fold(mix(search), |h, &w| mix(h.wrapping_add(0x9E37_79B9_7F4A_7C15) ^ w))
+}
+
+/// One start's climb: the start's key, where the climb ended, the candidates it evaluated and,
+/// for a disagreement, both methods' f64 values there (where it disagrees, score > 1).
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
+pub struct Climbed {
+    pub key: Vec<u64>,
+    pub end: Start,
+    pub evaluations: usize,
+    pub f64: Vec<Option<f64>>,
+}
+
+/// Moves every start to the best-scoring candidate near it, step after step; returns one
+/// climb per start, in order. Each start draws its candidates from its own stream
+/// ([`start_seed`]), so its climb does not depend on the others: the climbs of a shard's starts
+/// are those the whole run makes of the same starts.
 fn climb(
     case: &Case,
     family: usize,
-    mut current: Vec<Point>,
+    starts: Vec<Start>,
     how: &Climb,
     accept: &dyn Fn(&Config) -> bool,
-    eval: &mut dyn FnMut(Vec<Sample>) -> anyhow::Result<Vec<Option<Point>>>,
-) -> anyhow::Result<(Vec<Point>, usize)> {
-    let mut rng = ChaCha8Rng::seed_from_u64(how.seed);
-    let mut evaluations = 0;
+    eval: &mut dyn FnMut(Vec<Sample>) -> anyhow::Result<Vec<Option<Start>>>,
+) -> anyhow::Result<Vec<Climbed>> {
+    let keys: Vec<Vec<u64>> = starts.iter().map(|s| start_key(&s.sample)).collect();
+    let mut rngs: Vec<ChaCha8Rng> = keys
+        .iter()
+        .map(|k| ChaCha8Rng::seed_from_u64(start_seed(how.seed, k)))
+        .collect();
+    let mut evaluations = vec![0; starts.len()];
+    let mut current = starts;
+    let name = &case.materials[family].name;
     for step in 0..how.steps {
         let sigma = 0.2 * 0.8f64.powi(step as i32);
         let mut candidates = Vec::new();
@@ -149,7 +179,8 @@ fn climb(
             if p.score.is_infinite() {
                 continue;
             }
-            for _ in 0..how.population {
+            let rng = &mut rngs[k];
+            for c in 0..how.population {
                 let units: Vec<f64> = p
                     .sample
                     .units
@@ -162,21 +193,22 @@ fn climb(
                         (if x > 1.0 { 2.0 - x } else { x }).min(1.0 - f64::EPSILON)
                     })
                     .collect();
-                let id = format!("{}-search-{}", case.materials[family].name, candidates.len());
+                let id = format!("{name}-search-{step}-{c}");
                 if let Some(s) = sample_from_units(case, family, &units, id) {
                     if accept(&s.config) {
                         candidates.push(s);
                         owner.push(k);
+                        evaluations[k] += 1;
                     }
                 }
             }
         }
+        // No candidate this step: the next step's smaller steps may still find some.
         if candidates.is_empty() {
-            break;
+            continue;
         }
-        evaluations += candidates.len();
         let points = eval(candidates)?;
-        let mut best: Vec<Option<Point>> = current.iter().map(|_| None).collect();
+        let mut best: Vec<Option<Start>> = current.iter().map(|_| None).collect();
         for (p, &k) in points.into_iter().zip(&owner).filter_map(|(p, k)| Some((p?, k))) {
             if best[k].as_ref().is_none_or(|b| p.score > b.score) {
                 best[k] = Some(p);
@@ -188,7 +220,17 @@ fn climb(
             }
         }
     }
-    Ok((current, evaluations))
+    Ok(keys
+        .into_iter()
+        .zip(current)
+        .zip(evaluations)
+        .map(|((key, end), evaluations)| Climbed {
+            key,
+            end,
+            evaluations,
+            f64: Vec::new(),
+        })
+        .collect())
 }
 
 /// A seed from a tag and the case's seed: the same search on every machine.
@@ -219,6 +261,17 @@ pub struct TopK {
 impl TopK {
     pub fn new(k: usize) -> TopK {
         TopK { k, items: Vec::new() }
+    }
+
+    /// How many starts it keeps at most.
+    pub fn k(&self) -> usize {
+        self.k
+    }
+
+    /// How many kept starts score at least `score` (all of the part's that do, while fewer
+    /// than `k`).
+    pub fn at_least(&self, score: f64) -> usize {
+        self.items.iter().filter(|(_, s)| s.score >= score).count()
     }
 
     /// Whether a start of this score would be kept (checked before building it).
@@ -263,48 +316,75 @@ impl TopK {
     }
 }
 
-/// Searches one method over one family for its largest error, starting from the sweep's
-/// highest-error configurations (`starts`, best first).
-pub fn search(
+/// The climbs of the starts `starts` (best first), found among `climbs` by key: every start a
+/// search keeps must have been climbed (by the run, or by the shard that measured it).
+fn climbs_of<'a>(starts: &[Start], climbs: &'a [Climbed], what: &str) -> anyhow::Result<Vec<&'a Climbed>> {
+    let by_key: std::collections::HashMap<&[u64], &Climbed> = climbs.iter().map(|c| (c.key.as_slice(), c)).collect();
+    starts
+        .iter()
+        .map(|s| {
+            by_key.get(start_key(&s.sample).as_slice()).copied().ok_or_else(|| {
+                anyhow::anyhow!(
+                    "{what}: the start {} of the whole sample was not climbed by any part (a shard of another \
+                     linelight?): re-run the shards with this linelight",
+                    crate::input::names::clip(&s.sample.config.id)
+                )
+            })
+        })
+        .collect()
+}
+
+/// Climbs one method's starts in one family towards its largest error (one climb per start,
+/// in order; each start's climb is the same wherever it runs).
+pub fn search_climbs(
     case: &Case,
     spec: &SearchSpec,
     starts: Vec<Start>,
     method: &Method,
     (gpu, pipeline): (&Gpu, &MethodPipeline),
     family: usize,
-) -> anyhow::Result<Option<Found>> {
-    let accept = |c: &Config| method.applies(c) && method.supports(c);
+) -> anyhow::Result<Vec<Climbed>> {
     if starts.is_empty() || spec.restarts == 0 {
-        return Ok(None);
+        return Ok(Vec::new());
     }
-    let sample_worst = starts[0].score;
-    let current: Vec<Point> = starts
-        .into_iter()
-        .take(spec.restarts)
-        .map(|s| Point {
-            sample: s.sample,
-            values: s.values,
-            reference: s.reference,
-            score: s.score,
-        })
-        .collect();
+    let accept = |c: &Config| method.applies(c) && method.supports(c);
     let how = Climb {
         steps: spec.steps,
         population: spec.population,
         seed: seed_of(case, family, &method.label),
     };
     let score = |v: &[f32], r: &Estimate| rel_error(v[0], r);
-    let (points, evaluations) = climb(case, family, current, &how, &accept, &mut |c| {
+    climb(case, family, starts, &how, &accept, &mut |c| {
         evaluate(gpu, &[(method, pipeline)], c, &score)
-    })?;
-    let worst = points
+    })
+}
+
+/// The worst case of one method in one family, from the whole sample's highest-error
+/// configurations (`starts`, best first, the search's `restarts` of them) and their climbs.
+pub fn search(
+    case: &Case,
+    spec: &SearchSpec,
+    starts: Vec<Start>,
+    method: &str,
+    climbs: &[Climbed],
+    family: usize,
+) -> anyhow::Result<Option<Found>> {
+    if starts.is_empty() || spec.restarts == 0 {
+        return Ok(None);
+    }
+    let starts: Vec<Start> = starts.into_iter().take(spec.restarts).collect();
+    let sample_worst = starts[0].score;
+    let mine = climbs_of(&starts, climbs, &format!("worst-case search of `{method}`"))?;
+    let evaluations = mine.iter().map(|c| c.evaluations).sum();
+    let worst = mine
         .into_iter()
+        .map(|c| &c.end)
         .max_by(|a, b| a.score.total_cmp(&b.score))
         .expect("at least one start");
-    let mut config = worst.sample.config;
-    config.id = format!("worst-{}-{}", method.label, case.materials[family].name);
+    let mut config = worst.sample.config.clone();
+    config.id = format!("worst-{method}-{}", case.materials[family].name);
     Ok(Some(Found {
-        method: method.label.clone(),
+        method: method.to_string(),
         family: case.materials[family].name.clone(),
         sample_worst,
         worst: worst.score,
@@ -315,9 +395,9 @@ pub fn search(
     }))
 }
 
-/// Searches one family for the configurations where `a` is least accurate relative to `b`
-/// from the sweep's best starts (best first): every restart's final point, best first. Returns them and the candidates evaluated.
-pub fn disagreements(
+/// Climbs the starts of one family towards where `a` is least accurate relative to `b` (one
+/// climb per start, in order, with both methods' f64 values where it ends disagreeing).
+pub fn disagreement_climbs(
     case: &Case,
     spec: &DisagreeSpec,
     starts: Vec<Start>,
@@ -325,48 +405,62 @@ pub fn disagreements(
     (a, pa): (&Method, &MethodPipeline),
     (b, pb): (&Method, &MethodPipeline),
     family: usize,
-) -> anyhow::Result<(Vec<Disagreement>, usize)> {
+) -> anyhow::Result<Vec<Climbed>> {
+    if starts.is_empty() || spec.restarts == 0 {
+        return Ok(Vec::new());
+    }
     let eps = spec.epsilon;
     let accept = |c: &Config| a.applies(c) && b.applies(c) && a.supports(c) && b.supports(c);
     let ratio_of = |va: f32, vb: f32, r: &Estimate| -> Option<f64> {
         Some(disagreement_ratio(rel_error(va, r)?, rel_error(vb, r)?, eps))
     };
-    if starts.is_empty() || spec.restarts == 0 {
-        return Ok((Vec::new(), 0));
-    }
-    let sample_ratio = starts[0].score;
-    let current: Vec<Point> = starts
-        .into_iter()
-        .take(spec.restarts)
-        .map(|s| Point {
-            sample: s.sample,
-            values: s.values,
-            reference: s.reference,
-            score: s.score,
-        })
-        .collect();
     let how = Climb {
         steps: spec.steps,
         population: spec.population,
         seed: seed_of(case, family, &format!("{}/{}", a.label, b.label)),
     };
     let score = |v: &[f32], r: &Estimate| ratio_of(v[0], v[1], r);
-    let (mut points, evaluations) = climb(case, family, current, &how, &accept, &mut |c| {
+    let mut climbs = climb(case, family, starts, &how, &accept, &mut |c| {
         evaluate(gpu, &[(a, pa), (b, pb)], c, &score)
     })?;
-    points.sort_by(|x, y| y.score.total_cmp(&x.score));
+    for c in climbs.iter_mut().filter(|c| c.end.score > 1.0) {
+        let config = &c.end.sample.config;
+        c.f64 = vec![a.eval_f64(config), b.eval_f64(config)];
+    }
+    Ok(climbs)
+}
+
+/// The configurations of one family where `a` is least accurate relative to `b`, from the
+/// whole sample's best starts (best first) and their climbs: every restart's final point that
+/// disagrees, best first.
+pub fn disagreements(
+    case: &Case,
+    spec: &DisagreeSpec,
+    starts: Vec<Start>,
+    (a, b): (&str, &str),
+    climbs: &[Climbed],
+    family: usize,
+) -> anyhow::Result<Vec<Disagreement>> {
+    if starts.is_empty() || spec.restarts == 0 {
+        return Ok(Vec::new());
+    }
+    let starts: Vec<Start> = starts.into_iter().take(spec.restarts).collect();
+    let sample_ratio = starts[0].score;
+    let mut points = climbs_of(&starts, climbs, &format!("disagreement search of `{a}` against `{b}`"))?;
+    points.sort_by(|x, y| y.end.score.total_cmp(&x.end.score));
     let name = &case.materials[family].name;
     let found = points
         .into_iter()
         .enumerate()
-        .filter(|(_, p)| p.score > 1.0)
-        .map(|(k, p)| {
-            let mut config = p.sample.config;
-            config.id = format!("disagree-{}-worse-than-{}-{name}-{k}", a.label, b.label);
+        .filter(|(_, p)| p.end.score > 1.0)
+        .map(|(k, c)| {
+            let p = &c.end;
+            let mut config = p.sample.config.clone();
+            config.id = format!("disagree-{a}-worse-than-{b}-{name}-{k}");
             let err = |v: f32| rel_error(v, &p.reference).unwrap_or(f64::NAN);
             Disagreement {
-                a: a.label.clone(),
-                b: b.label.clone(),
+                a: a.to_string(),
+                b: b.to_string(),
                 family: name.clone(),
                 ratio: p.score,
                 sample_ratio,
@@ -374,15 +468,15 @@ pub fn disagreements(
                 err_b: err(p.values[1]),
                 value_a: p.values[0],
                 value_b: p.values[1],
-                f64_a: a.eval_f64(&config),
-                f64_b: b.eval_f64(&config),
+                f64_a: c.f64.first().copied().flatten(),
+                f64_b: c.f64.get(1).copied().flatten(),
                 reference: p.reference,
-                axes: p.sample.axes,
+                axes: p.sample.axes.clone(),
                 config,
             }
         })
         .collect();
-    Ok((found, evaluations))
+    Ok(found)
 }
 
 #[cfg(test)]

@@ -105,6 +105,10 @@ pub struct Timing {
     pub sampling_seconds: f64,
     /// Measuring chunks evaluated (of [`MEASURE_CHUNK`] configurations).
     pub chunks: usize,
+    /// Shards merged into these times (0 or 1: one run). Merged, every time is the sum over
+    /// the shards but the cost pass's, the attribution's and the envelope's: shard 0's.
+    #[serde(default)]
+    pub shards: usize,
     pub total_seconds: f64,
 }
 
@@ -159,7 +163,7 @@ pub struct MeasureOptions<'a> {
 }
 
 /// One method's local f32 rounding error per kernel source line.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct MethodAttribution {
     pub label: String,
     /// Configurations the attribution ran on (every k-th of those the method applies to).
@@ -169,7 +173,8 @@ pub struct MethodAttribution {
 }
 
 impl Timing {
-    /// Adds another shard's measuring times (searches and cost are measured once, at merge).
+    /// Adds another shard's measuring and search times (the cost pass, the attribution and the
+    /// envelope run in shard 0 alone: theirs stay).
     pub fn add(&mut self, o: &Timing) {
         self.configurations += o.configurations;
         for (a, b) in [(&mut self.gpu, &o.gpu)] {
@@ -191,6 +196,10 @@ impl Timing {
         self.references_f32_evaluated += o.references_f32_evaluated;
         self.statistics_seconds += o.statistics_seconds;
         self.sampling_seconds += o.sampling_seconds;
+        // Each shard climbs its own starts (the timing of methods is shard 0's alone).
+        self.search_seconds += o.search_seconds;
+        self.disagree_seconds += o.disagree_seconds;
+        self.disagree_evaluations += o.disagree_evaluations;
         self.chunks += o.chunks;
         self.total_seconds += o.total_seconds;
     }
@@ -392,6 +401,11 @@ pub struct Part {
     /// Per part merged: how many top-ups of each bin (`sampler::bin_ordinal`) it covered, its
     /// own j < cover[o] (those of its share).
     pub cover: Vec<Vec<usize>>,
+    /// The searches' climbs from this part's starts ([`search_part`]).
+    pub climbs: Climbs,
+    /// The timing of methods, the attribution and the envelope ([`time_part`]): the
+    /// unsharded run's, or shard 0's (the other shards have none).
+    pub timed: Option<Timed>,
 }
 
 impl Part {
@@ -415,6 +429,17 @@ impl Part {
         }
         self.topup_rows.extend(o.topup_rows.iter().cloned());
         self.cover.extend(o.cover.iter().cloned());
+        self.climbs.merge_from(&o.climbs)?;
+        match (&self.timed, &o.timed) {
+            (Some(a), Some(b)) => {
+                return Err(format!(
+                    "shards {}/{} and {}/{} both timed the methods; only shard 0 does",
+                    a.shard.0, a.shard.1, b.shard.0, b.shard.1
+                ))
+            }
+            (None, Some(b)) => self.timed = Some(b.clone()),
+            _ => {}
+        }
         Ok(())
     }
 
@@ -535,7 +560,9 @@ pub fn measure_chunks(
     let restarts = case.search.as_ref().map_or(0, |s| s.restarts);
     let disagree_spec = case.disagreements.clone().unwrap_or_default();
     let expected: usize = case.materials.iter().map(|m| m.count).sum();
-    let attribution_step = attribution_step(case);
+    // Shard 0 attributes its own share of the subset (docs/scale.md): every (step / N)-th of
+    // its configurations by global index, about as many as the unsharded run's.
+    let attribution_step = (attribution_step(case) / shard.map_or(1, |s| s.1)).max(1);
     let per_family_cost = COST_CONFIGURATIONS.div_ceil(families.max(1));
     let mut kept = Kept {
         search: case
@@ -675,6 +702,8 @@ pub fn measure_chunks(
         counts: stream.counts,
         topup_rows,
         cover: vec![needs],
+        climbs: Climbs::default(),
+        timed: None,
     };
     if shard.is_none() {
         settle_topups(setup, &mut part, fold, raw)?;
@@ -772,8 +801,174 @@ pub fn settle_topups(
     Ok(())
 }
 
-/// The searches from the kept starts, the cost pass and the attribution: a measured sweep.
-pub fn search_and_cost(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<Measured> {
+/// The searches' climbs of one part: per `[search]` method and family, and per ordered compared
+/// pair and family (in `Kept`'s order), one climb per start the part climbed.
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+pub struct Climbs {
+    pub search: Vec<Vec<crate::measure::search::Climbed>>,
+    pub disagree: Vec<Vec<crate::measure::search::Climbed>>,
+}
+
+impl Climbs {
+    /// Adds another part's climbs (of other starts).
+    fn merge_from(&mut self, o: &Climbs) -> Result<(), String> {
+        if self.search.len() != o.search.len() || self.disagree.len() != o.disagree.len() {
+            return Err("parts of different searches do not merge".to_string());
+        }
+        for (a, b) in self.search.iter_mut().zip(&o.search) {
+            a.extend(b.iter().cloned());
+        }
+        for (a, b) in self.disagree.iter_mut().zip(&o.disagree) {
+            a.extend(b.iter().cloned());
+        }
+        Ok(())
+    }
+}
+
+/// What timing the methods measured, with the attribution and the envelope: run once per
+/// sweep, by the unsharded run or by shard 0 of a sharded one (`shard`, (0, 1) unsharded).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Timed {
+    pub shard: (usize, usize),
+    pub costs: Vec<crate::measure::bench::Times>,
+    pub attribution: Vec<MethodAttribution>,
+    pub envelope: Vec<crate::measure::envelope::MethodEnvelope>,
+}
+
+/// The starts a part climbs for one search: its own best starts and, in a shard whose top-ups
+/// are not settled yet, each measured top-up that could be among the whole sample's best:
+/// fewer than `k` of the starts certain to be in the whole sample beside it (the part's own
+/// natural ones, and the top-ups of its bin before it, which are kept whenever it is) score at
+/// least as much (ties go to the lower global index, and those have it). So the parts'
+/// climbs hold the climb of every start of the whole sample's best, whichever top-ups the
+/// merge keeps.
+fn starts_to_climb(
+    top: &crate::measure::search::TopK,
+    rows: &[&TopUpRow],
+    start: &dyn Fn(&Row) -> Option<crate::measure::search::Start>,
+) -> Vec<crate::measure::search::Start> {
+    let k = top.k();
+    let mut out = top.clone().into_sorted();
+    if k == 0 {
+        return out;
+    }
+    // Rows in key order (family, axis, bin, j): a bin's earlier top-ups come first.
+    let mut seen: Vec<(sampler::TopUpKey, f64)> = Vec::new();
+    for r in rows {
+        let Some(s) = r.measured.as_ref().and_then(start) else {
+            continue;
+        };
+        let same_bin = |x: &sampler::TopUpKey| (x.family, x.axis, x.bin) == (r.key.family, r.key.axis, r.key.bin);
+        let before = seen.iter().filter(|(x, sc)| same_bin(x) && *sc >= s.score).count();
+        seen.push((r.key, s.score));
+        if top.at_least(s.score) + before < k {
+            out.push(s);
+        }
+    }
+    out
+}
+
+/// The searches' climbs from the part's starts (the worst-case search and the disagreements),
+/// on the GPU: each start climbs alike wherever it runs, so the merge takes the climbs of the
+/// whole sample's best starts from the shards that measured them.
+pub fn search_part(setup: &Setup, gpu: &Gpu, part: &mut Part) -> anyhow::Result<()> {
+    use crate::measure::search::{disagreement_ratio, rel_error, Start};
+    let started = Instant::now();
+    let case = &setup.case;
+    let methods = &setup.methods;
+    let mut pipelines = Vec::new();
+    for m in methods {
+        pipelines.push(gpu.pipeline(m)?);
+    }
+    let mut rows: Vec<&TopUpRow> = part.topup_rows.iter().collect();
+    rows.sort_by_key(|r| r.key);
+    let mut climbs = Climbs::default();
+    if let Some(spec) = &case.search {
+        let t = Instant::now();
+        let pb = bar(part.kept.search.len(), "worst-case search");
+        for (m, family, top) in &part.kept.search {
+            let method = &methods[*m];
+            let start = |row: &Row| -> Option<Start> {
+                let c = &row.sample.config;
+                if row.sample.material != *family || !(method.applies(c) && method.supports(c)) {
+                    return None;
+                }
+                let reference = *row.references.get(&method.target())?;
+                let score = rel_error(row.f32[*m], &reference)?;
+                Some(Start {
+                    sample: row.sample.clone(),
+                    values: vec![row.f32[*m]],
+                    reference,
+                    score,
+                })
+            };
+            let starts = starts_to_climb(top, &rows, &start);
+            climbs.search.push(crate::measure::search::search_climbs(
+                case,
+                spec,
+                starts,
+                method,
+                (gpu, &pipelines[*m]),
+                *family,
+            )?);
+            pb.inc(1);
+        }
+        pb.finish_and_clear();
+        part.timing.search_seconds += t.elapsed().as_secs_f64();
+    }
+    let disagree_spec = case.disagreements.clone().unwrap_or_default();
+    if !case.compare.is_empty() {
+        let t = Instant::now();
+        let pb = bar(part.kept.disagree.len(), "disagreement search");
+        for (a, b, family, top) in &part.kept.disagree {
+            let (ma, mb) = (&methods[*a], &methods[*b]);
+            let start = |row: &Row| -> Option<Start> {
+                let c = &row.sample.config;
+                if row.sample.material != *family
+                    || !(ma.applies(c) && mb.applies(c) && ma.supports(c) && mb.supports(c))
+                {
+                    return None;
+                }
+                let reference = *row.references.get(&ma.target())?;
+                let (va, vb) = (row.f32[*a], row.f32[*b]);
+                let score = disagreement_ratio(
+                    rel_error(va, &reference)?,
+                    rel_error(vb, &reference)?,
+                    disagree_spec.epsilon,
+                );
+                Some(Start {
+                    sample: row.sample.clone(),
+                    values: vec![va, vb],
+                    reference,
+                    score,
+                })
+            };
+            let starts = starts_to_climb(top, &rows, &start);
+            let climbed = crate::measure::search::disagreement_climbs(
+                case,
+                &disagree_spec,
+                starts,
+                gpu,
+                (ma, &pipelines[*a]),
+                (mb, &pipelines[*b]),
+                *family,
+            )?;
+            part.timing.disagree_evaluations += climbed.iter().map(|c| c.evaluations).sum::<usize>();
+            climbs.disagree.push(climbed);
+            pb.inc(1);
+        }
+        pb.finish_and_clear();
+        part.timing.disagree_seconds += t.elapsed().as_secs_f64();
+    }
+    part.climbs = climbs;
+    part.timing.total_seconds += started.elapsed().as_secs_f64();
+    Ok(())
+}
+
+/// The cost pass (the timing of methods), the attribution and the envelope, on the GPU: run
+/// once per sweep, by the unsharded run or by shard 0 (`shard`), on the part's own kept
+/// configurations.
+pub fn time_part(setup: &Setup, gpu: &Gpu, part: &mut Part, shard: (usize, usize)) -> anyhow::Result<()> {
     let start = Instant::now();
     let case = &setup.case;
     let methods = &setup.methods;
@@ -781,58 +976,7 @@ pub fn search_and_cost(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<M
     for m in methods {
         pipelines.push(gpu.pipeline(m)?);
     }
-    let disagree_spec = case.disagreements.clone().unwrap_or_default();
-    let Part {
-        mut kept,
-        draws,
-        topups: topup_reports,
-        mut timing,
-        ..
-    } = part;
-    for g in &mut timing.gpu {
-        g.2 = timing.configurations as f64 / g.1;
-    }
-    let mut found = Vec::new();
-    if let Some(spec) = &case.search {
-        let t = Instant::now();
-        let pb = bar(kept.search.len(), "worst-case search");
-        for (m, family, starts) in std::mem::take(&mut kept.search) {
-            let f = crate::measure::search::search(
-                case,
-                spec,
-                starts.into_sorted(),
-                &methods[m],
-                (gpu, &pipelines[m]),
-                family,
-            )?;
-            found.extend(f);
-            pb.inc(1);
-        }
-        pb.finish_and_clear();
-        timing.search_seconds = t.elapsed().as_secs_f64();
-    }
-    // Disagreements: every compared pair, both ways, in every family.
-    let mut disagreements = Vec::new();
-    if !case.compare.is_empty() {
-        let t = Instant::now();
-        let pb = bar(kept.disagree.len(), "disagreement search");
-        for (a, b, family, starts) in std::mem::take(&mut kept.disagree) {
-            let (found, evaluations) = crate::measure::search::disagreements(
-                case,
-                &disagree_spec,
-                starts.into_sorted(),
-                gpu,
-                (&methods[a], &pipelines[a]),
-                (&methods[b], &pipelines[b]),
-                family,
-            )?;
-            disagreements.extend(found);
-            timing.disagree_evaluations += evaluations;
-            pb.inc(1);
-        }
-        pb.finish_and_clear();
-        timing.disagree_seconds = t.elapsed().as_secs_f64();
-    }
+    let (kept, timing) = (&part.kept, &mut part.timing);
     // Cost: the first configurations of every family, each method timed in interleaved rounds.
     let t = Instant::now();
     let cost_configs: Vec<_> = kept.cost.iter().flatten().map(|(_, c)| c.clone()).collect();
@@ -856,9 +1000,10 @@ pub fn search_and_cost(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<M
          most {COST_REPEATS} timed rounds; a method stops once settled: the largest of its per-round ratios CPU f32 ns \
          / GPU ns (of its GPU ns without a CPU column) at most {:.0} % above the smallest (over k rounds that range \
          covers the median with probability 1 − 2^(1−k): 75 % at 3, 97 % at 6); every method stops once the pass \
-         has taken its budget, {:.0} % of the sweep's wall before it ({:.2} s)",
+         has taken its budget, {:.0} % of the {} wall before it ({:.2} s)",
         COST_SETTLE * 100.0,
         COST_SHARE * 100.0,
+        if shard.1 > 1 { "shard's" } else { "sweep's" },
         timing.cost_budget_seconds
     );
     let costs = crate::measure::bench::bench_methods_with(gpu, methods, &cost_configs, rounds, &mut |done, total| {
@@ -890,13 +1035,76 @@ pub fn search_and_cost(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<M
         None => Vec::new(),
     };
     timing.total_seconds += start.elapsed().as_secs_f64();
+    part.timed = Some(Timed {
+        shard,
+        costs,
+        attribution,
+        envelope,
+    });
+    Ok(())
+}
+
+/// A measured sweep from a settled part (the whole run's, or the shards' merged): the searches'
+/// findings from the whole sample's best starts and their climbs, the timing of methods from
+/// the part that timed them. No GPU: this is all a merge computes beyond the statistics.
+pub fn assemble(setup: &Setup, part: Part) -> anyhow::Result<Measured> {
+    let case = &setup.case;
+    let methods = &setup.methods;
+    let Part {
+        kept,
+        draws,
+        topups: topup_reports,
+        mut timing,
+        climbs,
+        timed,
+        ..
+    } = part;
+    let timed = timed.ok_or_else(|| {
+        anyhow::anyhow!(
+            "case `{}`: no part timed the methods (shard 0 does): re-run shard 0 with this linelight",
+            case.name
+        )
+    })?;
+    for g in &mut timing.gpu {
+        g.2 = timing.configurations as f64 / g.1;
+    }
+    anyhow::ensure!(
+        climbs.search.len() == kept.search.len() && climbs.disagree.len() == kept.disagree.len(),
+        "case `{}`: the parts' searches are not the case's (re-run the shards with this linelight)",
+        case.name
+    );
+    let mut found = Vec::new();
+    if let Some(spec) = &case.search {
+        for ((m, family, starts), climbed) in kept.search.into_iter().zip(&climbs.search) {
+            found.extend(crate::measure::search::search(
+                case,
+                spec,
+                starts.into_sorted(),
+                &methods[m].label,
+                climbed,
+                family,
+            )?);
+        }
+    }
+    let disagree_spec = case.disagreements.clone().unwrap_or_default();
+    let mut disagreements = Vec::new();
+    for ((a, b, family, starts), climbed) in kept.disagree.into_iter().zip(&climbs.disagree) {
+        disagreements.extend(crate::measure::search::disagreements(
+            case,
+            &disagree_spec,
+            starts.into_sorted(),
+            (&methods[a].label, &methods[b].label),
+            climbed,
+            family,
+        )?);
+    }
     Ok(Measured {
         timing,
         found,
         disagreements,
-        costs,
-        attribution,
-        envelope,
+        costs: timed.costs,
+        attribution: timed.attribution,
+        envelope: timed.envelope,
         configurations: kept.seen,
         natural: kept.natural,
         draws,
@@ -904,6 +1112,13 @@ pub fn search_and_cost(setup: &Setup, gpu: &Gpu, part: Part) -> anyhow::Result<M
         nonfinite: kept.nonfinite.into_iter().map(|(_, c, m)| (c, m)).collect(),
         nonfinite_total: kept.nonfinite_total,
     })
+}
+
+/// The searches from the kept starts, the cost pass and the attribution: a measured sweep.
+pub fn search_and_cost(setup: &Setup, gpu: &Gpu, mut part: Part) -> anyhow::Result<Measured> {
+    search_part(setup, gpu, &mut part)?;
+    time_part(setup, gpu, &mut part, (0, 1))?;
+    assemble(setup, part)
 }
 
 /// Folds one chunk into the bounded per-configuration state.
@@ -1043,4 +1258,96 @@ pub fn parse_shard(text: &str) -> anyhow::Result<(usize, usize)> {
         return Err(bad());
     }
     Ok((i, n))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::measure::search::{Start, TopK};
+
+    /// A case of one family, drawn: distinct samples to stand for starts.
+    fn samples(n: usize) -> Vec<Sample> {
+        let case = crate::input::case::Case::parse(
+            "t.toml",
+            &format!(
+                r#"
+name = "t"
+title = "t"
+seed = 1
+methods = ["line.ltc2017"]
+[geometry]
+elevation = {{ dist = "uniform", min = 10.0, max = 90.0 }}
+tilt_angle = {{ dist = "uniform", min = 0.0, max = 180.0 }}
+length = {{ dist = "log_uniform", min = 0.1, max = 10.0 }}
+center = {{ dist = "uniform", min = -2.0, max = 2.0 }}
+[[materials]]
+name = "d"
+kind = "diffuse"
+count = {n}
+"#
+            ),
+        )
+        .unwrap();
+        crate::input::sampler::sample_case(&case)
+    }
+
+    fn start(sample: &Sample, score: f64) -> Start {
+        Start {
+            sample: sample.clone(),
+            values: vec![0.0],
+            reference: crate::reference::Estimate { value: 1.0, error: 0.0 },
+            score,
+        }
+    }
+
+    fn row(sample: &Sample, bin: usize, j: usize, score: f64) -> TopUpRow {
+        TopUpRow {
+            key: sampler::TopUpKey {
+                family: 0,
+                axis: 0,
+                bin,
+                j,
+            },
+            draws: 1,
+            measured: Some(Row {
+                sample: sample.clone(),
+                references: BTreeMap::new(),
+                references_f32: BTreeMap::new(),
+                // The score stands in the f32 column.
+                f32: vec![score as f32],
+                f32_cpu: vec![None],
+                f64: vec![None],
+            }),
+        }
+    }
+
+    /// A shard climbs its own best natural starts and every measured top-up that fewer than k
+    /// of the starts certain to be in the whole sample beside it (its natural ones, the earlier
+    /// top-ups of its bin) outscore, ties counting against the top-up (the lower global index
+    /// wins a tie).
+    #[test]
+    fn a_shard_climbs_every_top_up_that_could_be_among_the_best() {
+        let s = samples(9);
+        let mut top = TopK::new(2);
+        top.push(0, start(&s[0], 5.0));
+        top.push(1, start(&s[1], 3.0));
+        top.push(2, start(&s[2], 1.0));
+        let rows = [
+            row(&s[3], 0, 0, 4.0), // one natural above: climbed
+            row(&s[4], 0, 1, 3.5), // the natural 5 and the top-up 4 before it: not
+            row(&s[5], 0, 2, 6.0), // none above: climbed
+            row(&s[6], 1, 0, 3.0), // ties the natural 3, which wins the tie: with 5, two: not
+            row(&s[7], 1, 1, 4.5), // the 5 only (bin 0's top-ups need not be kept): climbed
+            row(&s[8], 1, 2, 0.5), // below two naturals: not
+        ];
+        let refs: Vec<&TopUpRow> = rows.iter().collect();
+        let scored = |r: &Row| Some(start(&r.sample, r.f32[0] as f64));
+        let climbed: Vec<f64> = starts_to_climb(&top, &refs, &scored)
+            .into_iter()
+            .map(|x| x.score)
+            .collect();
+        assert_eq!(climbed, [5.0, 3.0, 4.0, 6.0, 4.5]);
+        // No start kept at all: nothing climbs.
+        assert!(starts_to_climb(&TopK::new(0), &refs, &scored).is_empty());
+    }
 }

@@ -74,7 +74,7 @@ fn interpreter_forced() -> bool {
 type Const = (Vec<f64>, Result<Vec<f64>, String>);
 
 /// A kernel source line that operations were attributed to.
-#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub struct Line {
     pub path: String,
     pub line: usize,
@@ -807,7 +807,7 @@ pub struct Attribution {
 
 /// A line's local error over configurations: mean of the per-configuration means, and
 /// the nearest-rank p99 and max of the per-configuration maxima.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct LineSummary {
     pub line: Line,
     pub mean: f64,

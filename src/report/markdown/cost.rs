@@ -123,6 +123,16 @@ pub(super) fn timing(w: &mut String, input: &Summary) {
          what the sweep itself spent.\n",
         t.adapter, t.configurations
     );
+    if t.shards > 1 {
+        let _ = writeln!(
+            w,
+            "Merged from {} shards (`linelight merge`, which used no GPU): the times below, the searches' and the \
+             split's are the sum over the shards, each on its own machine. The timing of methods (\"Speed against \
+             accuracy\", the cost measurement) and the attribution ran in shard 0 of {} alone, on its adapter \
+             and its own configurations: those numbers are shard 0's.\n",
+            t.shards, t.shards
+        );
+    }
     let mut table = Table::new(&[
         ("method", Align::Left),
         ("GPU s", Align::Right),
