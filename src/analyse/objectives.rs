@@ -325,7 +325,7 @@ pub fn analyse(run: &Run) -> Objectives {
         "The SW fit has the lower SW distance at most entries of every α_max: its descent reached below the L1 fit on its own objective everywhere.".to_string()
     } else {
         format!(
-            "The SW fit's own SW distance is higher than the L1 fit's at most entries of {}: there its descent has not converged, and the comparison judges the hyperparameters more than the objective.",
+            "The SW fit's own SW distance is higher than the L1 fit's at most entries of {}: there its descent stopped above the L1 matrix's SW distance (one estimate each, whose sampling floor is of the order of these values, so the count is approximate), and the comparison judges the hyperparameters more than the objective.",
             unconverged.join(", ")
         )
     });
