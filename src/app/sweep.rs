@@ -157,9 +157,10 @@ pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> 
             false,
         )?;
         // Each shard climbs its own starts; shard 0 alone times the methods and attributes.
-        sweep::search_part(&setup, &device, &mut part.measured)?;
+        let pipelines = sweep::pipelines(&device, &setup.methods)?;
+        sweep::search_part(&setup, &device, &pipelines, &mut part.measured)?;
         if shard.0 == 0 {
-            sweep::time_part(&setup, &device, &mut part.measured, shard)?;
+            sweep::time_part(&setup, &device, &pipelines, &mut part.measured, shard)?;
         }
         let (case_record, kernel_records) = recorded.expect("recorded for a shard");
         let path = write_shard(&out, case_record, kernel_records, &setup.methods, &part)?;

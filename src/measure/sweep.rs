@@ -9,7 +9,7 @@ use crate::input::sampler::{self, Sample};
 use crate::input::scene::GpuScene;
 use crate::input::target::Target;
 use crate::kernel::methods::Method;
-use crate::measure::gpu::Gpu;
+use crate::measure::gpu::{Gpu, MethodPipeline};
 use crate::reference::{self, Estimate};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
@@ -461,7 +461,7 @@ struct ColumnSeconds {
 fn measure_samples(
     setup: &Setup,
     gpu: &Gpu,
-    (pipelines, chunk): (&[crate::measure::gpu::MethodPipeline], usize),
+    (pipelines, chunk): (&[MethodPipeline], usize),
     samples: &[Sample],
     (timing, columns): (&mut Timing, &mut ColumnSeconds),
 ) -> anyhow::Result<(Vec<MethodRun>, References, References)> {
@@ -531,6 +531,12 @@ fn attribution_step(case: &Case) -> usize {
     expected.div_ceil(ATTRIBUTION_CONFIGURATIONS).max(1)
 }
 
+/// Every method's GPU pipeline (with its loop-limit check), compiled once for the stages
+/// that share it: measuring, the searches and the cost pass.
+pub fn pipelines(gpu: &Gpu, methods: &[Method]) -> anyhow::Result<Vec<MethodPipeline>> {
+    methods.iter().map(|m| Ok(gpu.pipeline(m)?)).collect()
+}
+
 /// Measures the configurations (all, or one shard's) chunk by chunk into a [`Part`], handing
 /// each measured chunk to `fold` before it is dropped. A shard draws only its own blocks of
 /// the natural sample, and measures the top-ups of its share that its own counts could call
@@ -547,10 +553,7 @@ pub fn measure_chunks(
     let case = &setup.case;
     let methods = &setup.methods;
     // Compile every pipeline first: a kernel error stops the sweep before any work.
-    let mut pipelines = Vec::new();
-    for m in methods {
-        pipelines.push(gpu.pipeline(m)?);
-    }
+    let pipelines = pipelines(gpu, methods)?;
     let families = case.materials.len();
     let mut timing = Timing {
         adapter: gpu.adapter.to_string(),
@@ -871,15 +874,11 @@ fn starts_to_climb(
 /// The searches' climbs from the part's starts (the worst-case search and the disagreements),
 /// on the GPU: each start climbs alike wherever it runs, so the merge takes the climbs of the
 /// whole sample's best starts from the shards that measured them.
-pub fn search_part(setup: &Setup, gpu: &Gpu, part: &mut Part) -> anyhow::Result<()> {
+pub fn search_part(setup: &Setup, gpu: &Gpu, pipelines: &[MethodPipeline], part: &mut Part) -> anyhow::Result<()> {
     use crate::measure::search::{disagreement_ratio, rel_error, Start};
     let started = Instant::now();
     let case = &setup.case;
     let methods = &setup.methods;
-    let mut pipelines = Vec::new();
-    for m in methods {
-        pipelines.push(gpu.pipeline(m)?);
-    }
     let mut rows: Vec<&TopUpRow> = part.topup_rows.iter().collect();
     rows.sort_by_key(|r| r.key);
     let mut climbs = Climbs::default();
@@ -968,14 +967,16 @@ pub fn search_part(setup: &Setup, gpu: &Gpu, part: &mut Part) -> anyhow::Result<
 /// The cost pass (the timing of methods), the attribution and the envelope, on the GPU: run
 /// once per sweep, by the unsharded run or by shard 0 (`shard`), on the part's own kept
 /// configurations.
-pub fn time_part(setup: &Setup, gpu: &Gpu, part: &mut Part, shard: (usize, usize)) -> anyhow::Result<()> {
+pub fn time_part(
+    setup: &Setup,
+    gpu: &Gpu,
+    pipelines: &[MethodPipeline],
+    part: &mut Part,
+    shard: (usize, usize),
+) -> anyhow::Result<()> {
     let start = Instant::now();
     let case = &setup.case;
     let methods = &setup.methods;
-    let mut pipelines = Vec::new();
-    for m in methods {
-        pipelines.push(gpu.pipeline(m)?);
-    }
     let (kept, timing) = (&part.kept, &mut part.timing);
     // Cost: the first configurations of every family, each method timed in interleaved rounds.
     let t = Instant::now();
@@ -1029,7 +1030,7 @@ pub fn time_part(setup: &Setup, gpu: &Gpu, part: &mut Part, shard: (usize, usize
                 &kept.attribution,
                 &material_of,
                 spec.sample,
-                (gpu, &pipelines),
+                (gpu, pipelines),
             )?
         }
         None => Vec::new(),
@@ -1116,8 +1117,9 @@ pub fn assemble(setup: &Setup, part: Part) -> anyhow::Result<Measured> {
 
 /// The searches from the kept starts, the cost pass and the attribution: a measured sweep.
 pub fn search_and_cost(setup: &Setup, gpu: &Gpu, mut part: Part) -> anyhow::Result<Measured> {
-    search_part(setup, gpu, &mut part)?;
-    time_part(setup, gpu, &mut part, (0, 1))?;
+    let pipelines = pipelines(gpu, &setup.methods)?;
+    search_part(setup, gpu, &pipelines, &mut part)?;
+    time_part(setup, gpu, &pipelines, &mut part, (0, 1))?;
     assemble(setup, part)
 }
 
