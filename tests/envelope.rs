@@ -381,3 +381,60 @@ count = 200
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("max_past_budget = 1.5"));
 }
+
+/// A streamed sweep holds no samples up front: each envelope row must still name the material
+/// its configuration was drawn for (once every row was given material 0). Two families of
+/// different kinds, so a row's configuration tells which family drew it.
+#[test]
+fn each_envelope_row_names_the_material_its_configuration_was_drawn_for() {
+    use linelight::app::sweep::{measure, prepare_with, Holds};
+    use linelight::measure::sweep::MeasureOptions;
+    let text = r#"
+name = "envelope_materials"
+title = "envelope materials"
+seed = 7
+methods = ["line.ltc2017", "line.ltc2023"]
+envelope = { sample = 40 }
+[geometry]
+elevation = { dist = "uniform", min = 10.0, max = 90.0 }
+tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
+length = { dist = "log_uniform", min = 0.1, max = 10.0 }
+center = { dist = "uniform", min = -1.0, max = 1.0 }
+[[materials]]
+name = "diffuse"
+kind = "diffuse"
+count = 120
+[[materials]]
+name = "ltc"
+kind = "ltc_sparse"
+count = 120
+alpha = { dist = "log_uniform", min = 0.05, max = 1.0 }
+aspect = { dist = "uniform", min = 0.8, max = 1.25 }
+peak = { dist = "uniform", min = -60.0, max = 60.0 }
+"#;
+    let case = linelight::input::case::Case::parse("envelope_materials.toml", text).unwrap();
+    let setup = prepare_with(case, &[], None, Holds::default()).unwrap();
+    assert!(setup.samples.is_empty(), "a streamed sweep draws chunk by chunk");
+    linelight::measure::gpu::quiet_driver_environment();
+    let gpu = linelight::measure::gpu::Gpu::new(None).unwrap();
+    let options = MeasureOptions {
+        chunk: 0,
+        raw: None,
+        shard: None,
+    };
+    let swept = measure(&setup, &gpu, options, false).unwrap();
+    assert_eq!(swept.measured.envelope.len(), 2);
+    for m in &swept.measured.envelope {
+        let mut per = [0usize; 2];
+        for r in &m.rows {
+            per[r.material] += 1;
+            let drawn = match r.config.material {
+                Material::Diffuse => 0,
+                Material::Ltc { .. } => 1,
+                ref other => panic!("{}: a material neither family draws: {other:?}", m.label),
+            };
+            assert_eq!(r.material, drawn, "{}: row of {:?}", m.label, r.config);
+        }
+        assert!(per[0] > 0 && per[1] > 0, "{}: rows per material {per:?}", m.label);
+    }
+}

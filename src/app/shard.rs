@@ -23,8 +23,9 @@ use std::path::{Path, PathBuf};
 /// own counter-based stream, so a shard draws only its own, and keeps its natural bin counts,
 /// its draws and its measured top-ups whole until the merge settles them, issue 23; 8 holds the
 /// shard's search climbs and, in shard 0, the timing of methods, the attribution and the
-/// envelope, so that the merge needs no GPU, issue 23).
-pub const SHARD_FORMAT: u32 = 8;
+/// envelope, so that the merge needs no GPU, issue 23; 9 carries each attribution
+/// configuration's material, so the envelope's rows name the material they were drawn for).
+pub const SHARD_FORMAT: u32 = 9;
 
 /// What measuring a sweep's configurations, or one shard's, leaves before the searches and
 /// the cost pass: mergeable (`linelight merge`). Written by `sweep --shard i/n`.

@@ -48,11 +48,11 @@ fn targets(t: Target) -> Vec<Target> {
 }
 
 /// Every method's envelopes on at most `sample` of its spread subset (evenly spaced), with the
-/// GPU's values there (one dispatch per method, `pipelines` in method order).
+/// GPU's values there (one dispatch per method, `pipelines` in method order). Each row names the
+/// material its configuration was drawn for, carried in the subset (`sweep::Spread`).
 pub fn any_driver(
     methods: &[Method],
-    subsets: &[Vec<(usize, Config)>],
-    material_of: &(dyn Fn(usize) -> usize + Sync),
+    subsets: &[Vec<crate::measure::sweep::Spread>],
     sample: usize,
     (gpu, pipelines): (&Gpu, &[MethodPipeline]),
 ) -> anyhow::Result<Vec<MethodEnvelope>> {
@@ -64,9 +64,9 @@ pub fn any_driver(
         .map(|((m, subset), pipeline)| {
             let t = std::time::Instant::now();
             let step = subset.len().div_ceil(sample.max(1)).max(1);
-            let picked: Vec<&(usize, Config)> = subset.iter().step_by(step).take(sample).collect();
+            let picked: Vec<&crate::measure::sweep::Spread> = subset.iter().step_by(step).take(sample).collect();
             let program = crate::eval::interp::program(m)?;
-            let scenes: Vec<GpuScene> = picked.iter().map(|(_, c)| GpuScene::from(c)).collect();
+            let scenes: Vec<GpuScene> = picked.iter().map(|(_, _, c)| GpuScene::from(c)).collect();
             let values = if scenes.is_empty() {
                 Vec::new()
             } else {
@@ -75,7 +75,7 @@ pub fn any_driver(
             let rows = picked
                 .par_iter()
                 .zip(&values)
-                .map(|((g, c), &value)| -> anyhow::Result<EnvelopeRow> {
+                .map(|((_, material, c), &value)| -> anyhow::Result<EnvelopeRow> {
                     let out =
                         crate::eval::interp::envelope(m, c)?.expect("the subset holds configurations it applies to");
                     let interval = match out.value {
@@ -97,7 +97,7 @@ pub fn any_driver(
                         .filter_map(|t| crate::reference::reference(c, t).map(|e| (t, e.value)))
                         .collect();
                     Ok(EnvelopeRow {
-                        material: material_of(*g),
+                        material: *material,
                         config: c.clone(),
                         gpu: value,
                         references,
@@ -109,7 +109,7 @@ pub fn any_driver(
             let freed: Vec<_> = picked.iter().step_by(fstep).collect();
             let per = freed
                 .par_iter()
-                .map(|(_, c)| crate::eval::interp::freedom(m, c))
+                .map(|(_, _, c)| crate::eval::interp::freedom(m, c))
                 .collect::<anyhow::Result<Vec<_>>>()?;
             let mut by_line: BTreeMap<(String, usize), (Line, f64, usize)> = BTreeMap::new();
             for lines in &per {

@@ -289,8 +289,9 @@ pub struct Kept {
     nonfinite_total: usize,
     /// Per family: the first natural configurations (the cost measurement's).
     cost: Vec<Vec<(usize, crate::input::scene::Config)>>,
-    /// Per method: its spread subset for the attribution.
-    attribution: Vec<Vec<(usize, crate::input::scene::Config)>>,
+    /// Per method: its spread subset for the attribution (and the envelope's subsample), each
+    /// configuration with its global index and the index of the material it was drawn for.
+    attribution: Vec<Vec<Spread>>,
     natural: Vec<usize>,
     /// Configurations measured (this part's).
     seen: usize,
@@ -299,6 +300,10 @@ pub struct Kept {
     attribution_step: usize,
     cost_limit: usize,
 }
+
+/// One configuration of a method's spread subset: its global index, the index of the material
+/// (family) it was drawn for, and the configuration.
+pub type Spread = (usize, usize, crate::input::scene::Config);
 
 /// One measured chunk offered to the kept state (`Kept::add_chunk`; the analysis stage's
 /// `Accumulate` for `Kept` folds it in).
@@ -351,7 +356,9 @@ impl Kept {
             first(a, b, per_family_cost);
         }
         for (a, b) in self.attribution.iter_mut().zip(o.attribution) {
-            first(a, b, ATTRIBUTION_CONFIGURATIONS);
+            a.extend(b);
+            a.sort_by_key(|x| x.0);
+            a.truncate(ATTRIBUTION_CONFIGURATIONS);
         }
         for (a, b) in self.natural.iter_mut().zip(&o.natural) {
             *a += b;
@@ -1018,21 +1025,12 @@ pub fn time_part(
     let subsets: Vec<Vec<crate::input::scene::Config>> = kept
         .attribution
         .iter()
-        .map(|s| s.iter().map(|(_, c)| c.clone()).collect())
+        .map(|s| s.iter().map(|(_, _, c)| c.clone()).collect())
         .collect();
     let attribution = attribute(methods, &subsets)?;
     timing.attribution_seconds = t.elapsed().as_secs_f64();
     let envelope = match &case.envelope {
-        Some(spec) => {
-            let material_of = |g: usize| setup.samples.get(g).map_or(0, |s| s.material);
-            crate::measure::envelope::any_driver(
-                methods,
-                &kept.attribution,
-                &material_of,
-                spec.sample,
-                (gpu, pipelines),
-            )?
-        }
+        Some(spec) => crate::measure::envelope::any_driver(methods, &kept.attribution, spec.sample, (gpu, pipelines))?,
         None => Vec::new(),
     };
     timing.total_seconds += start.elapsed().as_secs_f64();
@@ -1198,7 +1196,7 @@ fn keep(
         if global.is_multiple_of(attribution_step) {
             for (subset, m) in kept.attribution.iter_mut().zip(methods) {
                 if m.applies(c) && subset.len() < ATTRIBUTION_CONFIGURATIONS {
-                    subset.push((global, c.clone()));
+                    subset.push((global, f, c.clone()));
                 }
             }
         }
