@@ -268,6 +268,49 @@ fn a_kernel_of_many_rules_gives_the_interpreters_bits() {
     assert!(compare(&m, &configs).is_some_and(|n| n > 0));
 }
 
+/// A loop whose continuing block ends in `break if`: left by the body's `break` (on the first
+/// pass where `scene.p1.x` ≤ 0, or later) or by `break if` after four passes.
+const BREAK_IF: &str = "\
+//! id: test.break_if
+//! target: line
+fn method(scene: Scene) -> f32 {
+    var i = 0;
+    var acc = 0.0;
+    loop {
+        if (f32(i) >= scene.p1.x * 3.0) { break; }
+        acc += sin(f32(i) + scene.p2.y) + 0.5;
+        continuing {
+            let j = i + 1;
+            i = j;
+            break if j >= 4 || acc > scene.p1.z * 2.0;
+        }
+    }
+    return acc;
+}
+";
+
+#[test]
+fn a_loop_with_break_if_gives_the_interpreters_bits() {
+    let m = user(BREAK_IF, "test.break_if");
+    let p = program(&m).unwrap();
+    for mode in [Mode::F32, Mode::F64] {
+        assert_eq!(p.not_compiled(mode), None);
+    }
+    let base = case_configs().swap_remove(0);
+    let mut configs = Vec::new();
+    for (i, x) in [-1.0, -0.0, 0.0, 0.1, 0.3, 0.5, 0.9, 1.4, 3.0].into_iter().enumerate() {
+        for z in [0.1, 0.6, 1.5, 4.0] {
+            let mut c = base.clone();
+            c.p1 = [x, 0.3, z];
+            c.p2 = [0.1, 0.2 * i as f64 - 0.7, 1.0];
+            configs.push(c);
+        }
+    }
+    // All lanes leaving by `break` on the first pass (x ≤ 0: the first 12), and all mixed.
+    assert_eq!(compare(&m, &configs[..12]), Some(24));
+    assert_eq!(compare(&m, &configs), Some(2 * configs.len()));
+}
+
 const LOOPS: &str = "\
 //! id: test.loops
 //! target: line

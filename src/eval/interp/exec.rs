@@ -513,8 +513,12 @@ impl<'p> Exec<'p> {
                         or_into(&mut active, &top.cont);
                         top.cont.fill(false);
                         self.block(fr, continuing, &mut active, ctl)?;
-                        if let Some(b) = break_if {
-                            let c = &self.val(fr, *b)?.0[0];
+                        // naga's `break_if` is emitted in the continuing block, which runs only
+                        // while some lane is still in the loop: when every lane left the body
+                        // by `break` (or `return`), nothing is left to test (and on the first
+                        // pass the condition has no value yet).
+                        if let Some(b) = break_if.filter(|_| any(&active)) {
+                            let c = &self.val(fr, b)?.0[0];
                             let top = ctl.last_mut().expect("pushed above");
                             for i in 0..self.n {
                                 if active[i] && c[i] != 0.0 {
@@ -1223,5 +1227,71 @@ pub(super) fn int_op(op: B, p: f64, q: f64, signed: bool) -> f64 {
             B::ShiftLeft => a.wrapping_shl(b),
             _ => a.wrapping_shr(b),
         }) as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::eval::interp::{program, Engine, Mode};
+    use crate::input::scene::{Config, Material};
+    use crate::kernel::methods::Method;
+    use crate::kernel::KernelFile;
+
+    /// A loop whose continuing block ends in `break if`, left by the body's `break` on the
+    /// first pass when `scene.p1.x` ≤ 0.
+    const BREAK_IF: &str = "\
+//! id: test.break_if
+//! target: line
+
+fn method(scene: Scene) -> f32 {
+    var i = 0;
+    var acc = 0.0;
+    loop {
+        if (f32(i) >= scene.p1.x) { break; }
+        acc += 0.5 + f32(i);
+        continuing {
+            let j = i + 1;
+            i = j;
+            break if j >= 4;
+        }
+    }
+    return acc;
+}
+";
+
+    /// The interpreter (the specification) on `break if`, by hand: x = 0 leaves on the first
+    /// pass (0); x = 2.5 leaves by `break` at i = 3 (0.5 + 1.5 + 2.5 = 4.5); x = 10 leaves by
+    /// `break if` after i = 3 (0.5 + 1.5 + 2.5 + 3.5 = 8), in f32 and f64, one lane at a time
+    /// and all three in one call (lanes that leave differently).
+    #[test]
+    fn a_loop_with_break_if_gives_the_hand_computed_values() {
+        let m = Method {
+            label: "test.break_if".to_string(),
+            kernel: KernelFile::parse("user/test.break_if.wgsl", BREAK_IF).unwrap(),
+            params: Vec::new(),
+            inner: None,
+            judged: None,
+        };
+        let p = program(&m).unwrap();
+        let at = |x: f64| Config {
+            id: String::new(),
+            p1: [x, 0.2, 1.0],
+            p2: [0.5, -0.3, 1.2],
+            radius: None,
+            rect: None,
+            material: Material::Diffuse,
+            texture: None,
+        };
+        let cases = [(0.0, 0.0), (2.5, 4.5), (10.0, 8.0)];
+        let configs: Vec<Config> = cases.iter().map(|&(x, _)| at(x)).collect();
+        for mode in [Mode::F32, Mode::F64] {
+            for (c, &(x, want)) in configs.iter().zip(&cases) {
+                let got = p.eval_on(&[c], mode, Engine::Interpreter).unwrap();
+                assert_eq!(got, vec![want], "{mode:?} at x = {x}");
+            }
+            let all: Vec<&Config> = configs.iter().collect();
+            let got = p.eval_on(&all, mode, Engine::Interpreter).unwrap();
+            assert_eq!(got, cases.iter().map(|c| c.1).collect::<Vec<_>>(), "{mode:?}");
+        }
     }
 }
