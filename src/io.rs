@@ -636,6 +636,23 @@ pub fn read_bounded(path: &Path, what: &str, max: u64) -> Result<Vec<u8>, InputE
 /// FIFO is refused, never waited on, and a device is never read without end.
 pub fn read_regular(path: &Path, what: &str, max: u64) -> Result<Vec<u8>, InputError> {
     use std::io::Read;
+    let (mut f, len) = open_regular(path, what, max)?;
+    let mut bytes = Vec::with_capacity(len as usize);
+    f.read_to_end(&mut bytes)
+        .map_err(|e| InputError(format!("cannot read {what} {}: {e}", path.display())))?;
+    if bytes.len() as u64 > max {
+        return Err(InputError(format!(
+            "{what} {} grew past {max} bytes while read",
+            path.display()
+        )));
+    }
+    Ok(bytes)
+}
+
+/// [`read_regular`]'s checks, with the file left to read as a stream (at most `max + 1`
+/// bytes: a reader that finds more says the file grew); also its length when opened.
+pub fn open_regular(path: &Path, what: &str, max: u64) -> Result<(std::io::Take<fs::File>, u64), InputError> {
+    use std::io::Read;
     use std::os::unix::fs::OpenOptionsExt;
     let shown = path.display();
     let err = |e: std::io::Error| InputError(format!("cannot read {what} {shown}: {e}"));
@@ -656,12 +673,7 @@ pub fn read_regular(path: &Path, what: &str, max: u64) -> Result<Vec<u8>, InputE
             m.len()
         )));
     }
-    let mut bytes = Vec::with_capacity(m.len() as usize);
-    f.take(max + 1).read_to_end(&mut bytes).map_err(err)?;
-    if bytes.len() as u64 > max {
-        return Err(InputError(format!("{what} {shown} grew past {max} bytes while read")));
-    }
-    Ok(bytes)
+    Ok((f.take(max + 1), m.len()))
 }
 
 fn process_alive(pid: u32) -> bool {

@@ -48,11 +48,80 @@ pub struct Partial {
     pub observations: Option<Observations>,
 }
 
+/// What a shard record says of itself before its state: what the merge checks before it folds
+/// any shard in. Decoded from the record's state ([`Partial`]'s first fields) without the rest.
+#[derive(Clone, Debug)]
+pub struct Header {
+    pub format: u32,
+    pub case: String,
+    pub seed: u64,
+    pub count_override: Option<usize>,
+    /// (i, n): this part is shard i of n.
+    pub shard: (usize, usize),
+    pub methods: Vec<String>,
+}
+
+impl<'de> serde::Deserialize<'de> for Header {
+    /// Reads the state's fields until it has the header's (the first six a record holds) and
+    /// stops there: the rest of the state is not read at all, which is sound only because the
+    /// state is the record's last field ([`ShardFile`], [`HeaderFile`]).
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Header, D::Error> {
+        use serde::de::{Error, IgnoredAny, MapAccess, Visitor};
+        struct Fields;
+        impl<'de> Visitor<'de> for Fields {
+            type Value = Header;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a shard state")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Header, A::Error> {
+                let mut format = None;
+                let mut case = None;
+                let mut seed = None;
+                let mut count_override = None;
+                let mut shard = None;
+                let mut methods = None;
+                while let Some(key) = map.next_key::<String>()? {
+                    match key.as_str() {
+                        "format" => format = Some(map.next_value()?),
+                        "case" => case = Some(map.next_value()?),
+                        "seed" => seed = Some(map.next_value()?),
+                        "count_override" => count_override = Some(map.next_value()?),
+                        "shard" => shard = Some(map.next_value()?),
+                        "methods" => methods = Some(map.next_value()?),
+                        _ => {
+                            map.next_value::<IgnoredAny>()?;
+                        }
+                    }
+                    if format.is_some()
+                        && case.is_some()
+                        && seed.is_some()
+                        && count_override.is_some()
+                        && shard.is_some()
+                        && methods.is_some()
+                    {
+                        break;
+                    }
+                }
+                let missing = |f: &'static str| A::Error::missing_field(f);
+                Ok(Header {
+                    format: format.ok_or_else(|| missing("format"))?,
+                    case: case.ok_or_else(|| missing("case"))?,
+                    seed: seed.ok_or_else(|| missing("seed"))?,
+                    count_override: count_override.ok_or_else(|| missing("count_override"))?,
+                    shard: shard.ok_or_else(|| missing("shard"))?,
+                    methods: methods.ok_or_else(|| missing("methods"))?,
+                })
+            }
+        }
+        d.deserialize_map(Fields)
+    }
+}
+
 impl Partial {
-    /// Merges shards 0..n of one sweep (each exactly once) into the state of the whole run.
-    pub fn merge_all(setup: &Setup, mut parts: Vec<Partial>) -> anyhow::Result<Partial> {
+    /// Checks the headers of shards 0..n of one sweep (each exactly once), before any state is
+    /// folded in.
+    fn check_headers(setup: &Setup, parts: &[&Header]) -> anyhow::Result<()> {
         anyhow::ensure!(!parts.is_empty(), "merge: no shard states given");
-        parts.sort_by_key(|p| p.shard.0);
         let n = parts[0].shard.1;
         let labels: Vec<String> = setup.methods.iter().map(|m| m.label.clone()).collect();
         for (k, p) in parts.iter().enumerate() {
@@ -115,9 +184,22 @@ impl Partial {
             parts.len(),
             n - 1
         );
-        let mut it = parts.into_iter();
-        let mut all = it.next().expect("not empty");
-        for p in it {
+        Ok(())
+    }
+
+    /// Merges shards 0..n of one sweep (each exactly once) into the state of the whole run,
+    /// `next` giving each one's state in turn (in shard order): each is folded in and dropped
+    /// before the next is asked for, so a merge holds the merged state and one shard's.
+    fn merge_each(
+        setup: &Setup,
+        headers: &[&Header],
+        next: &mut dyn FnMut(usize) -> anyhow::Result<Partial>,
+    ) -> anyhow::Result<Partial> {
+        Partial::check_headers(setup, headers)?;
+        let n = headers[0].shard.1;
+        let mut all = next(0)?;
+        for k in 1..n {
+            let p = next(k)?;
             Accumulate::merge(&mut all.accumulators, &p.accumulators).map_err(anyhow::Error::msg)?;
             Accumulate::merge(&mut all.leak, &p.leak).map_err(anyhow::Error::msg)?;
             Accumulate::merge(&mut all.measured, &p.measured).map_err(anyhow::Error::msg)?;
@@ -143,6 +225,16 @@ impl Partial {
         all.shard = (0, 1);
         all.measured.timing.shards = n;
         Ok(all)
+    }
+
+    /// Merges the shard records read by [`read_shards`], decoding one at a time (docs/scale.md).
+    pub fn merge_records(setup: &Setup, shards: &Shards) -> anyhow::Result<Partial> {
+        let mut order: Vec<&(PathBuf, Header)> = shards.records.iter().collect();
+        order.sort_by_key(|(_, h)| h.shard.0);
+        let headers: Vec<&Header> = order.iter().map(|(_, h)| h).collect();
+        Partial::merge_each(setup, &headers, &mut |k| {
+            Ok(read_record::<ShardFile>(&order[k].0)?.state)
+        })
     }
 }
 
@@ -231,7 +323,18 @@ struct ShardFile {
     kernels: Vec<Recorded>,
     /// (method label, SHA-256 of its kernel's source) for every method the shard measured.
     sources: Vec<(String, String)>,
+    /// Last: a merge reads the records' headers without the rest of their states ([`Header`]).
     state: Partial,
+}
+
+/// A shard record's [`ShardFile`] without the state past its header (not read: the state is
+/// the record's last field, so the decoder stops there).
+#[derive(serde::Deserialize)]
+struct HeaderFile {
+    case: Recorded,
+    kernels: Vec<Recorded>,
+    sources: Vec<(String, String)>,
+    state: Header,
 }
 
 /// [`ShardFile`] as written: the same fields, borrowed.
@@ -254,7 +357,9 @@ pub struct Shards {
     sources: Vec<(String, String)>,
     /// The record the merge read the files from (for messages).
     first: PathBuf,
-    pub parts: Vec<Partial>,
+    /// Each record's path and header; its state is decoded when the merge folds it in
+    /// ([`Partial::merge_records`]).
+    pub records: Vec<(PathBuf, Header)>,
 }
 
 impl Shards {
@@ -347,40 +452,11 @@ pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Shards> {
             .join(", ")
     );
     let mut first: Option<(PathBuf, Ran)> = None;
-    let mut parts = Vec::new();
+    let mut records = Vec::new();
     for p in files {
-        // A FIFO named like a shard would block; a state larger than the memory limit cannot be held.
-        let bytes = crate::io::read_regular(&p, "shard state", crate::limits::max_memory().0)?;
-        let old_format = |format: u32| {
-            anyhow::anyhow!(
-                "merge: {} is a shard record of format {format}; this linelight reads format {SHARD_FORMAT} (whose \
-                 shards run their own searches and whose shard 0 times the methods, so that the merge needs no \
-                 GPU): re-run the shards with this linelight (`linelight sweep CASE --shard I/N --out DIR`)",
-                p.display()
-            )
-        };
-        // Decoded once (a record is hundreds of MB at a large count); only a record that does not
-        // decode is probed for its format, to say why.
-        let f: ShardFile = match ciborium::from_reader(bytes.as_slice()) {
-            Ok(f) => f,
-            Err(e) => {
-                if let Ok(probe) = ciborium::from_reader::<Probe, _>(bytes.as_slice()) {
-                    if probe.state.format != SHARD_FORMAT {
-                        return Err(old_format(probe.state.format));
-                    }
-                }
-                anyhow::bail!(
-                    "merge: {} is not a linelight shard record: {}",
-                    p.display(),
-                    cbor_error(&e)
-                );
-            }
-        };
-        drop(bytes);
-        if f.state.format != SHARD_FORMAT {
-            return Err(old_format(f.state.format));
-        }
-        let ShardFile {
+        // Only what the record ran and its header: the state is decoded when it is folded in.
+        let f: HeaderFile = read_record(&p)?;
+        let HeaderFile {
             case,
             kernels,
             sources,
@@ -388,7 +464,7 @@ pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Shards> {
         } = f;
         let ran = Ran { case, kernels, sources };
         match &first {
-            None => first = Some((p, ran)),
+            None => first = Some((p.clone(), ran)),
             Some((p0, r0)) => anyhow::ensure!(
                 ran.hashes() == r0.hashes(),
                 "merge: {} ran the case file {} with the kernels [{}], and {} ran {} with [{}], not the same \
@@ -401,7 +477,7 @@ pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Shards> {
                 shown(&r0.kernels)
             ),
         }
-        parts.push(state);
+        records.push((p, state));
     }
     let (record, file) = first.expect("at least one file");
     let folder = record.parent().unwrap_or(Path::new("."));
@@ -426,8 +502,64 @@ pub fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Shards> {
         kernels,
         sources: file.sources,
         first: record,
-        parts,
+        records,
     })
+}
+
+/// A shard record's state format, from `T`, the whole record or its header.
+trait Formatted {
+    fn format(&self) -> u32;
+}
+
+impl Formatted for ShardFile {
+    fn format(&self) -> u32 {
+        self.state.format
+    }
+}
+
+impl Formatted for HeaderFile {
+    fn format(&self) -> u32 {
+        self.state.format
+    }
+}
+
+/// Reads and decodes the shard record `p` (whole, or its header), refusing a record of another
+/// format or one that is not a shard record.
+fn read_record<T: serde::de::DeserializeOwned + Formatted>(p: &Path) -> anyhow::Result<T> {
+    // A FIFO named like a shard would block; a state larger than the memory limit cannot be held.
+    // Decoded as it is read: the record's bytes are never held beside its state.
+    let open = || -> anyhow::Result<_> {
+        let (f, _) = crate::io::open_regular(p, "shard state", crate::limits::max_memory().0)?;
+        Ok(std::io::BufReader::with_capacity(1 << 16, f))
+    };
+    let old_format = |format: u32| {
+        anyhow::anyhow!(
+            "merge: {} is a shard record of format {format}; this linelight reads format {SHARD_FORMAT} (whose \
+             shards run their own searches and whose shard 0 times the methods, so that the merge needs no \
+             GPU): re-run the shards with this linelight (`linelight sweep CASE --shard I/N --out DIR`)",
+            p.display()
+        )
+    };
+    // Decoded once; only a record that does not decode is probed for its format, to say why.
+    let f: T = match ciborium::from_reader(open()?) {
+        Ok(f) => f,
+        Err(e) => {
+            if let Ok(probe) = ciborium::from_reader::<Probe, _>(open()?) {
+                if probe.state.format != SHARD_FORMAT {
+                    return Err(old_format(probe.state.format));
+                }
+            }
+            anyhow::bail!(
+                "merge: {} is not a linelight shard record: {}",
+                p.display(),
+                cbor_error(&e)
+            );
+        }
+    };
+    if f.format() != SHARD_FORMAT {
+        return Err(old_format(f.format()));
+    }
+    Ok(f)
 }
 
 fn shown(kernels: &[Recorded]) -> String {

@@ -288,12 +288,12 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> anyhow::Result<Status> {
     let setup = prepare_with(
         loaded,
         &shards.kernels,
-        shards.parts[0].count_override,
+        shards.records[0].1.count_override,
         Holds::default(),
     )?;
     check_budget_target(&setup)?;
     shards.check_sources(&setup.methods)?;
-    let part = Partial::merge_all(&setup, shards.parts)?;
+    let part = Partial::merge_records(&setup, &shards)?;
     let gate = crate::app::gate::GateRun::prepare(None, None, None, Default::default(), &setup)?;
     let measured = Swept {
         measured: sweep::assemble(&setup, part.measured)?,
