@@ -1328,6 +1328,80 @@ edges = [-20.0, -19.0, 0.0, 90.0]
         }
     }
 
+    /// The draw runs on all threads (each configuration and each top-up from its own stream):
+    /// the same samples, draws and top-ups as drawing them one after another on one thread.
+    #[test]
+    fn the_parallel_draw_is_the_serial_one() {
+        let mut c = case();
+        c.min_per_bin = 12;
+        c.bins = Case::parse(
+            "b.toml",
+            r#"
+name = "b"
+title = "b"
+seed = 1
+methods = ["line.ltc2017"]
+[geometry]
+elevation = { dist = "uniform", min = -20.0, max = 90.0 }
+tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
+length = { dist = "log_uniform", min = 0.1, max = 10.0 }
+center = { dist = "uniform", min = -2.0, max = 2.0 }
+[[materials]]
+name = "d"
+kind = "diffuse"
+count = 10
+[[bins]]
+axis = "length"
+edges = [0.1, 0.12, 1.0, 10.0]
+[[bins]]
+axis = "elevation"
+edges = [-20.0, -19.0, 0.0, 90.0]
+"#,
+        )
+        .unwrap()
+        .bins;
+        for m in &mut c.materials {
+            m.count = 300;
+        }
+        let (natural, draws) = sample_case_counted(&c).unwrap();
+        let (topups, _) = top_up(&c, &natural);
+        // One thread: configuration after configuration, then top-up after top-up.
+        let mut g = 0;
+        for (f, m) in c.materials.iter().enumerate() {
+            let (mut drawn, mut rejected) = (0, 0);
+            for i in 0..m.count {
+                let (s, d, _) = natural_one(&c, f, i);
+                let s = s.unwrap();
+                assert_eq!((&s.config, &s.units), (&natural[g].config, &natural[g].units), "{g}");
+                (drawn, rejected) = (drawn + d.drawn, rejected + d.rejected);
+                g += 1;
+            }
+            assert_eq!((drawn, rejected), (draws[f].drawn, draws[f].rejected), "{}", m.name);
+        }
+        assert_eq!(g, natural.len());
+        let mut counts: Vec<FamilyCounts> = c.materials.iter().map(|_| FamilyCounts::new(&c)).collect();
+        for s in &natural {
+            counts[s.material].count(&c, s);
+        }
+        let mut serial = Vec::new();
+        let mut reachable = false;
+        for k in topup_plan(&c, &topup_needs(&c, &counts), (0, 1)) {
+            if k.j > 0 && !reachable {
+                continue;
+            }
+            let (_, s) = top_up_one(&c, k);
+            if k.j == 0 {
+                reachable = s.is_some();
+            }
+            serial.extend(s);
+        }
+        assert!(serial.len() > 20, "the case has top-ups: {}", serial.len());
+        assert_eq!(topups.len(), serial.len());
+        for (a, b) in topups.iter().zip(&serial) {
+            assert_eq!((&a.config, &a.units, &a.strata), (&b.config, &b.units, &b.strata));
+        }
+    }
+
     #[test]
     fn a_configuration_is_a_function_of_its_uniforms() {
         let case = case();

@@ -189,8 +189,8 @@ pub(super) fn throughput(w: &mut String, input: &Summary) {
     let _ = writeln!(
         w,
         "Harness throughput: {} configurations × {} methods measured in {:.2} s, {:.0} configurations per \
-         second end to end (finishing the statistics and the claims, and writing the report, excluded). Split: drawing the configurations {:.2} s ({:.0} %, one \
-         thread), GPU runs {:.2} s ({:.0} %), CPU evaluator (f64 and f32) {:.2} s ({:.0} %), references {:.2} s ({:.0} %), references at the f32-rounded inputs {:.2} s ({:.0} %), \
+         second end to end (finishing the statistics and the claims, and writing the report, excluded). Split: drawing the configurations {:.2} s ({:.0} %, on \
+         all threads, each from its own stream), GPU runs {:.2} s ({:.0} %), CPU evaluator (f64 and f32) {:.2} s ({:.0} %), references {:.2} s ({:.0} %), references at the f32-rounded inputs {:.2} s ({:.0} %), \
          attribution (\"where the bits go\", interpreted) {:.2} s ({:.0} %), worst-case search {:.2} s ({:.0} %), \
          disagreement search {:.2} s ({:.0} %, {} candidates), cost measurement {:.2} s ({:.0} %, budget {:.2} s), folding into the \
          statistics {:.2} s ({:.0} %), set-up and the rest {:.2} s ({:.0} %).\n",
