@@ -66,6 +66,14 @@ fn odd_configs(like: &[Config]) -> Vec<Config> {
 }
 
 /// The path every built-in kernel takes: SIMD vectors (one F32X4, two F64X2) in both modes.
+/// Whether no switch (`LINELIGHT_LANES`, `LINELIGHT_F64_PATH`, `LINELIGHT_VECTORS`) asks for
+/// another path.
+fn default_paths() -> bool {
+    ["LINELIGHT_LANES", "LINELIGHT_F64_PATH", "LINELIGHT_VECTORS"]
+        .iter()
+        .all(|v| std::env::var(v).is_err())
+}
+
 fn expected_path(_mode: Mode) -> Path {
     Path::Simd(LANES)
 }
@@ -116,9 +124,9 @@ fn compare(m: &Method, configs: &[Config]) -> Option<usize> {
         }
         compiled = true;
         assert_eq!(p.engine(mode), Engine::Compiled, "{}", m.label);
-        // The SIMD path (f32) and the lane path (f64) are what run, unless LINELIGHT_LANES
-        // asks for another.
-        if std::env::var("LINELIGHT_LANES").is_err() {
+        // The SIMD path is what runs in both modes, unless LINELIGHT_LANES or
+        // LINELIGHT_F64_PATH asks for another.
+        if default_paths() {
             assert_eq!(p.path(mode), Some(expected_path(mode)), "{} {mode:?}", m.label);
         }
         let native = m.cpu_column_on(configs, mode, Engine::Compiled);
@@ -399,7 +407,7 @@ fn lanes_that_diverge_give_the_interpreters_bits_for_any_chunk_length() {
     let p = program(&m).unwrap();
     for mode in [Mode::F32, Mode::F64] {
         assert_eq!(p.not_compiled(mode), None);
-        if std::env::var("LINELIGHT_LANES").is_err() {
+        if default_paths() {
             assert_eq!(p.path(mode), Some(expected_path(mode)), "{mode:?}");
         }
     }

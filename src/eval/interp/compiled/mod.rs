@@ -29,6 +29,13 @@ fn vectors_wanted() -> Option<usize> {
     })
 }
 
+/// `LINELIGHT_F64_PATH=lanes`: f64 on the previous path, 4 interleaved scalar lanes per
+/// call, f32 untouched (to time the F64X2 path against it in one build).
+fn f64_lanes_wanted() -> bool {
+    static WANTED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *WANTED.get_or_init(|| std::env::var("LINELIGHT_F64_PATH").is_ok_and(|v| v == "lanes"))
+}
+
 /// `LINELIGHT_LANES=N` (1 to 16): N configurations per call on the interleaved lane path,
 /// no SIMD; 1 is the one-configuration path (to time the paths, or to rule one out).
 /// `LINELIGHT_LANES=4` is the f64 path before F64X2.
@@ -115,7 +122,11 @@ impl Compiled {
             }
         }
         let vectors = vectors_wanted().unwrap_or(LANES / lower::simd_width(mode));
-        let (native, path) = match lanes_wanted() {
+        let wanted = match mode {
+            Mode::F64 if f64_lanes_wanted() => lanes_wanted().or(Some(LANES)),
+            _ => lanes_wanted(),
+        };
+        let (native, path) = match wanted {
             Some(n) => lanes(p, mode, n)?,
             None => match lower::compile(p, mode, vectors, true) {
                 Ok(native) => {
