@@ -409,6 +409,8 @@ fn lanes_that_diverge_give_the_interpreters_bits_for_any_chunk_length() {
         assert_eq!(p.not_compiled(mode), None);
         if default_paths() {
             assert_eq!(p.path(mode), Some(expected_path(mode)), "{mode:?}");
+        } else {
+            println!("{mode:?}: {}", p.path(mode).unwrap().describe());
         }
     }
     let base = case_configs().swap_remove(0);
@@ -447,4 +449,33 @@ fn lanes_that_diverge_give_the_interpreters_bits_for_any_chunk_length() {
         }
     }
     assert_eq!(compare(&m, &configs), Some(2 * configs.len()));
+}
+
+/// The paths the switches select (the previous f64 interleaved lanes, and other vector
+/// counts per call: 2 and 6 f64 configurations, 4 and 12 f32) give the same bits too: this
+/// test binary run again under each switch, on the diverging and the rules kernels.
+#[test]
+fn the_paths_the_switches_select_give_the_interpreters_bits() {
+    if !default_paths() {
+        return; // already a run under a switch
+    }
+    let me = std::env::current_exe().unwrap();
+    for (var, value) in [
+        ("LINELIGHT_F64_PATH", "lanes"),
+        ("LINELIGHT_VECTORS", "1"),
+        ("LINELIGHT_VECTORS", "3"),
+    ] {
+        let out = std::process::Command::new(&me)
+            .env(var, value)
+            .args([
+                "lanes_that_diverge_give_the_interpreters_bits_for_any_chunk_length",
+                "a_kernel_of_many_rules_gives_the_interpreters_bits",
+                "--test-threads=1",
+            ])
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "{var}={value}:\n{text}");
+        assert!(text.contains("2 passed"), "{var}={value}:\n{text}");
+    }
 }
