@@ -65,12 +65,17 @@ fn odd_configs(like: &[Config]) -> Vec<Config> {
     out
 }
 
-/// The path every built-in kernel takes: f32 in SIMD vectors, f64 on interleaved lanes.
-fn expected_path(mode: Mode) -> Path {
-    match mode {
-        Mode::F32 => Path::Simd,
-        Mode::F64 => Path::Lanes(LANES, None),
-    }
+/// The path every built-in kernel takes: SIMD vectors (one F32X4, two F64X2) in both modes.
+/// Whether no switch (`LINELIGHT_LANES`, `LINELIGHT_F64_PATH`, `LINELIGHT_VECTORS`) asks for
+/// another path.
+fn default_paths() -> bool {
+    ["LINELIGHT_LANES", "LINELIGHT_F64_PATH", "LINELIGHT_VECTORS"]
+        .iter()
+        .all(|v| std::env::var(v).is_err())
+}
+
+fn expected_path(_mode: Mode) -> Path {
+    Path::Simd(LANES)
 }
 
 fn same_bits(a: &[Option<f64>], b: &[Option<f64>]) -> Option<usize> {
@@ -119,9 +124,9 @@ fn compare(m: &Method, configs: &[Config]) -> Option<usize> {
         }
         compiled = true;
         assert_eq!(p.engine(mode), Engine::Compiled, "{}", m.label);
-        // The SIMD path (f32) and the lane path (f64) are what run, unless LINELIGHT_LANES
-        // asks for another.
-        if std::env::var("LINELIGHT_LANES").is_err() {
+        // The SIMD path is what runs in both modes, unless LINELIGHT_LANES or
+        // LINELIGHT_F64_PATH asks for another.
+        if default_paths() {
             assert_eq!(p.path(mode), Some(expected_path(mode)), "{} {mode:?}", m.label);
         }
         let native = m.cpu_column_on(configs, mode, Engine::Compiled);
@@ -445,8 +450,10 @@ fn lanes_that_diverge_give_the_interpreters_bits_for_any_chunk_length() {
     let p = program(&m).unwrap();
     for mode in [Mode::F32, Mode::F64] {
         assert_eq!(p.not_compiled(mode), None);
-        if std::env::var("LINELIGHT_LANES").is_err() {
+        if default_paths() {
             assert_eq!(p.path(mode), Some(expected_path(mode)), "{mode:?}");
+        } else {
+            println!("{mode:?}: {}", p.path(mode).unwrap().describe());
         }
     }
     let base = case_configs().swap_remove(0);
@@ -485,4 +492,33 @@ fn lanes_that_diverge_give_the_interpreters_bits_for_any_chunk_length() {
         }
     }
     assert_eq!(compare(&m, &configs), Some(2 * configs.len()));
+}
+
+/// The paths the switches select (the previous f64 interleaved lanes, and other vector
+/// counts per call: 2 and 6 f64 configurations, 4 and 12 f32) give the same bits too: this
+/// test binary run again under each switch, on the diverging and the rules kernels.
+#[test]
+fn the_paths_the_switches_select_give_the_interpreters_bits() {
+    if !default_paths() {
+        return; // already a run under a switch
+    }
+    let me = std::env::current_exe().unwrap();
+    for (var, value) in [
+        ("LINELIGHT_F64_PATH", "lanes"),
+        ("LINELIGHT_VECTORS", "1"),
+        ("LINELIGHT_VECTORS", "3"),
+    ] {
+        let out = std::process::Command::new(&me)
+            .env(var, value)
+            .args([
+                "lanes_that_diverge_give_the_interpreters_bits_for_any_chunk_length",
+                "a_kernel_of_many_rules_gives_the_interpreters_bits",
+                "--test-threads=1",
+            ])
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "{var}={value}:\n{text}");
+        assert!(text.contains("2 passed"), "{var}={value}:\n{text}");
+    }
 }

@@ -1,6 +1,7 @@
 //! naga IR → Cranelift IR: one configuration per call ([`Lower::block`], control flow as
-//! branches), or several with the interpreter's execution masks ([`Lower::lblock`]): f32 in
-//! SIMD vectors of [`SIMD_LANES`] configurations, or interleaved scalar lanes (f64).
+//! branches), or several with the interpreter's execution masks ([`Lower::lblock`]): in
+//! SIMD vectors (f32 as F32X4, f64 as F64X2; one or more vectors per call), or interleaved
+//! scalar lanes.
 //!
 //! The interpreter (`../exec.rs`) is the specification; this file mirrors it operation by
 //! operation, scalar by scalar, in the same order:
@@ -57,17 +58,21 @@ pub(super) struct Native {
 unsafe impl Send for Native {}
 unsafe impl Sync for Native {}
 
-/// Compiles `method` of `p` in `mode`, or says what it cannot compile.
-/// Configurations per call on the SIMD path: one 128-bit vector of f32.
-pub(super) const SIMD_LANES: usize = 4;
+/// Configurations in one 128-bit vector on the SIMD path: 4 f32 (F32X4) or 2 f64 (F64X2).
+pub(super) fn simd_width(mode: Mode) -> usize {
+    match mode {
+        Mode::F32 => 4,
+        Mode::F64 => 2,
+    }
+}
 
 /// Compiles `method` of `p` in `mode` for `lanes` configurations per call (1: the
 /// one-configuration path; more: the lane path, each lane's values side by side), or with
-/// `simd` (f32 only) for [`SIMD_LANES`] configurations per call in vector registers, or says
-/// what it cannot compile.
+/// `simd` for `lanes` vectors of [`simd_width`] configurations per call in vector registers
+/// (the vectors' operations side by side as the lane path's), or says what it cannot compile.
 pub(super) fn compile(p: &Program, mode: Mode, lanes: usize, simd: bool) -> Result<Native, String> {
-    if simd && mode != Mode::F32 {
-        return Err("the SIMD path is f32 only".into());
+    if lanes == 0 {
+        return Err("no lanes".into());
     }
     let mut flags = settings::builder();
     let set = |f: &mut settings::Builder, k: &str, v: &str| f.set(k, v).map_err(|e| format!("cranelift {k}: {e}"));
@@ -103,7 +108,7 @@ pub(super) fn compile(p: &Program, mode: Mode, lanes: usize, simd: bool) -> Resu
             stores: Vec::new(),
             globals: vec![None; p.module.global_variables.len()],
             targets: Vec::new(),
-            lanes: if simd { 1 } else { lanes },
+            lanes,
             simd,
             lane: 0,
             cur: Vec::new(),
@@ -133,7 +138,7 @@ pub(super) fn compile(p: &Program, mode: Mode, lanes: usize, simd: bool) -> Resu
     Ok(Native {
         _module: module,
         entry,
-        per_call: if simd { SIMD_LANES } else { lanes },
+        per_call: if simd { lanes * simd_width(mode) } else { lanes },
     })
 }
 
@@ -194,9 +199,13 @@ struct Lower<'p, 'b> {
     /// Configurations per call: 1 is the one-configuration path (control flow as branches),
     /// more is the lane path (see [`Lower::lblock`]).
     lanes: usize,
-    /// The SIMD path: every value is a vector of [`SIMD_LANES`] configurations' (f32 as
-    /// F32X4, integers as I32X4, booleans as I32X4 masks of all ones or zeros), masks are
-    /// one vector, operations without a vector form are made lane by lane (`per_lane`).
+    /// The SIMD path: every value is a vector of [`simd_width`] configurations', masks are
+    /// one vector per lane (`lanes` vectors per call), operations without a vector form are
+    /// made lane by lane (`per_lane`). f32: F32X4, integers I32X4, booleans I32X4 masks of
+    /// all ones or zeros. f64: F64X2, booleans I64X2 masks (what an F64X2 compare gives),
+    /// integers I32X4 with configuration `j`'s value in lanes `2j` and `2j + 1` (so every
+    /// lane-wise i32 operation keeps the two copies equal and an integer compare's I32X4
+    /// mask, read as I64X2, is the boolean mask).
     simd: bool,
     /// The lane whose values are being lowered.
     lane: usize,
@@ -223,6 +232,12 @@ struct Lower<'p, 'b> {
 
 type R<T> = Result<T, String>;
 
+/// The flags of a bitcast between vector types of different lane counts (a mask read as
+/// another lane width): little-endian, as x86-64 lays out a vector's lanes.
+fn lanes_le() -> MemFlagsData {
+    MemFlagsData::new().with_endianness(cranelift_codegen::ir::Endianness::Little)
+}
+
 impl<'p> Lower<'p, '_> {
     fn fty(&self) -> Type {
         self.vt(self.sty())
@@ -242,10 +257,32 @@ impl<'p> Lower<'p, '_> {
         if !self.simd {
             return t;
         }
-        match t {
-            types::F32 => types::F32X4,
-            types::I8 | types::I32 => types::I32X4,
-            other => other,
+        match (t, self.mode) {
+            (types::F32, _) => types::F32X4,
+            (types::F64, _) => types::F64X2,
+            (types::I8, Mode::F64) => types::I64X2,
+            (types::I8 | types::I32, _) => types::I32X4,
+            (other, _) => other,
+        }
+    }
+
+    /// Configurations per vector on the SIMD path (1 elsewhere).
+    fn width(&self) -> usize {
+        if self.simd {
+            simd_width(self.mode)
+        } else {
+            1
+        }
+    }
+
+    /// A vector compare's result as the path's boolean mask: on the f64 SIMD path an I32X4
+    /// compare of (duplicated) integers read as I64X2.
+    fn as_mask(&mut self, c: Value) -> Value {
+        let mt = self.vt(types::I8);
+        if self.b.func.dfg.value_type(c).is_vector() && self.b.func.dfg.value_type(c) != mt {
+            self.b.ins().bitcast(mt, lanes_le(), c)
+        } else {
+            c
         }
     }
 
@@ -260,10 +297,10 @@ impl<'p> Lower<'p, '_> {
             return self.b.ins().select(c, a, b);
         }
         let t = self.b.func.dfg.value_type(a);
-        let c = if t == types::I32X4 {
+        let c = if t == self.b.func.dfg.value_type(c) {
             c
         } else {
-            self.b.ins().bitcast(t, MemFlagsData::new(), c)
+            self.b.ins().bitcast(t, lanes_le(), c)
         };
         self.b.ins().bitselect(c, a, b)
     }
@@ -276,14 +313,16 @@ impl<'p> Lower<'p, '_> {
         }
         let s = self.b.ins().iconst(t.lane_type(), k);
         let v = self.b.ins().splat(t, s);
-        self.b.ins().icmp(cc, x, v)
+        let c = self.b.ins().icmp(cc, x, v);
+        self.as_mask(c)
     }
 
     /// A mask of every lane (`on`) or none, in the path's mask type.
     fn mask_const(&mut self, on: bool) -> Value {
         if self.simd {
-            let s = self.b.ins().iconst(types::I32, -i64::from(on));
-            self.b.ins().splat(types::I32X4, s)
+            let mt = self.vt(types::I8);
+            let s = self.b.ins().iconst(mt.lane_type(), -i64::from(on));
+            self.b.ins().splat(mt, s)
         } else {
             self.b.ins().iconst(types::I8, i64::from(on))
         }
@@ -303,6 +342,11 @@ impl<'p> Lower<'p, '_> {
     fn bool_to_int(&mut self, x: Value) -> Value {
         if self.simd {
             let one = self.iconst32(1);
+            let x = if self.b.func.dfg.value_type(x) == types::I32X4 {
+                x
+            } else {
+                self.b.ins().bitcast(types::I32X4, lanes_le(), x)
+            };
             self.b.ins().band(x, one)
         } else {
             self.b.ins().uextend(types::I32, x)
@@ -316,25 +360,39 @@ impl<'p> Lower<'p, '_> {
         if !self.simd {
             return f(self, args);
         }
+        let w = self.width();
         self.simd = false;
+        // A configuration's element in a vector of type `t`: on the f64 path an integer
+        // vector holds configuration `l` in lanes 2l and 2l + 1.
+        let at = |t: Type, l: usize| (l * t.lane_count() as usize / w) as u8;
         let mut out: Option<Value> = None;
-        for l in 0..SIMD_LANES as u8 {
-            let a: Vec<Value> = args.iter().map(|&x| self.b.ins().extractlane(x, l)).collect();
+        for l in 0..w {
+            let a: Vec<Value> = args
+                .iter()
+                .map(|&x| {
+                    let t = self.b.func.dfg.value_type(x);
+                    self.b.ins().extractlane(x, at(t, l))
+                })
+                .collect();
             let r = f(self, &a);
+            let vt = match self.b.func.dfg.value_type(r) {
+                types::F32 => types::F32X4,
+                types::F64 => types::F64X2,
+                _ => types::I32X4,
+            };
             out = Some(match out {
-                None => {
-                    let t = self.b.func.dfg.value_type(r);
-                    let vt = match t {
-                        types::F32 => types::F32X4,
-                        _ => types::I32X4,
-                    };
-                    self.b.ins().splat(vt, r)
+                None => self.b.ins().splat(vt, r),
+                Some(mut v) => {
+                    let k = vt.lane_count() as usize / w;
+                    for i in 0..k {
+                        v = self.b.ins().insertlane(v, r, (l * k + i) as u8);
+                    }
+                    v
                 }
-                Some(v) => self.b.ins().insertlane(v, r, l),
             });
         }
         self.simd = true;
-        out.expect("SIMD_LANES > 0")
+        out.expect("at least one lane")
     }
 
     /// Each scalar component's machine type and kind.
@@ -479,6 +537,7 @@ impl<'p> Lower<'p, '_> {
         let it = match t {
             types::F32 => types::I32,
             types::F32X4 => types::I32X4,
+            types::F64X2 => types::I64X2,
             _ => types::I64,
         };
         let valid = self.b.declare_var(types::I8);
@@ -551,7 +610,7 @@ impl<'p> Lower<'p, '_> {
     }
     /// `inverseSqrt`: in f32, `1/√x` in f64 rounded once (as the interpreter has it).
     fn rsqrt(&mut self, x: Value) -> Value {
-        if self.simd {
+        if self.simd && self.mode == Mode::F32 {
             // Lanes 0 and 1 promoted together, 2 and 3 by hand; each pair in f64 as below,
             // rounded to f32 once.
             let lo = self.b.ins().fvpromote_low(x);
@@ -585,7 +644,7 @@ impl<'p> Lower<'p, '_> {
             }
             Mode::F64 => {
                 let s = self.b.ins().sqrt(x);
-                let one = self.b.ins().f64const(1.0);
+                let one = self.fconst(1.0);
                 self.b.ins().fdiv(one, s)
             }
         }
@@ -630,15 +689,16 @@ impl<'p> Lower<'p, '_> {
             return Err("`method`'s argument is not the Scene".into());
         }
         // Lane `l`'s scene is the `l`-th run of `total` components, its result `out[l]`.
-        // On the SIMD path the one lane's values are vectors of SIMD_LANES scenes.
-        let per = if self.simd { SIMD_LANES } else { 1 };
+        // On the SIMD path lane `l`'s values are vectors of `per` scenes, from the
+        // `per·l`-th on.
+        let per = self.width();
         let mut scenes = Vec::with_capacity(self.lanes);
         for lane in 0..self.lanes {
             let mut scene = Vec::with_capacity(total);
             for (k, &(t, kind)) in comps.iter().enumerate() {
                 let mut vec: Option<Value> = None;
                 for v in 0..per {
-                    let at = (8 * ((lane + v) * total + k)) as i32;
+                    let at = (8 * ((lane * per + v) * total + k)) as i32;
                     let x = self.b.ins().load(types::F64, MemFlagsData::trusted(), scene_ptr, at);
                     let x = match (t, kind) {
                         (types::F32, _) => self.b.ins().fdemote(types::F32, x),
@@ -649,19 +709,24 @@ impl<'p> Lower<'p, '_> {
                             let z = self.b.ins().f64const(0.0);
                             let c = self.b.ins().fcmp(FloatCC::NotEqual, x, z);
                             if self.simd {
-                                self.b.ins().bmask(types::I32, c)
+                                let lt = self.vt(types::I8).lane_type();
+                                self.b.ins().bmask(lt, c)
                             } else {
                                 c
                             }
                         }
                     };
+                    let vt = self.vt(t);
+                    let k = vt.lane_count() as usize / per;
                     vec = Some(match vec {
                         _ if !self.simd => x,
-                        None => {
-                            let vt = self.vt(t);
-                            self.b.ins().splat(vt, x)
+                        None => self.b.ins().splat(vt, x),
+                        Some(mut w) => {
+                            for i in 0..k {
+                                w = self.b.ins().insertlane(w, x, (v * k + i) as u8);
+                            }
+                            w
                         }
-                        Some(w) => self.b.ins().insertlane(w, x, v as u8),
                     });
                 }
                 scene.push(vec.ok_or("no lanes")?);
@@ -718,7 +783,7 @@ impl<'p> Lower<'p, '_> {
                 };
                 self.b
                     .ins()
-                    .store(MemFlagsData::trusted(), x, out_ptr, (8 * (lane + v)) as i32);
+                    .store(MemFlagsData::trusted(), x, out_ptr, (8 * (lane * per + v)) as i32);
             }
         }
         let ok = self.b.ins().iconst(types::I32, 0);
@@ -1160,12 +1225,12 @@ impl<'p> Lower<'p, '_> {
 
     /// Whether any lane of `m` is set.
     fn any(&mut self, m: &[Value]) -> Value {
-        if self.simd {
-            return self.b.ins().vany_true(m[0]);
-        }
         let mut acc = m[0];
         for &x in &m[1..] {
             acc = self.b.ins().bor(acc, x);
+        }
+        if self.simd {
+            return self.b.ins().vany_true(acc);
         }
         acc
     }
@@ -1434,7 +1499,7 @@ impl<'p> Lower<'p, '_> {
                         let v = p.funs[fun.index()].lit64[h.index()]
                             .clone()
                             .map_err(|m| self.at(fun, h, &m))?;
-                        self.b.ins().f64const(v)
+                        self.konst(types::F64, v)
                     }
                 },
                 naga::Literal::U32(x) => self.iconst32(i64::from(x)),
@@ -1650,10 +1715,22 @@ impl<'p> Lower<'p, '_> {
                 let from = self.inner(fun, *expr).scalar_kind();
                 let a = self.val(fr, *expr)?;
                 let ft = self.fty();
+                // The f64 SIMD path's integers are duplicated in I32X4: converted lane by lane.
+                let wide = self.simd && self.mode == Mode::F64;
                 let mut out = Vec::new();
                 for x in a {
                     out.push(match (to, from) {
                         (ScalarKind::Float, Some(ScalarKind::Float)) => x,
+                        (ScalarKind::Float, Some(ScalarKind::Sint | ScalarKind::Bool)) if wide => {
+                            let w = match from {
+                                Some(ScalarKind::Bool) => self.bool_to_int(x),
+                                _ => x,
+                            };
+                            self.per_lane(&[w], &mut |s, a| {
+                                let ft = s.fty();
+                                s.b.ins().fcvt_from_sint(ft, a[0])
+                            })
+                        }
                         (ScalarKind::Float, Some(ScalarKind::Sint)) => self.b.ins().fcvt_from_sint(ft, x),
                         (ScalarKind::Float, Some(ScalarKind::Uint)) => self.per_lane(&[x], &mut |s, a| {
                             let ft = s.fty();
@@ -1800,6 +1877,11 @@ impl<'p> Lower<'p, '_> {
                 B::LogicalAnd => ins.band(x, y),
                 B::LogicalOr => ins.bor(x, y),
             };
+            let compare = matches!(
+                op,
+                B::Equal | B::NotEqual | B::Less | B::LessEqual | B::Greater | B::GreaterEqual
+            );
+            let v = if compare { self.as_mask(v) } else { v };
             out.push(v);
         }
         Ok(out)

@@ -14,11 +14,31 @@ use anyhow::{bail, Result};
 use rayon::prelude::*;
 
 /// Configurations per call on the interleaved lane path (`lower.rs`, [`lower::compile`]),
-/// and on the SIMD path ([`lower::SIMD_LANES`], one 128-bit vector of f32).
+/// and on the SIMD path in either mode (one F32X4 vector, two F64X2 vectors).
 pub const LANES: usize = 4;
+
+/// `LINELIGHT_VECTORS=K` (1 to 4): K vectors per call on the SIMD path, in both modes (to
+/// time the choice); unset: one F32X4 in f32, two F64X2 in f64 (4 configurations each).
+fn vectors_wanted() -> Option<usize> {
+    static WANTED: std::sync::OnceLock<Option<usize>> = std::sync::OnceLock::new();
+    *WANTED.get_or_init(|| {
+        std::env::var("LINELIGHT_VECTORS")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .filter(|n| (1..=4).contains(n))
+    })
+}
+
+/// `LINELIGHT_F64_PATH=lanes`: f64 on the previous path, 4 interleaved scalar lanes per
+/// call, f32 untouched (to time the F64X2 path against it in one build).
+fn f64_lanes_wanted() -> bool {
+    static WANTED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *WANTED.get_or_init(|| std::env::var("LINELIGHT_F64_PATH").is_ok_and(|v| v == "lanes"))
+}
 
 /// `LINELIGHT_LANES=N` (1 to 16): N configurations per call on the interleaved lane path,
 /// no SIMD; 1 is the one-configuration path (to time the paths, or to rule one out).
+/// `LINELIGHT_LANES=4` is the f64 path before F64X2.
 fn lanes_wanted() -> Option<usize> {
     static WANTED: std::sync::OnceLock<Option<usize>> = std::sync::OnceLock::new();
     *WANTED.get_or_init(|| {
@@ -32,8 +52,8 @@ fn lanes_wanted() -> Option<usize> {
 /// How a compiled kernel runs its configurations.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Path {
-    /// f32 in vector registers, [`lower::SIMD_LANES`] configurations per call.
-    Simd,
+    /// In vector registers (F32X4 or F64X2), this many configurations per call.
+    Simd(usize),
     /// N configurations per call, each lane's scalar operations side by side; why not
     /// SIMD where it was tried.
     Lanes(usize, Option<String>),
@@ -45,7 +65,7 @@ impl Path {
     /// Configurations per call.
     pub fn per_call(&self) -> usize {
         match self {
-            Path::Simd => lower::SIMD_LANES,
+            Path::Simd(n) => *n,
             Path::Lanes(n, _) => *n,
             Path::One(_) => 1,
         }
@@ -53,7 +73,7 @@ impl Path {
 
     pub fn describe(&self) -> String {
         match self {
-            Path::Simd => format!("SIMD, {} configurations per call", lower::SIMD_LANES),
+            Path::Simd(n) => format!("SIMD, {n} configurations per call"),
             Path::Lanes(n, None) => format!("{n} interleaved lanes per call"),
             Path::Lanes(n, Some(why)) => format!("{n} interleaved lanes per call (not SIMD: {why})"),
             Path::One(why) => format!("one configuration per call ({why})"),
@@ -101,10 +121,18 @@ impl Compiled {
                 from[off + k] = src + k;
             }
         }
-        let (native, path) = match (lanes_wanted(), mode) {
-            (Some(n), _) => lanes(p, mode, n)?,
-            (None, Mode::F32) => match lower::compile(p, mode, 0, true) {
-                Ok(native) => (native, Path::Simd),
+        let vectors = vectors_wanted().unwrap_or(LANES / lower::simd_width(mode));
+        let wanted = match mode {
+            Mode::F64 if f64_lanes_wanted() => lanes_wanted().or(Some(LANES)),
+            _ => lanes_wanted(),
+        };
+        let (native, path) = match wanted {
+            Some(n) => lanes(p, mode, n)?,
+            None => match lower::compile(p, mode, vectors, true) {
+                Ok(native) => {
+                    let n = native.per_call;
+                    (native, Path::Simd(n))
+                }
                 Err(why) => {
                     let (native, path) = lanes(p, mode, LANES)?;
                     let path = match path {
@@ -114,7 +142,6 @@ impl Compiled {
                     (native, path)
                 }
             },
-            (None, Mode::F64) => lanes(p, mode, LANES)?,
         };
         Ok(Compiled {
             native,
