@@ -213,6 +213,7 @@ impl Circle {
 
     /// `eval` at each (sin, cos) pair, the variant matched once for the batch.
     #[inline]
+    #[allow(clippy::needless_range_loop)]
     pub fn eval_batch<const N: usize>(&self, sin: &[f64; N], cos: &[f64; N], out: &mut [f64; N]) {
         match self {
             Circle::Ltc(c) => {
