@@ -45,8 +45,8 @@ pub(crate) struct Half {
 pub(crate) fn halves(d: f64, s0: f64, len: f64) -> impl Iterator<Item = Half> {
     let s1 = s0 + len;
     // (side, distance of the near end from the foot, extent)
-    let plus = (s1 > 0.0).then(|| if s0 >= 0.0 { (1.0, s0, len) } else { (1.0, 0.0, s1) });
-    let minus = (s0 < 0.0).then(|| if s1 <= 0.0 { (-1.0, -s1, len) } else { (-1.0, 0.0, -s0) });
+    let plus = (s1 > 0.0).then_some(if s0 >= 0.0 { (1.0, s0, len) } else { (1.0, 0.0, s1) });
+    let minus = (s0 < 0.0).then_some(if s1 <= 0.0 { (-1.0, -s1, len) } else { (-1.0, 0.0, -s0) });
     [plus, minus].into_iter().flatten().map(move |(side, near, ext)| Half {
         side,
         far: d.atan2(near + ext),
