@@ -211,6 +211,24 @@ impl Circle {
         }
     }
 
+    /// `eval` at each (sin, cos) pair, the variant matched once for the batch.
+    #[inline]
+    #[allow(clippy::needless_range_loop)]
+    pub fn eval_batch<const N: usize>(&self, sin: &[f64; N], cos: &[f64; N], out: &mut [f64; N]) {
+        match self {
+            Circle::Ltc(c) => {
+                for i in 0..N {
+                    out[i] = c.eval(sin[i], cos[i]);
+                }
+            }
+            Circle::Ggx { lobe, u, v } => {
+                for i in 0..N {
+                    out[i] = lobe.eval([0, 1, 2].map(|k| sin[i] * u[k] + cos[i] * v[k]));
+                }
+            }
+        }
+    }
+
     /// Where D peaks along the circle, as an angle χ* (mod π: the caller grades χ* and
     /// χ* + π), and the angular width over which it falls off; None when D is as smooth as a
     /// cosine. For GGX: the circle's point nearest the mirror direction, and the lobe's width

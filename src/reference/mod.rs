@@ -11,6 +11,7 @@ mod lobe;
 mod quadrature;
 mod surface;
 mod tint;
+mod trig;
 mod vec;
 
 use crate::input::scene::{Config, Material, Vec3};

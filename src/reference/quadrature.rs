@@ -7,6 +7,7 @@
 //! which is smaller exactly where a reference should not gamble. On top of that a rounding
 //! floor `nodes·ε·∫|f|` bounds what summing `nodes` rounded values can lose.
 
+use std::cell::RefCell;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
@@ -93,7 +94,7 @@ const WG: [f64; 5] = [
     0.269266719309996355091226921569469,
     0.295524224714752870173892994651338,
 ];
-const NODES: usize = 21;
+pub(crate) const NODES: usize = 21;
 
 /// A panel `[start, start + len]`. The length is kept apart from the end point so that a
 /// short panel far from 0 keeps its length to full relative precision.
@@ -122,17 +123,34 @@ impl Ord for Panel {
     }
 }
 
-fn kronrod(f: &mut impl FnMut(f64) -> Quad, start: f64, len: f64) -> Panel {
+/// The 21 nodes of the panel centred at `centre` with half-length `half`: the centre first,
+/// then `centre ∓ half·XGK[j]` for j = 0..10 (lower then upper).
+#[inline]
+fn nodes(centre: f64, half: f64) -> [f64; NODES] {
+    let mut x = [centre; NODES];
+    for j in 0..10 {
+        let dx = half * XGK[j];
+        x[1 + 2 * j] = centre - dx;
+        x[2 + 2 * j] = centre + dx;
+    }
+    x
+}
+
+/// A batch integrand: the values at the 21 nodes of a panel, in the order of [`nodes`].
+pub(crate) type Batch<'a> = dyn FnMut(&[f64; NODES], &mut [Quad; NODES]) + 'a;
+
+fn kronrod(f: &mut Batch, start: f64, len: f64) -> Panel {
     let half = 0.5 * len;
     let centre = start + half;
-    let fc = f(centre);
+    let mut v = [Quad::default(); NODES];
+    f(&nodes(centre, half), &mut v);
+    let fc = v[0];
     let mut k = WGK[10] * fc.value;
     let mut g = 0.0;
     let mut inner = WGK[10] * fc.error;
     let mut abs = WGK[10] * fc.abs;
     for j in 0..10 {
-        let dx = half * XGK[j];
-        let (lo, hi) = (f(centre - dx), f(centre + dx));
+        let (lo, hi) = (v[1 + 2 * j], v[2 + 2 * j]);
         let sum = lo.value + hi.value;
         k += WGK[j] * sum;
         if j % 2 == 1 {
@@ -158,10 +176,28 @@ fn kronrod(f: &mut impl FnMut(f64) -> Quad, start: f64, len: f64) -> Panel {
 /// floor, or `max_panels` panels are in use; in that case the error returned is what is
 /// left, so a capped integral says so.
 pub(crate) fn integrate(mut f: impl FnMut(f64) -> Quad, panels: &[(f64, f64)], rtol: f64, max_panels: usize) -> Quad {
-    let mut heap = BinaryHeap::with_capacity(2 * panels.len() + 16);
+    integrate_batch(
+        &mut |x: &[f64; NODES], out: &mut [Quad; NODES]| {
+            for (o, &x) in out.iter_mut().zip(x) {
+                *o = f(x);
+            }
+        },
+        panels,
+        rtol,
+        max_panels,
+    )
+}
+
+/// [`integrate`] with an integrand that takes a panel's 21 nodes at once (see [`nodes`]):
+/// the same panels, sums and result as node by node.
+pub(crate) fn integrate_batch(f: &mut Batch, panels: &[(f64, f64)], rtol: f64, max_panels: usize) -> Quad {
+    // The heap's storage comes from a per-thread pool (nested integrals take one each) rather
+    // than an allocation per call; it is returned empty.
+    let mut heap = BinaryHeap::from(POOL.with(|p| p.borrow_mut().pop()).unwrap_or_default());
+    heap.reserve(2 * panels.len() + 16);
     let mut total = Quad::default();
     for &(start, len) in panels {
-        let p = kronrod(&mut f, start, len);
+        let p = kronrod(f, start, len);
         total += p.q;
         heap.push(p);
     }
@@ -176,7 +212,7 @@ pub(crate) fn integrate(mut f: impl FnMut(f64) -> Quad, panels: &[(f64, f64)], r
             heap.push(worst);
             break;
         }
-        let (a, b) = (kronrod(&mut f, worst.start, half), kronrod(&mut f, middle, half));
+        let (a, b) = (kronrod(f, worst.start, half), kronrod(f, middle, half));
         total.value += a.q.value + b.q.value - worst.q.value;
         total.error += a.q.error + b.q.error - worst.q.error;
         total.abs += a.q.abs + b.q.abs - worst.q.abs;
@@ -187,7 +223,20 @@ pub(crate) fn integrate(mut f: impl FnMut(f64) -> Quad, panels: &[(f64, f64)], r
     // Re-sum: the running totals above drift by cancellation.
     let mut sum = heap.iter().fold(Quad::default(), |s, p| s + p.q);
     sum.error += floor(&sum, evaluated);
+    let mut storage = heap.into_vec();
+    storage.clear();
+    POOL.with(|p| {
+        let mut pool = p.borrow_mut();
+        if pool.len() < 8 {
+            pool.push(storage);
+        }
+    });
     sum
+}
+
+thread_local! {
+    /// Emptied heaps kept for the next integral on this thread.
+    static POOL: RefCell<Vec<Vec<Panel>>> = const { RefCell::new(Vec::new()) };
 }
 
 #[cfg(test)]
@@ -198,7 +247,15 @@ mod tests {
     fn rules_are_exact_for_their_degree() {
         // K21 integrates degree 31 exactly, G10 degree 19: a typo in a constant breaks this.
         for k in 0..=31 {
-            let p = kronrod(&mut |x: f64| Quad::exact(x.powi(k)), 0.0, 1.0);
+            let p = kronrod(
+                &mut |x: &[f64; NODES], out: &mut [Quad; NODES]| {
+                    for (o, x) in out.iter_mut().zip(x) {
+                        *o = Quad::exact(x.powi(k));
+                    }
+                },
+                0.0,
+                1.0,
+            );
             let exact = 1.0 / (k as f64 + 1.0);
             assert!((p.q.value - exact).abs() < 1e-15, "K21 x^{k}: {}", p.q.value);
             if k <= 19 {

@@ -267,18 +267,17 @@ pub(crate) fn rectangle(lobe: &Lobe, p1: Vec3, p2: Vec3, rect: &Rect, upper: boo
     let y0 = dot(p1, across) - 0.5 * rect.width;
     let planes = planes(lobe, upper);
     let panels = split_halves(
-        &halves(dist, axis.s0, axis.len),
-        |half| {
+        halves(dist, axis.s0, axis.len),
+        |half, cuts| {
             // Where the support plane of D leaves the rectangle through a long edge, the
             // chord across it has a kink.
-            let mut cuts = Vec::new();
             // A sharp GGX lobe: the chord through the point its mirror direction hits.
             if let Some((r, w)) = lobe.mirror() {
                 let rn = dot(r, normal);
                 if rn * h > 0.0 {
                     let xx = dot(mul(r, h / rn), axis.dir);
                     if xx * half.side > 0.0 {
-                        graded(dist.atan2(xx.abs()), w, &mut cuts);
+                        graded(dist.atan2(xx.abs()), w, cuts);
                     }
                 }
             }
@@ -294,7 +293,6 @@ pub(crate) fn rectangle(lobe: &Lobe, p1: Vec3, p2: Vec3, rect: &Rect, upper: boo
                     }
                 }
             }
-            cuts
         },
         |_| true,
     );
