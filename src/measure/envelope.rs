@@ -49,10 +49,10 @@ fn targets(t: Target) -> Vec<Target> {
 
 /// Every method's envelopes on at most `sample` of its spread subset (evenly spaced), with the
 /// GPU's values there (one dispatch per method, `pipelines` in method order). Each row names the
-/// material its configuration was drawn for, carried in the subset (`sweep::Spread`).
+/// material its configuration was drawn for, carried in the subset (global index, material, configuration: `sweep::Spread`, written out here so that this file does not import the sweep).
 pub fn any_driver(
     methods: &[Method],
-    subsets: &[Vec<crate::measure::sweep::Spread>],
+    subsets: &[Vec<(usize, usize, crate::input::scene::Config)>],
     sample: usize,
     (gpu, pipelines): (&Gpu, &[MethodPipeline]),
 ) -> anyhow::Result<Vec<MethodEnvelope>> {
@@ -64,7 +64,8 @@ pub fn any_driver(
         .map(|((m, subset), pipeline)| {
             let t = std::time::Instant::now();
             let step = subset.len().div_ceil(sample.max(1)).max(1);
-            let picked: Vec<&crate::measure::sweep::Spread> = subset.iter().step_by(step).take(sample).collect();
+            let picked: Vec<&(usize, usize, crate::input::scene::Config)> =
+                subset.iter().step_by(step).take(sample).collect();
             let program = crate::eval::interp::program(m)?;
             let scenes: Vec<GpuScene> = picked.iter().map(|(_, _, c)| GpuScene::from(c)).collect();
             let values = if scenes.is_empty() {
