@@ -14,7 +14,7 @@
 //! run controls the error of their sum.
 
 use super::lobe::{Circle, Lobe};
-use super::quadrature::{integrate_batch, Quad, NODES};
+use super::quadrature::{integrate_batch_within, Quad, NODES};
 use super::tint::{self, LightAxis, Tint};
 use super::trig;
 use super::vec::{dot, length, sub};
@@ -160,6 +160,19 @@ pub(crate) fn integrate_chord(
     integrate_chord_weighted(lobe, chord, upper, Emitter::Cylinder, tint, rtol, max_panels)
 }
 
+/// [`integrate_chord`] that also stops once its error is below `atol` (absolute; see
+/// `quadrature::integrate_batch_within`): for the inner integrals of `surface.rs`.
+pub(crate) fn integrate_chord_within(
+    lobe: &Lobe,
+    chord: &Chord,
+    upper: bool,
+    tint: Option<&Tint>,
+    (rtol, atol): (f64, f64),
+    max_panels: usize,
+) -> Quad {
+    chord_weighted(lobe, chord, upper, Emitter::Cylinder, tint, (rtol, atol), max_panels)
+}
+
 /// [`integrate_chord`] with the weight of `emitter`: for `Isotropic`, `∫ D(ω(χ)) dχ`
 /// `= d·∫ D(ω_p)/‖p‖² ds`. With a `tint` (a textured emitter, src/reference/tint.rs) the
 /// integrand is multiplied by it, the quadrature is also cut at its kinks, and its rounding
@@ -171,6 +184,19 @@ pub(crate) fn integrate_chord_weighted(
     emitter: Emitter,
     tint: Option<&Tint>,
     rtol: f64,
+    max_panels: usize,
+) -> Quad {
+    chord_weighted(lobe, chord, upper, emitter, tint, (rtol, 0.0), max_panels)
+}
+
+/// [`integrate_chord_weighted`] with the tolerances `(rtol, atol)` of `integrate_chord_within`.
+fn chord_weighted(
+    lobe: &Lobe,
+    chord: &Chord,
+    upper: bool,
+    emitter: Emitter,
+    tint: Option<&Tint>,
+    (rtol, atol): (f64, f64),
     max_panels: usize,
 ) -> Quad {
     let d = length(chord.foot);
@@ -229,7 +255,7 @@ pub(crate) fn integrate_chord_weighted(
         sin_weight: emitter == Emitter::Cylinder,
         tint,
     };
-    let q = integrate_batch(&mut |x, out| integrand.batch(x, out), &panels, rtol, max_panels);
+    let q = integrate_batch_within(&mut |x, out| integrand.batch(x, out), &panels, rtol, atol, max_panels);
     match tint {
         Some(t) if t.bound > 0.0 => Quad {
             error: q.error + t.rounding * q.abs / t.bound,

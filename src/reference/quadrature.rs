@@ -191,6 +191,20 @@ pub(crate) fn integrate(mut f: impl FnMut(f64) -> Quad, panels: &[(f64, f64)], r
 /// [`integrate`] with an integrand that takes a panel's 21 nodes at once (see [`nodes`]):
 /// the same panels, sums and result as node by node.
 pub(crate) fn integrate_batch(f: &mut Batch, panels: &[(f64, f64)], rtol: f64, max_panels: usize) -> Quad {
+    integrate_batch_within(f, panels, rtol, 0.0, max_panels)
+}
+
+/// [`integrate_batch`] that also stops once the total error is below `atol` (absolute): for
+/// an inner integral whose value counts only as a part of an outer one, which sets `atol`
+/// from its own scale (`surface.rs`). The error returned is the estimate, as always: a
+/// looser stop is paid for in the outer integral's error, never hidden.
+pub(crate) fn integrate_batch_within(
+    f: &mut Batch,
+    panels: &[(f64, f64)],
+    rtol: f64,
+    atol: f64,
+    max_panels: usize,
+) -> Quad {
     // The heap's storage comes from a per-thread pool (nested integrals take one each) rather
     // than an allocation per call; it is returned empty.
     let mut heap = BinaryHeap::from(POOL.with(|p| p.borrow_mut().pop()).unwrap_or_default());
@@ -203,7 +217,7 @@ pub(crate) fn integrate_batch(f: &mut Batch, panels: &[(f64, f64)], rtol: f64, m
     }
     let floor = |total: &Quad, count: usize| (count * NODES) as f64 * f64::EPSILON * total.abs;
     let mut evaluated = panels.len();
-    while total.error > (rtol * total.value.abs()).max(floor(&total, evaluated)) && heap.len() < max_panels {
+    while total.error > (rtol * total.value.abs()).max(floor(&total, evaluated)).max(atol) && heap.len() < max_panels {
         let Some(worst) = heap.pop() else { break };
         let half = 0.5 * worst.len;
         let middle = worst.start + half;
@@ -274,6 +288,44 @@ mod tests {
             assert!(err <= q.error, "w={w}: err {err:e} > estimate {:e}", q.error);
             assert!(err < 1e-12 * exact, "w={w}: err {err:e}");
         }
+    }
+
+    #[test]
+    fn an_absolute_tolerance_stops_earlier_and_stays_honest() {
+        // ∫_{-1}^{1} w/(w²+x²) dx = 2 atan(1/w) with a sharp peak: `atol` = 0 is
+        // `integrate_batch` bit for bit; an `atol` far above rtol·value stops with fewer
+        // panels, its error at most `atol` and still covering the true error.
+        let w: f64 = 1e-3;
+        let exact = 2.0 * (1.0 / w).atan();
+        let run = |atol: f64| {
+            let mut calls = 0;
+            let mut f = |x: &[f64; NODES], out: &mut [Quad; NODES]| {
+                calls += 1;
+                for (o, &x) in out.iter_mut().zip(x) {
+                    *o = Quad::exact(w / (w * w + x * x));
+                }
+            };
+            let q = integrate_batch_within(&mut f, &[(-1.0, 2.0)], 1e-13, atol, 2000);
+            (q, calls)
+        };
+        let (tight, tight_calls) = run(0.0);
+        let plain = integrate_batch(
+            &mut |x: &[f64; NODES], out: &mut [Quad; NODES]| {
+                for (o, &x) in out.iter_mut().zip(x) {
+                    *o = Quad::exact(w / (w * w + x * x));
+                }
+            },
+            &[(-1.0, 2.0)],
+            1e-13,
+            2000,
+        );
+        assert_eq!(tight, plain);
+        let atol = 1e-6 * exact;
+        let (loose, loose_calls) = run(atol);
+        assert!(loose_calls < tight_calls, "{loose_calls} {tight_calls}");
+        assert!(loose.error > tight.error && loose.error <= atol, "{loose:?}");
+        assert!((loose.value - exact).abs() <= loose.error, "{loose:?} vs {exact}");
+        assert!((tight.value - exact).abs() <= tight.error, "{tight:?} vs {exact}");
     }
 
     #[test]

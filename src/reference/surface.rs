@@ -7,7 +7,7 @@
 //! `rectangle_upper`): each inner integral stops at the horizon (`integrate_chord`), and the
 //! outer one is cut where the horizon crosses the surface's edges, as it is for D's support.
 
-use super::line::{graded, halves, integrate_chord, split, split_halves, trig_zeros, Chord};
+use super::line::{graded, halves, integrate_chord_within, split, split_halves, trig_zeros, Chord};
 use super::lobe::Lobe;
 use super::quadrature::{integrate, Quad};
 use super::tint::{self, LightAxis, Tint};
@@ -22,6 +22,48 @@ const OUTER_RTOL: f64 = 1e-10;
 const INNER_RTOL: f64 = 1e-12;
 const OUTER_MAX_PANELS: usize = 200;
 const INNER_MAX_PANELS: usize = 200;
+/// An inner integral also stops once its error is below this share of the largest weighted
+/// chord value (|weight·inner|) its outer integral has met so far: see [`Inner`].
+const INNER_SHARE: f64 = 1e-13;
+
+/// The inner integrals' tolerance, chosen from the outer integral's need (issue 23). Each
+/// chord stops at `INNER_RTOL` of its own value, or once its error is below `INNER_SHARE` of
+/// the largest weighted chord value met so far (over its weight): a chord in the tail of the
+/// outer integrand, worth 10⁻⁶ of the peak's, is not resolved to 10⁻¹² of itself. The stop
+/// loosens nothing unseen: `quadrature::kronrod` adds every node's error, with the rule's
+/// weights, to the outer integral's, so what a chord leaves is in the outer estimate (at most
+/// `INNER_SHARE·largest` per unit of the outer variable: below `OUTER_RTOL` of the outer
+/// value unless its peak is narrower than a thousandth of its interval), and the outer keeps
+/// bisecting until the sum is below its own tolerance. The nodes come in a fixed order (a
+/// panel's centre first), so the result is deterministic.
+struct Inner {
+    largest: f64,
+}
+
+impl Inner {
+    fn new() -> Inner {
+        Inner { largest: 0.0 }
+    }
+
+    /// `(rtol, atol)` for the chord whose value the outer integrand multiplies by `weight`.
+    fn tolerance(&self, weight: f64) -> (f64, f64) {
+        let atol = if weight != 0.0 {
+            INNER_SHARE * self.largest / weight.abs()
+        } else {
+            0.0
+        };
+        (INNER_RTOL, atol)
+    }
+
+    /// The chord's integral, weighted, noted for the next chords' tolerance.
+    fn weighted(&mut self, inner: Quad, weight: f64) -> Quad {
+        let q = inner.scale(weight);
+        if q.value.is_finite() {
+            self.largest = self.largest.max(q.value.abs());
+        }
+        q
+    }
+}
 
 /// The segment's axis: unit tangent, length, and the foot of the origin on its line
 /// (relative to which `s0 = p1·ω_t`).
@@ -141,6 +183,7 @@ pub(crate) fn cylinder(
         .filter(|t| t.kind == TextureKind::Cubemap)
         .map(|t| tint::cube(t, axis.dir));
     let panels = split(-beta, beta, cuts);
+    let mut chords = Inner::new();
     let q = integrate(
         |delta| {
             // 1 − cos δ without cancellation, for the side close to the origin:
@@ -160,8 +203,9 @@ pub(crate) fn cylinder(
                 tint::generator(t, &light, [0, 1, 2].map(|k| -c * x[k] + s * y[k]))
             });
             let tint = side.as_ref().or(cube.as_ref());
-            let inner = integrate_chord(lobe, &chord, upper, tint, INNER_RTOL, INNER_MAX_PANELS);
-            inner.scale(radius * facing / dot(foot, foot))
+            let weight = radius * facing / dot(foot, foot);
+            let inner = integrate_chord_within(lobe, &chord, upper, tint, chords.tolerance(weight), INNER_MAX_PANELS);
+            chords.weighted(inner, weight)
         },
         &panels,
         OUTER_RTOL,
@@ -226,6 +270,7 @@ fn disk(lobe: &Lobe, axis: &Axis, centre: Vec3, height: f64, radius: f64, upper:
         }
     }
     let panels = split(-FRAC_PI_2, FRAC_PI_2, cuts);
+    let mut chords = Inner::new();
     integrate(
         |t| {
             let (sin, cos) = t.sin_cos();
@@ -236,8 +281,9 @@ fn disk(lobe: &Lobe, axis: &Axis, centre: Vec3, height: f64, radius: f64, upper:
                 s0: -radius * cos,
                 len: 2.0 * radius * cos,
             };
-            let inner = integrate_chord(lobe, &chord, upper, tint, INNER_RTOL, INNER_MAX_PANELS);
-            inner.scale(radius * cos * height / (height * height + xx * xx))
+            let weight = radius * cos * height / (height * height + xx * xx);
+            let inner = integrate_chord_within(lobe, &chord, upper, tint, chords.tolerance(weight), INNER_MAX_PANELS);
+            chords.weighted(inner, weight)
         },
         &panels,
         OUTER_RTOL,
@@ -296,6 +342,7 @@ pub(crate) fn rectangle(lobe: &Lobe, p1: Vec3, p2: Vec3, rect: &Rect, upper: boo
         },
         |_| true,
     );
+    let mut chords = Inner::new();
     let q = integrate(
         |v| {
             let (sin, cos) = v.abs().sin_cos();
@@ -306,7 +353,8 @@ pub(crate) fn rectangle(lobe: &Lobe, p1: Vec3, p2: Vec3, rect: &Rect, upper: boo
                 s0: y0,
                 len: rect.width,
             };
-            integrate_chord(lobe, &chord, upper, None, INNER_RTOL, INNER_MAX_PANELS)
+            let inner = integrate_chord_within(lobe, &chord, upper, None, chords.tolerance(1.0), INNER_MAX_PANELS);
+            chords.weighted(inner, 1.0)
         },
         &panels,
         OUTER_RTOL,
@@ -359,6 +407,23 @@ mod tests {
             }
             assert!(last < 1e-3, "{material:?}: {last:e}");
         }
+    }
+
+    #[test]
+    fn inner_tolerance_follows_the_largest_weighted_chord() {
+        let mut chords = Inner::new();
+        // Before any chord, and for a chord the outer integrand multiplies by 0: rtol alone.
+        assert_eq!(chords.tolerance(2.0), (INNER_RTOL, 0.0));
+        let q = chords.weighted(Quad::exact(3.0), 2.0);
+        assert_eq!(q.value, 6.0);
+        assert_eq!(chords.tolerance(0.0), (INNER_RTOL, 0.0));
+        // A chord weighted 1e-3 may leave 1e-13·6/1e-3 of itself: 1e-13·6 once weighted.
+        let (_, atol) = chords.tolerance(1e-3);
+        assert!((atol * 1e-3 - INNER_SHARE * 6.0).abs() < 1e-28, "{atol}");
+        // A smaller chord leaves the largest as it was; a non-finite one is not noted.
+        chords.weighted(Quad::exact(1.0), 1.0);
+        chords.weighted(Quad::exact(f64::NAN), 1.0);
+        assert_eq!(chords.largest, 6.0);
     }
 
     #[test]
