@@ -753,12 +753,8 @@ impl Program {
     /// a time through [`ulp_bits`] (the straightforward path the tests compare with); `wide`:
     /// the lane loops in their AVX2 build where the CPU has it (else the baseline build).
     fn attribute_with(&self, configs: &[&Config], reference: bool, wide: bool) -> Result<Attribution> {
-        let chunk = std::env::var("LINELIGHT_ATTRIBUTION_CHUNK")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(CHUNK / 2);
         let parts = configs
-            .par_chunks(chunk)
+            .par_chunks(CHUNK / 2)
             .map(|c| {
                 let k = c.len();
                 let mut ex = exec::Exec::new(self, 2 * k, k, true);
