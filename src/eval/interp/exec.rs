@@ -17,12 +17,82 @@ use naga::{
 };
 
 /// One scalar component over the lanes, shared until written (copy on write).
-pub(super) type Lanes = std::rc::Rc<Vec<f64>>;
+pub(super) type Lanes = std::rc::Rc<Buf>;
 
-/// Collects lanes into a shared component.
+/// The lanes of one component: a `Vec<f64>` that goes back to its thread's pool when it is
+/// dropped, and comes from there when one is made, so that an operation does not cost a
+/// large allocation and its release (every operation makes one, over all lanes).
+#[derive(Debug)]
+pub(super) struct Buf(Vec<f64>);
+
+/// Buffers kept per thread, and the smallest kept (a one-lane component is not).
+const POOL_KEPT: usize = 512;
+const POOL_MIN_LANES: usize = 16;
+
+thread_local! {
+    static POOL: std::cell::RefCell<Vec<Vec<f64>>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// An empty buffer with room for `n` lanes, from the pool where it has one.
+fn buffer(n: usize) -> Vec<f64> {
+    if n >= POOL_MIN_LANES {
+        if let Some(mut v) = POOL.try_with(|p| p.borrow_mut().pop()).ok().flatten() {
+            if v.capacity() >= n {
+                v.clear();
+                return v;
+            }
+        }
+    }
+    Vec::with_capacity(n)
+}
+
+impl Drop for Buf {
+    fn drop(&mut self) {
+        if self.0.capacity() >= POOL_MIN_LANES {
+            let v = std::mem::take(&mut self.0);
+            // A thread that is ending has no pool left: the buffer is freed.
+            let _ = POOL.try_with(|p| {
+                let mut p = p.borrow_mut();
+                if p.len() < POOL_KEPT {
+                    p.push(v);
+                }
+            });
+        }
+    }
+}
+
+impl Clone for Buf {
+    fn clone(&self) -> Buf {
+        let mut v = buffer(self.0.len());
+        v.extend_from_slice(&self.0);
+        Buf(v)
+    }
+}
+
+impl std::ops::Deref for Buf {
+    type Target = Vec<f64>;
+    fn deref(&self) -> &Vec<f64> {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Buf {
+    fn deref_mut(&mut self) -> &mut Vec<f64> {
+        &mut self.0
+    }
+}
+
+/// A shared component holding `v`.
+pub(super) fn lanes(v: Vec<f64>) -> Lanes {
+    std::rc::Rc::new(Buf(v))
+}
+
+/// Collects lanes into a shared component (its buffer from the pool).
 trait CollectLanes: Iterator<Item = f64> + Sized {
     fn lanes(self) -> Lanes {
-        std::rc::Rc::new(self.collect())
+        let mut v = buffer(self.size_hint().0);
+        v.extend(self);
+        lanes(v)
     }
 }
 impl<I: Iterator<Item = f64>> CollectLanes for I {}
@@ -51,8 +121,47 @@ enum Slot {
     Ptr(Ptr),
 }
 
-/// Local error per source line, for the f32 lane of each shadow: (sum, count, max) bits.
-pub(super) type LineErrors = Vec<Option<Vec<(f64, u32, f64)>>>;
+/// Local error of one source line, for the f32 lane of each shadow (one entry per
+/// configuration): the sum and max of its operations' bits, held as arrays so that one
+/// operation's bits are added over all lanes in one vectorisable pass, and the count of its
+/// operations: `every` (recorded on every lane) plus `count` (recorded on some lanes).
+#[derive(Clone, Debug)]
+pub(super) struct LineError {
+    pub(super) sum: Vec<f64>,
+    pub(super) max: Vec<f64>,
+    count: Vec<u32>,
+    every: u32,
+}
+
+impl LineError {
+    fn new(k: usize) -> LineError {
+        LineError {
+            sum: vec![0.0; k],
+            max: vec![0.0; k],
+            count: vec![0; k],
+            every: 0,
+        }
+    }
+
+    /// Operations recorded on configuration `cfg`.
+    pub(super) fn count(&self, cfg: usize) -> u32 {
+        self.every + self.count[cfg]
+    }
+}
+
+/// Local error per source line ([`LineError`]), None for a line with no recorded operation.
+pub(super) type LineErrors = Vec<Option<LineError>>;
+
+/// Which shadow lanes an operation's local error is recorded on (set per `Emit`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Shadow {
+    /// No shadow lane is active (or there is no shadow): nothing is recorded.
+    Off,
+    /// Every shadow lane is active.
+    All,
+    /// Only the lanes in `Exec::mask`.
+    Masked,
+}
 
 pub(super) struct Exec<'p> {
     p: &'p Program,
@@ -64,6 +173,17 @@ pub(super) struct Exec<'p> {
     pub(super) errors: LineErrors,
     line: u32,
     mask: Vec<bool>,
+    /// The shadow half of `mask`, summarised when it is set.
+    shadow_on: Shadow,
+    /// Scratch: one operation's ULP distances on the shadow lanes ([`ulp_distance`]), and
+    /// their bits.
+    ulps: Vec<u32>,
+    bits: Vec<f64>,
+    /// Straightforward recording, one lane at a time through [`ulp_bits`] (the reference the
+    /// vectorised path is tested against, `tests.rs`).
+    reference_record: bool,
+    /// Whether the float operations' lane loops run in their AVX2 build ([`avx2`]).
+    wide: bool,
     /// Per function, its constant expressions' values (filled on its first call).
     consts: Vec<Option<Vec<Option<Slot>>>>,
     zero_lanes: Lanes,
@@ -117,8 +237,215 @@ pub fn ulp_bits(a: f32, b: f32) -> f64 {
 /// `log2(1 + k)` for the small ULP distances most operations lose, computed once by the same
 /// expression as the general case (the same bits): the attribution calls `ulp_bits` for every
 /// lane of every rounding operation, and `log2` was a tenth of its time (issue 23).
-static SMALL_ULP_BITS: std::sync::LazyLock<Vec<f64>> =
-    std::sync::LazyLock::new(|| (0..256u64).map(|k| (k as f64 + 1.0).log2()).collect());
+static SMALL_ULP_BITS: std::sync::LazyLock<[f64; 256]> =
+    std::sync::LazyLock::new(|| std::array::from_fn(|k| (k as f64 + 1.0).log2()));
+
+/// [`ulp_distance`]'s code for "exactly one of the two is NaN" (32 bits); no two f32 values
+/// that are not NaN are that far apart (−inf to +inf is 0xff00_0000).
+const ONE_NAN: u32 = u32::MAX;
+
+/// The ULP distance between two f32 values as [`ulp_bits`] counts it, with NaN coded (0 when
+/// both are NaN, [`ONE_NAN`] when one is).
+#[inline(always)]
+pub(super) fn ulp_distance(a: f32, b: f32) -> u32 {
+    match (a.is_nan(), b.is_nan()) {
+        (false, false) => raw_distance(a, b),
+        (true, true) => 0,
+        _ => ONE_NAN,
+    }
+}
+
+/// [`ulp_bits`] of a distance coded by [`ulp_distance`]; `small` is [`SMALL_ULP_BITS`].
+#[inline(always)]
+pub(super) fn bits_of(k: u32, small: &[f64; 256]) -> f64 {
+    match small.get(k as usize) {
+        Some(&bits) => bits,
+        None => distant_bits(k),
+    }
+}
+
+#[cold]
+fn distant_bits(k: u32) -> f64 {
+    if k == ONE_NAN {
+        32.0
+    } else {
+        (k as f64 + 1.0).log2()
+    }
+}
+
+/// An f32 value's bits as a signed integer that is monotonic in the value (−0 and 0 both 0),
+/// as [`ulp_bits`] orders them, without a branch.
+#[inline(always)]
+fn ord(x: f32) -> i32 {
+    let i = x.to_bits() as i32;
+    let sign = i >> 31;
+    (i ^ (sign & 0x7fff_ffff)).wrapping_sub(sign)
+}
+
+/// [`ulp_distance`] of two values that are not NaN (for NaN, some number): the distance of
+/// two [`ord`]s, which fits in a u32 (−inf to +inf is 0xff00_0000), without a branch, so
+/// that a loop over lanes vectorises.
+#[inline(always)]
+fn raw_distance(a: f32, b: f32) -> u32 {
+    let (oa, ob) = (ord(a), ord(b));
+    let d = oa.wrapping_sub(ob) as u32;
+    if oa < ob {
+        d.wrapping_neg()
+    } else {
+        d
+    }
+}
+
+/// One operation's ULP distances on the shadow lanes, in `ulps` (one per lane), from each
+/// lane's arguments (`args`), the operation in f32 on them (`local`) and the exact result
+/// (`exact`); where `mask` is given, only on its lanes (0 elsewhere). Branch-free, one pass,
+/// vectorisable, for the common case; a second pass codes NaN ([`ulp_distance`]) where a lane
+/// met one. Returns the bitwise or of the distances (`u32::MAX` where NaN was met): an upper
+/// bound of the largest, which chooses [`accumulate`]'s path.
+#[inline(always)]
+fn distances<T>(
+    ulps: &mut Vec<u32>,
+    args: impl Iterator<Item = T> + Clone,
+    exact: &[f64],
+    mask: Option<&[bool]>,
+    cheap: bool,
+    local: impl Fn(T) -> f32,
+) -> u32 {
+    if ulps.len() != exact.len() {
+        ulps.clear();
+        ulps.resize(exact.len(), 0);
+    }
+    let (mut nan, mut or) = (false, 0u32);
+    match mask {
+        None => {
+            for (k, (t, &e)) in ulps.iter_mut().zip(args.clone().zip(exact)) {
+                let (l, x) = (local(t), e as f32);
+                *k = raw_distance(l, x);
+                nan |= l.is_nan() | x.is_nan();
+                or |= *k;
+            }
+        }
+        // A cheap operation on every lane, then 0 selected on the inactive ones: no branch,
+        // the loop vectorises (an inactive lane's arguments may be anything; a float
+        // operation on them is harmless).
+        Some(mask) if cheap => {
+            for ((k, (t, &e)), &m) in ulps.iter_mut().zip(args.clone().zip(exact)).zip(mask) {
+                let (l, x) = (local(t), e as f32);
+                let d = if m { raw_distance(l, x) } else { 0 };
+                *k = d;
+                nan |= m & (l.is_nan() | x.is_nan());
+                or |= d;
+            }
+        }
+        // A library call only on the active lanes (0 on the others).
+        Some(mask) => {
+            for ((k, (t, &e)), &m) in ulps.iter_mut().zip(args.clone().zip(exact)).zip(mask) {
+                let (d, n) = if m {
+                    let (l, x) = (local(t), e as f32);
+                    (raw_distance(l, x), l.is_nan() | x.is_nan())
+                } else {
+                    (0, false)
+                };
+                *k = d;
+                nan |= n;
+                or |= d;
+            }
+        }
+    }
+    if nan {
+        for ((k, (t, &e)), i) in ulps.iter_mut().zip(args.zip(exact)).zip(0..) {
+            if mask.is_none_or(|m| m[i]) {
+                *k = ulp_distance(local(t), e as f32);
+            }
+        }
+        return u32::MAX;
+    }
+    or
+}
+
+/// Adds one operation's bits (`ulps` coded by [`ulp_distance`], one per configuration) to a
+/// line's sums, counts and maxima, on every lane or on the lanes in `mask`: the same
+/// additions, in the same order per configuration, as one [`ulp_bits`] call per lane. `or`:
+/// [`distances`]' bound of the largest distance. `bits`: scratch for the lanes' bits.
+///
+/// An inactive lane's distance is 0 ([`distances`]), so its bits are 0: adding them leaves its
+/// sum as it was (a sum of non-negative bits from +0 is never −0, and s + 0 = s for every
+/// other s) and its max too (never below +0): the masked case is the same branch-free passes,
+/// with each lane's count raised by its mask.
+#[inline(always)]
+fn accumulate(e: &mut LineError, ulps: &[u32], mask: Option<&[bool]>, or: u32, bits: &mut Vec<f64>) {
+    let small: &[f64; 256] = &SMALL_ULP_BITS;
+    if or < 4 {
+        // Every distance at most 3 (most operations): the bits by selection, no look-up, and
+        // one pass that vectorises.
+        let t = [small[0], small[1], small[2], small[3]];
+        for ((sum, max), &k) in e.sum.iter_mut().zip(e.max.iter_mut()).zip(ulps) {
+            let b = if k == 0 {
+                t[0]
+            } else if k == 1 {
+                t[1]
+            } else if k == 2 {
+                t[2]
+            } else {
+                t[3]
+            };
+            *sum += b;
+            // An unconditional store (a conditional one vectorises to a slow masked store).
+            *max = max.max(b);
+        }
+    } else {
+        // The bits looked up first (a table of 256), then added in a pass that vectorises.
+        bits.clear();
+        if or < 256 {
+            bits.extend(ulps.iter().map(|&k| small[(k & 255) as usize]));
+        } else {
+            bits.extend(ulps.iter().map(|&k| bits_of(k, small)));
+        }
+        for ((sum, max), &b) in e.sum.iter_mut().zip(e.max.iter_mut()).zip(bits.iter()) {
+            *sum += b;
+            *max = max.max(b);
+        }
+    }
+    match mask {
+        None => e.every += 1,
+        Some(mask) => {
+            for (count, &on) in e.count.iter_mut().zip(mask) {
+                *count += u32::from(on);
+            }
+        }
+    }
+}
+
+/// Whether a float operation rounds, so that its local error is recorded, and what its f32
+/// form on the shadow's arguments costs where only some lanes are active.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Round {
+    /// Exact in f32 (abs, floor, min, a conversion…): nothing is recorded.
+    Exact,
+    /// Rounded and cheap (`+ − × ÷ √`, inverseSqrt, fract): computed on every lane and
+    /// selected, without a branch.
+    Cheap,
+    /// Rounded, a library call (`sin`, `atan2`, `fma`, `%`…): computed on the active lanes only.
+    Call,
+}
+
+/// Whether the CPU has AVX2: the float operations' lane loops then run in their AVX2 build
+/// (twice the lanes per instruction; IEEE operations, so the same bits). Checked once.
+fn avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+        *AVX2.get_or_init(|| std::arch::is_x86_feature_detected!("avx2"))
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
+/// Whether every lane of `mask` is on: a pass without an early exit, which vectorises (the
+/// masks are all on far more often than not).
+fn all(mask: &[bool]) -> bool {
+    mask.iter().fold(true, |acc, &m| acc & m)
+}
 
 fn kind(inner: &TypeInner) -> Option<ScalarKind> {
     inner.scalar_kind()
@@ -136,9 +463,27 @@ impl<'p> Exec<'p> {
             errors: vec![None; p.lines.len()],
             line: NO_LINE,
             mask: vec![true; n],
+            shadow_on: Shadow::Off,
+            ulps: Vec::with_capacity(n - split.min(n)),
+            bits: Vec::with_capacity(n - split.min(n)),
+            reference_record: false,
+            wide: avx2(),
             consts: vec![None; p.module.functions.len()],
-            zero_lanes: std::rc::Rc::new(vec![0.0; n]),
+            zero_lanes: lanes(vec![0.0; n]),
         }
+    }
+
+    /// Records each operation's local error one lane at a time through [`ulp_bits`] (the
+    /// straightforward reference path, [`Exec::record_reference`]) instead of the vectorised
+    /// [`distances`] and [`accumulate`].
+    pub(super) fn reference_record(&mut self, on: bool) {
+        self.reference_record = on;
+    }
+
+    /// Runs the float operations' lane loops in their AVX2 build (where the CPU has it) or
+    /// in the baseline one: the same operations, the same bits (the tests run both).
+    pub(super) fn wide(&mut self, on: bool) {
+        self.wide = on && avx2();
     }
 
     /// A constant: `v32` on the f32 lanes, `v64` on the f64 lanes.
@@ -165,63 +510,177 @@ impl<'p> Exec<'p> {
         }
     }
 
-    /// Records the local error of one operation on every active shadow lane: `local(i)` is the
-    /// operation in f32 on lane i's shadow arguments rounded to f32, `exact` the shadow's result.
-    fn record(&mut self, exact: &[f64], local: impl Fn(usize) -> f32) {
+    /// Whether this operation's local error is recorded, and on which shadow lanes.
+    fn recording(&self) -> Shadow {
+        if !self.shadow || self.line == NO_LINE {
+            Shadow::Off
+        } else {
+            self.shadow_on
+        }
+    }
+
+    /// Sets the mask of the operations that follow (an `Emit`'s), and what the attribution
+    /// records them on.
+    fn set_mask(&mut self, mask: &[bool]) {
+        if !self.shadow {
+            return;
+        }
+        self.mask.clone_from_slice(mask);
+        let shadow = &mask[self.split..self.n];
+        self.shadow_on = if all(shadow) {
+            Shadow::All
+        } else if any(shadow) {
+            Shadow::Masked
+        } else {
+            Shadow::Off
+        };
+    }
+
+    /// Records the local error of one operation on every active shadow lane, one lane at a
+    /// time (the reference for [`distances`] and [`accumulate`]): `local(i)` is the operation
+    /// in f32 on lane i's shadow arguments rounded to f32, `exact` the shadow's result.
+    fn record_reference(&mut self, exact: &[f64], local: impl Fn(usize) -> f32) {
         let s = self.split;
         if self.line == NO_LINE || !any(&self.mask[s..self.n]) {
             return;
         }
-        let slot = self.errors[self.line as usize].get_or_insert_with(|| vec![(0.0, 0, 0.0); s]);
-        for (cfg, (e, &on)) in slot.iter_mut().zip(&self.mask[s..self.n]).enumerate() {
+        let e = self.errors[self.line as usize].get_or_insert_with(|| LineError::new(s));
+        for (cfg, &on) in self.mask[s..self.n].iter().enumerate() {
             if !on {
                 continue;
             }
             let i = s + cfg;
             let bits = ulp_bits(local(i), exact[i] as f32);
-            e.0 += bits;
-            e.1 += 1;
-            e.2 = e.2.max(bits);
+            e.sum[cfg] += bits;
+            e.count[cfg] += 1;
+            e.max[cfg] = e.max[cfg].max(bits);
         }
     }
 
-    /// A float operation of one argument, component by component.
-    fn f1(&mut self, a: &[f64], f64f: impl Fn(f64) -> f64, f32f: impl Fn(f32) -> f32, rounding: bool) -> Lanes {
-        let s = self.split;
-        let mut v = Vec::with_capacity(self.n);
+    /// The local error of an operation on the shadow lanes, where it is recorded: `args`
+    /// gives each shadow lane's arguments (in lane order), `local` the operation in f32 on
+    /// them rounded to f32, `exact` the operation's result on all lanes (the shadow's the
+    /// exact one). `reference(i)`: `local` on lane i, for [`Exec::record_reference`].
+    #[inline(always)]
+    fn local_error<T>(
+        &mut self,
+        args: impl Iterator<Item = T> + Clone,
+        exact: &[f64],
+        rounding: Round,
+        local: impl Fn(T) -> f32,
+        reference: impl Fn(usize) -> f32,
+    ) {
+        let on = self.recording();
+        if on == Shadow::Off {
+            return;
+        }
+        if self.reference_record {
+            return self.record_reference(exact, reference);
+        }
+        let (s, n) = (self.split, self.n);
+        let mask = (on == Shadow::Masked).then(|| &self.mask[s..n]);
+        let or = distances(
+            &mut self.ulps,
+            args,
+            &exact[s..n],
+            mask,
+            rounding == Round::Cheap,
+            local,
+        );
+        let e = self.errors[self.line as usize].get_or_insert_with(|| LineError::new(s));
+        accumulate(e, &self.ulps, mask, or, &mut self.bits);
+    }
+
+    /// A float operation of one argument, component by component; `rounding`: whether its
+    /// local error is recorded, and how ([`Round`]).
+    fn f1(&mut self, a: &[f64], f64f: impl Fn(f64) -> f64, f32f: impl Fn(f32) -> f32, rounding: Round) -> Lanes {
+        #[cfg(target_arch = "x86_64")]
+        if self.wide {
+            // SAFETY: `wide` is set only where the CPU has AVX2 (`avx2`).
+            return unsafe { self.f1_avx2(a, f64f, f32f, rounding) };
+        }
+        self.f1_lanes(a, f64f, f32f, rounding)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn f1_avx2(&mut self, a: &[f64], f64f: impl Fn(f64) -> f64, f32f: impl Fn(f32) -> f32, rounding: Round) -> Lanes {
+        self.f1_lanes(a, f64f, f32f, rounding)
+    }
+
+    #[inline(always)]
+    fn f1_lanes(&mut self, a: &[f64], f64f: impl Fn(f64) -> f64, f32f: impl Fn(f32) -> f32, rounding: Round) -> Lanes {
+        let (s, n) = (self.split, self.n);
+        let mut v = buffer(n);
         v.extend(a[..s].iter().map(|&x| f32f(x as f32) as f64));
-        v.extend(a[s..].iter().map(|&x| f64f(x)));
-        let out: Lanes = std::rc::Rc::new(v);
-        if self.shadow && rounding {
-            self.record(&out, |i| f32f(a[i] as f32));
+        v.extend(a[s..n].iter().map(|&x| f64f(x)));
+        if rounding != Round::Exact {
+            self.local_error(a[s..n].iter(), &v, rounding, |&x| f32f(x as f32), |i| f32f(a[i] as f32));
         }
-        out
+        lanes(v)
     }
 
+    /// A float operation of two arguments (as [`Exec::f1`]).
     fn f2(
         &mut self,
         a: &[f64],
         b: &[f64],
         f64f: impl Fn(f64, f64) -> f64,
         f32f: impl Fn(f32, f32) -> f32,
-        rounding: bool,
+        rounding: Round,
     ) -> Lanes {
-        let s = self.split;
-        let mut v = Vec::with_capacity(self.n);
+        #[cfg(target_arch = "x86_64")]
+        if self.wide {
+            // SAFETY: `wide` is set only where the CPU has AVX2 (`avx2`).
+            return unsafe { self.f2_avx2(a, b, f64f, f32f, rounding) };
+        }
+        self.f2_lanes(a, b, f64f, f32f, rounding)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn f2_avx2(
+        &mut self,
+        a: &[f64],
+        b: &[f64],
+        f64f: impl Fn(f64, f64) -> f64,
+        f32f: impl Fn(f32, f32) -> f32,
+        rounding: Round,
+    ) -> Lanes {
+        self.f2_lanes(a, b, f64f, f32f, rounding)
+    }
+
+    #[inline(always)]
+    fn f2_lanes(
+        &mut self,
+        a: &[f64],
+        b: &[f64],
+        f64f: impl Fn(f64, f64) -> f64,
+        f32f: impl Fn(f32, f32) -> f32,
+        rounding: Round,
+    ) -> Lanes {
+        let (s, n) = (self.split, self.n);
+        let mut v = buffer(n);
         v.extend(
             a[..s]
                 .iter()
                 .zip(&b[..s])
                 .map(|(&x, &y)| f32f(x as f32, y as f32) as f64),
         );
-        v.extend(a[s..].iter().zip(&b[s..]).map(|(&x, &y)| f64f(x, y)));
-        let out: Lanes = std::rc::Rc::new(v);
-        if self.shadow && rounding {
-            self.record(&out, |i| f32f(a[i] as f32, b[i] as f32));
+        v.extend(a[s..n].iter().zip(&b[s..n]).map(|(&x, &y)| f64f(x, y)));
+        if rounding != Round::Exact {
+            self.local_error(
+                a[s..n].iter().zip(&b[s..n]),
+                &v,
+                rounding,
+                |(&x, &y)| f32f(x as f32, y as f32),
+                |i| f32f(a[i] as f32, b[i] as f32),
+            );
         }
-        out
+        lanes(v)
     }
 
+    /// A float operation of three arguments (as [`Exec::f1`]).
     #[allow(clippy::too_many_arguments)]
     fn f3(
         &mut self,
@@ -230,35 +689,81 @@ impl<'p> Exec<'p> {
         c: &[f64],
         f64f: impl Fn(f64, f64, f64) -> f64,
         f32f: impl Fn(f32, f32, f32) -> f32,
-        rounding: bool,
+        rounding: Round,
     ) -> Lanes {
-        let s = self.split;
-        let out: Lanes = (0..self.n)
-            .map(|i| {
-                if i < s {
-                    f32f(a[i] as f32, b[i] as f32, c[i] as f32) as f64
-                } else {
-                    f64f(a[i], b[i], c[i])
-                }
-            })
-            .lanes();
-        if self.shadow && rounding {
-            self.record(&out, |i| f32f(a[i] as f32, b[i] as f32, c[i] as f32));
+        #[cfg(target_arch = "x86_64")]
+        if self.wide {
+            // SAFETY: `wide` is set only where the CPU has AVX2 (`avx2`).
+            return unsafe { self.f3_avx2(a, b, c, f64f, f32f, rounding) };
         }
-        out
+        self.f3_lanes(a, b, c, f64f, f32f, rounding)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[allow(clippy::too_many_arguments)]
+    fn f3_avx2(
+        &mut self,
+        a: &[f64],
+        b: &[f64],
+        c: &[f64],
+        f64f: impl Fn(f64, f64, f64) -> f64,
+        f32f: impl Fn(f32, f32, f32) -> f32,
+        rounding: Round,
+    ) -> Lanes {
+        self.f3_lanes(a, b, c, f64f, f32f, rounding)
+    }
+
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn f3_lanes(
+        &mut self,
+        a: &[f64],
+        b: &[f64],
+        c: &[f64],
+        f64f: impl Fn(f64, f64, f64) -> f64,
+        f32f: impl Fn(f32, f32, f32) -> f32,
+        rounding: Round,
+    ) -> Lanes {
+        let (s, n) = (self.split, self.n);
+        let mut v = buffer(n);
+        v.extend(
+            a[..s]
+                .iter()
+                .zip(&b[..s])
+                .zip(&c[..s])
+                .map(|((&x, &y), &z)| f32f(x as f32, y as f32, z as f32) as f64),
+        );
+        v.extend(
+            a[s..n]
+                .iter()
+                .zip(&b[s..n])
+                .zip(&c[s..n])
+                .map(|((&x, &y), &z)| f64f(x, y, z)),
+        );
+        if rounding != Round::Exact {
+            self.local_error(
+                a[s..n].iter().zip(&b[s..n]).zip(&c[s..n]),
+                &v,
+                rounding,
+                |((&x, &y), &z)| f32f(x as f32, y as f32, z as f32),
+                |i| f32f(a[i] as f32, b[i] as f32, c[i] as f32),
+            );
+        }
+        lanes(v)
     }
 
     fn add(&mut self, a: &[f64], b: &[f64]) -> Lanes {
-        self.f2(a, b, |x, y| x + y, |x, y| x + y, true)
+        self.f2(a, b, |x, y| x + y, |x, y| x + y, Round::Cheap)
     }
     fn sub(&mut self, a: &[f64], b: &[f64]) -> Lanes {
-        self.f2(a, b, |x, y| x - y, |x, y| x - y, true)
+        self.f2(a, b, |x, y| x - y, |x, y| x - y, Round::Cheap)
     }
     fn mul(&mut self, a: &[f64], b: &[f64]) -> Lanes {
-        self.f2(a, b, |x, y| x * y, |x, y| x * y, true)
+        self.f2(a, b, |x, y| x * y, |x, y| x * y, Round::Cheap)
     }
     fn div(&mut self, a: &[f64], b: &[f64]) -> Lanes {
-        self.f2(a, b, |x, y| x / y, |x, y| x / y, true)
+        self.f2(a, b, |x, y| x / y, |x, y| x / y, Round::Cheap)
     }
     fn dot(&mut self, a: &[Lanes], b: &[Lanes]) -> Lanes {
         let mut acc = self.mul(&a[0], &b[0]);
@@ -270,7 +775,12 @@ impl<'p> Exec<'p> {
     }
     fn rsqrt(&mut self, a: &[f64]) -> Lanes {
         // Correctly rounded in f32 (the f64 quotient of an f32 argument, rounded once).
-        self.f1(a, |x| 1.0 / x.sqrt(), |x| (1.0 / (x as f64).sqrt()) as f32, true)
+        self.f1(
+            a,
+            |x| 1.0 / x.sqrt(),
+            |x| (1.0 / (x as f64).sqrt()) as f32,
+            Round::Cheap,
+        )
     }
 
     /// Runs `method` on `scene` (one value per lane) and returns its result.
@@ -422,9 +932,7 @@ impl<'p> Exec<'p> {
             }
             match st {
                 S::Emit(range) => {
-                    if self.shadow {
-                        self.mask.clone_from(mask);
-                    }
+                    self.set_mask(mask);
                     for h in range.clone() {
                         self.line = self.p.funs[fr.fun.index()].line[h.index()];
                         self.eval(fr, h)?;
@@ -743,7 +1251,7 @@ impl<'p> Exec<'p> {
                             if l.len() == n {
                                 l.clone()
                             } else {
-                                std::rc::Rc::new(vec![l[0]; n])
+                                std::iter::repeat_n(l[0], n).lanes()
                             }
                         })
                         .collect(),
@@ -853,7 +1361,7 @@ impl<'p> Exec<'p> {
                 for l in &a.0 {
                     out.push(match (to, from) {
                         (ScalarKind::Float, Some(ScalarKind::Float)) => l.clone(),
-                        (ScalarKind::Float, _) => self.f1(l, |x| x, |x| x, false),
+                        (ScalarKind::Float, _) => self.f1(l, |x| x, |x| x, Round::Exact),
                         (ScalarKind::Uint, Some(ScalarKind::Float)) => l
                             .iter()
                             .map(|&x| x.trunc().clamp(0.0, u32::MAX as f64))
@@ -949,7 +1457,7 @@ impl<'p> Exec<'p> {
                 B::Subtract if float => self.sub(x, y),
                 B::Multiply if float => self.mul(x, y),
                 B::Divide if float => self.div(x, y),
-                B::Modulo if float => self.f2(x, y, |p, q| p % q, |p, q| p % q, true),
+                B::Modulo if float => self.f2(x, y, |p, q| p % q, |p, q| p % q, Round::Call),
                 B::Add
                 | B::Subtract
                 | B::Multiply
@@ -984,26 +1492,30 @@ impl<'p> Exec<'p> {
         let each1 = |s: &mut Self, g: &dyn Fn(&mut Self, &[f64]) -> Lanes| Val(a.0.iter().map(|l| g(s, l)).collect());
         let pick = |v: &Val, i: usize| v.0[if v.0.len() == 1 { 0 } else { i }].clone();
         Ok(match f {
-            M::Abs => each1(self, &|s, l| s.f1(l, f64::abs, f32::abs, false)),
-            M::Sqrt => each1(self, &|s, l| s.f1(l, f64::sqrt, f32::sqrt, true)),
+            M::Abs => each1(self, &|s, l| s.f1(l, f64::abs, f32::abs, Round::Exact)),
+            M::Sqrt => each1(self, &|s, l| s.f1(l, f64::sqrt, f32::sqrt, Round::Cheap)),
             M::InverseSqrt => each1(self, &|s, l| s.rsqrt(l)),
-            M::Sin => each1(self, &|s, l| s.f1(l, libm::sin, libm::sinf, true)),
-            M::Cos => each1(self, &|s, l| s.f1(l, libm::cos, libm::cosf, true)),
-            M::Tan => each1(self, &|s, l| s.f1(l, libm::tan, libm::tanf, true)),
-            M::Asin => each1(self, &|s, l| s.f1(l, libm::asin, libm::asinf, true)),
-            M::Acos => each1(self, &|s, l| s.f1(l, libm::acos, libm::acosf, true)),
-            M::Atan => each1(self, &|s, l| s.f1(l, libm::atan, libm::atanf, true)),
-            M::Exp => each1(self, &|s, l| s.f1(l, libm::exp, libm::expf, true)),
-            M::Exp2 => each1(self, &|s, l| s.f1(l, libm::exp2, libm::exp2f, true)),
-            M::Log => each1(self, &|s, l| s.f1(l, libm::log, libm::logf, true)),
-            M::Log2 => each1(self, &|s, l| s.f1(l, libm::log2, libm::log2f, true)),
-            M::Floor => each1(self, &|s, l| s.f1(l, f64::floor, f32::floor, false)),
-            M::Ceil => each1(self, &|s, l| s.f1(l, f64::ceil, f32::ceil, false)),
-            M::Trunc => each1(self, &|s, l| s.f1(l, f64::trunc, f32::trunc, false)),
-            M::Round => each1(self, &|s, l| s.f1(l, f64::round_ties_even, f32::round_ties_even, false)),
-            M::Fract => each1(self, &|s, l| s.f1(l, |x| x - x.floor(), |x| x - x.floor(), true)),
+            M::Sin => each1(self, &|s, l| s.f1(l, libm::sin, libm::sinf, Round::Call)),
+            M::Cos => each1(self, &|s, l| s.f1(l, libm::cos, libm::cosf, Round::Call)),
+            M::Tan => each1(self, &|s, l| s.f1(l, libm::tan, libm::tanf, Round::Call)),
+            M::Asin => each1(self, &|s, l| s.f1(l, libm::asin, libm::asinf, Round::Call)),
+            M::Acos => each1(self, &|s, l| s.f1(l, libm::acos, libm::acosf, Round::Call)),
+            M::Atan => each1(self, &|s, l| s.f1(l, libm::atan, libm::atanf, Round::Call)),
+            M::Exp => each1(self, &|s, l| s.f1(l, libm::exp, libm::expf, Round::Call)),
+            M::Exp2 => each1(self, &|s, l| s.f1(l, libm::exp2, libm::exp2f, Round::Call)),
+            M::Log => each1(self, &|s, l| s.f1(l, libm::log, libm::logf, Round::Call)),
+            M::Log2 => each1(self, &|s, l| s.f1(l, libm::log2, libm::log2f, Round::Call)),
+            M::Floor => each1(self, &|s, l| s.f1(l, f64::floor, f32::floor, Round::Exact)),
+            M::Ceil => each1(self, &|s, l| s.f1(l, f64::ceil, f32::ceil, Round::Exact)),
+            M::Trunc => each1(self, &|s, l| s.f1(l, f64::trunc, f32::trunc, Round::Exact)),
+            M::Round => each1(self, &|s, l| {
+                s.f1(l, f64::round_ties_even, f32::round_ties_even, Round::Exact)
+            }),
+            M::Fract => each1(self, &|s, l| {
+                s.f1(l, |x| x - x.floor(), |x| x - x.floor(), Round::Cheap)
+            }),
             M::Saturate => each1(self, &|s, l| {
-                s.f1(l, |x| x.clamp(0.0, 1.0), |x| x.clamp(0.0, 1.0), false)
+                s.f1(l, |x| x.clamp(0.0, 1.0), |x| x.clamp(0.0, 1.0), Round::Exact)
             }),
             M::Sign => each1(self, &|s, l| {
                 s.f1(
@@ -1026,7 +1538,7 @@ impl<'p> Exec<'p> {
                             0.0
                         }
                     },
-                    false,
+                    Round::Exact,
                 )
             }),
             M::Min | M::Max | M::Atan2 | M::Pow | M::Step => {
@@ -1036,16 +1548,16 @@ impl<'p> Exec<'p> {
                         let (x, y) = (pick(a, i), pick(&b, i));
                         match f {
                             // WGSL min/max of a NaN: either; IEEE minNum here.
-                            M::Min => self.f2(&x, &y, f64::min, f32::min, false),
-                            M::Max => self.f2(&x, &y, f64::max, f32::max, false),
-                            M::Atan2 => self.f2(&x, &y, libm::atan2, libm::atan2f, true),
-                            M::Pow => self.f2(&x, &y, libm::pow, libm::powf, true),
+                            M::Min => self.f2(&x, &y, f64::min, f32::min, Round::Exact),
+                            M::Max => self.f2(&x, &y, f64::max, f32::max, Round::Exact),
+                            M::Atan2 => self.f2(&x, &y, libm::atan2, libm::atan2f, Round::Call),
+                            M::Pow => self.f2(&x, &y, libm::pow, libm::powf, Round::Call),
                             _ => self.f2(
                                 &x,
                                 &y,
                                 |e, v| (v >= e) as u8 as f64,
                                 |e, v| (v >= e) as u8 as f32,
-                                false,
+                                Round::Exact,
                             ),
                         }
                     })
@@ -1064,9 +1576,9 @@ impl<'p> Exec<'p> {
                                 &z,
                                 |v, lo, hi| v.max(lo).min(hi),
                                 |v, lo, hi| v.max(lo).min(hi),
-                                false,
+                                Round::Exact,
                             ),
-                            M::Fma => self.f3(&x, &y, &z, f64::mul_add, f32::mul_add, true),
+                            M::Fma => self.f3(&x, &y, &z, f64::mul_add, f32::mul_add, Round::Call),
                             _ => {
                                 // mix(x, y, t) = x·(1 − t) + y·t
                                 let one = vec![1.0; self.n];
@@ -1100,10 +1612,10 @@ impl<'p> Exec<'p> {
                     return Err("length of a non-float".into());
                 }
                 let d = if a.0.len() == 1 {
-                    self.f1(&a.0[0], f64::abs, f32::abs, false)
+                    self.f1(&a.0[0], f64::abs, f32::abs, Round::Exact)
                 } else {
                     let d = self.dot(&a.0, &a.0);
-                    self.f1(&d, f64::sqrt, f32::sqrt, true)
+                    self.f1(&d, f64::sqrt, f32::sqrt, Round::Cheap)
                 };
                 Val(vec![d])
             }
@@ -1111,7 +1623,7 @@ impl<'p> Exec<'p> {
                 let b = need(b)?;
                 let diff: Vec<Lanes> = (0..a.0.len()).map(|i| self.sub(&a.0[i], &b.0[i])).collect();
                 let d = self.dot(&diff, &diff);
-                Val(vec![self.f1(&d, f64::sqrt, f32::sqrt, true)])
+                Val(vec![self.f1(&d, f64::sqrt, f32::sqrt, Round::Cheap)])
             }
             M::Normalize => {
                 // v · inverseSqrt(v·v), as drivers lower it.
@@ -1165,7 +1677,7 @@ impl<'p> Exec<'p> {
 
 /// `dst = src` on the lanes in `mask`; shares `src` when every lane is.
 fn assign(dst: &mut Lanes, src: &Lanes, mask: &[bool]) {
-    if mask.iter().all(|&m| m) {
+    if all(mask) {
         *dst = src.clone();
         return;
     }

@@ -143,7 +143,7 @@ fn ltc_tables() -> exec::Val {
         static T: exec::Val = exec::Val(
             crate::input::ltc::device::ours()
                 .iter()
-                .map(|&x| std::rc::Rc::new(vec![f64::from(x)]))
+                .map(|&x| exec::lanes(vec![f64::from(x)]))
                 .collect(),
         );
     }
@@ -602,7 +602,7 @@ impl Program {
                 }
             }
         }
-        exec::Val(comps.into_iter().map(Into::into).collect())
+        exec::Val(comps.into_iter().map(exec::lanes).collect())
     }
 
     /// The harness's LTC tables as the kernel reads them through `ll_ltc` (binding 4,
@@ -632,7 +632,7 @@ impl Program {
                 }
             }
         }
-        exec::Val(comps.into_iter().map(Into::into).collect())
+        exec::Val(comps.into_iter().map(exec::lanes).collect())
     }
 
     fn chunk(&self, configs: &[&Config], mode: Mode) -> Result<Vec<f64>> {
@@ -746,17 +746,27 @@ impl Program {
 
     /// The f32 values with each source line's local error (module doc).
     pub fn attribute(&self, configs: &[&Config]) -> Result<Attribution> {
+        self.attribute_with(configs, false, true)
+    }
+
+    /// [`Program::attribute`]; `reference`: each operation's local error recorded one lane at
+    /// a time through [`ulp_bits`] (the straightforward path the tests compare with); `wide`:
+    /// the lane loops in their AVX2 build where the CPU has it (else the baseline build).
+    fn attribute_with(&self, configs: &[&Config], reference: bool, wide: bool) -> Result<Attribution> {
         let parts = configs
             .par_chunks(CHUNK / 2)
             .map(|c| {
                 let k = c.len();
                 let mut ex = exec::Exec::new(self, 2 * k, k, true);
+                ex.reference_record(reference);
+                ex.wide(wide);
                 let mut v = ex.run(self.scene_lanes(c, 2 * k, k, true), self.texel_lanes(c, 2 * k, k, true))?;
                 v.truncate(k);
                 let mut per = vec![Vec::new(); k];
                 for (line, e) in ex.errors.iter().enumerate() {
                     if let Some(e) = e {
-                        for (cfg, &(sum, count, max)) in e.iter().enumerate() {
+                        for (cfg, (&sum, &max)) in e.sum.iter().zip(&e.max).enumerate() {
+                            let count = e.count(cfg);
                             if count > 0 {
                                 per[cfg].push(LineBits {
                                     line,

@@ -142,3 +142,155 @@ fn libm_f32_accuracy() {
     eprintln!("libm atan2f: max error {worst:.3} ulp");
     assert!(worst < 2.5, "atan2f: {worst} ulp");
 }
+
+/// Every pair of f32 values the attribution can meet, special ones included: the vectorised
+/// [`exec::ulp_distance`] and [`exec::bits_of`] give [`ulp_bits`]'s bits.
+#[test]
+fn coded_ulp_distance_gives_ulp_bits() {
+    use rand::{Rng, SeedableRng};
+    let mut values = vec![
+        0.0f32,
+        -0.0,
+        f32::MIN_POSITIVE,
+        -f32::MIN_POSITIVE,
+        f32::from_bits(1),
+        -f32::from_bits(1),
+        1.0,
+        -1.0,
+        f32::MAX,
+        f32::MIN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        -f32::NAN,
+        f32::from_bits(0x7fff_ffff),
+        f32::from_bits(0xff80_0001),
+    ];
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(23);
+    for _ in 0..300 {
+        let x: f32 = f32::from_bits(rng.random());
+        values.push(x);
+        // Neighbours at small distances (the table) and at its edge.
+        for k in [1u32, 2, 7, 254, 255, 256, 257, 100_000] {
+            values.push(f32::from_bits(x.to_bits().wrapping_add(k)));
+        }
+    }
+    let small: std::sync::LazyLock<[f64; 256]> =
+        std::sync::LazyLock::new(|| std::array::from_fn(|k| (k as f64 + 1.0).log2()));
+    let mut pairs = 0;
+    for &a in &values {
+        for &b in values.iter().step_by(7) {
+            let want = ulp_bits(a, b);
+            let got = exec::bits_of(exec::ulp_distance(a, b), &small);
+            assert_eq!(
+                got.to_bits(),
+                want.to_bits(),
+                "{a:e} ({:#x}) vs {b:e} ({:#x})",
+                a.to_bits(),
+                b.to_bits()
+            );
+            pairs += 1;
+        }
+    }
+    assert!(pairs > 100_000, "{pairs}");
+}
+
+/// Every built-in kernel and composite (as `tests/compiled.rs` lists them) over every case's
+/// seeded sample, cut down, and inputs no sampler draws (NaN, infinities, degenerate
+/// segments): the attribution's vectorised recording gives the bits of the straightforward
+/// one, which records each lane of each operation through [`ulp_bits`], and the same f32
+/// values. Compared bit for bit, configuration by configuration, line by line.
+#[test]
+fn the_vectorised_attribution_gives_the_straightforward_ones_bits() {
+    use crate::kernel::builtin_kernels;
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
+    let mut paths: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    paths.sort();
+    let mut sample = Vec::new();
+    for path in paths {
+        let case = crate::input::case::Case::load(&path).unwrap();
+        let setup = crate::app::sweep::prepare(case, &[], Some(12)).unwrap();
+        sample.extend(setup.samples.into_iter().map(|s| s.config));
+    }
+    // Odd inputs in each material kind of the sample.
+    let odd_coords = [
+        [0.0, 0.0, 0.0],
+        [1e-30, -1e-30, 1e-20],
+        [3e19, -2e19, 1e19],
+        [f64::INFINITY, 0.0, 1.0],
+        [f64::NAN, 0.5, 1.0],
+        [0.3, -0.2, -1e-7],
+    ];
+    let mut kinds: Vec<Config> = Vec::new();
+    for c in &sample {
+        if !kinds
+            .iter()
+            .any(|k| std::mem::discriminant(&k.material) == std::mem::discriminant(&c.material))
+        {
+            kinds.push(c.clone());
+        }
+    }
+    assert_eq!(kinds.len(), 3, "diffuse, ltc and ggx in the sample");
+    for base in &kinds {
+        for a in odd_coords {
+            for b in [[0.5, 0.2, 1.0], [0.0, 0.0, 0.0], [f64::NAN, 0.0, 1.0]] {
+                let mut c = base.clone();
+                c.p1 = a;
+                c.p2 = b;
+                sample.push(c);
+            }
+        }
+    }
+    let kernels = builtin_kernels();
+    let mut methods = Vec::new();
+    for k in &kernels {
+        methods.push(resolve(&k.id, &kernels).unwrap());
+        if k.uses_line {
+            for inner in kernels.iter().filter(|i| !i.uses_line) {
+                if let Ok(m) = resolve(&format!("{}[{}]", k.id, inner.id), &kernels) {
+                    methods.push(m);
+                }
+            }
+        }
+    }
+    assert!(methods.len() > 40, "{} methods", methods.len());
+    let (mut lines, mut nan_lines) = (0usize, 0usize);
+    for m in &methods {
+        let configs: Vec<&Config> = sample.iter().filter(|c| m.applies(c)).collect();
+        let p = program(m).unwrap();
+        let slow = p.attribute_with(&configs, true, false).unwrap();
+        // The baseline build of the lane loops, and their AVX2 build where the CPU has it.
+        for wide in [false, true] {
+            let fast = p.attribute_with(&configs, false, wide).unwrap();
+            assert_eq!(fast.f32.len(), slow.f32.len());
+            for (i, (x, y)) in fast.f32.iter().zip(&slow.f32).enumerate() {
+                assert!(
+                    x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()),
+                    "{} f32 on {:?}",
+                    m.label,
+                    configs[i]
+                );
+            }
+            for (i, (f, s)) in fast.per_config.iter().zip(&slow.per_config).enumerate() {
+                let key = |v: &Vec<LineBits>| {
+                    v.iter()
+                        .map(|b| (b.line, b.mean.to_bits(), b.max.to_bits()))
+                        .collect::<Vec<_>>()
+                };
+                assert_eq!(key(f), key(s), "{} on {:?} (wide: {wide})", m.label, configs[i]);
+                lines += f.len();
+                nan_lines += f.iter().filter(|b| b.max == 32.0).count();
+            }
+        }
+    }
+    eprintln!(
+        "{} methods, {} configurations, {lines} line records compared bit for bit ({nan_lines} with a NaN operation)",
+        methods.len(),
+        sample.len()
+    );
+    assert!(lines > 10_000 && nan_lines > 0, "{lines} {nan_lines}");
+}
