@@ -173,9 +173,38 @@ pub(crate) fn integrate_chord_weighted(
     rtol: f64,
     max_panels: usize,
 ) -> Quad {
+    let ends = [chord.s0, chord.s0 + chord.len].map(|s| [0, 1, 2].map(|k| chord.foot[k] + s * chord.dir[k]));
+    integrate_segment(lobe, chord, ends, upper, emitter, tint, rtol, max_panels)
+}
+
+/// [`integrate_chord_weighted`] with the chord's end points (at `s0` and `s0 + len`) given
+/// as exactly as the caller knows them: a segment's own `p1` and `p2` for the `line` targets,
+/// whose heights above the surface are then exact inputs (`Crossing`).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn integrate_segment(
+    lobe: &Lobe,
+    chord: &Chord,
+    ends: [Vec3; 2],
+    upper: bool,
+    emitter: Emitter,
+    tint: Option<&Tint>,
+    rtol: f64,
+    max_panels: usize,
+) -> Quad {
     let d = length(chord.foot);
     if d == 0.0 {
         return Quad::default();
+    }
+    // Where the integrand is 0 below the horizon (the clip, or D's support is the horizon)
+    // and the segment crosses it, the part above it is bounded by an end and the horizon.
+    let horizon_zero = upper || lobe.support() == [0.0, 0.0, 1.0];
+    let crossing = if horizon_zero {
+        Crossing::new(chord, d, ends)
+    } else {
+        None
+    };
+    if let Some(c) = crossing.as_ref().filter(|c| c.is_sliver()) {
+        return c.integrate(lobe, chord, d, upper, emitter, tint, rtol, max_panels);
     }
     let (n, dir) = (mul(chord.foot, 1.0 / d), chord.dir);
     let circle = lobe.circle(n, dir);
@@ -230,12 +259,266 @@ pub(crate) fn integrate_chord_weighted(
         tint,
     };
     let q = integrate_batch(&mut |x, out| integrand.batch(x, out), &panels, rtol, max_panels);
+    let q = match crossing.as_ref().filter(|c| c.crosses) {
+        Some(c) => Quad {
+            error: q.error + c.end_terms(lobe, emitter, tint),
+            ..q
+        },
+        None => q,
+    };
+    with_tint_rounding(q, tint)
+}
+
+/// A textured chord's integral with the tint's rounding (an absolute bound per value, times
+/// ∫|f|) added to its error.
+fn with_tint_rounding(q: Quad, tint: Option<&Tint>) -> Quad {
     match tint {
         Some(t) if t.bound > 0.0 => Quad {
             error: q.error + t.rounding * q.abs / t.bound,
             ..q
         },
         _ => q,
+    }
+}
+
+/// Below this angle the part of a chord above the horizon, between a segment end and the
+/// horizon, is integrated from that end ([`Crossing::integrate`]); wider parts take the
+/// halves' panels, whose bounds' rounding is then at most ~`Crossing::end_terms`/(this width)
+/// of the integral, a few 1e-13 at worst.
+const SLIVER_BELOW: f64 = 1e-2;
+
+/// A segment wholly above the horizon whose lower end's direction is within this height of it
+/// (and whose arc is below `SLIVER_BELOW`) is integrated from that end too: in the halves'
+/// frame the integrand's height `sin χ·n.z + cos χ·dir.z` has an absolute rounding of a few
+/// ε, ~ε/height of itself (3.7e-12 relative at a height of 4e-5 in the stability case's
+/// `short` family, 60× its estimate).
+const NEAR_HORIZON: f64 = 0.1;
+
+/// A segment that crosses the horizon where the integrand vanishes below it: the part above
+/// is the arc of directions from the end E above the horizon to the crossing X.
+///
+/// Why: seen in the halves' angle χ, that part is `[χ_X, χ_E]`, an interval between two
+/// computed angles, each O(1) with an absolute rounding of a few ε (χ_E from `atan2`, χ_X from
+/// `trig_zeros` in a frame whose foot direction carries ~ε·far/d), while the integrand, ∝ the
+/// height of ω above the horizon, is itself computed as `sin χ·n.z + cos χ·dir.z`, a difference
+/// of O(1) terms. When E is just above the horizon the interval is a sliver of width
+/// w ≈ ζ_E/|dω.z/dχ| (ζ_E = E.z/‖E‖), and both roundings, ~ε/w relative, swamp the
+/// integral: 5e-8 relative in the stability case's `endpoint_on_horizon` family, against
+/// estimates of 3e-11 (docs/references.md). Measured from E the arc is instead
+/// `ω(y) = cos y·ω_E + sin y·τ`, y ∈ [0, w], with ω_E = E/‖E‖ (E.z an exact input for the
+/// `line` targets) and τ the unit tangent towards X: its height `cos y·ζ_E + sin y·τ.z` is
+/// relatively accurate, and `w = atan2(ζ_E, −τ.z)` is the zero of that same computed height,
+/// so the bound and the integrand agree to a relative few ε of w.
+#[derive(Clone, Copy, Debug)]
+struct Crossing {
+    /// ω_E, the unit direction of the end above the horizon.
+    omega: Vec3,
+    /// τ: the unit tangent of the chord's great circle at ω_E, towards the segment's inside.
+    tau: Vec3,
+    /// sin ψ_E and cos ψ_E, ψ_E the angle between ω_E and the direction into the segment
+    /// (ψ = ψ_E − y along the arc; sin ψ is the `Cylinder` weight sin χ).
+    sin_e: f64,
+    cos_e: f64,
+    /// ‖E‖ and E's position from the foot along `dir`.
+    r: f64,
+    s_e: f64,
+    /// ±1: `dir` or `−dir` points from E into the segment.
+    inward: f64,
+    /// w: the arc's angle from ω_E to the horizon.
+    width: f64,
+    /// ψ_E itself, which the arc must stay well inside (`is_sliver`).
+    psi: f64,
+    /// A bound on w's relative rounding (see `new`).
+    width_rel_error: f64,
+    /// far/d of the chord, for the frame's rounding in `end_terms`.
+    far_over_d: f64,
+    /// The segment crosses the horizon (else it is wholly above, and w is its own arc).
+    crosses: bool,
+}
+
+impl Crossing {
+    /// The crossing of a segment with one end strictly above the horizon and the other on or
+    /// below it, or (`crosses` false) a segment wholly above it, measured from its lower end;
+    /// None for one wholly on or below it.
+    fn new(chord: &Chord, d: f64, ends: [Vec3; 2]) -> Option<Crossing> {
+        let (z0, z1) = (ends[0][2], ends[1][2]);
+        let (e, inward, crosses) = if z0 > 0.0 && z1 <= 0.0 {
+            (0, 1.0, true)
+        } else if z1 > 0.0 && z0 <= 0.0 {
+            (1, -1.0, true)
+        } else if z0 > 0.0 && z1 > 0.0 {
+            // The lower end (its height relative to its distance).
+            if z0 * length(ends[1]) <= z1 * length(ends[0]) {
+                (0, 1.0, false)
+            } else {
+                (1, -1.0, false)
+            }
+        } else {
+            return None;
+        };
+        let p = ends[e];
+        let dir_in = mul(chord.dir, inward);
+        let r = length(p);
+        let omega = mul(p, 1.0 / r);
+        let t = reject(dir_in, omega);
+        let t_len = length(t);
+        if !(t_len > 0.0) || (crosses && !(dir_in[2] < 0.0)) {
+            return None;
+        }
+        let tau = mul(t, 1.0 / t_len);
+        if crosses && !(tau[2] < 0.0) {
+            return None;
+        }
+        let (sin_e, cos_e) = (d / r, dot(omega, dir_in));
+        // Rounding of w = atan2(ζ, −τ.z): ζ = E.z/‖E‖ is relatively exact but for ‖E‖ (≤ 2ε)
+        // and the division (ε); τ = t/‖t‖ with t = dir_in − (dir_in·ω)ω twice, whose O(1)
+        // terms leave an absolute ~4ε, and dir and ω their own ~2ε each, all divided by
+        // ‖t‖ = sin ψ_E = d/‖E‖: |δτ.z| ≤ 8ε·‖E‖/d. atan2 adds 1 ulp, and for a small w,
+        // δw/w = δζ/ζ − δτ.z/τ.z (for a wider one the factor sin w cos w/w ≤ 1 only helps).
+        // Wholly above: the arc is the segment's, from E to the point ℓ = len along dir_in,
+        // atan2(ℓ sin ψ_E, ‖E‖ + ℓ cos ψ_E), whose arguments carry d's relative ~4ε·‖E‖/d
+        // and a few ε more.
+        let eps = f64::EPSILON;
+        let (width, width_rel_error) = if crosses {
+            (omega[2].atan2(-tau[2]), 4.0 * eps + 8.0 * eps * (r / d) / -tau[2])
+        } else {
+            let l = chord.len;
+            ((l * sin_e).atan2(r + l * cos_e), 8.0 * eps + 4.0 * eps * (r / d))
+        };
+        let far = length(ends[0]).max(length(ends[1]));
+        Some(Crossing {
+            omega,
+            tau,
+            sin_e,
+            cos_e,
+            r,
+            s_e: if e == 0 { chord.s0 } else { chord.s0 + chord.len },
+            inward,
+            width,
+            psi: sin_e.atan2(cos_e),
+            width_rel_error,
+            far_over_d: far / d,
+            crosses,
+        })
+    }
+
+    /// Thin enough to be integrated from its end: narrower than `SLIVER_BELOW` and than half
+    /// of ψ_E (so that the weight sin(ψ_E − y) does not cancel); a segment wholly above the
+    /// horizon only if its lower end is within `NEAR_HORIZON` of it (elsewhere the height's
+    /// rounding is a few ε of itself and the halves are as good).
+    fn is_sliver(&self) -> bool {
+        self.width < SLIVER_BELOW && self.width <= 0.5 * self.psi && (self.crosses || self.omega[2] < NEAR_HORIZON)
+    }
+
+    /// ω(y), sin ψ(y) for the arc's angle y from ω_E (from y's sine and cosine).
+    #[inline(always)]
+    fn at(&self, s: f64, c: f64) -> (Vec3, f64) {
+        let w = [0, 1, 2].map(|k| c * self.omega[k] + s * self.tau[k]);
+        (w, self.sin_e * c - self.cos_e * s)
+    }
+
+    /// The chord integral (`integrate_chord_weighted`) over the arc from ω_E to the horizon,
+    /// which is all of it: beyond the crossing the segment stays below the horizon.
+    /// Its error adds w's relative rounding times ∫|f| (the integral is ∝ w to first order,
+    /// whether f vanishes at X, ∫ ≈ ζ_E·w/2·…, or jumps there, ∫ ≈ f(X)·w).
+    #[allow(clippy::too_many_arguments)]
+    fn integrate(
+        &self,
+        lobe: &Lobe,
+        chord: &Chord,
+        d: f64,
+        upper: bool,
+        emitter: Emitter,
+        tint: Option<&Tint>,
+        rtol: f64,
+        max_panels: usize,
+    ) -> Quad {
+        let circle = lobe.circle(self.tau, self.omega);
+        let support = lobe.support();
+        let mut cuts = Vec::with_capacity(16);
+        // D's kink, when it is not the horizon (that one is w), and the peak (mod π, as for
+        // the halves).
+        if support != [0.0, 0.0, 1.0] {
+            cuts.extend(trig_zeros(0.0, dot(support, self.omega), dot(support, self.tau)));
+        }
+        if let Some((centre, width)) = circle.peak() {
+            for c in [centre - PI, centre, centre + PI] {
+                graded(c, width, &mut cuts);
+            }
+        }
+        if let Some(t) = tint {
+            // The arc's angle to the chord's point at s: atan2(ℓ sin ψ_E, ‖E‖ + ℓ cos ψ_E),
+            // ℓ = |s − s_E| into the segment.
+            for &s in &t.s_cuts {
+                let l = (s - self.s_e) * self.inward;
+                if l > 0.0 {
+                    cuts.push((l * self.sin_e).atan2(self.r + l * self.cos_e));
+                }
+            }
+            for &(k, face) in &t.planes {
+                for y in trig_zeros(0.0, dot(k, self.omega), dot(k, self.tau)) {
+                    let (s, c) = y.sin_cos();
+                    if y > 0.0 && y < self.width && t.keeps(face, self.at(s, c).0) {
+                        cuts.push(y);
+                    }
+                }
+            }
+        }
+        let panels = split(0.0, self.width, cuts);
+        let sin_weight = emitter == Emitter::Cylinder;
+        let q = integrate_batch(
+            &mut |y: &[f64; NODES], out: &mut [Quad; NODES]| {
+                let (mut s, mut c) = ([0.0; NODES], [0.0; NODES]);
+                trig::sin_cos_batch(y, &mut s, &mut c);
+                let mut f = [0.0; NODES];
+                circle.eval_batch(&s, &c, &mut f);
+                for i in 0..NODES {
+                    let (w, sin_psi) = self.at(s[i], c[i]);
+                    let v = if sin_weight { f[i] * sin_psi } else { f[i] };
+                    let v = if !upper || w[2] > 0.0 { v } else { 0.0 };
+                    out[i] = match tint {
+                        None => Quad::exact(v),
+                        Some(_) if v == 0.0 => Quad::default(),
+                        Some(t) => Quad {
+                            value: v * t.at(d * dot(w, chord.dir) / sin_psi, w),
+                            error: 0.0,
+                            abs: v.abs() * t.bound,
+                        },
+                    };
+                }
+            },
+            &panels,
+            rtol,
+            max_panels,
+        );
+        let q = Quad {
+            error: q.error + self.width_rel_error * q.abs,
+            ..q
+        };
+        with_tint_rounding(q, tint)
+    }
+
+    /// For a part above the horizon too wide for [`Crossing::integrate`], taken by the halves'
+    /// panels: the rounding of its bounds, |f(b)|·δb at E and at X. Elsewhere a bound's
+    /// rounding moves the integral by f there times a few ulps, which the relative terms of
+    /// `estimate` cover; here E's panel reaches to the horizon, so E's position relative to
+    /// the integrand's zero is what sets the integral. δb: χ_E (`atan2` of d and the end's
+    /// position, ≤ 1 ulp on arguments good to ~3ε) and χ_X (`trig_zeros`: `atan2`, `acos`, a
+    /// sum and a wrap by 2π, ~4 ulp of π) plus their offsets and panel starts (≤ 3 ulp of
+    /// π): ≤ 32ε in all; and the frame: n carries ~4ε·far/d (the foot's rounding), which
+    /// moves the horizon's zero along the arc by that over |dω.z/dχ| = |τ.z| at E (≥ it
+    /// at X): 8ε·(far/d)/|τ.z| with a factor 2 to spare. f at X is D there without the clip
+    /// (0 when D's support is the horizon; the jump of the clip otherwise).
+    fn end_terms(&self, lobe: &Lobe, emitter: Emitter, tint: Option<&Tint>) -> f64 {
+        let eps = f64::EPSILON;
+        let delta = 32.0 * eps + 8.0 * eps * self.far_over_d / -self.tau[2];
+        let (s, c) = self.width.sin_cos();
+        let (x, sin_x) = self.at(s, c);
+        let weight = |sin_psi: f64| if emitter == Emitter::Cylinder { sin_psi } else { 1.0 };
+        let f_e = lobe.eval(self.omega) * weight(self.sin_e);
+        let f_x = lobe.eval(x) * weight(sin_x.max(0.0));
+        let bound = tint.map_or(1.0, |t| t.bound);
+        (f_e.abs() + f_x.abs()) * bound * delta
     }
 }
 
@@ -357,7 +640,17 @@ pub(crate) fn line_textured(lobe: &Lobe, p1: Vec3, p2: Vec3, upper: bool, textur
         TextureKind::Cylindrical => tint::thin_line(t, &axis),
         TextureKind::Cubemap => tint::cube(t, dir),
     });
-    let q = integrate_chord(lobe, &chord, upper, tint.as_ref(), LINE_RTOL, LINE_MAX_PANELS).scale(2.0 / d);
+    let q = integrate_segment(
+        lobe,
+        &chord,
+        [p1, p2],
+        upper,
+        Emitter::Cylinder,
+        tint.as_ref(),
+        LINE_RTOL,
+        LINE_MAX_PANELS,
+    )
+    .scale(2.0 / d);
     estimate(q, lobe, far, d)
 }
 
@@ -412,9 +705,10 @@ pub(crate) fn line_isotropic_textured(lobe: &Lobe, p1: Vec3, p2: Vec3, texture: 
         TextureKind::Cylindrical => tint::isotropic(t, &axis),
         TextureKind::Cubemap => tint::cube(t, dir),
     });
-    let q = integrate_chord_weighted(
+    let q = integrate_segment(
         lobe,
         &chord,
+        [p1, p2],
         false,
         Emitter::Isotropic,
         tint.as_ref(),
