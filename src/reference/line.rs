@@ -281,11 +281,11 @@ fn with_tint_rounding(q: Quad, tint: Option<&Tint>) -> Quad {
     }
 }
 
-/// Below this angle the part of a chord above the horizon, between a segment end and the
-/// horizon, is integrated from that end ([`Crossing::integrate`]); wider parts take the
-/// halves' panels, whose bounds' rounding (`Crossing::end_terms`) is then at most
-/// ~2·32ε/(this width) of the integral, 1.4e-13 (with 1e-2 it was 1.4e-12 and random
-/// segments' estimates grew past 1e-12 relative).
+/// A segment wholly above the horizon but near it is integrated from its lower end
+/// ([`Crossing::integrate`]) when its arc is below this angle (and its lower end below
+/// `NEAR_HORIZON`); a crossing is, whatever its width, as long as it is within half of ψ_E.
+/// The few crossings left to the halves' panels get their bounds' rounding in the estimate
+/// (`Crossing::end_terms`).
 const SLIVER_BELOW: f64 = 0.1;
 
 /// A segment wholly above the horizon whose lower end's direction is within this height of it
@@ -400,9 +400,9 @@ impl Crossing {
             let l = chord.len;
             ((l * sin_e).atan2(r + l * cos_e), 8.0 * eps + 4.0 * eps * (r / d))
         };
-        // Thin enough to be integrated from E: narrower than `SLIVER_BELOW` and than half of
-        // ψ_E (so that the weight sin(ψ_E − y) does not cancel).
-        let sliver = width < SLIVER_BELOW && width <= 0.5 * sin_e.atan2(cos_e);
+        // Integrated from E: a crossing, or a wholly-above arc narrower than `SLIVER_BELOW`,
+        // within half of ψ_E (so that the weight sin(ψ_E − y) does not cancel).
+        let sliver = (crosses || width < SLIVER_BELOW) && width <= 0.5 * sin_e.atan2(cos_e);
         if !crosses && !sliver {
             return None;
         }
