@@ -196,12 +196,43 @@ fn chord_weighted(
     upper: bool,
     emitter: Emitter,
     tint: Option<&Tint>,
+    tolerances: (f64, f64),
+    max_panels: usize,
+) -> Quad {
+    let ends = [chord.s0, chord.s0 + chord.len].map(|s| [0, 1, 2].map(|k| chord.foot[k] + s * chord.dir[k]));
+    integrate_segment(lobe, chord, ends, upper, emitter, tint, tolerances, max_panels)
+}
+
+/// [`integrate_chord_weighted`] with the chord's end points (at `s0` and `s0 + len`) given
+/// as exactly as the caller knows them: a segment's own `p1` and `p2` for the `line` targets,
+/// whose heights above the surface are then exact inputs (`Crossing`); with the tolerances
+/// `(rtol, atol)` of `integrate_chord_within` (a sliver's arc takes `rtol` alone, which is
+/// stricter).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn integrate_segment(
+    lobe: &Lobe,
+    chord: &Chord,
+    ends: [Vec3; 2],
+    upper: bool,
+    emitter: Emitter,
+    tint: Option<&Tint>,
     (rtol, atol): (f64, f64),
     max_panels: usize,
 ) -> Quad {
     let d = length(chord.foot);
     if d == 0.0 {
         return Quad::default();
+    }
+    // Where the integrand is 0 below the horizon (the clip, or D's support is the horizon)
+    // and the segment crosses it, the part above it is bounded by an end and the horizon.
+    let horizon_zero = upper || lobe.support() == [0.0, 0.0, 1.0];
+    let crossing = if horizon_zero {
+        Crossing::new(chord, d, ends)
+    } else {
+        None
+    };
+    if let Some(c) = crossing.as_ref().filter(|c| c.sliver) {
+        return c.integrate(lobe, chord, d, upper, emitter, tint, rtol, max_panels);
     }
     let (n, dir) = (mul(chord.foot, 1.0 / d), chord.dir);
     let circle = lobe.circle(n, dir);
@@ -256,12 +287,285 @@ fn chord_weighted(
         tint,
     };
     let q = integrate_batch_within(&mut |x, out| integrand.batch(x, out), &panels, rtol, atol, max_panels);
+    let q = match crossing.as_ref().filter(|c| c.crosses) {
+        Some(c) => Quad {
+            error: q.error + c.end_terms(lobe, emitter, tint),
+            ..q
+        },
+        None => q,
+    };
+    with_tint_rounding(q, tint)
+}
+
+/// A textured chord's integral with the tint's rounding (an absolute bound per value, times
+/// ∫|f|) added to its error.
+fn with_tint_rounding(q: Quad, tint: Option<&Tint>) -> Quad {
     match tint {
         Some(t) if t.bound > 0.0 => Quad {
             error: q.error + t.rounding * q.abs / t.bound,
             ..q
         },
         _ => q,
+    }
+}
+
+/// A segment wholly above the horizon but near it is integrated from its lower end
+/// ([`Crossing::integrate`]) when its arc is below this angle (and its lower end below
+/// `NEAR_HORIZON`); a crossing is, whatever its width, as long as it is within half of ψ_E.
+/// The few crossings left to the halves' panels get their bounds' rounding in the estimate
+/// (`Crossing::end_terms`).
+const SLIVER_BELOW: f64 = 0.1;
+
+/// A segment wholly above the horizon whose lower end's direction is within this height of it
+/// (and whose arc is below `SLIVER_BELOW`) is integrated from that end too: in the halves'
+/// frame the integrand's height `sin χ·n.z + cos χ·dir.z` has an absolute rounding of a few
+/// ε, ~ε/height of itself (3.7e-12 relative at a height of 4e-5 in the stability case's
+/// `short` family, 60× its estimate).
+const NEAR_HORIZON: f64 = 0.1;
+
+/// A segment that crosses the horizon where the integrand vanishes below it: the part above
+/// is the arc of directions from the end E above the horizon to the crossing X.
+///
+/// Why: seen in the halves' angle χ, that part is `[χ_X, χ_E]`, an interval between two
+/// computed angles, each O(1) with an absolute rounding of a few ε (χ_E from `atan2`, χ_X from
+/// `trig_zeros` in a frame whose foot direction carries ~ε·far/d), while the integrand, ∝ the
+/// height of ω above the horizon, is itself computed as `sin χ·n.z + cos χ·dir.z`, a difference
+/// of O(1) terms. When E is just above the horizon the interval is a sliver of width
+/// w ≈ ζ_E/|dω.z/dχ| (ζ_E = E.z/‖E‖), and both roundings, ~ε/w relative, swamp the
+/// integral: 5e-8 relative in the stability case's `endpoint_on_horizon` family, against
+/// estimates of 3e-11 (docs/references.md). Measured from E the arc is instead
+/// `ω(y) = cos y·ω_E + sin y·τ`, y ∈ [0, w], with ω_E = E/‖E‖ (E.z an exact input for the
+/// `line` targets) and τ the unit tangent towards X: its height `cos y·ζ_E + sin y·τ.z` is
+/// relatively accurate, and `w = atan2(ζ_E, −τ.z)` is the zero of that same computed height,
+/// so the bound and the integrand agree to a relative few ε of w.
+///
+/// A short segment wholly above the horizon but close to it (its lower end's direction within
+/// `NEAR_HORIZON`, its arc below `SLIVER_BELOW`) is the same arc, from its lower end to its
+/// other end, without the crossing.
+#[derive(Clone, Copy, Debug)]
+struct Crossing {
+    /// ω_E, the unit direction of the end above the horizon.
+    omega: Vec3,
+    /// τ: the unit tangent of the chord's great circle at ω_E, towards the segment's inside.
+    tau: Vec3,
+    /// sin ψ_E and cos ψ_E, ψ_E the angle between ω_E and the direction into the segment
+    /// (ψ = ψ_E − y along the arc; sin ψ is the `Cylinder` weight sin χ).
+    sin_e: f64,
+    cos_e: f64,
+    /// ‖E‖ and E's position from the foot along `dir`.
+    r: f64,
+    s_e: f64,
+    /// ±1: `dir` or `−dir` points from E into the segment.
+    inward: f64,
+    /// w: the arc's angle from ω_E to the horizon.
+    width: f64,
+    /// A bound on w's relative rounding (see `new`).
+    width_rel_error: f64,
+    /// far/d of the chord, for the frame's rounding in `end_terms`.
+    far_over_d: f64,
+    /// The segment crosses the horizon (else it is wholly above, and w is its own arc).
+    crosses: bool,
+    /// Integrated from E ([`Crossing::integrate`]); else by the halves, with `end_terms`.
+    sliver: bool,
+}
+
+impl Crossing {
+    /// The crossing of a segment with one end strictly above the horizon and the other on or
+    /// below it, or (`crosses` false) a segment wholly above it, measured from its lower end;
+    /// None for one wholly on or below it.
+    fn new(chord: &Chord, d: f64, ends: [Vec3; 2]) -> Option<Crossing> {
+        let (z0, z1) = (ends[0][2], ends[1][2]);
+        let (e, inward, crosses) = if z0 > 0.0 && z1 <= 0.0 {
+            (0, 1.0, true)
+        } else if z1 > 0.0 && z0 <= 0.0 {
+            (1, -1.0, true)
+        } else if z0 > 0.0 && z1 > 0.0 {
+            // Wholly above: only an arc near the horizon and narrow (its angle is at least its
+            // sine len·d/(‖E0‖‖E1‖)) is taken from its lower end; checked first, as cheaply.
+            let (r0, r1) = (length(ends[0]), length(ends[1]));
+            if z0.min(z1) >= NEAR_HORIZON * r0.max(r1) || chord.len * d >= SLIVER_BELOW * r0 * r1 {
+                return None;
+            }
+            if z0 * r1 <= z1 * r0 {
+                (0, 1.0, false)
+            } else {
+                (1, -1.0, false)
+            }
+        } else {
+            return None;
+        };
+        let p = ends[e];
+        let dir_in = mul(chord.dir, inward);
+        let r = length(p);
+        let omega = mul(p, 1.0 / r);
+        if !crosses && omega[2] >= NEAR_HORIZON {
+            return None;
+        }
+        let t = reject(dir_in, omega);
+        let t_len = length(t);
+        if !(t_len > 0.0) || (crosses && !(dir_in[2] < 0.0)) {
+            return None;
+        }
+        let tau = mul(t, 1.0 / t_len);
+        if crosses && !(tau[2] < 0.0) {
+            return None;
+        }
+        let (sin_e, cos_e) = (d / r, dot(omega, dir_in));
+        // Rounding of w = atan2(ζ, −τ.z): ζ = E.z/‖E‖ is relatively exact but for ‖E‖ (≤ 2ε)
+        // and the division (ε). τ = t/‖t‖ with t = dir_in − (dir_in·ω)ω (twice): its z is
+        // dir_in.z (relatively good to 3ε: p2.z − p1.z and the length) less (dir_in·ω)·ζ
+        // (absolute 3ε·ζ), rounded to ε of those, and ‖t‖ = sin ψ_E = d/‖E‖ carries ~3ε/sin ψ_E
+        // relatively: |δτ.z| ≤ 8ε·(‖E‖/d)·(|dir_in.z| + ζ + |τ.z|), small in absolute terms when
+        // the chord runs close to the horizon. atan2 adds 1 ulp, and with R = hypot(ζ, τ.z)
+        // (the height's slope along the arc at X) and w ≥ sin w = ζ/R,
+        // |δw|/w ≤ (|τ.z|/R)·|δζ/ζ| + |δτ.z|/R ≤ 4ε + |δτ.z|/R.
+        // Wholly above: the arc is the segment's, from E to the point ℓ = len along dir_in,
+        // atan2(ℓ sin ψ_E, ‖E‖ + ℓ cos ψ_E), whose arguments carry d's relative ~4ε·‖E‖/d
+        // and a few ε more.
+        let eps = f64::EPSILON;
+        let (width, width_rel_error) = if crosses {
+            let slope = omega[2].hypot(tau[2]);
+            let heights = -dir_in[2] + omega[2] - tau[2];
+            (
+                omega[2].atan2(-tau[2]),
+                4.0 * eps + 8.0 * eps * (r / d) * heights / slope,
+            )
+        } else {
+            let l = chord.len;
+            ((l * sin_e).atan2(r + l * cos_e), 8.0 * eps + 4.0 * eps * (r / d))
+        };
+        // Integrated from E: a crossing, or a wholly-above arc narrower than `SLIVER_BELOW`,
+        // within half of ψ_E (so that the weight sin(ψ_E − y) does not cancel).
+        let sliver = (crosses || width < SLIVER_BELOW) && width <= 0.5 * sin_e.atan2(cos_e);
+        if !crosses && !sliver {
+            return None;
+        }
+        Some(Crossing {
+            omega,
+            tau,
+            sin_e,
+            cos_e,
+            r,
+            s_e: if e == 0 { chord.s0 } else { chord.s0 + chord.len },
+            inward,
+            width,
+            width_rel_error,
+            far_over_d: length(ends[0]).max(length(ends[1])) / d,
+            crosses,
+            sliver,
+        })
+    }
+
+    /// ω(y), sin ψ(y) for the arc's angle y from ω_E (from y's sine and cosine).
+    #[inline(always)]
+    fn at(&self, s: f64, c: f64) -> (Vec3, f64) {
+        let w = [0, 1, 2].map(|k| c * self.omega[k] + s * self.tau[k]);
+        (w, self.sin_e * c - self.cos_e * s)
+    }
+
+    /// The chord integral (`integrate_chord_weighted`) over the arc from ω_E to the horizon,
+    /// which is all of it: beyond the crossing the segment stays below the horizon.
+    /// Its error adds w's relative rounding times ∫|f| (the integral is ∝ w to first order,
+    /// whether f vanishes at X, ∫ ≈ ζ_E·w/2·…, or jumps there, ∫ ≈ f(X)·w).
+    #[allow(clippy::too_many_arguments)]
+    fn integrate(
+        &self,
+        lobe: &Lobe,
+        chord: &Chord,
+        d: f64,
+        upper: bool,
+        emitter: Emitter,
+        tint: Option<&Tint>,
+        rtol: f64,
+        max_panels: usize,
+    ) -> Quad {
+        let circle = lobe.circle(self.tau, self.omega);
+        let support = lobe.support();
+        let mut cuts = Vec::with_capacity(16);
+        // D's kink, when it is not the horizon (that one is w), and the peak (mod π, as for
+        // the halves).
+        if support != [0.0, 0.0, 1.0] {
+            cuts.extend(trig_zeros(0.0, dot(support, self.omega), dot(support, self.tau)));
+        }
+        if let Some((centre, width)) = circle.peak() {
+            for c in [centre - PI, centre, centre + PI] {
+                graded(c, width, &mut cuts);
+            }
+        }
+        if let Some(t) = tint {
+            // The arc's angle to the chord's point at s: atan2(ℓ sin ψ_E, ‖E‖ + ℓ cos ψ_E),
+            // ℓ = |s − s_E| into the segment.
+            for &s in &t.s_cuts {
+                let l = (s - self.s_e) * self.inward;
+                if l > 0.0 {
+                    cuts.push((l * self.sin_e).atan2(self.r + l * self.cos_e));
+                }
+            }
+            for &(k, face) in &t.planes {
+                for y in trig_zeros(0.0, dot(k, self.omega), dot(k, self.tau)) {
+                    let (s, c) = y.sin_cos();
+                    if y > 0.0 && y < self.width && t.keeps(face, self.at(s, c).0) {
+                        cuts.push(y);
+                    }
+                }
+            }
+        }
+        let panels = split(0.0, self.width, cuts);
+        let sin_weight = emitter == Emitter::Cylinder;
+        let q = integrate_batch(
+            &mut |y: &[f64; NODES], out: &mut [Quad; NODES]| {
+                let (mut s, mut c) = ([0.0; NODES], [0.0; NODES]);
+                trig::sin_cos_batch(y, &mut s, &mut c);
+                let mut f = [0.0; NODES];
+                circle.eval_batch(&s, &c, &mut f);
+                for i in 0..NODES {
+                    let (w, sin_psi) = self.at(s[i], c[i]);
+                    let v = if sin_weight { f[i] * sin_psi } else { f[i] };
+                    let v = if !upper || w[2] > 0.0 { v } else { 0.0 };
+                    out[i] = match tint {
+                        None => Quad::exact(v),
+                        Some(_) if v == 0.0 => Quad::default(),
+                        Some(t) => Quad {
+                            value: v * t.at(d * dot(w, chord.dir) / sin_psi, w),
+                            error: 0.0,
+                            abs: v.abs() * t.bound,
+                        },
+                    };
+                }
+            },
+            &panels,
+            rtol,
+            max_panels,
+        );
+        let q = Quad {
+            error: q.error + self.width_rel_error * q.abs,
+            ..q
+        };
+        with_tint_rounding(q, tint)
+    }
+
+    /// For a part above the horizon too wide for [`Crossing::integrate`], taken by the halves'
+    /// panels: the rounding of its bounds, |f(b)|·δb at E and at X. Elsewhere a bound's
+    /// rounding moves the integral by f there times a few ulps, which the relative terms of
+    /// `estimate` cover; here E's panel reaches to the horizon, so E's position relative to
+    /// the integrand's zero is what sets the integral. δb: χ_E (`atan2` of d and the end's
+    /// position, ≤ 1 ulp on arguments good to ~3ε) and χ_X (`trig_zeros`: `atan2`, `acos`, a
+    /// sum and a wrap by 2π, ~4 ulp of π) plus their offsets and panel starts (≤ 3 ulp of
+    /// π): ≤ 32ε in all; and the frame: n carries ~4ε·far/d (the foot's rounding), which
+    /// moves the horizon's zero along the arc by that over the height's slope there,
+    /// |dω.z/dy| at X = R = hypot(ζ_E, τ.z) (the height is R·sin(w − y) along the arc):
+    /// 8ε·(far/d)/R with a factor 2 to spare. f at X is D there without the clip (0 when
+    /// D's support is the horizon; the jump of the clip otherwise).
+    fn end_terms(&self, lobe: &Lobe, emitter: Emitter, tint: Option<&Tint>) -> f64 {
+        let eps = f64::EPSILON;
+        let delta = 32.0 * eps + 8.0 * eps * self.far_over_d / self.omega[2].hypot(self.tau[2]);
+        let (s, c) = self.width.sin_cos();
+        let (x, sin_x) = self.at(s, c);
+        let weight = |sin_psi: f64| if emitter == Emitter::Cylinder { sin_psi } else { 1.0 };
+        let f_e = lobe.eval(self.omega) * weight(self.sin_e);
+        let f_x = lobe.eval(x) * weight(sin_x.max(0.0));
+        let bound = tint.map_or(1.0, |t| t.bound);
+        (f_e.abs() + f_x.abs()) * bound * delta
     }
 }
 
@@ -383,7 +687,17 @@ pub(crate) fn line_textured(lobe: &Lobe, p1: Vec3, p2: Vec3, upper: bool, textur
         TextureKind::Cylindrical => tint::thin_line(t, &axis),
         TextureKind::Cubemap => tint::cube(t, dir),
     });
-    let q = integrate_chord(lobe, &chord, upper, tint.as_ref(), LINE_RTOL, LINE_MAX_PANELS).scale(2.0 / d);
+    let q = integrate_segment(
+        lobe,
+        &chord,
+        [p1, p2],
+        upper,
+        Emitter::Cylinder,
+        tint.as_ref(),
+        (LINE_RTOL, 0.0),
+        LINE_MAX_PANELS,
+    )
+    .scale(2.0 / d);
     estimate(q, lobe, far, d)
 }
 
@@ -438,13 +752,14 @@ pub(crate) fn line_isotropic_textured(lobe: &Lobe, p1: Vec3, p2: Vec3, texture: 
         TextureKind::Cylindrical => tint::isotropic(t, &axis),
         TextureKind::Cubemap => tint::cube(t, dir),
     });
-    let q = integrate_chord_weighted(
+    let q = integrate_segment(
         lobe,
         &chord,
+        [p1, p2],
         false,
         Emitter::Isotropic,
         tint.as_ref(),
-        LINE_RTOL,
+        (LINE_RTOL, 0.0),
         LINE_MAX_PANELS,
     )
     .scale(1.0 / d);
@@ -628,7 +943,7 @@ mod tests {
             // The closed form itself cancels at c·u/(d²r) − t/r: a few ε of its terms.
             let slack = 1e-13 * exact.abs().max(1e-3);
             assert!(err < slack, "{p1:?} {p2:?}: {est:?} vs {exact}");
-            assert!(est.error <= 1e-12 * exact.abs().max(1e-300), "{est:?}");
+            assert!(est.error <= 1e-12 * exact.abs().max(1e-300), "{p1:?} {p2:?}: {est:?}");
         }
         // A point source in the limit: a short segment far away is D(ω)·L/r².
         let est = line_isotropic(&diffuse(), [0.0, 3.0, 4.0], [0.0, 3.0, 4.0 + 1e-6]);
@@ -662,6 +977,86 @@ mod tests {
             est.value.is_finite() && est.value >= 0.0 && est.error.is_finite(),
             "{est:?}"
         );
+    }
+
+    /// Segments from the stability case (`cases/stability.toml`) with an end just above the
+    /// horizon (`endpoint_on_horizon`) or wholly just above it (`short`), diffuse. The truths
+    /// are the closed forms of `diffuse_closed_form` and `diffuse_isotropic_closed_form`
+    /// evaluated with mpmath at 120 digits from the inputs' exact binary values (agreeing with
+    /// 80 digits to < 1e-63; the script is scripts/line_truth.py), rounded to 17 digits here.
+    /// On main (848facd) the first three were off by 2.5e-9, 4.6e-7 and 1.1e-7 relative, with
+    /// estimates of 3.5e-11, 2.4e-9 and 8.9e-11; the last by 7.1e-13 (estimate 1.1e-13).
+    #[test]
+    #[allow(clippy::excessive_precision)]
+    fn an_end_just_above_the_horizon_matches_high_precision_truth_within_its_estimate() {
+        let cases: [(Vec3, Vec3, f64, f64); 4] = [
+            (
+                [-0.996931885944408, -0.3367132912829677, -0.22157935907725967],
+                [-0.9557194294797973, -0.14188389877299717, 7.484663726321696e-08],
+                2.5849991199566719e-15,
+                1.3290377906691851e-15,
+            ),
+            (
+                [-0.873198341594313, -2.0061220729188, -1.255821781236077],
+                [-0.47817777931821975, -1.5337061181470903, 3.108897816518799e-09],
+                7.5504375777872285e-19,
+                4.1320403896904640e-19,
+            ),
+            (
+                [-0.7348632971998834, 2.0842722437140533, -2.614397095767448],
+                [0.2949038652174697, 0.32243596559426224, 1.3143529092824607e-08],
+                8.2208548031741091e-16,
+                4.1805929864694711e-16,
+            ),
+            (
+                [-1.8201488912485209, -0.6822242006857253, 7.482831313587734e-05],
+                [-1.8201512393004207, -0.6822268210606428, 7.574741345506286e-05],
+                1.2209088511118370e-11,
+                1.1866043720952629e-11,
+            ),
+        ];
+        for (p1, p2, truth, iso_truth) in cases {
+            // Both orders of the end points, and `line_upper` (the same integral for diffuse).
+            for (a, b) in [(p1, p2), (p2, p1)] {
+                for upper in [false, true] {
+                    let est = line(&diffuse(), a, b, upper);
+                    let err = (est.value - truth).abs();
+                    assert!(err <= est.error, "{a:?} {b:?} {upper}: {est:?} vs {truth:e}");
+                    assert!(est.error <= 1e-13 * truth, "{a:?} {b:?}: {est:?}");
+                }
+                let est = line_isotropic(&diffuse(), a, b);
+                let err = (est.value - iso_truth).abs();
+                assert!(err <= est.error, "{a:?} {b:?}: {est:?} vs {iso_truth:e}");
+                assert!(est.error <= 1e-13 * iso_truth, "{a:?} {b:?}: {est:?}");
+            }
+        }
+    }
+
+    /// An end at heights from 1e-3 down to 1e-150 above the horizon, the other below: the part
+    /// above is a sliver (`Crossing`) whose diffuse integral goes as the end's height squared.
+    /// That scaling needs no truth: halving the height quarters `line` (main's halves lost it
+    /// below heights of ~1e-8, where their bounds' rounding is ε/w of the sliver's width w).
+    #[test]
+    fn a_sliver_above_the_horizon_scales_as_its_height_squared() {
+        let (p1, dir) = ([0.3, -0.4, -0.5], [0.2, 0.5, 0.6]);
+        // (ζ_E² must stay a normal f64: h down to 1e-150.)
+        for h in [1e-3, 1e-6, 1e-9, 1e-12, 1e-60, 1e-150] {
+            // p2 on the line from p1 towards dir, lifted to height h exactly.
+            let t = (h - p1[2]) / dir[2];
+            let p2 = [p1[0] + t * dir[0], p1[1] + t * dir[1], h];
+            let lower = [
+                p1[0] + (t - 0.5 * h / dir[2]) * dir[0],
+                p1[1] + (t - 0.5 * h / dir[2]) * dir[1],
+                0.5 * h,
+            ];
+            let (a, b) = (line(&diffuse(), p1, p2, false), line(&diffuse(), p1, lower, false));
+            assert!(a.value > 0.0 && b.value > 0.0, "{h}: {a:?} {b:?}");
+            let ratio = a.value / b.value;
+            // Exactly 4 as h → 0; the ends' distance, ψ_E and the slope move by O(h) relatively,
+            // and the two segments' lines differ by the rounding of lower's x, y (~ε).
+            assert!((ratio - 4.0).abs() < 200.0 * h + 1e-8, "{h}: {ratio} {a:?} {b:?}");
+            assert!(a.error <= 1e-12 * a.value, "{h}: {a:?}");
+        }
     }
 
     #[test]
