@@ -1283,35 +1283,43 @@ min_per_bin = 30
         }
     }
 
-    #[test]
-    fn top_ups_are_shared_out_once_and_drawn_alone() {
-        let mut c = case();
-        c.bins = Case::parse(
+    /// Bins on `length` (these edges) and on `elevation` (a thin first bin): two families of
+    /// bins for the top-up tests.
+    fn two_axis_bins(length_edges: &str) -> Vec<crate::input::case::BinAxis> {
+        Case::parse(
             "b.toml",
-            r#"
+            &format!(
+                r#"
 name = "b"
 title = "b"
 seed = 1
 methods = ["line.ltc2017"]
 [geometry]
-elevation = { dist = "uniform", min = -20.0, max = 90.0 }
-tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
-length = { dist = "log_uniform", min = 0.1, max = 10.0 }
-center = { dist = "uniform", min = -2.0, max = 2.0 }
+elevation = {{ dist = "uniform", min = -20.0, max = 90.0 }}
+tilt_angle = {{ dist = "uniform", min = 0.0, max = 180.0 }}
+length = {{ dist = "log_uniform", min = 0.1, max = 10.0 }}
+center = {{ dist = "uniform", min = -2.0, max = 2.0 }}
 [[materials]]
 name = "d"
 kind = "diffuse"
 count = 10
 [[bins]]
 axis = "length"
-edges = [0.1, 0.2, 1.0, 10.0]
+edges = [{length_edges}]
 [[bins]]
 axis = "elevation"
 edges = [-20.0, -19.0, 0.0, 90.0]
-"#,
+"#
+            ),
         )
         .unwrap()
-        .bins;
+        .bins
+    }
+
+    #[test]
+    fn top_ups_are_shared_out_once_and_drawn_alone() {
+        let mut c = case();
+        c.bins = two_axis_bins("0.1, 0.2, 1.0, 10.0");
         // Two families of six bins each.
         assert_eq!(bin_ordinal(&c, 1, 1, 2), 11);
         let needs: Vec<usize> = (0..12).map(|o| o % 7).collect();
@@ -1334,32 +1342,7 @@ edges = [-20.0, -19.0, 0.0, 90.0]
     fn the_parallel_draw_is_the_serial_one() {
         let mut c = case();
         c.min_per_bin = 12;
-        c.bins = Case::parse(
-            "b.toml",
-            r#"
-name = "b"
-title = "b"
-seed = 1
-methods = ["line.ltc2017"]
-[geometry]
-elevation = { dist = "uniform", min = -20.0, max = 90.0 }
-tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
-length = { dist = "log_uniform", min = 0.1, max = 10.0 }
-center = { dist = "uniform", min = -2.0, max = 2.0 }
-[[materials]]
-name = "d"
-kind = "diffuse"
-count = 10
-[[bins]]
-axis = "length"
-edges = [0.1, 0.12, 1.0, 10.0]
-[[bins]]
-axis = "elevation"
-edges = [-20.0, -19.0, 0.0, 90.0]
-"#,
-        )
-        .unwrap()
-        .bins;
+        c.bins = two_axis_bins("0.1, 0.12, 1.0, 10.0");
         for m in &mut c.materials {
             m.count = 300;
         }
