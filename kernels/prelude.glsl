@@ -38,7 +38,7 @@ mat3 Minv;
 float D(vec3 w);
 void buildOrthonormalBasis(vec3 n, out vec3 b1, out vec3 b2);
 mat3 inverse3(mat3 m);
-// A light texture's bilinear look-up in the harness's texel buffer (issue 25).
+// A light texture's bilinear look-up in the harness's texel buffer.
 float ll_texel_bilinear(uint base, uint nu, uint nv, float u, float v, bool wrap_v);
 float ll_texel_cube(uint base, uint n, vec3 w);
 // For a `//! uses: line` kernel: the line method chosen at run time (kernels/README.md).

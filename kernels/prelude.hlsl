@@ -40,7 +40,7 @@ static row_major float3x3 Minv;
 float D(float3 w) { return 0.0; }
 void buildOrthonormalBasis(float3 n, out float3 b1, out float3 b2) { b1 = n; b2 = n; }
 float3x3 inverse3(float3x3 m) { return m; }
-// A light texture's bilinear look-up in the harness's texel buffer (issue 25).
+// A light texture's bilinear look-up in the harness's texel buffer.
 float ll_texel_bilinear(uint base, uint nu, uint nv, float u, float v, bool wrap_v) { return 0.0; }
 float ll_texel_cube(uint base, uint n, float3 w) { return 0.0; }
 // For a `//! uses: line` kernel: the line method chosen at run time (kernels/README.md).

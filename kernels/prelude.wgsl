@@ -69,19 +69,19 @@ fn inverse3(m: mat3x3<f32>) -> mat3x3<f32> {
     return transpose(mat3x3<f32>(c0, c1, c2)) * (1.0 / det);
 }
 
-// The harness's texel buffer (issue 25): every textured scene's texels, each from its
+// The harness's texel buffer (light textures): every textured scene's texels, each from its
 // `tex_offset`; one 0 when no scene is textured. Bound by the runner beside the entry point's
 // bindings 0–2 (src/kernel/compose.rs).
 @group(0) @binding(3) var<storage, read> ll_texels: array<f32>;
 
-// The harness's LTC tables (issue 24, "Cost"): our isotropic 2D GGX table and our anisotropic
+// The harness's LTC tables (the device look-ups): our isotropic 2D GGX table and our anisotropic
 // 4D table (seed 004) as a shader's textures hold them (f32), behind a header giving their
 // sizes, first texels and axes (layout: src/input/ltc/device.rs). Bound by the runner beside
 // the texels; read by the device look-ups of kernels/ltc/, as storage, not through a sampler,
 // for the texels' reason above.
 @group(0) @binding(4) var<storage, read> ll_ltc: array<f32>;
 
-// Seed 002's light textures (issue 25; src/input/texture.rs, kernels/README.md): the texture's
+// Seed 002's light textures (src/input/texture.rs, kernels/README.md): the texture's
 // value at (u, v) on the nu×nv grid of texels starting at `base` in the harness's texel buffer
 // (`ll_texels`, bound by the entry point; texel (i, j) at base + j·nu + i). Bilinear between
 // texel centres ((i+½)/nu, (j+½)/nv): clamped to the edge in u; in v wrapping (`wrap_v`: a

@@ -1,6 +1,6 @@
 //! id: line.ltc_lookup_aniso
 //! target: line
-//! source: ours (issue 24, "Cost"): our anisotropic GGX LTC table (seed 004's 4D table, data/ltc_ggx_aniso.csv) looked up on the device: the reduction to the table's domain (Eqs. 13–14), quadrilinear filtering, M inverted; then the inner LTC line method times the Fresnel-weighted magnitude
+//! source: ours: our anisotropic GGX LTC table (seed 004's 4D table, data/ltc_ggx_aniso.csv) looked up on the device: the reduction to the table's domain (Eqs. 13–14), quadrilinear filtering, M inverted; then the inner LTC line method times the Fresnel-weighted magnitude
 //! minv: ggx
 //! uses: line
 

@@ -1,6 +1,6 @@
 //! id: line.ltc_lookup_iso
 //! target: line
-//! source: ours (issue 24, "Cost"): our isotropic GGX LTC table (data/ltc_ggx_iso.csv) looked up on the device as seed 003's shader samples it (bilinear, half-texel scale and bias), α = √(αx·αy) for anisotropic roughness (the engines' fallback), then the inner LTC line method times the Fresnel-weighted magnitude
+//! source: ours: our isotropic GGX LTC table (data/ltc_ggx_iso.csv) looked up on the device as seed 003's shader samples it (bilinear, half-texel scale and bias), α = √(αx·αy) for anisotropic roughness (the engines' fallback), then the inner LTC line method times the Fresnel-weighted magnitude
 //! minv: ggx
 //! uses: line
 

@@ -1,6 +1,6 @@
 //! id: line.texture_average
 //! target: line
-//! source: ours (issue 25): the texture averaged over the line, weighted by what each part contributes, times the untextured line integral
+//! source: ours: the texture averaged over the line, weighted by what each part contributes, times the untextured line integral
 //! minv: full
 //! uses: line
 //! params: TEX_SAMPLES=8

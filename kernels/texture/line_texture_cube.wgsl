@@ -7,7 +7,7 @@
 // Seed 002: "use a cubemap and treat it as if it was a point light. Simply calculate the
 // center of the segment (before horizon handling) and get vector from shading point to
 // center". The cube holds what the light emits in each direction, so it is looked up with the
-// direction from the centre to the shading point (the emission direction, issue 25), in the
+// direction from the centre to the shading point (the emission direction), in the
 // light's frame (X = tex_origin, Y = ω_t × tex_origin, Z = ω_t). One look-up tints the whole
 // line. On a scene without a cubemap the tint is 1.
 fn method(scene: Scene) -> f32 {

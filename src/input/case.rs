@@ -9,7 +9,7 @@ use std::path::Path;
 /// The checks of a case file's values beyond their types.
 pub mod values;
 
-/// A family's light texture as a case distribution (issue 25).
+/// A family's light texture as a case distribution.
 pub mod texture;
 
 /// A one-dimensional distribution of a dimensionless parameter.

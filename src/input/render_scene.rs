@@ -1,6 +1,6 @@
 //! A render scene (`linelight render`, docs/render.md): a case file with a `[render]` table
-//! instead of distributions. The camera and pixel geometry are the contract of issue 19 and
-//! DESIGN §6; every floor pixel becomes one configuration in the world's axes.
+//! instead of distributions. The camera and pixel geometry are docs/render.md's contract
+//! ("Geometry"); every floor pixel becomes one configuration in the world's axes.
 
 use crate::input::geometry::{v3, DVec3};
 use crate::input::scene::{Config, Material, Rect, Roughness, Vec3};

@@ -1,4 +1,4 @@
-//! Seed 002's light textures (issue 25): a scalar tint over a line or tube light, carried by a
+//! Seed 002's light textures: a scalar tint over a line or tube light, carried by a
 //! configuration as `"texture": {"kind", "size", "texels", "origin"}` (docs/conventions.md,
 //! docs/eval-format.md). This module reads and checks it and defines, once, what a texel lookup
 //! means on the host: the references integrate it and the tests compare the kernels' routine

@@ -1,7 +1,7 @@
 //! Method kernels without a device: the kernel file and its `//!` header (`file`), GLSL
 //! and HLSL kernels translated to WGSL (`glsl`, `hlsl`), and composition: prelude + kernel + entry point
 //! (+ a composite's inner line method), validated by naga, with errors mapped back to the
-//! file and line that caused them. The GPU (src/gpu) and the CPU evaluator (src/eval/interp)
+//! file and line that caused them. The GPU (src/measure/gpu) and the CPU evaluator (src/eval)
 //! both run what this module composes; neither is needed to compose or check a kernel.
 //!
 //! - `caps`: the shader capabilities a kernel may use.

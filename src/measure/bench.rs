@@ -186,7 +186,7 @@ pub fn bench_methods_with(
     anyhow::ensure!(!configs.is_empty(), "bench: no configurations to time");
     let start = Instant::now();
     let n = configs.len();
-    // Textured configurations are timed reading their own texels (issue 25).
+    // Textured configurations are timed reading their own texels.
     let (scenes, texels): (Vec<GpuScene>, Vec<f32>) = crate::input::scene::gpu_scenes(configs);
     let timer = gpu.dispatch_timer_textured(&scenes, &texels)?;
     drop(texels);

@@ -1,4 +1,4 @@
-//! The sweep's "Any conforming driver" measurement (issue 22, docs/envelope.md): each method's
+//! The sweep's "Any conforming driver" measurement (docs/envelope.md): each method's
 //! envelope on a stated subsample of the configurations the attribution subset spreads over,
 //! with the references it is judged against, and on a smaller part of it where the freedom goes.
 

@@ -1,6 +1,7 @@
-//! Issue 24's objective comparison, measured (`linelight objectives`): for each entry of the
-//! SW-fitted subset (`data/ltc_ggx_aniso_sw_subset.csv`, `input::ltc::sw`) and the same entry of
-//! the L1 table (`data/ltc_ggx_aniso.csv`), the line-light values users see and the lobe errors.
+//! The objective comparison (seed 004's SW fit against our L1 table), measured
+//! (`linelight objectives`): for each entry of the SW-fitted subset
+//! (`data/ltc_ggx_aniso_sw_subset.csv`, `input::ltc::sw`) and the same entry of the L1 table
+//! (`data/ltc_ggx_aniso.csv`), the line-light values users see and the lobe errors.
 //!
 //! Lines are drawn per entry from its own seeded stream, at the entry's own node (its lobe
 //! exactly: no table look-up, no interpolation), in the roughness frame (αx = α_max,

@@ -1,5 +1,5 @@
-//! The anisotropic table's resolution study, measured (`linelight resolution`, issue 24, seed
-//! 004 Fig. 12; docs in src/app/resolution.rs): per configuration of a case of anisotropic
+//! The anisotropic table's resolution study, measured (`linelight resolution`, seed 004
+//! Fig. 12; docs in src/app/resolution.rs): per configuration of a case of anisotropic
 //! `ggx` families, the GGX truth T of the line light, the exact LTC integral of the exact
 //! per-configuration fit, and the exact LTC integral of each table's f32 look-up (each table
 //! fed as `ltc = "aniso"` feeds ours: `ltc::feed_aniso`). Errors and statistics are the

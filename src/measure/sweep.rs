@@ -989,7 +989,7 @@ pub fn time_part(
     let t = Instant::now();
     let cost_configs: Vec<_> = kept.cost.iter().flatten().map(|(_, c)| c.clone()).collect();
     let pb = bar(methods.len() * (COST_WARMUP + COST_REPEATS), "cost (GPU timestamps)");
-    // Timing costs what it needs (issue 23): at most about a tenth of the sweep's wall so far,
+    // Timing costs what it needs: at most about a tenth of the sweep's wall so far,
     // after COST_MIN_REPEATS rounds, and the CPU column on a subset sized to a short run.
     let so_far = timing.total_seconds + start.elapsed().as_secs_f64();
     let rounds = crate::measure::bench::Rounds {

@@ -38,7 +38,7 @@ pub fn reference(config: &Config, target: Target) -> Option<Estimate> {
 }
 
 /// The references of several `targets` of one configuration (those that apply to it), each
-/// the value [`reference`] gives, with what they share integrated once (issue 23): `tube` is
+/// the value [`reference`] gives, with what they share integrated once: `tube` is
 /// `cylinder + caps` and `line_sum` is `line` plus the Lambertian base, so the parts a sweep
 /// also asks for alone are reused; and a `_upper` target is its unclipped part wherever the
 /// clip `[ω.z > 0]` cuts nothing (`Shared::clip_cuts_nothing`).

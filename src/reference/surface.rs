@@ -26,7 +26,7 @@ const INNER_MAX_PANELS: usize = 200;
 /// chord value (|weight·inner|) its outer integral has met so far: see [`Inner`].
 const INNER_SHARE: f64 = 1e-13;
 
-/// The inner integrals' tolerance, chosen from the outer integral's need (issue 23). Each
+/// The inner integrals' tolerance, chosen from the outer integral's need. Each
 /// chord stops at `INNER_RTOL` of its own value, or once its error is below `INNER_SHARE` of
 /// the largest weighted chord value met so far (over its weight): a chord in the tail of the
 /// outer integrand, worth 10⁻⁶ of the peak's, is not resolved to 10⁻¹² of itself. The stop

@@ -1,4 +1,4 @@
-//! Textured emitters (seed 002's light textures, issue 25): the factor each emitting point's
+//! Textured emitters (seed 002's light textures): the factor each emitting point's
 //! radiance toward the shading point is multiplied by, as the chord integrals see it.
 //!
 //! A [`Tint`] is evaluated at a point of a chord (its position `s` from the chord's foot and the

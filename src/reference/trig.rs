@@ -1,6 +1,6 @@
 //! `sin` and `cos` of the chord angles, together and without a libm call: the inner
 //! integrand of every reference (`line::integrate_chord_weighted`) needs both at each of its
-//! nodes, and glibc's `sin` + `cos` were ~45 % of the references' time (issue 23).
+//! nodes, and glibc's `sin` + `cos` were ~45 % of the references' time.
 //!
 //! The angles lie in [0, π] (χ of a chord's half), so the reduction is one step:
 //! k = round(x·2/π) ∈ {0, 1, 2} and r = x − k·π/2 with |r| ≤ π/4. π/2 is split into

@@ -1,4 +1,4 @@
-//! A family's light texture as a case distribution (issue 25): `[materials.texture]` names the
+//! A family's light texture as a case distribution: `[materials.texture]` names the
 //! kind, the size and a pattern whose parameters are drawn per configuration like every other
 //! parameter of the case; the texels are made here from the drawn values (docs/textures.md,
 //! "Texture content in a case").

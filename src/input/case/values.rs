@@ -1,5 +1,5 @@
 //! Checks of a case file's values, beyond their types: every error names the file, the
-//! key and the value (issue 8). Kept apart from the parser (`case.rs`) so the rules live in
+//! key and the value. Kept apart from the parser (`case.rs`) so the rules live in
 //! one place: names that become file names, distributions that can only make valid
 //! configurations, positive floors and tolerances, duplicate methods, search sizes.
 

@@ -95,7 +95,7 @@ pub struct AnisoTable {
     pub slice: Slice,
 }
 
-/// A fine slice (issue 24's resolution study): one view azimuth φ and one ratio r, fixed, with
+/// A fine slice (the resolution study's): one view azimuth φ and one ratio r, fixed, with
 /// the θ and α_max axes as in a full table; its size is [nθ, 1, nα, 1]. None: a full table.
 pub type Slice = Option<[f64; 2]>;
 

@@ -1,4 +1,4 @@
-//! Our LTC tables as a shader reads them (issue 24, "Cost"): the isotropic 2D table
+//! Our LTC tables as a shader reads them (the device look-ups): the isotropic 2D table
 //! (`table::ours`) and the anisotropic 4D table of seed 004 (`aniso::ours`), their texels in
 //! f32 (RGBA32F), laid out in one array of f32 behind a header, which the GPU binds as
 //! `ll_ltc` (binding 4, declared in kernels/prelude.wgsl) and the CPU evaluator reads the same.

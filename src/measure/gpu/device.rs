@@ -209,9 +209,9 @@ fn layouts(device: &wgpu::Device) -> (wgpu::BindGroupLayout, wgpu::PipelineLayou
                 },
                 count: None,
             },
-            // The light textures' texels (issue 25).
+            // The light textures' texels.
             storage(3, true),
-            // Our LTC tables (issue 24), read by the device look-ups of kernels/ltc/.
+            // Our LTC tables, read by the device look-ups of kernels/ltc/.
             storage(4, true),
         ],
     });

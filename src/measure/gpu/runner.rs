@@ -117,7 +117,7 @@ impl Gpu {
         self.run_textured(pipeline, scenes, &[], chunk, progress)
     }
 
-    /// [`Gpu::run`] with the texel buffer of textured scenes (issue 25): `texels` as
+    /// [`Gpu::run`] with the texel buffer of textured scenes: `texels` as
     /// `crate::input::scene::gpu_scenes` lays them out, bound whole for every chunk (each
     /// scene's `tex_offset` indexes it); empty when no scene is textured.
     pub fn run_textured(

@@ -106,7 +106,7 @@ impl Gpu {
         self.dispatch_timer_textured(scenes, &[])
     }
 
-    /// [`Gpu::dispatch_timer`] with the texel buffer of textured scenes (issue 25): `texels` as
+    /// [`Gpu::dispatch_timer`] with the texel buffer of textured scenes: `texels` as
     /// `crate::input::scene::gpu_scenes` lays them out, bound whole to every dispatch, so a
     /// texture method is timed reading its scenes' own texels.
     pub fn dispatch_timer_textured(&self, scenes: &[GpuScene], texels: &[f32]) -> Result<DispatchTimer<'_>, GpuError> {
