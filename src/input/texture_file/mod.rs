@@ -336,6 +336,21 @@ impl Declared {
         Ok(())
     }
 
+    /// Refuses a file shorter than the `least` bytes its header implies (`what`: which bytes),
+    /// where the payload's place is not known before decoding (OpenEXR).
+    pub fn check_length(&self, src: &Source, least: u64, what: &str) -> Result<(), InputError> {
+        if least > src.len() {
+            return Err(src.refuse(format!(
+                "declares {} texels of {} bytes{what}: at least {least} bytes, but the file has only {} bytes: \
+                 truncated, not read",
+                self.shape(),
+                self.texel_bytes(),
+                src.len()
+            )));
+        }
+        Ok(())
+    }
+
     /// The value, with level 0's stored bytes widened to f32.
     pub fn finish(self, bytes: &[u8], format: FileFormat) -> TextureData {
         TextureData {

@@ -93,12 +93,16 @@ pub(crate) fn read(src: &mut Source) -> Result<TextureData, InputError> {
     declared.check_caps(src)?;
     // The offset table and, uncompressed, level 0's pixels must be inside the file.
     let table = (header.chunk_count as u64).saturating_mul(8);
-    let least = if header.compression == exr::compression::Compression::Uncompressed {
-        table.saturating_add(declared.level0_bytes())
+    if header.compression == exr::compression::Compression::Uncompressed {
+        let least = table.saturating_add(declared.level0_bytes());
+        declared.check_length(src, least, ", uncompressed, so its offset table and pixels need")?;
     } else {
-        table
-    };
-    declared.check_inside(src, 0, least)?;
+        let what = format!(
+            " in {} compressed chunks, so its offset table needs",
+            header.chunk_count
+        );
+        declared.check_length(src, table, &what)?;
+    }
     #[cfg(test)]
     super::PAYLOAD_READ.with(|c| c.set(c.get() + src.len()));
     let image = {

@@ -184,6 +184,39 @@ fn dds_arrays_volumes_and_mip_chains_read_level_0() {
     assert_eq!(t.texel(2, 1, 3, 0), v[23]);
 }
 
+#[test]
+fn legacy_dds_headers_with_a_float_fourcc_read_back() {
+    use ddsfile::{D3DFormat, NewD3dParams};
+    let dir = Dir::new();
+    for (format, stored) in [
+        (D3DFormat::A32B32G32R32F, TexelFormat::F32),
+        (D3DFormat::A16B16G16R16F, TexelFormat::F16),
+    ] {
+        let v = values(3 * 2 * 4);
+        let mut dds = Dds::new_d3d(NewD3dParams {
+            height: 2,
+            width: 3,
+            depth: None,
+            format,
+            mipmap_levels: None,
+            caps2: None,
+        })
+        .expect("dds");
+        dds.data = le(&v, stored);
+        let mut bytes = Vec::new();
+        dds.write(&mut bytes).expect("write");
+        // ddsfile writes these as a 128- or 64-bit RGB pixel format without masks; D3DX and
+        // DirectXTex write the FourCC (116, 113), which is what is read: patch it in.
+        let code = if stored == TexelFormat::F32 { 116u32 } else { 113 };
+        bytes[80..84].copy_from_slice(&4u32.to_le_bytes()); // DDPF_FOURCC
+        bytes[84..88].copy_from_slice(&code.to_le_bytes());
+        bytes[88..108].fill(0);
+        let t = read(&dir.write("legacy.dds", &bytes)).expect("legacy");
+        assert_eq!((t.width, t.height, t.channels, t.stored), (3, 2, 4, stored));
+        assert_texels(&t.texels, &expected(&v, stored));
+    }
+}
+
 /// ltc_code ships its table as `ltc_1.dds` (RGBA32F, DX10 header); the anchor here is
 /// `ltc.inc`, so its tabMinv is written as such a DDS, the four entries of the sparse form
 /// [[a,0,b],[0,c,0],[d,0,1]] as (a, b, c, d), and read back.
@@ -510,11 +543,21 @@ fn exr_refusals_come_before_the_payload() {
         .enumerate()
         .map(|(c, &n)| (n, plane(&v, 4, c, TexelFormat::F32)))
         .collect();
+    // Compressed, its pixels' place is known only by decoding: cut short, the decoder refuses it.
+    let mut cut = exr_bytes((256, 256), rgba.clone(), true);
+    cut.truncate(1000);
+    let e = read(&dir.write("cut.exr", &cut)).expect_err("refused").to_string();
+    assert!(e.contains("cut.exr: bad OpenEXR file"), "{e}");
     let mut short = exr_bytes((256, 256), rgba, false);
     short.truncate(3000);
     refused(
         &dir.write("short.exr", &short),
-        &["256 × 256 texels of 16 bytes", "only 3000 bytes", "truncated"],
+        &[
+            "256 × 256 texels of 16 bytes, uncompressed",
+            "at least 1050624 bytes",
+            "only 3000 bytes",
+            "truncated",
+        ],
     );
     let zeros = ["R", "G", "B", "A"].map(|n| (n, exr::prelude::FlatSamples::F32(vec![0.0; 4])));
     let huge = exr_with_window(exr_bytes((2, 2), zeros.to_vec(), false), 60000, 60000);
