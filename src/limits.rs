@@ -182,6 +182,18 @@ pub fn texel_estimate(configurations: u64, texels: u64, raw: bool) -> Bytes {
     Bytes(configurations.saturating_mul(texels).saturating_mul(per_texel))
 }
 
+/// A look-up table file's longest side, layer count or depth, in texels (wgpu's default
+/// `max_texture_dimension_2d`; a device's own limits are the binding's to check).
+pub const MAX_LUT_SIDE: u32 = 8192;
+
+/// The most texels level 0 of a look-up table file may hold, every layer or slice counted (4096²
+/// or 256³): at most 256 MiB of RGBA32F, and as much again widened to f32 (src/input/texture_file).
+pub const MAX_LUT_TEXELS: u64 = 1 << 24;
+
+/// The largest look-up table file opened, in bytes, checked from its length before it is read:
+/// level 0 at the texel cap in RGBA32F with its mip chain and headers.
+pub const MAX_LUT_FILE_BYTES: u64 = 384 << 20;
+
 /// The most texels the top-up holds in one batch of draws (src/input/sampler.rs): a batch of
 /// textured draws is smaller, so its memory stays below 8 bytes × this.
 pub const TOPUP_BATCH_TEXELS: u64 = 1 << 24;
