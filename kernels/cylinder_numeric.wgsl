@@ -26,86 +26,14 @@ override NL: u32 = 64;
 // on each piece then converges like h⁸ in both variables. NPHI sets the density in u:
 // NPHI/4 panels over [−π/2, π/2], each piece getting its share rounded (at least one);
 // NL/4 panels in θ along every generator. For f32 (and GPU atan2), θ is measured from the
-// bisector of its range (cyl_generator); u needs no inverse trigonometry at the nodes.
+// bisector of its range (theta_quadrature, lib/theta_quadrature.wgsl); u needs no inverse
+// trigonometry at the nodes.
 // What is left hard: when the origin nearly touches the tube (d − R ≪ R), cos α varies on
 // a scale sqrt(1 − R/d) near u = ±π/2 (grazing generators) and needs larger NPHI.
 
 const CYL_HALF_PI: f32 = 1.57079632679489661923;
 
-// 4-point Gauss–Legendre nodes and weights on [−1, 1].
-const CYL_GL_X0: f32 = 0.3399810435848563;
-const CYL_GL_X1: f32 = 0.8611363115940526;
-const CYL_GL_W0: f32 = 0.6521451548625461;
-const CYL_GL_W1: f32 = 0.3478548451374538;
-
-// atan2(y, x) for y > 0 (in (0, π)) to about 2e-7 relative on any device: Vulkan lets
-// atan/atan2 be off by 4096 ULP, and lavapipe's is 2.1e-5 relative off for |y/x| < 0.1 —
-// exactly the small spans a thin or short light has. Cephes' atanf: octant reduction, then
-// an odd degree-9 polynomial on |t| ≤ tan(π/8). The CPU port uses atan2 itself.
-fn cyl_angle(y: f32, x: f32) -> f32 {
-    var base = 0.0;
-    var z = y / x;
-    if (x <= 0.0) {
-        base = 0.5 * PI;
-        z = -x / y;
-    }
-    var t = z;
-    if (z > 2.414213562373095) {
-        base += 0.5 * PI;
-        t = -1.0 / z;
-    } else if (z > 0.4142135623730950) {
-        base += 0.25 * PI;
-        t = (z - 1.0) / (z + 1.0);
-    }
-    let q = t * t;
-    return base + ((((0.0805374449538 * q - 0.138776856032) * q + 0.199777106478) * q - 0.333329491539) * q * t + t);
-}
-
-// D(ω)·cos θ at ω = cos τ·wm + sin τ·wq; cos θ = ω·g (g ⟂ ωt, ω in the plane of g, ωt).
-fn cyl_integrand(wm: vec3<f32>, wq: vec3<f32>, g: vec3<f32>, tau: f32) -> f32 {
-    let w = cos(tau) * wm + sin(tau) * wq;
-    return D(w) * dot(w, g);
-}
-
-// ∫ D(cos θ·g + sin θ·ωt) cos θ dθ along the generator with unit foot direction g at
-// distance rho, from l = s1 to s2 = s1 + L (measured from the foot), where D can be
-// non-zero. The angle τ = θ − θm is taken from the bisector wm of the directions to the two
-// ends, towards ωt (wq): node directions and cos θ come from dot and cross products; the
-// half-span atan2(L·ρ, ρ² + s1·s2)/2 is cyl_angle, and only the clip (where D is 0
-// anyway) uses the built-in atan2. Angles θ1 + τ from atan2(s1, ρ) would carry its
-// absolute error into cos θ, amplified by tan θ for a segment seen end-on, and a span
-// θ2 − θ1 from two atan2 would lose digits for a short or distant one; GPU atan2 is far
-// less exact than sin, cos and sqrt.
-fn cyl_generator(g: vec3<f32>, wt: vec3<f32>, rho: f32, s1: f32, s2: f32, L: f32) -> f32 {
-    let wm = normalize(normalize(rho * g + s1 * wt) + normalize(rho * g + s2 * wt));
-    let wq = cross(cross(g, wt), wm);
-    let half = 0.5 * cyl_angle(L * rho, rho * rho + s1 * s2);
-    var lo = -half;
-    var hi = half;
-    // D(ω) > 0 iff n·ω > 0 with n = row 2 of M⁻¹; here n·ω = a·cos τ + b·sin τ.
-    let n = vec3<f32>(Minv[0][2], Minv[1][2], Minv[2][2]);
-    let a = dot(n, wm);
-    let b = dot(n, wq);
-    if (b >= 0.0) {
-        lo = max(lo, atan2(-a, b));
-    } else {
-        hi = min(hi, atan2(a, -b));
-    }
-    if (hi <= lo) {
-        return 0.0;
-    }
-    let panels = max(NL / 4u, 1u);
-    let hw = 0.5 * (hi - lo) / f32(panels);
-    var I = 0.0;
-    for (var k = 0u; k < panels; k++) {
-        let mid = lo + (2.0 * f32(k) + 1.0) * hw;
-        let dx0 = CYL_GL_X0 * hw;
-        let dx1 = CYL_GL_X1 * hw;
-        I += CYL_GL_W0 * (cyl_integrand(wm, wq, g, mid - dx0) + cyl_integrand(wm, wq, g, mid + dx0))
-            + CYL_GL_W1 * (cyl_integrand(wm, wq, g, mid - dx1) + cyl_integrand(wm, wq, g, mid + dx1));
-    }
-    return I * hw;
-}
+#include "lib/theta_quadrature.wgsl"
 
 // (dα/du)·∫ D cos θ dθ along the generator seen at u, α = asin((R/d)·sin u).
 fn cyl_column(u: f32, x: vec3<f32>, y: vec3<f32>, wt: vec3<f32>, d: f32, R: f32, l1: f32, l2: f32, L: f32) -> f32 {
@@ -118,7 +46,7 @@ fn cyl_column(u: f32, x: vec3<f32>, y: vec3<f32>, wt: vec3<f32>, d: f32, R: f32,
     let ca = sqrt(cu * cu + gap2 / (d * d) * su * su);
     let rho = gap2 / (d * ca + R * cu);
     let g = ca * x + sa * y;
-    return k * cu / ca * cyl_generator(g, wt, rho, l1, l2, L);
+    return k * cu / ca * theta_quadrature(g, wt, rho, l1, l2, L);
 }
 
 fn I_cylinder_gauss(p1: vec3<f32>, p2: vec3<f32>, R: f32) -> f32 {
@@ -193,11 +121,11 @@ fn I_cylinder_gauss(p1: vec3<f32>, p2: vec3<f32>, R: f32) -> f32 {
         var sum = 0.0;
         for (var pk = 0u; pk < panels; pk++) {
             let mid = u1 + (2.0 * f32(pk) + 1.0) * hw;
-            let dx0 = CYL_GL_X0 * hw;
-            let dx1 = CYL_GL_X1 * hw;
-            sum += CYL_GL_W0 * (cyl_column(mid - dx0, x, y, wt, d, R, l1, l2, L)
+            let dx0 = GL4_X0 * hw;
+            let dx1 = GL4_X1 * hw;
+            sum += GL4_W0 * (cyl_column(mid - dx0, x, y, wt, d, R, l1, l2, L)
                 + cyl_column(mid + dx0, x, y, wt, d, R, l1, l2, L))
-                + CYL_GL_W1 * (cyl_column(mid - dx1, x, y, wt, d, R, l1, l2, L)
+                + GL4_W1 * (cyl_column(mid - dx1, x, y, wt, d, R, l1, l2, L)
                 + cyl_column(mid + dx1, x, y, wt, d, R, l1, l2, L));
         }
         I += sum * hw;

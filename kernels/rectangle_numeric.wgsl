@@ -24,90 +24,17 @@ override NL: u32 = 64;
 // like h⁸ in both variables. NW sets the density in ψ: NW/4 panels over the width, each
 // piece getting its share rounded (at least one); NL/4 panels in θ along every line.
 // For f32 (and GPU atan2), both angles are measured from the bisector of their range
-// (rect_strip, I_rectangle_gauss).
+// (theta_quadrature in lib/theta_quadrature.wgsl, I_rectangle_gauss).
 // For a thin rectangle the ψ range is small and F(ψ) nearly constant: NW = 8 is plenty.
 
-// 4-point Gauss–Legendre nodes and weights on [−1, 1].
-const RECT_GL_X0: f32 = 0.3399810435848563;
-const RECT_GL_X1: f32 = 0.8611363115940526;
-const RECT_GL_W0: f32 = 0.6521451548625461;
-const RECT_GL_W1: f32 = 0.3478548451374538;
-
-// atan2(y, x) for y > 0 (in (0, π)) to about 2e-7 relative on any device: Vulkan lets
-// atan/atan2 be off by 4096 ULP, and lavapipe's is 2.1e-5 relative off for |y/x| < 0.1 —
-// exactly the small spans a thin or short light has. Cephes' atanf: octant reduction, then
-// an odd degree-9 polynomial on |t| ≤ tan(π/8). The CPU port uses atan2 itself.
-fn rect_angle(y: f32, x: f32) -> f32 {
-    var base = 0.0;
-    var z = y / x;
-    if (x <= 0.0) {
-        base = 0.5 * PI;
-        z = -x / y;
-    }
-    var t = z;
-    if (z > 2.414213562373095) {
-        base += 0.5 * PI;
-        t = -1.0 / z;
-    } else if (z > 0.4142135623730950) {
-        base += 0.25 * PI;
-        t = (z - 1.0) / (z + 1.0);
-    }
-    let q = t * t;
-    return base + ((((0.0805374449538 * q - 0.138776856032) * q + 0.199777106478) * q - 0.333329491539) * q * t + t);
-}
-
-// D(ω)·cos θ at ω = cos τ·wm + sin τ·wq; cos θ = ω·g (g ⟂ ωt, ω in the plane of g, ωt).
-fn rect_integrand(wm: vec3<f32>, wq: vec3<f32>, g: vec3<f32>, tau: f32) -> f32 {
-    let w = cos(tau) * wm + sin(tau) * wq;
-    return D(w) * dot(w, g);
-}
-
-// ∫ D(cos θ·g + sin θ·ωt) cos θ dθ along the line with unit foot direction g at
-// distance rho, from X = s1 to s2 = s1 + L (measured from the foot), where D can be
-// non-zero. The angle τ = θ − θm is taken from the bisector wm of the directions to the two
-// ends, towards ωt (wq): node directions and cos θ come from dot and cross products; the
-// half-span atan2(L·ρ, ρ² + s1·s2)/2 is rect_angle, and only the clip (where D is 0
-// anyway) uses the built-in atan2. Angles θ1 + τ from atan2(s1, ρ) would carry its
-// absolute error into cos θ, amplified by tan θ for a segment seen end-on, and a span
-// θ2 − θ1 from two atan2 would lose digits for a short or distant one; GPU atan2 is far
-// less exact than sin, cos and sqrt.
-fn rect_strip(g: vec3<f32>, wt: vec3<f32>, rho: f32, s1: f32, s2: f32, L: f32) -> f32 {
-    let wm = normalize(normalize(rho * g + s1 * wt) + normalize(rho * g + s2 * wt));
-    let wq = cross(cross(g, wt), wm);
-    let half = 0.5 * rect_angle(L * rho, rho * rho + s1 * s2);
-    var lo = -half;
-    var hi = half;
-    // D(ω) > 0 iff n·ω > 0 with n = row 2 of M⁻¹; here n·ω = a·cos τ + b·sin τ.
-    let n = vec3<f32>(Minv[0][2], Minv[1][2], Minv[2][2]);
-    let a = dot(n, wm);
-    let b = dot(n, wq);
-    if (b >= 0.0) {
-        lo = max(lo, atan2(-a, b));
-    } else {
-        hi = min(hi, atan2(a, -b));
-    }
-    if (hi <= lo) {
-        return 0.0;
-    }
-    let panels = max(NL / 4u, 1u);
-    let hw = 0.5 * (hi - lo) / f32(panels);
-    var I = 0.0;
-    for (var k = 0u; k < panels; k++) {
-        let mid = lo + (2.0 * f32(k) + 1.0) * hw;
-        let dx0 = RECT_GL_X0 * hw;
-        let dx1 = RECT_GL_X1 * hw;
-        I += RECT_GL_W0 * (rect_integrand(wm, wq, g, mid - dx0) + rect_integrand(wm, wq, g, mid + dx0))
-            + RECT_GL_W1 * (rect_integrand(wm, wq, g, mid - dx1) + rect_integrand(wm, wq, g, mid + dx1));
-    }
-    return I * hw;
-}
+#include "lib/theta_quadrature.wgsl"
 
 // ∫ D cos θ dθ along the line of the rectangle whose foot is seen in direction
 // g = cos t·gm + sin t·gq; its distance is |h|/cos ψ with cos ψ = g·e.
 fn rect_column(t: f32, gm: vec3<f32>, gq: vec3<f32>, e: vec3<f32>, wt: vec3<f32>, ah: f32, l1: f32, l2: f32, L: f32) -> f32 {
     let g = cos(t) * gm + sin(t) * gq;
     let rho = ah / dot(g, e);
-    return rect_strip(g, wt, rho, l1, l2, L);
+    return theta_quadrature(g, wt, rho, l1, l2, L);
 }
 
 fn I_rectangle_gauss(p1: vec3<f32>, p2: vec3<f32>, wn_in: vec3<f32>, W: f32) -> f32 {
@@ -125,13 +52,13 @@ fn I_rectangle_gauss(p1: vec3<f32>, p2: vec3<f32>, wn_in: vec3<f32>, W: f32) -> 
     let l2 = dot(p2, wt);
     let y1 = dot(p1, wb) - 0.5 * W;
     let y2 = y1 + W;
-    // As in rect_strip: t = ψ − ψm from the bisector gm of the directions to the feet of
-    // the two long edges, towards ωb (gq); the half-span is rect_angle (ψ2 − ψ1 as a
+    // As in theta_quadrature: t = ψ − ψm from the bisector gm of the directions to the feet of
+    // the two long edges, towards ωb (gq); the half-span is atan2_upper (ψ2 − ψ1 as a
     // difference would lose digits for a thin rectangle, and ψ1 + t from atan2 would carry
     // its error into ρ = |h|/cos ψ).
     let gm = normalize(normalize(h * wn + y1 * wb) + normalize(h * wn + y2 * wb));
     let gq = cross(cross(e, wb), gm);
-    let half = 0.5 * rect_angle(W * ah, ah * ah + y1 * y2);
+    let half = 0.5 * atan2_upper(W * ah, ah * ah + y1 * y2);
 
     // Cuts: where the plane n·p = 0 crosses a short edge, n·(h ωn' + X ωt + Y ωb) = 0,
     // at the t of the direction to (h, Y).
@@ -176,11 +103,11 @@ fn I_rectangle_gauss(p1: vec3<f32>, p2: vec3<f32>, wn_in: vec3<f32>, W: f32) -> 
         var sum = 0.0;
         for (var pk = 0u; pk < panels; pk++) {
             let mid = v1 + (2.0 * f32(pk) + 1.0) * hw;
-            let dx0 = RECT_GL_X0 * hw;
-            let dx1 = RECT_GL_X1 * hw;
-            sum += RECT_GL_W0 * (rect_column(mid - dx0, gm, gq, e, wt, ah, l1, l2, L)
+            let dx0 = GL4_X0 * hw;
+            let dx1 = GL4_X1 * hw;
+            sum += GL4_W0 * (rect_column(mid - dx0, gm, gq, e, wt, ah, l1, l2, L)
                 + rect_column(mid + dx0, gm, gq, e, wt, ah, l1, l2, L))
-                + RECT_GL_W1 * (rect_column(mid - dx1, gm, gq, e, wt, ah, l1, l2, L)
+                + GL4_W1 * (rect_column(mid - dx1, gm, gq, e, wt, ah, l1, l2, L)
                 + rect_column(mid + dx1, gm, gq, e, wt, ah, l1, l2, L));
         }
         I += sum * hw;

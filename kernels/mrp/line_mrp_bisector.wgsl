@@ -7,24 +7,7 @@
 // point light at the representative point, D = cos/π, 1/r²).
 
 fn mrp_point(p1: vec3<f32>, p2: vec3<f32>) -> vec3<f32> {
-    var A = p1;
-    var B = p2;
-    var PA = A;
-    var PB = B;
-    var AB = B - A;
-    let N = vec3<f32>(0.0, 0.0, 1.0);
-    if ((dot(PA, N) > 0.0) != (dot(PB, N) > 0.0)) {
-        let t = -dot(PA, N) / dot(AB, N);
-        let intersectionPoint = A + t * AB;
-        if (dot(PA, N) > 0.0) {
-            B = intersectionPoint;
-            PB = B;
-        } else {
-            A = intersectionPoint;
-            PA = A;
-        }
-        AB = B - A;
-    }
+    #include "lib/mrp_horizon.wgsl"
     // Bisector theorem: a / b = x / y with x + y = |AB|, so x = a/(a + b) of AB.
     let a = length(PA);
     let b = length(PB);

@@ -6,27 +6,10 @@
 // line_mrp_bisector.wgsl + line_mrp_specular.wgsl in one kernel, against the lobe plus a white
 // Lambertian base (target line_isotropic_sum): each point a point light carrying the whole
 // light's intensity L.
-// Seed 002's horizon handling, as in line_mrp_bisector.wgsl: "limit the points A or B
+// Seed 002's horizon handling (lib/mrp_horizon.wgsl): "limit the points A or B
 // (depending on the case)" to where the segment crosses the surface's plane.
 fn mrp_clip(p1: vec3<f32>, p2: vec3<f32>, a_out: ptr<function, vec3<f32>>, b_out: ptr<function, vec3<f32>>) {
-    var A = p1;
-    var B = p2;
-    var PA = A;
-    var PB = B;
-    var AB = B - A;
-    let N = vec3<f32>(0.0, 0.0, 1.0);
-    if ((dot(PA, N) > 0.0) != (dot(PB, N) > 0.0)) {
-        let t = -dot(PA, N) / dot(AB, N);
-        let intersectionPoint = A + t * AB;
-        if (dot(PA, N) > 0.0) {
-            B = intersectionPoint;
-            PB = B;
-        } else {
-            A = intersectionPoint;
-            PA = A;
-        }
-        AB = B - A;
-    }
+    #include "lib/mrp_horizon.wgsl"
     *a_out = A;
     *b_out = B;
 }

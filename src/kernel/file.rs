@@ -49,6 +49,9 @@ pub struct KernelFile {
     /// `//! derive: BASE` + `//! replace: F G`: a kernel that is its base with the named
     /// functions replaced by this file's (kernels/README.md). None: a standalone kernel.
     pub derived: Option<Derivation>,
+    /// This file's own source parts: its text, or for a WGSL kernel with `#include`s its
+    /// lines and the included pieces' in their order (src/kernel/pieces.rs).
+    pub own_parts: Vec<(String, String)>,
 }
 
 /// The file a translated kernel came from.
@@ -214,7 +217,7 @@ pub fn builtin_kernels() -> Vec<KernelFile> {
                     let ready = derive_of(text).is_none_or(|base| done.iter().any(|k| k.id == base));
                     if ready {
                         let lookup = |id: &str| done.iter().find(|k| k.id == id).cloned();
-                        let k = KernelFile::parse_with(path, text, &lookup)
+                        let k = KernelFile::parse_with(path, text, &lookup, false)
                             .unwrap_or_else(|e| panic!("built-in kernel header is valid: {e}"));
                         done.push(k);
                     } else {
@@ -288,15 +291,21 @@ impl KernelFile {
 
     /// Parses a kernel file; a derived one (`//! derive:`) is derived from a built-in kernel.
     pub fn parse(path: &str, text: &str) -> Result<KernelFile, HeaderError> {
-        KernelFile::parse_with(path, text, &|id| builtin_kernels().into_iter().find(|k| k.id == id))
+        KernelFile::parse_with(
+            path,
+            text,
+            &|id| builtin_kernels().into_iter().find(|k| k.id == id),
+            true,
+        )
     }
 
     /// The source parts of the kernel, in composition order: (path, text), each text with
-    /// every line of its file. A standalone kernel is its own file; a derived kernel is its
-    /// base's parts, each replaced function blanked where it stood, then its own file.
+    /// every line of its file up to its last. A standalone kernel is its own file (with the
+    /// pieces it includes where it includes them); a derived kernel is its base's parts,
+    /// each replaced function blanked where it stood, then its own.
     pub fn parts(&self) -> Vec<(String, String)> {
         let Some(d) = &self.derived else {
-            return vec![(self.path.clone(), self.text.clone())];
+            return self.own_parts.clone();
         };
         let mut parts = d.base.parts();
         for name in &d.replace {
@@ -306,14 +315,16 @@ impl KernelFile {
                 }
             }
         }
-        parts.push((self.path.clone(), self.text.clone()));
+        parts.extend(self.own_parts.iter().cloned());
         parts
     }
 
+    /// `user`: a user's kernel, whose `#include`s may name files in the `--include` folders.
     fn parse_with(
         path: &str,
         text: &str,
         base_of: &dyn Fn(&str) -> Option<KernelFile>,
+        user: bool,
     ) -> Result<KernelFile, HeaderError> {
         let err = |line: usize, message: String| HeaderError {
             path: path.to_string(),
@@ -514,7 +525,14 @@ impl KernelFile {
                 })
             }
         };
+        // A WGSL kernel's `#include`s; a GLSL or HLSL file's are expanded before translation.
+        let own_parts = if Language::of(Path::new(path), text).ok() == Some(Language::Wgsl) {
+            super::pieces::expand(path, text, user)?
+        } else {
+            vec![(path.to_string(), text.to_string())]
+        };
         Ok(KernelFile {
+            own_parts,
             path: path.to_string(),
             text: text.to_string(),
             id,

@@ -18,7 +18,7 @@ pub fn set_include_dirs(dirs: Vec<PathBuf>) {
     *DIRS.write().unwrap_or_else(|p| p.into_inner()) = dirs;
 }
 
-fn include_dirs() -> Vec<PathBuf> {
+pub(super) fn include_dirs() -> Vec<PathBuf> {
     DIRS.read().unwrap_or_else(|p| p.into_inner()).clone()
 }
 
@@ -81,7 +81,7 @@ pub fn expand(path: &Path, shown: &str, text: &str) -> Result<Expanded, HeaderEr
 }
 
 /// The file an include directive names: (name, quoted), or None when the line is no include.
-fn directive(line: &str) -> Option<Result<(String, bool), String>> {
+pub(super) fn directive(line: &str) -> Option<Result<(String, bool), String>> {
     let rest = line
         .trim_start()
         .strip_prefix('#')?

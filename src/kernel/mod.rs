@@ -9,6 +9,7 @@
 //! - `glsl`: a GLSL kernel, parsed by naga's GLSL front end and written back as WGSL.
 //! - `hlsl`: an HLSL kernel, compiled by glslang to SPIR-V, read by naga, written back as WGSL.
 //! - `include`: `#include` of GLSL and HLSL kernels, expanded before either front end.
+//! - `pieces`: `#include` of WGSL kernels: the shared pieces of `kernels/lib/`, as parts.
 //! - `written`: the written digits of a translated kernel's float constants (f64 column).
 //! - `compose`: prelude + kernel + entry point; a composite with its inner line method.
 //! - `rename`: the token pass that renames the inner line method's identifiers.
@@ -22,6 +23,7 @@ pub mod glsl;
 pub mod hlsl;
 mod include;
 pub mod methods;
+mod pieces;
 pub(crate) mod rename;
 mod written;
 
@@ -33,6 +35,7 @@ pub(crate) use compose::{inner_name, ENTRY_NAME};
 pub use diagnostic::{KernelError, ENTRY_PATH};
 pub use file::*;
 pub use include::set_include_dirs;
+pub use pieces::lib_pieces;
 
 /// The line method a composite uses when its spec names none: it handles every M⁻¹.
 pub const DEFAULT_INNER: &str = "line.ltc2023_full";
