@@ -1,4 +1,4 @@
-//! Seed 004's objective (issue 24): the sliced-Wasserstein fit (src/input/ltc/sw.rs), its
+//! Seed 004's objective: the sliced-Wasserstein fit (src/input/ltc/sw.rs), its
 //! committed subsets (data/ltc_ggx_aniso_sw_subset.csv at 2 000 steps,
 //! data/ltc_ggx_aniso_sw10000_subset.csv at the seed's 10 000) and the comparison command
 //! (`linelight objectives`). The suite refits one entry of each, never a subset.
