@@ -3,14 +3,11 @@
 //! not how fast anything ran.
 
 use crate::common;
-use std::process::{Command, Output};
+use std::process::Output;
 
+/// Runs `linelight` from the checkout (the cases' and data's relative paths).
 fn linelight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .expect("linelight runs")
+    crate::common::linelight_in(std::path::Path::new(env!("CARGO_MANIFEST_DIR")), args)
 }
 
 #[test]

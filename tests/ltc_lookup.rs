@@ -12,7 +12,7 @@ use common::segment;
 
 use linelight::eval::interp::{CpuColumns, Mode};
 use linelight::input::ltc::{self, table::Storage, Feed};
-use linelight::input::scene::{gpu_scenes, Config, Material, Roughness};
+use linelight::input::scene::{Config, Material, Roughness};
 use linelight::kernel::methods::{resolve, Method};
 use linelight::kernel::{builtin_kernels, KernelFile};
 
@@ -103,15 +103,7 @@ fn config(i: usize, (t, p, a, r, swapped): (f64, f64, f64, f64, bool), iso_feed:
 }
 
 fn gpu_values(m: &Method, configs: &[Config]) -> Vec<f64> {
-    let gpu = common::gpu();
-    let (scenes, texels) = gpu_scenes(configs);
-    let pipeline = gpu.pipeline(m).unwrap();
-    gpu.run_textured(&pipeline, &scenes, &texels, 0, &mut |_| {})
-        .unwrap()
-        .values
-        .into_iter()
-        .map(f64::from)
-        .collect()
+    common::gpu_values(m, configs).into_iter().map(f64::from).collect()
 }
 
 /// The host's fed channels (M⁻¹ row-major in the scene's frame, magnitude, Fresnel term).

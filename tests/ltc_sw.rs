@@ -5,7 +5,7 @@
 
 use linelight::input::geometry::det;
 use linelight::input::ltc::{aniso, sw};
-use std::process::{Command, Output};
+use std::process::Output;
 
 /// The committed subsets and their SGD steps.
 const SUBSETS: [(&str, usize); 2] = [
@@ -19,12 +19,9 @@ fn subset_at(file: &str) -> Vec<aniso::Fitted> {
     aniso::parse_entries(&text, &path).expect("it parses")
 }
 
+/// Runs `linelight` from the checkout (the cases' and data's relative paths).
 fn linelight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .expect("linelight runs")
+    crate::common::linelight_in(std::path::Path::new(env!("CARGO_MANIFEST_DIR")), args)
 }
 
 /// The committed subset is the documented one and passes the L1 table's checks: finite, a

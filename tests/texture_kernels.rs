@@ -5,9 +5,10 @@
 //! texture's line exactly by the constant.
 
 use crate::common;
+use common::gpu_values;
 
 use linelight::eval::interp::{CpuColumns, Mode};
-use linelight::input::scene::{gpu_scenes, Config, Material};
+use linelight::input::scene::{Config, Material};
 use linelight::input::texture::{Texture, TextureKind};
 use linelight::kernel::methods::{resolve, Method};
 use linelight::kernel::{builtin_kernels, KernelFile};
@@ -72,15 +73,6 @@ fn textures() -> Vec<Config> {
         config("cube", cube),
         config("c", cyl(7, 2)),
     ]
-}
-
-fn gpu_values(m: &Method, configs: &[Config]) -> Vec<f32> {
-    let gpu = common::gpu();
-    let (scenes, texels) = gpu_scenes(configs);
-    let pipeline = gpu.pipeline(m).unwrap();
-    gpu.run_textured(&pipeline, &scenes, &texels, 0, &mut |_| {})
-        .unwrap()
-        .values
 }
 
 #[test]

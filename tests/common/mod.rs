@@ -116,6 +116,16 @@ pub fn gpu() -> &'static linelight::measure::gpu::Gpu {
     })
 }
 
+/// `method`'s f32 values on the shared GPU for `configs`, their textures and LTC tables bound.
+pub fn gpu_values(method: &linelight::kernel::methods::Method, configs: &[Config]) -> Vec<f32> {
+    let gpu = gpu();
+    let (scenes, texels) = linelight::input::scene::gpu_scenes(configs);
+    let pipeline = gpu.pipeline(method).unwrap();
+    gpu.run_textured(&pipeline, &scenes, &texels, 0, &mut |_| {})
+        .unwrap()
+        .values
+}
+
 /// A test that cannot run its check here (another GPU than the one its values were recorded
 /// on, a missing privilege): under CI (`CI=true`, as GitHub Actions, GitLab CI and .ci/run set
 /// it) a failure, since a skip there hides that the check never ran; elsewhere a visible line.
