@@ -2,14 +2,12 @@
 //! skip). Speed is measured, never asserted: these check what is printed and written,
 //! not how fast anything ran.
 
-use std::process::{Command, Output};
+use crate::common;
+use std::process::Output;
 
+/// Runs `linelight` from the checkout (the cases' and data's relative paths).
 fn linelight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .expect("linelight runs")
+    crate::common::linelight_in(std::path::Path::new(env!("CARGO_MANIFEST_DIR")), args)
 }
 
 #[test]
@@ -49,7 +47,7 @@ fn bench_prints_both_methods_and_their_ratio_and_writes_json() {
         .unwrap_or_else(|| panic!("no ratio line:\n{stdout}"));
     assert!(ratio.contains("over 3 rounds") && ratio.contains("CPU f32 "), "{ratio}");
 
-    let costs: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let costs = common::json(&json);
     let costs = costs.as_array().unwrap();
     assert_eq!(costs.len(), 2);
     for (c, label) in costs.iter().zip(["line.ltc2017", "line.ltc2023"]) {
@@ -106,7 +104,7 @@ fn bench_refuses_bad_input_before_measuring() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("--repeats must be at least 1"));
 }
 
-/// `bench --envelope N` (issue 22): the envelope's ns per configuration per method beside the
+/// `bench --envelope N`: the envelope's ns per configuration per method beside the
 /// CPU f32 column, in the same rounds, printed and in the JSON; without it, the JSON has no
 /// envelope keys (a bench's output is unchanged).
 #[test]
@@ -144,7 +142,7 @@ fn bench_times_the_envelope_beside_the_cpu_column() {
             "{line}"
         );
     }
-    let costs: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let costs = common::json(&json);
     for c in costs.as_array().unwrap() {
         assert_eq!(c["envelope_configurations"], 16, "{c}");
         assert_eq!(

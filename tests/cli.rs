@@ -1,42 +1,28 @@
 //! The command line as a user meets it: bad input gets a clear message naming what and
 //! where, a non-zero exit, and nothing written; good input gives reports and results.
 
-mod common;
-use common::{linelight, stderr, write};
+use crate::common;
+use common::case::{CROSSING, LENGTH_BINS, LTC_ALPHA};
+use common::{case, eval, linelight, stderr, write};
 
-const CASE: &str = r#"
-name = "tiny"
-title = "tiny"
-seed = 7
-methods = ["line.ltc2023", "line.ltc2017"]
-compare = [["line.ltc2017", "line.ltc2023"]]
-[geometry]
-elevation = { dist = "uniform", min = -10.0, max = 90.0 }
-tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
-length = { dist = "log_uniform", min = 0.1, max = 10.0 }
-center = { dist = "uniform", min = -1.0, max = 1.0 }
-[[materials]]
-name = "diffuse"
-kind = "diffuse"
-count = 300
-[[materials]]
-name = "iso"
-kind = "ltc_sparse"
-count = 300
-alpha = { dist = "log_uniform", min = 0.1, max = 1.0 }
-[[bins]]
-axis = "length"
-edges = [0.1, 1.0, 10.0]
-# The mechanism under test, not the method's quality: no NaN, nothing off by 100 %.
-[tolerances."line.ltc2023"]
-max = 1.0
-nan = 0
-"#;
+/// Two methods compared on diffuse and LTC lights, one bin, and a tolerance that tests the
+/// mechanism, not the method's quality: no NaN, nothing off by 100 %.
+fn tiny() -> String {
+    case("tiny")
+        .methods(&["line.ltc2023", "line.ltc2017"])
+        .compare("line.ltc2017", "line.ltc2023")
+        .axis("elevation", CROSSING)
+        .diffuse(300)
+        .material("iso", "ltc_sparse", 300, LTC_ALPHA)
+        .table(LENGTH_BINS)
+        .table("[tolerances.\"line.ltc2023\"]\nmax = 1.0\nnan = 0")
+        .to_string()
+}
 
 #[test]
 fn sweep_writes_reports_and_a_verdict() {
     let dir = tempfile::tempdir().unwrap();
-    let case = write(dir.path(), "tiny.toml", CASE);
+    let case = write(dir.path(), "tiny.toml", &tiny());
     let out = dir.path().join("reports");
     let raw = dir.path().join("raw.jsonl");
     let o = linelight(&[
@@ -82,7 +68,7 @@ fn failing_tolerance_gives_exit_1_and_says_so() {
     let case = write(
         dir.path(),
         "strict.toml",
-        &CASE.replace("max = 1.0\nnan = 0", "max = 1e-30\nnan = 0"),
+        &tiny().replace("max = 1.0\nnan = 0", "max = 1e-30\nnan = 0"),
     );
     let out = dir.path().join("reports");
     let o = linelight(&[
@@ -108,13 +94,13 @@ fn malformed_case_file_names_file_and_line_and_writes_nothing() {
     let case = write(
         dir.path(),
         "bad.toml",
-        &CASE.replace("seed = 7", "seed = 7\nroughness = 0.5"),
+        &tiny().replace("seed = 7", "seed = 7\nroughness = 0.5"),
     );
     let o = linelight(&["sweep", case.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
     assert!(
-        e.contains("bad.toml") && e.contains("roughness") && e.contains("line 5"),
+        e.contains("bad.toml") && e.contains("roughness") && e.contains("line 4"),
         "{e}"
     );
     assert!(!out.exists(), "nothing may be written on bad input");
@@ -131,7 +117,7 @@ fn malformed_case_file_names_file_and_line_and_writes_nothing() {
     let case = write(
         dir.path(),
         "unknown.toml",
-        &CASE.replace("\"line.ltc2017\"]", "\"line.ltc2017\", \"line.ltc2099\"]"),
+        &tiny().replace("\"line.ltc2017\"]", "\"line.ltc2017\", \"line.ltc2099\"]"),
     );
     let o = linelight(&["sweep", case.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
@@ -159,17 +145,11 @@ fn kernel_with_wgsl_error_names_file_and_line() {
         r#"{"id":"a","p1":[0,0,1],"p2":[1,0,1],"material":{"kind":"diffuse"}}"#,
     );
     let output = dir.path().join("out.jsonl");
-    let o = linelight(&[
-        "eval",
-        "--input",
-        input.to_str().unwrap(),
-        "--output",
-        output.to_str().unwrap(),
-        "--kernel",
-        kernel.to_str().unwrap(),
-        "--methods",
-        "line.broken",
-    ]);
+    let o = eval(
+        &input,
+        &output,
+        &["--kernel", kernel.to_str().unwrap(), "--methods", "line.broken"],
+    );
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("broken.wgsl:7:"), "{}", stderr(&o));
     assert!(!output.exists());
@@ -193,13 +173,7 @@ fn eval_rejects_bad_lines_without_touching_the_output() {
             "\n",
         ),
     );
-    let o = linelight(&[
-        "eval",
-        "--input",
-        input.to_str().unwrap(),
-        "--output",
-        output.to_str().unwrap(),
-    ]);
+    let o = eval(&input, &output, &[]);
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
     assert!(e.contains("in.jsonl:2:") && e.contains("radus"), "{e}");
@@ -227,17 +201,16 @@ fn eval_writes_nan_as_a_string_and_keeps_order() {
         ),
     );
     let output = dir.path().join("out.jsonl");
-    let o = linelight(&[
-        "eval",
-        "--input",
-        input.to_str().unwrap(),
-        "--output",
-        output.to_str().unwrap(),
-        "--kernel",
-        kernel.to_str().unwrap(),
-        "--methods",
-        "line.nan,line.ltc2023",
-    ]);
+    let o = eval(
+        &input,
+        &output,
+        &[
+            "--kernel",
+            kernel.to_str().unwrap(),
+            "--methods",
+            "line.nan,line.ltc2023",
+        ],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let rows: Vec<serde_json::Value> = std::fs::read_to_string(&output)
         .unwrap()
@@ -273,15 +246,7 @@ fn unknown_adapter_is_a_clear_error() {
         r#"{"id":"a","p1":[0,0,1],"p2":[1,0,1],"material":{"kind":"diffuse"}}"#,
     );
     let output = dir.path().join("out.jsonl");
-    let o = linelight(&[
-        "eval",
-        "--input",
-        input.to_str().unwrap(),
-        "--output",
-        output.to_str().unwrap(),
-        "--adapter",
-        "NoSuchGPU-42",
-    ]);
+    let o = eval(&input, &output, &["--adapter", "NoSuchGPU-42"]);
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
     assert!(e.contains("NoSuchGPU-42") && e.contains("llvmpipe"), "{e}");

@@ -2,6 +2,7 @@
 //! report: a committed stats.csv, analysis or "What to ship" answer that disagrees with a fresh
 //! run fails it, and a timing that differs does not.
 
+use crate::common;
 use std::path::Path;
 use std::process::Command;
 
@@ -17,7 +18,11 @@ fn compare(committed: &Path, fresh: &Path) -> (i32, String) {
         .args([committed, fresh])
         .output()
         .expect("python3 runs scripts/compare-report");
-    let text = String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
     (o.status.code().unwrap_or(-1), text)
 }
 
@@ -31,8 +36,7 @@ fn a_moved_number_fails_and_a_timing_does_not() {
     assert_eq!(compare(&a, &b).0, 0, "{}", compare(&a, &b).1);
 
     // A timing moves: still the same report.
-    let mut s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(b.join("summary.json")).unwrap()).unwrap();
+    let mut s = common::json(&b.join("summary.json"));
     s["timing"]["total_seconds"] = serde_json::json!(1e9);
     std::fs::write(b.join("summary.json"), serde_json::to_string(&s).unwrap()).unwrap();
     let (code, text) = compare(&a, &b);
@@ -59,8 +63,7 @@ fn a_moved_number_fails_and_a_timing_does_not() {
 
     // The analysis moves with stats.csv unchanged: refused, naming the key.
     copy_dir(&committed, &b);
-    let mut s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(b.join("summary.json")).unwrap()).unwrap();
+    let mut s = common::json(&b.join("summary.json"));
     s["configurations"] = serde_json::json!(s["configurations"].as_u64().unwrap() + 1);
     std::fs::write(b.join("summary.json"), serde_json::to_string(&s).unwrap()).unwrap();
     let (code, text) = compare(&a, &b);
@@ -70,8 +73,7 @@ fn a_moved_number_fails_and_a_timing_does_not() {
     // The "What to ship" answer: its measured ns is a timing, its choice is not.
     let with_ship = |dir: &Path, ship: &str, ns: f64| {
         copy_dir(&committed, dir);
-        let mut s: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+        let mut s = common::json(&dir.join("summary.json"));
         s["ship"] = serde_json::json!({"materials": [{"ship": ship, "candidates": [{"label": ship, "price": {"ops": 120, "measured_ns": ns}}]}]});
         std::fs::write(dir.join("summary.json"), serde_json::to_string(&s).unwrap()).unwrap();
     };

@@ -176,7 +176,7 @@ fn every_builtin_kernel_gives_the_interpreters_bits_in_f32_and_f64() {
                 assert!(a + b > 0, "{}: no configuration compared", m.label);
                 total += a + b;
             }
-            // The texel buffer (`ll_texels`, issue 25) and the LTC tables (`ll_ltc`, issue 24's
+            // The texel buffer (`ll_texels`) and the LTC tables (`ll_ltc`, the
             // device look-ups) are not compiled yet: those kernels run on the interpreter
             // (their reason is checked in `compare`).
             _ => interpreted.push(m.label.clone()),
@@ -511,8 +511,9 @@ fn the_paths_the_switches_select_give_the_interpreters_bits() {
         let out = std::process::Command::new(&me)
             .env(var, value)
             .args([
-                "lanes_that_diverge_give_the_interpreters_bits_for_any_chunk_length",
-                "a_kernel_of_many_rules_gives_the_interpreters_bits",
+                "compiled::lanes_that_diverge_give_the_interpreters_bits_for_any_chunk_length",
+                "compiled::a_kernel_of_many_rules_gives_the_interpreters_bits",
+                "--exact",
                 "--test-threads=1",
             ])
             .output()

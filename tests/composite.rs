@@ -1,7 +1,7 @@
 //! Composite methods (`//! uses: line`): the `method[inner]` spec, composition with the
 //! inner line method on lavapipe, and errors attributed to the file that has them.
 
-mod common;
+use crate::common;
 
 use linelight::eval::interp::CpuColumns;
 use linelight::input::scene::{Config, GpuScene, Material, Rect};

@@ -1,12 +1,12 @@
-//! Issue 20, defect classes 2 (silently wrong), 3 (panics and aborts) and 5 (messages): one
+//! Defect classes 2 (silently wrong), 3 (panics and aborts) and 5 (messages): one
 //! test per defect, each running the CLI as a hostile user would and asserting the exit code,
 //! the message, and that nothing outside the intended files changed.
 
 use std::path::Path;
 
-mod common;
+use crate::common;
 use common::snapshot::{only_changed, refused, s, snapshot};
-use common::{linelight, linelight_in, stderr, write};
+use common::{eval, linelight, linelight_in, stderr, write};
 use common::{CASE, CONFIG};
 
 /// A line kernel whose value is its loop's trip count, `trips` a WGSL u32 expression.
@@ -110,8 +110,7 @@ fn class2_scan_applies_the_driver_loop_limit() {
         s(&out),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("tiny-scan/summary.json")).unwrap()).unwrap();
+    let summary = common::json(&out.join("tiny-scan/summary.json"));
     assert_eq!(summary[0]["configurations"], 2000);
     assert_eq!(summary[0]["above_bound"], 2000, "{summary}");
     assert_eq!(summary[0]["negative"], 0);
@@ -124,8 +123,8 @@ fn class2_scan_evaluates_only_configurations_the_sweep_would() {
     // Distances from 1e-300 to 1e300: most generated segments do not fit f32. The sweep refuses
     // the case (too many redraws); the scan counted their NaN and inf as the method's. (With
     // 1e±30 a third did not fit, whose redraws sit at the 20-configuration case's limit of 10:
-    // the refusal then depended on the draws, and the per-configuration streams of issue 23
-    // drew fewer.)
+    // the refusal then depended on the draws, and the per-configuration streams of the sharded
+    // sweep drew fewer.)
     let far = CASE.replace(
         "center = ",
         "distance = { dist = \"log_uniform\", min = 1e-300, max = 1e300 }\ncenter = ",
@@ -481,17 +480,11 @@ fn class5_a_loop_limit_refusal_is_not_a_failed_write() {
         &counting_kernel("line.reaching", "40000u + u32(scene.p1.z)"),
     );
     let before = snapshot(d);
-    let o = linelight(&[
-        "eval",
-        "--input",
-        s(&input),
-        "--output",
-        s(&output),
-        "--kernel",
-        s(&endless),
-        "--methods",
-        "line.reaching",
-    ]);
+    let o = eval(
+        &input,
+        &output,
+        &["--kernel", s(&endless), "--methods", "line.reaching"],
+    );
     refused(
         &o,
         &[
@@ -514,17 +507,7 @@ fn class5_check_applies_the_loop_limit_eval_applies() {
     let fine = write(d, "fine.wgsl", &counting_kernel("line.fine", "1000u"));
     let before = snapshot(d);
     let checked = linelight(&["check", s(&fixed), s(&fine)]);
-    let evaluated = linelight(&[
-        "eval",
-        "--input",
-        s(&input),
-        "--output",
-        s(&output),
-        "--kernel",
-        s(&fixed),
-        "--methods",
-        "line.fixed",
-    ]);
+    let evaluated = eval(&input, &output, &["--kernel", s(&fixed), "--methods", "line.fixed"]);
     let why = "fixed.wgsl: `line.fixed` executes 100000 loop-body iterations per configuration";
     refused(&checked, &[why]);
     refused(&evaluated, &[why]);
@@ -544,15 +527,7 @@ fn class5_sizes_and_numbers_read_as_written() {
     let input = write(d, "in.jsonl", &format!("{CONFIG}\n"));
     let output = d.join("out.jsonl");
     let before = snapshot(d);
-    let o = linelight(&[
-        "eval",
-        "--input",
-        s(&input),
-        "--output",
-        s(&output),
-        "--max-memory",
-        "1",
-    ]);
+    let o = eval(&input, &output, &["--max-memory", "1"]);
     refused(&o, &["more than --max-memory 1 B:"]);
     assert!(!stderr(&o).contains("default"), "{}", stderr(&o));
     // |p| of 1e308 coordinates is 1.4e308, not the overflow of their squares.
@@ -561,7 +536,7 @@ fn class5_sizes_and_numbers_read_as_written() {
         "big.jsonl",
         &(CONFIG.replace("[0.3,-0.2,1.0]", "[1e308,0,1e308]") + "\n"),
     );
-    let o = linelight(&["eval", "--input", s(&big), "--output", s(&output)]);
+    let o = eval(&big, &output, &[]);
     refused(
         &o,
         &["big.jsonl:1:", "max(|p1|, |p2|) = 1.4142135623730951e308 is outside"],

@@ -3,7 +3,7 @@
 //! f64), on a seeded sample. tests/data/standalone/ holds those files as they were before the
 //! conversion, frozen for this comparison (they are not built in).
 
-mod common;
+use crate::common;
 
 use linelight::eval::interp::CpuColumns;
 use linelight::eval::interp::Mode;

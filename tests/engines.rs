@@ -3,7 +3,8 @@
 //! on small fixed sets where the formula is known to be exact or to tend to the target; and
 //! the polygon integral of the thin rectangle checked in f64 against the rectangle reference.
 
-mod common;
+use crate::common;
+use common::segment;
 
 use linelight::input::scene::{Config, GpuScene, Material, Rect, Vec3};
 use linelight::input::target::Target;
@@ -29,18 +30,6 @@ fn run(gpu: &Gpu, spec: &str, configs: &[Config]) -> Vec<f64> {
         .into_iter()
         .map(f64::from)
         .collect()
-}
-
-fn segment(id: String, p1: Vec3, p2: Vec3, material: Material) -> Config {
-    Config {
-        id,
-        p1,
-        p2,
-        radius: None,
-        rect: None,
-        material,
-        texture: None,
-    }
 }
 
 /// Random segments at distance ≥ 0.1, a third of them crossing the horizon.
@@ -413,8 +402,8 @@ fn the_intersection_form_fails_for_a_segment_pointing_at_the_shading_point() {
     // intersection form divides 0 by 0. The bisector form needs no intersection.
     let gpu = gpu();
     let end_on = vec![
-        segment("end-on".into(), [0.0, 0.6, 0.8], [0.0, 1.2, 1.6], Material::Diffuse),
-        segment("end-on-2".into(), [0.3, 0.0, 0.4], [1.5, 0.0, 2.0], Material::Diffuse),
+        segment("end-on", [0.0, 0.6, 0.8], [0.0, 1.2, 1.6], Material::Diffuse),
+        segment("end-on-2", [0.3, 0.0, 0.4], [1.5, 0.0, 2.0], Material::Diffuse),
     ];
     let a = run(gpu, "line.mrp_intersection", &end_on);
     let b = run(gpu, "line.mrp_bisector", &end_on);

@@ -1,8 +1,9 @@
-//! The envelope (issue 22, docs/envelope.md): exact bounds for one correctly rounded
+//! The envelope (docs/envelope.md): exact bounds for one correctly rounded
 //! operation, the spec's 4096 ULP for `atan`, a flagged division by zero with its line, every
 //! built-in's CPU f32 and lavapipe value inside its envelope on held-out lights, and the
 //! acos-based 2023 listing's envelope wider than the 2017 listing's on the dimmest lights.
 
+use crate::common::{self, segment};
 use linelight::eval::envelope::interval::{Gap, Iv};
 use linelight::eval::interp::{envelope, CpuColumns, EnvelopeStop};
 use linelight::input::scene::{Config, Material, Rect};
@@ -11,15 +12,7 @@ use linelight::kernel::methods::{kernel_set, resolve, Method};
 use rand::{Rng, SeedableRng};
 
 fn config(p1: [f64; 3], p2: [f64; 3], material: Material) -> Config {
-    Config {
-        id: String::new(),
-        p1,
-        p2,
-        radius: None,
-        rect: None,
-        material,
-        texture: None,
-    }
+    segment("", p1, p2, material)
 }
 
 /// A user kernel whose `method` body is `body` (reading `scene.p1.x` and `scene.p2.x`).
@@ -310,29 +303,16 @@ fn the_envelope_gate_checks_fail_a_sweep_only_where_they_should() {
     let t = tempfile::tempdir().unwrap();
     let d = t.path();
     let case = |envelope: &str, budget: f64| {
-        format!(
-            r#"
-name = "envelope_gate"
-title = "envelope gate"
-seed = 31
-methods = ["line.ltc2017", "line.ltc2023"]
-envelope = {{ {envelope} }}
-[budget]
-quantile = 0.99
-value = {budget}
-target = "line_upper"
-min_count = 10
-[geometry]
-elevation = {{ dist = "uniform", min = 10.0, max = 90.0 }}
-tilt_angle = {{ dist = "uniform", min = 0.0, max = 180.0 }}
-length = {{ dist = "log_uniform", min = 0.1, max = 10.0 }}
-center = {{ dist = "uniform", min = -1.0, max = 1.0 }}
-[[materials]]
-name = "diffuse"
-kind = "diffuse"
-count = 200
-"#
-        )
+        common::case("envelope_gate")
+            .title("envelope gate")
+            .key("seed", "31")
+            .methods(&["line.ltc2017", "line.ltc2023"])
+            .key("envelope", &format!("{{ {envelope} }}"))
+            .table(&format!(
+                "[budget]\nquantile = 0.99\nvalue = {budget}\ntarget = \"line_upper\"\nmin_count = 10"
+            ))
+            .diffuse(200)
+            .to_string()
     };
     let sweep = |name: &str, text: &str| {
         let path = d.join(format!("{name}.toml"));
@@ -389,40 +369,30 @@ count = 200
 fn each_envelope_row_names_the_material_its_configuration_was_drawn_for() {
     use linelight::app::sweep::{measure, prepare_with, Holds};
     use linelight::measure::sweep::MeasureOptions;
-    let text = r#"
-name = "envelope_materials"
-title = "envelope materials"
-seed = 7
-methods = ["line.ltc2017", "line.ltc2023"]
-envelope = { sample = 40 }
-[geometry]
-elevation = { dist = "uniform", min = 10.0, max = 90.0 }
-tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
-length = { dist = "log_uniform", min = 0.1, max = 10.0 }
-center = { dist = "uniform", min = -1.0, max = 1.0 }
-[[materials]]
-name = "diffuse"
-kind = "diffuse"
-count = 120
-[[materials]]
-name = "ltc"
-kind = "ltc_sparse"
-count = 120
-alpha = { dist = "log_uniform", min = 0.05, max = 1.0 }
-aspect = { dist = "uniform", min = 0.8, max = 1.25 }
-peak = { dist = "uniform", min = -60.0, max = 60.0 }
-"#;
-    let case = linelight::input::case::Case::parse("envelope_materials.toml", text).unwrap();
+    let text = common::case("envelope_materials")
+        .title("envelope materials")
+        .methods(&["line.ltc2017", "line.ltc2023"])
+        .key("envelope", "{ sample = 40 }")
+        .diffuse(120)
+        .material(
+            "ltc",
+            "ltc_sparse",
+            120,
+            "alpha = { dist = \"log_uniform\", min = 0.05, max = 1.0 }\n\
+             aspect = { dist = \"uniform\", min = 0.8, max = 1.25 }\n\
+             peak = { dist = \"uniform\", min = -60.0, max = 60.0 }",
+        )
+        .to_string();
+    let case = linelight::input::case::Case::parse("envelope_materials.toml", &text).unwrap();
     let setup = prepare_with(case, &[], None, Holds::default()).unwrap();
     assert!(setup.samples.is_empty(), "a streamed sweep draws chunk by chunk");
-    linelight::measure::gpu::quiet_driver_environment();
-    let gpu = linelight::measure::gpu::Gpu::new(None).unwrap();
+    let gpu = crate::common::gpu();
     let options = MeasureOptions {
         chunk: 0,
         raw: None,
         shard: None,
     };
-    let swept = measure(&setup, &gpu, options, false).unwrap();
+    let swept = measure(&setup, gpu, options, false).unwrap();
     assert_eq!(swept.measured.envelope.len(), 2);
     for m in &swept.measured.envelope {
         let mut per = [0usize; 2];

@@ -1,7 +1,7 @@
 //! `linelight eval` on explicit configurations: its references agree with an independent
 //! quadrature (written here, sharing no code with src/reference) to 1e-8 relative.
 
-use std::process::Command;
+use crate::common;
 
 type V = [f64; 3];
 
@@ -124,18 +124,7 @@ fn run_eval(configs: &[serde_json::Value], methods: &str) -> Vec<serde_json::Val
     let input = dir.path().join("in.jsonl");
     let output = dir.path().join("out.jsonl");
     std::fs::write(&input, configs.iter().map(|c| c.to_string() + "\n").collect::<String>()).unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .args([
-            "eval",
-            "--input",
-            input.to_str().unwrap(),
-            "--output",
-            output.to_str().unwrap(),
-            "--methods",
-            methods,
-        ])
-        .output()
-        .unwrap();
+    let o = common::eval(&input, &output, &["--methods", methods]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     std::fs::read_to_string(&output)
         .unwrap()
@@ -256,7 +245,7 @@ fn eval_writes_the_summed_references_a_method_needs() {
 /// each input number rounded to f32 as given (`as f32 as f64`, nothing renormalised), with its
 /// own error estimate; `line` and `line_upper` there agree with this file's quadrature at those
 /// rounded inputs. On segments far along their own line the rounding alone moves the value by
-/// percents (issue 18 item 7), which the exact reference (also checked) keeps apart.
+/// percents (input rounding, docs/statistics.md), which the exact reference (also checked) keeps apart.
 #[test]
 fn eval_writes_the_references_at_f32_rounded_inputs() {
     use serde_json::json;

@@ -1,6 +1,7 @@
 //! The CPU evaluator from outside: a user's kernel gets its f64 column, and the bits lost
 //! per source line (attribution) land where the findings say they do.
 
+use crate::common::segment;
 use linelight::eval::interp::CpuColumns;
 use linelight::eval::interp::{program, Mode};
 use linelight::input::scene::{Config, Material};
@@ -9,15 +10,7 @@ use linelight::kernel::methods::{kernel_set, resolve};
 use rand::{Rng, SeedableRng};
 
 fn config(p1: [f64; 3], p2: [f64; 3], material: Material) -> Config {
-    Config {
-        id: String::new(),
-        p1,
-        p2,
-        radius: None,
-        rect: None,
-        material,
-        texture: None,
-    }
+    segment("", p1, p2, material)
 }
 
 fn sparse() -> Material {

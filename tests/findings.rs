@@ -2,7 +2,7 @@
 //! false-light row catches light where none arrives, and the disagreement search finds the
 //! region where a pair was built to differ.
 
-mod common;
+use crate::common;
 use common::{linelight, stderr, write};
 use std::path::{Path, PathBuf};
 
@@ -75,7 +75,7 @@ fn sweep_beside_numeric(dir: &Path, file: &str, label: &str, kernel: &str) -> (P
         kernel.to_str().unwrap(),
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let summary = serde_json::from_str(&std::fs::read_to_string(out.join("claimed/summary.json")).unwrap()).unwrap();
+    let summary = common::json(&out.join("claimed/summary.json"));
     (out.join("claimed"), summary)
 }
 
@@ -141,8 +141,7 @@ text = "a relative error below zero: {p99(\"line.ltc2023\", \"diffuse\")}"
         report.contains("**No verdict**"),
         "a case without checks has no verdict"
     );
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("claimed/summary.json")).unwrap()).unwrap();
+    let summary = common::json(&out.join("claimed/summary.json"));
     let holds: Vec<bool> = summary["claims"]
         .as_array()
         .unwrap()
@@ -266,8 +265,7 @@ fn the_disagreement_search_finds_the_region_built_in() {
     for c in &off_worse {
         assert!(c["p1"][0].as_f64().unwrap() > 0.0, "outside the region: {c}");
     }
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("claimed/summary.json")).unwrap()).unwrap();
+    let summary = common::json(&out.join("claimed/summary.json"));
     let best = summary["disagreements"]
         .as_array()
         .unwrap()
@@ -344,8 +342,7 @@ fn wholly_below_is_counted_apart_from_line_upper_zero() {
         k2.to_str().unwrap(),
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("below/summary.json")).unwrap()).unwrap();
+    let summary = common::json(&out.join("below/summary.json"));
     let material = |label: &str| first_material(&summary, label);
     let n = |v: &serde_json::Value| v.as_u64().unwrap();
     let (b, a) = (material("test.lights_below"), material("test.lights_above"));

@@ -1,11 +1,11 @@
-//! The CI gate scenario (issue 12): a baseline saved from a user kernel; the same kernel
+//! The CI gate scenario: a baseline saved from a user kernel; the same kernel
 //! passes; the kernel with a cheaper polynomial atan fails with a JUnit failure naming it; the
 //! 2023 Fwt improves the error's geometric mean but is worse on a tenth of the configurations,
-//! which the share rule fails (issue 21). It runs through `scripts/ci-gate`, the script the CI
+//! which the share rule fails. It runs through `scripts/ci-gate`, the script the CI
 //! examples in docs/ci/ run, so they stay honest. Every JUnit file is validated against the
 //! Ant JUnit schema (tests/data/junit/).
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -2,7 +2,8 @@
 //! configuration is the rotated one with the magnitude applied (the CPU evaluator's columns and the GPU alike), and
 //! what a method computes in f64 is the exact integral of the LTC it was fed.
 
-mod common;
+use crate::common;
+use common::segment;
 
 use linelight::eval::interp::CpuColumns;
 use linelight::input::scene::{Config, GpuScene, Material, Roughness};
@@ -21,15 +22,12 @@ fn config(view_azimuth: f64, alpha: Roughness, ltc: &str) -> Config {
     // The segment crosses the mirror direction at distance 1.5.
     let m = [-view[0] * 1.5, -view[1] * 1.5, view[2] * 1.5];
     let t = [view_azimuth.sin(), -view_azimuth.cos(), 0.3];
-    Config {
-        id: "g".into(),
-        p1: [m[0] - 0.4 * t[0], m[1] - 0.4 * t[1], m[2] - 0.4 * t[2]],
-        p2: [m[0] + 0.6 * t[0], m[1] + 0.6 * t[1], m[2] + 0.6 * t[2]],
-        radius: None,
-        rect: None,
-        material: Material::ggx(alpha, view, Some(ltc)).unwrap(),
-        texture: None,
-    }
+    segment(
+        "g",
+        [m[0] - 0.4 * t[0], m[1] - 0.4 * t[1], m[2] - 0.4 * t[2]],
+        [m[0] + 0.6 * t[0], m[1] + 0.6 * t[1], m[2] + 0.6 * t[2]],
+        Material::ggx(alpha, view, Some(ltc)).unwrap(),
+    )
 }
 
 #[test]
@@ -123,29 +121,7 @@ fn gpu_applies_the_magnitude_like_the_cpu_evaluator() {
 #[test]
 fn ggx_case_families_are_checked() {
     use linelight::input::case::Case;
-    let case = |material: &str| {
-        Case::parse(
-            "t.toml",
-            &format!(
-                r#"
-name = "t"
-title = "t"
-seed = 1
-methods = ["line.ltc2017"]
-min_per_bin = 0
-[geometry]
-elevation = {{ dist = "uniform", min = 0.0, max = 90.0 }}
-tilt_angle = {{ dist = "uniform", min = 0.0, max = 180.0 }}
-length = {{ dist = "log_uniform", min = 0.1, max = 10.0 }}
-center = {{ dist = "uniform", min = -1.0, max = 1.0 }}
-[[materials]]
-name = "g"
-count = 5
-{material}
-"#
-            ),
-        )
-    };
+    let case = |material: &str| Case::parse("t.toml", &crate::common::case::family("line.ltc2017", 5, material));
     let ok = "kind = \"ggx\"\nalpha = { dist = \"log_uniform\", min = 0.05, max = 1.0 }\nview_angle = { dist = \"uniform\", min = 0.0, max = 80.0 }";
     let c = case(ok).unwrap();
     let samples = linelight::input::sampler::sample_case(&c);

@@ -1,4 +1,4 @@
-//! Issue 24, Fresnel: the `ggx` material's `f0` (Schlick's F0), everywhere a material goes.
+//! Fresnel: the `ggx` material's `f0` (Schlick's F0), everywhere a material goes.
 //!
 //! - The held-out must-show: `line` references on `ggx` with `f0` against a quadrature written
 //!   here alone (not src/reference, not tests/ggx_reference.rs): the segment in the angle ψ it
@@ -11,7 +11,8 @@
 //! - Bad f0 is refused on every input, naming the field; the published table, which has no
 //!   Fresnel channel, is refused with f0 < 1.
 
-mod common;
+use crate::common;
+use common::segment;
 
 use common::independent::*;
 use linelight::eval::interp::{CpuColumns, Mode};
@@ -137,15 +138,7 @@ fn cases() -> Vec<(Config, [f64; 2], Vec3, f64)> {
                     "aniso"
                 };
                 let material = Material::ggx_fresnel(*alpha, *v, Some(f0), Some(ltc)).unwrap();
-                let c = Config {
-                    id: format!("a{ai}v{vi}f{fi}"),
-                    p1,
-                    p2,
-                    radius: None,
-                    rect: None,
-                    material,
-                    texture: None,
-                };
+                let c = segment(format!("a{ai}v{vi}f{fi}"), p1, p2, material);
                 c.validate().unwrap();
                 out.push((c, alpha.xy(), *v, f0));
             }
@@ -394,13 +387,7 @@ fn bad_f0_is_refused_naming_the_field() {
     ] {
         let input = common::write(dir.path(), "in.jsonl", &line(&material));
         let out = dir.path().join("out.jsonl");
-        let o = common::linelight(&[
-            "eval",
-            "--input",
-            input.to_str().unwrap(),
-            "--output",
-            out.to_str().unwrap(),
-        ]);
+        let o = common::eval(&input, &out, &[]);
         let err = common::stderr(&o);
         assert_eq!(o.status.code(), Some(2), "{material}: {err}");
         assert!(err.contains(want) && err.contains("in.jsonl:1"), "{material}: {err}");

@@ -13,25 +13,8 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
-mod common;
+use crate::common;
 use common::independent::*;
-
-/// ∫ f over [a, b] cut at `cuts`, `per` equal panels on every piece.
-fn composite(f: &dyn Fn(f64) -> f64, a: f64, b: f64, cuts: &[f64], per: usize) -> f64 {
-    let mut ends: Vec<f64> = cuts.iter().copied().filter(|&c| c > a && c < b).collect();
-    ends.extend([a, b]);
-    ends.sort_by(f64::total_cmp);
-    ends.dedup();
-    let mut sum = 0.0;
-    for w in ends.windows(2) {
-        let h = (w[1] - w[0]) / per as f64;
-        for i in 0..per {
-            let c = w[0] + (i as f64 + 0.5) * h;
-            sum += gauss16().iter().map(|&(x, wt)| wt * f(c + 0.5 * h * x)).sum::<f64>() * 0.5 * h;
-        }
-    }
-    sum
-}
 
 /// The argmax of g over [a, b] on a dense grid, and cuts at it and at (b − a)·2⁻ᵏ either side.
 fn peak_cuts(g: &dyn Fn(f64) -> f64, a: f64, b: f64) -> Vec<f64> {

@@ -3,7 +3,7 @@
 //! rounding on the GPU and in the CPU evaluator (f32 and f64), over a case's configurations on
 //! all three material kinds.
 
-mod common;
+use crate::common;
 
 use linelight::eval::interp::CpuColumns;
 use linelight::input::case::Case;

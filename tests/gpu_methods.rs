@@ -2,7 +2,7 @@
 //! configurations: the GPU agrees with the CPU evaluator's f32 column of the same kernel, and the method agrees
 //! with the f64 reference to the accuracy its kind promises.
 
-mod common;
+use crate::common;
 
 use linelight::eval::interp::CpuColumns;
 use linelight::input::scene::{Config, GpuScene, Material, Rect};

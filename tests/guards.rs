@@ -1,4 +1,4 @@
-//! Issue 20, classes 1 and 4: one guard for every output, one budget and one set of caps for
+//! Robustness classes 1 and 4 (docs/robustness.md): one guard for every output, one budget and one set of caps for
 //! every size. Each test runs the CLI as a hostile user would and asserts the exit code, the
 //! message (what is wrong and where) and that nothing outside the intended files changed.
 
@@ -6,30 +6,26 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-mod common;
+use crate::common;
 use common::snapshot::{only_changed, refused, s, snapshot};
-use common::{linelight, linelight_in, stderr, write};
+use common::{case, eval, linelight, linelight_in, stderr, write};
 use common::{CASE, CONFIG};
 
 /// A ggx case small enough for `chain` to run in about a second.
-const GGX: &str = r#"
-name = "g"
-title = "g"
-seed = 3
-methods = ["line.ltc2017"]
-min_per_bin = 0
-[geometry]
-elevation = { dist = "uniform", min = 10.0, max = 90.0 }
-tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
-length = { dist = "log_uniform", min = 0.1, max = 10.0 }
-center = { dist = "uniform", min = -1.0, max = 1.0 }
-[[materials]]
-name = "ggx_iso"
-kind = "ggx"
-count = 3
-alpha = { dist = "log_uniform", min = 0.1, max = 1.0 }
-view_angle = { dist = "uniform", min = 0.0, max = 60.0 }
-"#;
+fn ggx() -> String {
+    case("g")
+        .key("seed", "3")
+        .methods(&["line.ltc2017"])
+        .key("min_per_bin", "0")
+        .material(
+            "ggx_iso",
+            "ggx",
+            3,
+            "alpha = { dist = \"log_uniform\", min = 0.1, max = 1.0 }\n\
+             view_angle = { dist = \"uniform\", min = 0.0, max = 60.0 }",
+        )
+        .to_string()
+}
 
 fn kernel_source() -> String {
     std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/ci/example/my_line.wgsl")).unwrap()
@@ -148,9 +144,10 @@ fn class1_diff_output_is_never_an_input() {
 
 #[test]
 fn class1_chain_writes_a_folder_of_its_own() {
+    let ggx = ggx();
     let t = tempfile::tempdir().unwrap();
     let d = t.path();
-    let case = write(d, "g.toml", GGX);
+    let case = write(d, "g.toml", &ggx);
     let tiny = write(d, "case.toml", CASE);
     // A sweep's report folder, and a folder of someone else's with chain.md linked to the case.
     let o = linelight(&["sweep", s(&tiny), "--out", s(&d.join("reports"))]);
@@ -200,7 +197,7 @@ fn class1_chain_writes_a_folder_of_its_own() {
         .unwrap()
         .starts_with("# The GGX error chain"));
     only_changed(&before, &snapshot(d), &["reports/g-chain"]);
-    assert_eq!(std::fs::read_to_string(&case).unwrap(), GGX);
+    assert_eq!(std::fs::read_to_string(&case).unwrap(), ggx);
 }
 
 #[test]
@@ -338,7 +335,7 @@ fn class1_no_output_of_any_command_lands_in_a_report_folder() {
     let inside = |name: &str| set.join(name);
     let before = snapshot(d);
     let why = "reports/tiny, a report folder that `linelight sweep` replaces whole";
-    let eval = linelight(&["eval", "--input", s(&input), "--output", s(&inside("x.jsonl"))]);
+    let eval = eval(&input, &inside("x.jsonl"), &[]);
     refused(&eval, &["--output", why]);
     let bench = linelight(&["bench", s(&case), "--count", "8", "--json", s(&inside("b.json"))]);
     refused(&bench, &["--json", why]);
@@ -438,9 +435,10 @@ fn class4_case_counts_pass_the_same_caps_as_the_command_line() {
 
 #[test]
 fn class4_chain_is_capped_and_in_the_budget() {
+    let ggx = ggx();
     let t = tempfile::tempdir().unwrap();
     let d = t.path();
-    let case = write(d, "g.toml", GGX);
+    let case = write(d, "g.toml", &ggx);
     let out = d.join("c");
     let before = snapshot(d);
     let started = Instant::now();

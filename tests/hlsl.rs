@@ -1,11 +1,12 @@
-//! HLSL kernels and GLSL as engines ship it (issue 21): the HLSL port of Listings 1.6 + 1.7
+//! HLSL kernels and GLSL as engines ship it: the HLSL port of Listings 1.6 + 1.7
 //! (kernels/hlsl/line_ltc2017.hlsl) evaluates on the GPU, in f32 and f64 on the CPU, agrees
 //! with the WGSL port and, in f64, with the reference on held-out configurations; `mul(Minv,
 //! v)` is M⁻¹·v for a non-symmetric M⁻¹; errors and attribution name HLSL lines; a constant's
 //! written digits reach the f64 column (HLSL and GLSL, through an included `#define`);
 //! `#include`, `#version`, the extension and `//! language:` choose and feed the front end.
 
-mod common;
+use crate::common;
+use common::segment;
 
 use linelight::eval::interp::{CpuColumns, Mode};
 use linelight::input::scene::{Config, GpuScene, Material};
@@ -35,15 +36,7 @@ fn ulps(a: f32, b: f32) -> u64 {
 }
 
 fn config(p1: [f64; 3], p2: [f64; 3], material: Material) -> Config {
-    Config {
-        id: String::new(),
-        p1,
-        p2,
-        radius: None,
-        rect: None,
-        material,
-        texture: None,
-    }
+    segment("", p1, p2, material)
 }
 
 /// Held out: drawn here from a seed of this test, not a case's configurations. Segments above
@@ -282,8 +275,12 @@ fn glsl_and_hlsl_f64_columns_keep_a_constants_written_digits() {
              return {TWENTY} * scene.p1.z + (PI / 4.0) * scene.p2.z;\n}}\n"
         ),
     );
+    // The folders are the process's (set once by the command line): emptied again at once, so
+    // that no other test of this binary sees a temporary folder.
     linelight::kernel::set_include_dirs(vec![inc.clone()]);
-    let kernels = kernel_set(&[glsl.clone(), hlsl]).unwrap();
+    let kernels = kernel_set(&[glsl.clone(), hlsl]);
+    linelight::kernel::set_include_dirs(Vec::new());
+    let kernels = kernels.unwrap();
     let c = config([0.1, 0.2, 1.0], [0.3, -0.1, 3.0], Material::Diffuse);
     let quarter: f64 = TWENTY.parse().unwrap();
     let g = resolve("line.twenty_glsl", &kernels).unwrap();

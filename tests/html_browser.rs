@@ -1,35 +1,28 @@
-//! report.html in a real browser (issue 19): a sweep's and a render's page opened in headless
+//! report.html in a real browser: a sweep's and a render's page opened in headless
 //! Chromium, which must log no console error (a policy violation, a script error, a failed
 //! load), and whose every image must have decoded. The page records that itself once loaded
 //! (`<html data-images=… data-violations=…>`, src/report/html.rs), read back with
 //! `--dump-dom`. Without Chromium the test fails under CI=true (scripts/ensure-chromium
 //! installs it) and elsewhere skips with a visible line.
 
-mod common;
+use crate::common;
 
-use common::{linelight, skip_or_fail, stderr, write};
+use common::case::{CROSSING, LENGTH_BINS};
+use common::{case, linelight, skip_or_fail, stderr, write};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-const CASE: &str = r#"
-name = "tiny_html"
-title = "tiny <html> & report"
-seed = 7
-methods = ["line.ltc2023", "line.ltc2017"]
-compare = [["line.ltc2017", "line.ltc2023"]]
-[geometry]
-elevation = { dist = "uniform", min = -10.0, max = 90.0 }
-tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
-length = { dist = "log_uniform", min = 0.1, max = 10.0 }
-center = { dist = "uniform", min = -1.0, max = 1.0 }
-[[materials]]
-name = "diffuse"
-kind = "diffuse"
-count = 300
-[[bins]]
-axis = "length"
-edges = [0.1, 1.0, 10.0]
-[[maps]]
+/// A title and a claim whose text must stay text, with a bin and a map to draw.
+fn tiny() -> String {
+    case("tiny_html")
+        .title("tiny <html> & report")
+        .methods(&["line.ltc2023", "line.ltc2017"])
+        .compare("line.ltc2017", "line.ltc2023")
+        .axis("elevation", CROSSING)
+        .diffuse(300)
+        .table(LENGTH_BINS)
+        .table(
+            r#"[[maps]]
 x = { axis = "length", edges = [0.1, 1.0, 10.0] }
 y = { axis = "elevation", edges = [-10.0, 0.0, 45.0, 90.0] }
 methods = ["line.ltc2017"]
@@ -37,7 +30,10 @@ methods = ["line.ltc2017"]
 id = "some-error"
 expect = 'p99("line.ltc2017", "diffuse") >= 0.0'
 text = "**A claim <b>with markup</b> that must stay text.** p99 {sci(p99(\"line.ltc2017\", \"diffuse\"))}."
-"#;
+"#,
+        )
+        .to_string()
+}
 
 const SCENE: &str = r#"
 name = "tiny_floor"
@@ -136,7 +132,7 @@ fn check_page(browser: &Path, page: &Path, expect_images: usize, scratch: &Path)
 #[test]
 fn sweep_and_render_pages_open_in_chromium_with_every_image_loaded() {
     let t = tempfile::tempdir().unwrap();
-    let case = write(t.path(), "tiny.toml", CASE);
+    let case = write(t.path(), "tiny.toml", &tiny());
     let out = t.path().join("reports");
     let o = linelight(&["sweep", case.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));

@@ -198,29 +198,7 @@ fn the_feed_rotates_the_look_up_into_the_views_plane_and_f16_rounds_it() {
 fn an_ltc_ggx_family_draws_full_matrices_from_the_anisotropic_table() {
     use linelight::input::case::Case;
     use linelight::input::scene::Material;
-    let case = |material: &str| {
-        Case::parse(
-            "t.toml",
-            &format!(
-                r#"
-name = "t"
-title = "t"
-seed = 1
-methods = ["line.ltc2023_full"]
-min_per_bin = 0
-[geometry]
-elevation = {{ dist = "uniform", min = 0.0, max = 90.0 }}
-tilt_angle = {{ dist = "uniform", min = 0.0, max = 180.0 }}
-length = {{ dist = "log_uniform", min = 0.1, max = 10.0 }}
-center = {{ dist = "uniform", min = -1.0, max = 1.0 }}
-[[materials]]
-name = "g"
-count = 6
-{material}
-"#
-            ),
-        )
-    };
+    let case = |material: &str| Case::parse("t.toml", &crate::common::case::family("line.ltc2023_full", 6, material));
     let ok = "kind = \"ltc_ggx\"\nalpha = { dist = \"log_uniform\", min = 0.05, max = 1.0 }\n\
               view_angle = { dist = \"uniform\", min = 0.0, max = 80.0 }\n\
               view_azimuth = { dist = \"uniform\", min = 0.0, max = 360.0 }\n\

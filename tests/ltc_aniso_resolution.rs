@@ -1,4 +1,4 @@
-//! Issue 24's resolution study: the 4⁴ table and the fine slice (`data/ltc_ggx_aniso_4.csv`,
+//! The anisotropic table's resolution study: the 4⁴ table and the fine slice (`data/ltc_ggx_aniso_4.csv`,
 //! `data/ltc_ggx_aniso_slice.csv`, written by `linelight fit --aniso [--aniso-slice φ,r]`),
 //! a table read from a file checked as an input, and the slice option refused when wrong.
 

@@ -1,17 +1,18 @@
-//! Issue 24, "Cost": the device look-ups of our LTC tables (kernels/ltc/, reading `ll_ltc`,
+//! The device look-ups of our LTC tables (kernels/ltc/, reading `ll_ltc`,
 //! binding 4) against the host feeds they mirror. A probe derived from each look-up kernel
 //! returns one channel of the fed LTC (M⁻¹ entry, magnitude or Fresnel term); on a fixed set of
 //! (θ, φ, α, r) the GPU and the CPU evaluator (f32) must give the host's `ltc::feed_aniso` (our
 //! 4D table) and `Table::sample` (our 2D table) to the tolerances below, each 10× the worst
 //! difference measured on lavapipe (Mesa 22.3.6) and the evaluator (re-measure with
-//! `LINELIGHT_MEASURE=1 cargo test --release --test ltc_lookup -- --nocapture`). The whole
+//! `LINELIGHT_MEASURE=1 cargo test --release --test all ltc_lookup:: -- --nocapture`). The whole
 //! method, the device-fed line beside the host-fed `line.ltc2017`, is checked the same way.
 
-mod common;
+use crate::common;
+use common::segment;
 
 use linelight::eval::interp::{CpuColumns, Mode};
 use linelight::input::ltc::{self, table::Storage, Feed};
-use linelight::input::scene::{gpu_scenes, Config, Material, Roughness};
+use linelight::input::scene::{Config, Material, Roughness};
 use linelight::kernel::methods::{resolve, Method};
 use linelight::kernel::{builtin_kernels, KernelFile};
 
@@ -98,27 +99,11 @@ fn config(i: usize, (t, p, a, r, swapped): (f64, f64, f64, f64, bool), iso_feed:
     } else {
         Material::ggx(Roughness::Aniso(alpha), view, Some("aniso")).unwrap()
     };
-    Config {
-        id: format!("p{i}"),
-        p1: [0.3, -0.2, 1.0],
-        p2: [-0.6, 0.4, 0.8],
-        radius: None,
-        rect: None,
-        material,
-        texture: None,
-    }
+    segment(format!("p{i}"), [0.3, -0.2, 1.0], [-0.6, 0.4, 0.8], material)
 }
 
 fn gpu_values(m: &Method, configs: &[Config]) -> Vec<f64> {
-    let gpu = common::gpu();
-    let (scenes, texels) = gpu_scenes(configs);
-    let pipeline = gpu.pipeline(m).unwrap();
-    gpu.run_textured(&pipeline, &scenes, &texels, 0, &mut |_| {})
-        .unwrap()
-        .values
-        .into_iter()
-        .map(f64::from)
-        .collect()
+    common::gpu_values(m, configs).into_iter().map(f64::from).collect()
 }
 
 /// The host's fed channels (M⁻¹ row-major in the scene's frame, magnitude, Fresnel term).

@@ -1,11 +1,11 @@
-//! Seed 004's objective (issue 24): the sliced-Wasserstein fit (src/input/ltc/sw.rs), its
+//! Seed 004's objective: the sliced-Wasserstein fit (src/input/ltc/sw.rs), its
 //! committed subsets (data/ltc_ggx_aniso_sw_subset.csv at 2 000 steps,
 //! data/ltc_ggx_aniso_sw10000_subset.csv at the seed's 10 000) and the comparison command
 //! (`linelight objectives`). The suite refits one entry of each, never a subset.
 
 use linelight::input::geometry::det;
 use linelight::input::ltc::{aniso, sw};
-use std::process::{Command, Output};
+use std::process::Output;
 
 /// The committed subsets and their SGD steps.
 const SUBSETS: [(&str, usize); 2] = [
@@ -19,12 +19,9 @@ fn subset_at(file: &str) -> Vec<aniso::Fitted> {
     aniso::parse_entries(&text, &path).expect("it parses")
 }
 
+/// Runs `linelight` from the checkout (the cases' and data's relative paths).
 fn linelight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .expect("linelight runs")
+    crate::common::linelight_in(std::path::Path::new(env!("CARGO_MANIFEST_DIR")), args)
 }
 
 /// The committed subset is the documented one and passes the L1 table's checks: finite, a

@@ -18,9 +18,10 @@
 //!   0.5 % scale change anywhere in a formula fails even where the worst error is large.
 //!
 //! Re-measure (prints every row with its measured values, asserts nothing):
-//! `LINELIGHT_MEASURE=1 cargo test --release --test method_bounds -- --nocapture`.
+//! `LINELIGHT_MEASURE=1 cargo test --release --test all method_bounds:: -- --nocapture`.
 
-mod common;
+use crate::common;
+use common::segment;
 
 use linelight::eval::interp::{CpuColumns, Mode};
 use linelight::input::scene::{Config, GpuScene, Material, Rect, Roughness, Vec3};
@@ -70,15 +71,15 @@ enum Family {
     /// Wide rectangles seen nearly edge-on from beyond an end: the shading point 0.005–0.05 d off
     /// the rectangle's plane, inside its width band (the line passes within W/2 of it).
     NearPlane,
-    /// [`AboveThin`]'s geometry on the `ggx` materials with Schlick's F0 (issue 24): the
+    /// [`AboveThin`]'s geometry on the `ggx` materials with Schlick's F0: the
     /// `minv: ggx` kernels that apply F themselves.
     Fresnel,
-    /// Issue 25: the `AboveThick` geometry with a cylindrical texture (stripes along the light,
+    /// The `AboveThick` geometry with a cylindrical texture (stripes along the light,
     /// 2–8 of them, times a gradient around it) and no rectangle.
     Textured,
     /// The same with a 4×4-per-face cubemap (a smooth gradient over the faces plus a step).
     TexturedCube,
-    /// Issue 24: [`AboveThin`]'s geometry on two anisotropic GGX lobes (fed our 4D table), for
+    /// [`AboveThin`]'s geometry on two anisotropic GGX lobes (fed our 4D table), for
     /// the device look-ups of kernels/ltc/ (`minv: ggx`: they feed themselves).
     GgxAniso,
 }
@@ -350,15 +351,7 @@ fn fwt_far() -> Vec<Config> {
     ]
     .into_iter()
     .enumerate()
-    .map(|(i, (p1, p2))| Config {
-        id: format!("FwtFar/diffuse/{i}"),
-        p1,
-        p2,
-        radius: None,
-        rect: None,
-        material: Material::Diffuse,
-        texture: None,
-    })
+    .map(|(i, (p1, p2))| segment(format!("FwtFar/diffuse/{i}"), p1, p2, Material::Diffuse))
     .collect()
 }
 
@@ -682,7 +675,7 @@ fn the_configuration_set_is_fixed() {
 
 #[rustfmt::skip]
 const ROWS: &[Row] = &[
-    // Issue 24: our tables looked up on the device (kernels/ltc/), fed to line.ltc2017: the table's
+    // Our tables looked up on the device (kernels/ltc/), fed to line.ltc2017: the table's
     // LTC against GGX truth (the isotropic one at the geometric-mean α on anisotropic lobes).
     row("line.ltc_lookup_iso[line.ltc2017]", ALL, Model, 1.00e0, 1.00e0, -1.5066e-1),
     row("line.ltc_lookup_iso[line.ltc2017]", &[Fresnel], Model, 7.14e-1, 7.14e-1, -8.5772e-2),
@@ -690,7 +683,7 @@ const ROWS: &[Row] = &[
     row("line.ltc_lookup_aniso[line.ltc2017]", ALL, Model, 1.00e0, 1.00e0, -1.4515e-1),
     row("line.ltc_lookup_aniso[line.ltc2017]", &[Fresnel], Model, 7.05e-1, 7.05e-1, -7.6518e-2),
     row("line.ltc_lookup_aniso[line.ltc2017]", &[GgxAniso], Model, 1.54e0, 1.54e0, -8.8497e-2),
-    // Issue 25: the one-look-up tints of seed 002 and ours, against the textured references.
+    // The one-look-up tints of seed 002 and ours, against the textured references.
     row("line.texture_closest[line.ltc2023_full]", &[Textured], Model, 7.54e-1, 7.54e-1, -1.4847e-1),
     row("line.texture_cube[line.ltc2023_full]", &[TexturedCube], Model, 1.11e0, 1.11e0, 6.3825e-2),
     row("line.texture_average[line.ltc2023_full]", &[Textured], Model, 4.27e-2, 4.27e-2, 2.6340e-3),
@@ -746,7 +739,7 @@ const ROWS: &[Row] = &[
     row("line.mrp_sum",                   CROSSING,       Model,   3.71e0,  3.71e0,   1.0979e0),
     row("line.mrp_sum_energy",            ABOVE,          Model,   3.58e-1, 3.58e-1,  8.2546e-3),
     row("line.mrp_sum_energy",            CROSSING,       Model,   1.97e0,  1.97e0,   6.7118e-1),
-    // Issue 24: the `minv: ggx` kernels apply the material's Schlick F (F0 0.04 and 0.9).
+    // The `minv: ggx` kernels apply the material's Schlick F (F0 0.04 and 0.9).
     row("line.mrp_specular",              &[Fresnel],     Model,   1.25e0,  1.25e0,   2.9013e-1),
     row("line.mrp_specular_widened",      &[Fresnel],     Model,   2.40e0,  2.40e0,   4.2909e-1),
     row("line.mrp_specular_energy",       &[Fresnel],     Model,   7.03e-1, 7.03e-1,  -1.8231e-1),

@@ -14,8 +14,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
 
-mod common;
+use crate::common;
 use common::independent::*;
+use common::segment;
 
 /// The part of the segment with z > 0 (the whole segment when it does not cross z = 0).
 fn clip(p1: Vec3, p2: Vec3) -> (Vec3, Vec3) {
@@ -135,15 +136,7 @@ fn configs(seed: u64, n: usize, min_alpha: f64) -> Vec<Config> {
             p1[2] = -p1[2].abs();
             p2[2] = p2[2].abs();
         }
-        let c = Config {
-            id: format!("s{i}"),
-            p1,
-            p2,
-            radius: None,
-            rect: None,
-            material: material.unwrap(),
-            texture: None,
-        };
+        let c = segment(format!("s{i}"), p1, p2, material.unwrap());
         if c.validate().is_ok() && c.distance_to_segment() > 0.2 {
             out.push(c);
         }

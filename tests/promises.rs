@@ -2,37 +2,20 @@
 //! runs the CLI and asserts the exit code, the message, and that nothing outside the intended
 //! files changed.
 
-mod common;
+use crate::common;
 use common::CONFIG;
 
 use common::snapshot::{only_changed, refused, s, snapshot};
-use common::{stderr, write};
-use std::process::{Command, Output};
+use common::{case, eval, linelight, linelight_with, stderr, write};
+use std::process::Command;
 
-/// Runs `linelight` with `env` set.
-fn linelight_with(env: &[(&str, &str)], args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .args(args)
-        .envs(env.iter().copied())
-        .output()
-        .expect("linelight runs")
+/// Two methods on the tiny case.
+fn tiny() -> String {
+    case("tiny")
+        .methods(&["line.ltc2017", "line.numeric@16"])
+        .diffuse(20)
+        .to_string()
 }
-
-const CASE: &str = r#"
-name = "tiny"
-title = "tiny"
-seed = 7
-methods = ["line.ltc2017", "line.numeric@16"]
-[geometry]
-elevation = { dist = "uniform", min = 10.0, max = 90.0 }
-tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
-length = { dist = "log_uniform", min = 0.1, max = 10.0 }
-center = { dist = "uniform", min = -1.0, max = 1.0 }
-[[materials]]
-name = "diffuse"
-kind = "diffuse"
-count = 20
-"#;
 
 /// The test-only hook in the GPU runner (src/measure/gpu/runner.rs): every dispatch after the
 /// first N of the process fails as a lost device would. N = 1 lets the driver's loop-limit
@@ -74,10 +57,7 @@ fn a_message_naming_a_huge_field_is_bounded_end_to_end() {
     let line = CONFIG.replace("\"id\":\"a\"", &format!("\"id\":\"a\",\"{key}\":1"));
     let input = write(d, "in.jsonl", &format!("{line}\n"));
     let before = snapshot(d);
-    let o = linelight_with(
-        &[],
-        &["eval", "--input", s(&input), "--output", s(&d.join("out.jsonl"))],
-    );
+    let o = eval(&input, &d.join("out.jsonl"), &[]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let e = stderr(&o);
     assert!(
@@ -125,20 +105,21 @@ fn an_injected_dispatch_failure_ends_eval_with_exit_4_and_writes_nothing() {
     );
     only_changed(&before, &snapshot(d), &[]);
     // The same command without the hook succeeds and replaces the output.
-    let o = linelight_with(&[], &args);
+    let o = linelight(&args);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(std::fs::read_to_string(&output).unwrap().starts_with(r#"{"id":"a""#));
 }
 
 #[test]
 fn an_injected_dispatch_failure_ends_a_sweep_with_exit_4_and_keeps_the_earlier_reports() {
+    let tiny = tiny();
     let t = tempfile::tempdir().unwrap();
     let d = t.path();
-    let case = write(d, "case.toml", CASE);
+    let case = write(d, "case.toml", &tiny);
     let reports = d.join("reports");
     let raw = d.join("raw.jsonl");
     let args = ["sweep", s(&case), "--out", s(&reports), "--raw", s(&raw)];
-    let o = linelight_with(&[], &args);
+    let o = linelight(&args);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(reports.join("tiny/report.md").is_file() && raw.is_file());
     let before = snapshot(d);
@@ -157,15 +138,15 @@ fn an_injected_dispatch_failure_ends_a_sweep_with_exit_4_and_keeps_the_earlier_r
 #[test]
 fn help_version_and_adapters_exit_0() {
     for args in [&["--help"][..], &["--version"], &["adapters"], &["sweep", "--help"]] {
-        let o = linelight_with(&[], args);
+        let o = linelight(args);
         assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
         let out = String::from_utf8_lossy(&o.stdout);
         assert!(!out.trim().is_empty(), "{args:?} printed nothing");
     }
-    let version = linelight_with(&[], &["--version"]);
+    let version = linelight(&["--version"]);
     let v = String::from_utf8_lossy(&version.stdout);
     assert_eq!(v.trim(), format!("linelight {}", env!("CARGO_PKG_VERSION")));
-    let adapters = linelight_with(&[], &["adapters"]);
+    let adapters = linelight(&["adapters"]);
     assert!(String::from_utf8_lossy(&adapters.stdout).contains("llvmpipe"));
 }
 
@@ -202,17 +183,18 @@ fn an_io_failure_while_writing_is_exit_2_naming_the_file() {
 
 #[test]
 fn case_values_are_checked_naming_the_key_and_the_value() {
+    let tiny = tiny();
     let t = tempfile::tempdir().unwrap();
     let d = t.path();
     let ltc = |aspect: &str, peak: &str| {
         format!(
-            "{CASE}[[materials]]\nname = \"l\"\nkind = \"ltc_full\"\ncount = 5\n\
+            "{tiny}[[materials]]\nname = \"l\"\nkind = \"ltc_full\"\ncount = 5\n\
              alpha = {{ dist = \"fixed\", value = 0.3 }}\naspect = {aspect}\npeak = {peak}\n\
              shear = {{ dist = \"fixed\", value = 0.0 }}\nrotation = {{ dist = \"fixed\", value = 0.0 }}\n"
         )
     };
     let fixed = |v: &str| format!("{{ dist = \"fixed\", value = {v} }}");
-    let two = CASE.replace(
+    let two = tiny.replace(
         "methods = [\"line.ltc2017\", \"line.numeric@16\"]",
         "methods = [\"line.ltc2017\", \"line.numeric@16\"]\ncompare = [[\"line.ltc2017\", \"line.numeric@16\"]]",
     );
@@ -226,18 +208,18 @@ fn case_values_are_checked_naming_the_key_and_the_value() {
             "`materials[1].peak` = uniform [-90, 10]: the lobe's peak must stay within (-90, 90)",
         ),
         (
-            CASE.replace(
+            tiny.replace(
                 "center = ",
                 "rect_width = { dist = \"uniform\", min = -0.1, max = 0.1 }\ncenter = ",
             ),
             "`geometry.rect_width` = uniform [-0.1, 0.1]: must draw only values > 0",
         ),
         (
-            format!("{CASE}[search]\nmethods = [\"line.ltc2017\"]\nrestarts = 1\nsteps = 20000\npopulation = 2\n"),
+            format!("{tiny}[search]\nmethods = [\"line.ltc2017\"]\nrestarts = 1\nsteps = 20000\npopulation = 2\n"),
             "`search.steps` = 20000: at most 10000",
         ),
         (
-            format!("{CASE}[search]\nmethods = [\"line.ltc2017\"]\nrestarts = 1\nsteps = 2\npopulation = 0\n"),
+            format!("{tiny}[search]\nmethods = [\"line.ltc2017\"]\nrestarts = 1\nsteps = 2\npopulation = 0\n"),
             "`search.restarts` = 1, `search.population` = 0: both must be at least 1",
         ),
         (
@@ -245,7 +227,7 @@ fn case_values_are_checked_naming_the_key_and_the_value() {
             "`disagreements.epsilon` = 0: the smallest error a ratio divides by must be a finite number > 0",
         ),
         (
-            CASE.replace(
+            tiny.replace(
                 "methods = [\"line.ltc2017\", \"line.numeric@16\"]",
                 "methods = [\"line.ltc2017\", \"line.numeric@16\"]\ncompare = [[\"line.ltc2017\", \"line.ltc2017\"]]",
             ),
@@ -255,7 +237,7 @@ fn case_values_are_checked_naming_the_key_and_the_value() {
     for (case, what) in cases {
         let path = write(d, "case.toml", &case);
         let before = snapshot(d);
-        let o = linelight_with(&[], &["sweep", s(&path), "--out", s(&d.join("reports"))]);
+        let o = linelight(&["sweep", s(&path), "--out", s(&d.join("reports"))]);
         assert_eq!(o.status.code(), Some(2), "{what}: {}", stderr(&o));
         assert!(
             stderr(&o).contains(&format!("case.toml: {what}")),
@@ -279,10 +261,7 @@ fn radius_and_width_past_2_to_the_60_are_refused_naming_the_value() {
         let line = CONFIG.replace("\"material\"", &format!("{field}\"material\""));
         let input = write(d, "in.jsonl", &format!("{line}\n"));
         let before = snapshot(d);
-        let o = linelight_with(
-            &[],
-            &["eval", "--input", s(&input), "--output", s(&d.join("out.jsonl"))],
-        );
+        let o = eval(&input, &d.join("out.jsonl"), &[]);
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
         assert!(
             stderr(&o).contains(&format!("{name} exceeds {limit:e}")),
@@ -294,18 +273,7 @@ fn radius_and_width_past_2_to_the_60_are_refused_naming_the_value() {
     // Just below the limit is a configuration like any other.
     let line = CONFIG.replace("\"material\"", r#""radius":1e-3,"material""#);
     let input = write(d, "in.jsonl", &format!("{line}\n"));
-    let o = linelight_with(
-        &[],
-        &[
-            "eval",
-            "--input",
-            s(&input),
-            "--output",
-            s(&d.join("out.jsonl")),
-            "--methods",
-            "caps.point",
-        ],
-    );
+    let o = eval(&input, &d.join("out.jsonl"), &["--methods", "caps.point"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
 
@@ -318,10 +286,7 @@ fn at_most_20_bad_eval_lines_are_listed_then_counted() {
         .collect();
     let input = write(d, "in.jsonl", &lines);
     let before = snapshot(d);
-    let o = linelight_with(
-        &[],
-        &["eval", "--input", s(&input), "--output", s(&d.join("out.jsonl"))],
-    );
+    let o = eval(&input, &d.join("out.jsonl"), &[]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let e = stderr(&o);
     assert!(e.contains("error: 25 bad line(s) in "), "{e}");
@@ -340,11 +305,12 @@ fn at_most_20_bad_eval_lines_are_listed_then_counted() {
 
 #[test]
 fn raw_is_written_on_exit_1_and_on_exit_3() {
+    let tiny = tiny();
     let t = tempfile::tempdir().unwrap();
     let d = t.path();
-    let failing_tolerance = format!("{CASE}[tolerances.\"line.ltc2017\"]\np99 = 1e-12\n");
+    let failing_tolerance = format!("{tiny}[tolerances.\"line.ltc2017\"]\np99 = 1e-12\n");
     let stale_claim = format!(
-        "{CASE}[[claims]]\nid = \"never\"\nexpect = 'p99(\"line.ltc2017\", \"diffuse\") < 1e-12'\ntext = \"never\"\n"
+        "{tiny}[[claims]]\nid = \"never\"\nexpect = 'p99(\"line.ltc2017\", \"diffuse\") < 1e-12'\ntext = \"never\"\n"
     );
     for (case, code) in [(failing_tolerance, 1), (stale_claim, 3)] {
         let path = write(d, "case.toml", &case);
@@ -384,20 +350,7 @@ fn outputs_that_are_directories_or_inputs_are_refused_and_permissions_are_kept()
     std::fs::create_dir(d.join("dir")).unwrap();
     let before = snapshot(d);
     for (output, what) in [(d.join("dir"), "directory"), (kernel.clone(), "same file as --kernel")] {
-        let o = linelight_with(
-            &[],
-            &[
-                "eval",
-                "--input",
-                s(&input),
-                "--output",
-                s(&output),
-                "--kernel",
-                s(&kernel),
-                "--methods",
-                "user.k",
-            ],
-        );
+        let o = eval(&input, &output, &["--kernel", s(&kernel), "--methods", "user.k"]);
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
         assert!(stderr(&o).contains(what), "`{what}` not in {}", stderr(&o));
         only_changed(&before, &snapshot(d), &[]);
@@ -405,18 +358,7 @@ fn outputs_that_are_directories_or_inputs_are_refused_and_permissions_are_kept()
     // An output replaced keeps its permission bits.
     let output = write(d, "out.jsonl", "old\n");
     std::fs::set_permissions(&output, std::fs::Permissions::from_mode(0o640)).unwrap();
-    let o = linelight_with(
-        &[],
-        &[
-            "eval",
-            "--input",
-            s(&input),
-            "--output",
-            s(&output),
-            "--methods",
-            "line.ltc2017",
-        ],
-    );
+    let o = eval(&input, &output, &["--methods", "line.ltc2017"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let mode = std::fs::metadata(&output).unwrap().permissions().mode() & 0o7777;
     assert_eq!(mode, 0o640, "{mode:o}");
@@ -425,13 +367,14 @@ fn outputs_that_are_directories_or_inputs_are_refused_and_permissions_are_kept()
 
 #[test]
 fn a_killed_sweep_leaves_the_earlier_outputs_whole() {
+    let tiny = tiny();
     let t = tempfile::tempdir().unwrap();
     let d = t.path();
-    let case = write(d, "case.toml", CASE);
+    let case = write(d, "case.toml", &tiny);
     let reports = d.join("reports");
     let raw = d.join("raw.jsonl");
     let args = ["sweep", s(&case), "--out", s(&reports), "--raw", s(&raw)];
-    let o = linelight_with(&[], &args);
+    let o = linelight(&args);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let before = snapshot(d);
     // Killed at several points of a longer run (its count, not the case, makes it longer):
@@ -458,7 +401,7 @@ fn a_killed_sweep_leaves_the_earlier_outputs_whole() {
         only_changed(&before, &after, &[]);
     }
     // The next run cleans up and writes its set.
-    let o = linelight_with(&[], &args);
+    let o = linelight(&args);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let left: Vec<_> = snapshot(d)
         .into_keys()
@@ -497,10 +440,11 @@ impl Drop for Immutable {
 
 #[test]
 fn an_output_that_cannot_be_written_is_refused_before_any_work() {
+    let tiny = tiny();
     let t = tempfile::tempdir().unwrap();
     let d = t.path();
     let input = write(d, "in.jsonl", &format!("{CONFIG}\n"));
-    let case = write(d, "case.toml", CASE);
+    let case = write(d, "case.toml", &tiny);
     // procfs: no file can be created in /proc, root or not. access(2) lets root through, so
     // this is found when the file is created, after the run (not before any work, as for the
     // immutable file below): still exit 2 naming the path, and nothing changed.
@@ -540,18 +484,7 @@ fn an_output_that_cannot_be_written_is_refused_before_any_work() {
         }
     };
     let before = snapshot(d);
-    let o = linelight_with(
-        &[],
-        &[
-            "eval",
-            "--input",
-            s(&input),
-            "--output",
-            s(&old),
-            "--methods",
-            "line.ltc2017",
-        ],
-    );
+    let o = eval(&input, &old, &["--methods", "line.ltc2017"]);
     refused(
         &o,
         &[&format!("--output {}: permission denied (not writable)", s(&old))],
@@ -566,18 +499,7 @@ fn an_output_that_cannot_be_written_is_refused_before_any_work() {
     assert!(!d.join("reports").exists());
     drop(guard);
     // Writable again, the same eval replaces it.
-    let o = linelight_with(
-        &[],
-        &[
-            "eval",
-            "--input",
-            s(&input),
-            "--output",
-            s(&raw),
-            "--methods",
-            "line.ltc2017",
-        ],
-    );
+    let o = eval(&input, &raw, &["--methods", "line.ltc2017"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
 
@@ -621,7 +543,7 @@ fn check_counts_a_kernels_private_and_local_memory_against_the_limit() {
     // The two arrays are 1 MiB; the prelude's and the entry point's own locals add a few bytes.
     // At 1 MiB per invocation in flight: refused, naming the file, the parts and the limit.
     let limit = n << 20;
-    let o = linelight_with(&[], &["check", s(&kernel), "--max-memory", &limit.to_string()]);
+    let o = linelight(&["check", s(&kernel), "--max-memory", &limit.to_string()]);
     refused(
         &o,
         &[
@@ -652,24 +574,15 @@ fn check_counts_a_kernels_private_and_local_memory_against_the_limit() {
     );
     // The private array alone is half as much: within the limit the whole kernel exceeds.
     let half = write(d, "half.wgsl", &big_kernel("user.half", 1 << 17, 1));
-    let o = linelight_with(&[], &["check", s(&half), "--max-memory", &limit.to_string()]);
+    let o = linelight(&["check", s(&half), "--max-memory", &limit.to_string()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     // eval applies the same rule to a --kernel file, before any input is read.
     let input = write(d, "in.jsonl", &format!("{CONFIG}\n"));
     let before_eval = snapshot(d);
-    let o = linelight_with(
-        &[],
-        &[
-            "eval",
-            "--input",
-            s(&input),
-            "--output",
-            s(&d.join("out.jsonl")),
-            "--kernel",
-            s(&kernel),
-            "--max-memory",
-            &limit.to_string(),
-        ],
+    let o = eval(
+        &input,
+        &d.join("out.jsonl"),
+        &["--kernel", s(&kernel), "--max-memory", &limit.to_string()],
     );
     refused(
         &o,
@@ -695,7 +608,7 @@ fn the_default_memory_limit_is_half_of_memtotal_and_refuses_above_it() {
     let per = 2u64 << 30;
     let kernel = write(d, "huge.wgsl", &big_kernel("user.huge", 1 << 28, 1 << 28));
     let before = snapshot(d);
-    let o = linelight_with(&[], &["check", s(&kernel)]);
+    let o = linelight(&["check", s(&kernel)]);
     if per * in_flight() > half {
         refused(&o, &["huge.wgsl: its private and local variables", &named]);
     } else {
@@ -723,13 +636,13 @@ fn the_default_memory_limit_is_half_of_memtotal_and_refuses_above_it() {
     // (Run only where it is refused: elsewhere it would measure 4,000,000 cells.)
     if 4_000_000u64 * (8 << 10) > half {
         let before_map = snapshot(d);
-        let o = linelight_with(&[], &["sweep", s(&map), "--out", s(&d.join("r"))]);
+        let o = linelight(&["sweep", s(&map), "--out", s(&d.join("r"))]);
         refused(&o, &["4000000 map cells", &named]);
         only_changed(&before_map, &snapshot(d), &[]);
     }
     only_changed(&before, &snapshot(d), &["map.toml"]);
     // Given, the limit is named as --max-memory, not as the default.
-    let o = linelight_with(&[], &["check", s(&kernel), "--max-memory", "1M"]);
+    let o = linelight(&["check", s(&kernel), "--max-memory", "1M"]);
     refused(&o, &["more than --max-memory 1.0 MiB"]);
     assert!(!stderr(&o).contains("default"), "{}", stderr(&o));
 }
@@ -749,18 +662,7 @@ fn a_reference_that_is_not_finite_is_exit_2_naming_the_configuration() {
     let input = write(d, "in.jsonl", &format!("{CONFIG}\n{bad}\n"));
     let output = write(d, "out.jsonl", "old\n");
     let before = snapshot(d);
-    let o = linelight_with(
-        &[],
-        &[
-            "eval",
-            "--input",
-            s(&input),
-            "--output",
-            s(&output),
-            "--methods",
-            "line.ltc2017",
-        ],
-    );
+    let o = eval(&input, &output, &["--methods", "line.ltc2017"]);
     refused(
         &o,
         &[
@@ -776,18 +678,7 @@ fn a_reference_that_is_not_finite_is_exit_2_naming_the_configuration() {
     // Its determinant 1e6 times larger and the references are numbers again (exactly 0).
     let fine = bad.replace("1e-300", "1e-290");
     let input = write(d, "in.jsonl", &format!("{fine}\n"));
-    let o = linelight_with(
-        &[],
-        &[
-            "eval",
-            "--input",
-            s(&input),
-            "--output",
-            s(&output),
-            "--methods",
-            "line.ltc2017",
-        ],
-    );
+    let o = eval(&input, &output, &["--methods", "line.ltc2017"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let row = std::fs::read_to_string(&output).unwrap();
     assert!(row.contains(r#""reference":{"line":0.0,"#), "{row}");

@@ -11,28 +11,16 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
-mod common;
+use crate::common;
 use common::independent::*;
-
-/// Listing 1.10, for any material (diffuse is M⁻¹ = I).
-fn d_of(minv: &[[f64; 3]; 3], w: Vec3) -> f64 {
-    let wo = minv.map(|r| dot(r, w));
-    let lo = norm(wo);
-    let det = minv[0][0] * (minv[1][1] * minv[2][2] - minv[1][2] * minv[2][1])
-        - minv[0][1] * (minv[1][0] * minv[2][2] - minv[1][2] * minv[2][0])
-        + minv[0][2] * (minv[1][0] * minv[2][1] - minv[1][1] * minv[2][0]);
-    (wo[2] / lo).max(0.0) * det.abs() / (PI * lo * lo * lo)
-}
+use common::segment;
 
 /// ∫ f over [a, b], cut at `cuts`, with `panels` equal panels spread over the pieces in
 /// proportion to their length (at least 50 each).
 fn composite(f: &dyn Fn(f64) -> f64, a: f64, b: f64, cuts: &[f64], panels: usize) -> f64 {
     let rule = gauss16();
-    let mut ends: Vec<f64> = cuts.iter().copied().filter(|&c| c > a && c < b).collect();
-    ends.extend([a, b]);
-    ends.sort_by(f64::total_cmp);
     let mut sum = 0.0;
-    for w in ends.windows(2) {
+    for w in pieces(a, b, cuts).windows(2) {
         let n = ((panels as f64 * (w[1] - w[0]) / (b - a)).ceil() as usize).max(4);
         let h = (w[1] - w[0]) / n as f64;
         for i in 0..n {
@@ -74,7 +62,7 @@ fn line(c: &Config, upper: bool) -> f64 {
         if upper && w[2] <= 0.0 {
             return 0.0;
         }
-        2.0 * d_of(&minv, w) / (d * x.cosh().powi(2))
+        2.0 * ltc_d(&minv, w) / (d * x.cosh().powi(2))
     };
     // The support plane of D and the horizon cross the line where their normal·p(l) = 0.
     let cuts: Vec<f64> = [minv[2], [0.0, 0.0, 1.0]]
@@ -96,7 +84,7 @@ fn line_isotropic(c: &Config) -> f64 {
     let u = |l: f64| ((l - l0) / d).asinh();
     let f = |x: f64| {
         let p = add(c.p1, mul(t, l0 + d * x.sinh()));
-        d_of(&minv, unit(p)) / (d * x.cosh())
+        ltc_d(&minv, unit(p)) / (d * x.cosh())
     };
     let sigma = minv[2];
     let cuts: Vec<f64> = (dot(sigma, t) != 0.0)
@@ -128,15 +116,7 @@ fn config(rng: &mut ChaCha8Rng, i: usize) -> Config {
             p1[2] = -p1[2].abs();
             p2[2] = p2[2].abs();
         }
-        let c = Config {
-            id: format!("c{i}"),
-            p1,
-            p2,
-            radius: None,
-            rect: None,
-            material: material(rng, i),
-            texture: None,
-        };
+        let c = segment(format!("c{i}"), p1, p2, material(rng, i));
         if c.validate().is_ok() && c.distance_to_segment() > 0.05 {
             return c;
         }
@@ -195,7 +175,7 @@ fn d_clipped(minv: &[[f64; 3]; 3], w: Vec3, upper: bool) -> f64 {
     if upper && w[2] <= 0.0 {
         0.0
     } else {
-        d_of(minv, w)
+        ltc_d(minv, w)
     }
 }
 
@@ -413,15 +393,7 @@ fn surface_config(rng: &mut ChaCha8Rng, i: usize) -> Config {
             t = mul(t, -1.0);
         }
         let p2 = add(p1, mul(t, rng.random_range(0.1..3.0)));
-        let mut c = Config {
-            id: format!("s{i}"),
-            p1,
-            p2,
-            radius: None,
-            rect: None,
-            material,
-            texture: None,
-        };
+        let mut c = segment(format!("s{i}"), p1, p2, material);
         let dist = c.distance_to_segment();
         let (e1, e2) = basis(t);
         let a = rng.random_range(0.0..2.0 * PI);
@@ -472,17 +444,7 @@ fn committed_fwt_disagreements_hold_against_an_independent_reference() {
         .filter(|l| prefixes.iter().any(|p| l.contains(&format!("\"id\":\"{p}"))))
         .collect();
     std::fs::write(&input, lines.join("\n")).unwrap();
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .args([
-            "eval",
-            "--input",
-            input.to_str().unwrap(),
-            "--output",
-            output.to_str().unwrap(),
-        ])
-        .args(["--methods", "line.ltc2017,line.ltc2017_fwt"])
-        .output()
-        .unwrap();
+    let o = common::eval(&input, &output, &["--methods", "line.ltc2017,line.ltc2017_fwt"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let mut best = [0.0f64; 2];
     for (row, line) in std::fs::read_to_string(&output).unwrap().lines().zip(&lines) {

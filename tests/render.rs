@@ -1,8 +1,8 @@
-//! `linelight render` (issue 19, docs/render.md) on held-out scenes (not the shipped ones):
+//! `linelight render` (docs/render.md) on held-out scenes (not the shipped ones):
 //! the camera contract recomputed here, the references against an independent quadrature,
 //! bad scenes refused with nothing written, and Listing 1.11 against its fix by FLIP.
 
-mod common;
+use crate::common;
 
 use common::independent::{add, cross, dot, gauss16, ggx_d, mul, norm, sub, unit};
 use common::{linelight, stderr, write};

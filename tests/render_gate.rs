@@ -1,11 +1,11 @@
-//! The render gate (issue 19, docs/render.md "In the gate"): a render baseline saved from a
+//! The render gate (docs/render.md "In the gate"): a render baseline saved from a
 //! user kernel on a held-out scene (no shipped scene); the same kernel passes; the kernel with a
 //! visible bug (the 1/π of the Lambertian BRDF forgotten) fails with JUnit failures naming it and
 //! its regressed pixels replayable; a malformed baseline (another format, a missing image, an
 //! image of another size, a scene of another size or another camera, a sweep baseline) is
 //! refused with exit 2 and nothing written.
 
-mod common;
+use crate::common;
 
 use common::{stderr, validate_junit, write};
 use std::path::{Path, PathBuf};

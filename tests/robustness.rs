@@ -1,24 +1,12 @@
-//! Issue 8, "never silently wrong, never destructive": one test per class of defect, each
+//! "Never silently wrong, never destructive" (docs/robustness.md): one test per class of defect, each
 //! running the CLI as a hostile user would and asserting three things: the exit code, the
 //! message, and that nothing outside the intended files changed (a snapshot of the
 //! temporary directory before and after, FIFOs, symlinks and device nodes included).
 
-use std::path::Path;
-use std::process::Output;
-
-mod common;
+use crate::common;
 use common::snapshot::{only_changed, refused, s, snapshot};
-use common::{linelight, stderr, write};
+use common::{eval, linelight, stderr, sweep, write};
 use common::{CASE, CONFIG};
-
-/// Runs a sweep of `case` (written to `dir/case.toml`) into `dir/reports`.
-fn sweep(dir: &Path, case: &str, extra: &[&str]) -> Output {
-    let path = write(dir, "case.toml", case);
-    let out = dir.join("reports");
-    let mut args = vec!["sweep", s(&path), "--out", s(&out)];
-    args.extend(extra);
-    linelight(&args)
-}
 
 #[test]
 fn class1_outputs_are_written_through_or_refused() {
@@ -45,15 +33,7 @@ fn class1_outputs_are_written_through_or_refused() {
     let before = snapshot(d);
     // An output that is the input, directly or through a link: refused, nothing written.
     for out in [&input, &input_link] {
-        let o = linelight(&[
-            "eval",
-            "--input",
-            s(&input),
-            "--output",
-            s(out),
-            "--methods",
-            "line.ltc2023",
-        ]);
+        let o = eval(&input, out, &["--methods", "line.ltc2023"]);
         refused(&o, &["same file as --input"]);
     }
     // --raw pointed at the case file, or into the report set: refused before any work.
@@ -73,15 +53,7 @@ fn class1_outputs_are_written_through_or_refused() {
     only_changed(&before, &snapshot(d), &[]);
 
     // A symlink stays a link; the file it names gets the results.
-    let o = linelight(&[
-        "eval",
-        "--input",
-        s(&input),
-        "--output",
-        s(&link),
-        "--methods",
-        "line.ltc2023",
-    ]);
+    let o = eval(&input, &link, &["--methods", "line.ltc2023"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(std::fs::read_to_string(&target).unwrap().starts_with("{\"id\":\"a\""));
     // A FIFO is written through (a reader gets the lines) and stays a FIFO.
@@ -89,27 +61,11 @@ fn class1_outputs_are_written_through_or_refused() {
         let fifo = fifo.clone();
         std::thread::spawn(move || std::fs::read_to_string(fifo).unwrap())
     };
-    let o = linelight(&[
-        "eval",
-        "--input",
-        s(&input),
-        "--output",
-        s(&fifo),
-        "--methods",
-        "line.ltc2023",
-    ]);
+    let o = eval(&input, &fifo, &["--methods", "line.ltc2023"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(reader.join().unwrap().starts_with("{\"id\":\"a\""));
     if have_device {
-        let o = linelight(&[
-            "eval",
-            "--input",
-            s(&input),
-            "--output",
-            s(&null),
-            "--methods",
-            "line.ltc2023",
-        ]);
+        let o = eval(&input, &null, &["--methods", "line.ltc2023"]);
         assert!(o.status.success(), "{}", stderr(&o));
     }
     // Only the link's target changed: the FIFO, the device and the link are still what they were.
@@ -159,8 +115,7 @@ fn class2_the_rejection_rate_is_in_the_report() {
     assert!(o.status.success(), "{}", stderr(&o));
     let report = std::fs::read_to_string(d.join("reports/tiny/report.md")).unwrap();
     assert!(report.contains("Degenerate draws: none"), "{report}");
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("reports/tiny/summary.json")).unwrap()).unwrap();
+    let summary = common::json(&d.join("reports/tiny/summary.json"));
     assert_eq!(summary["draws"][0]["rejected"], 0);
     assert_eq!(summary["draws"][0]["drawn"], 20);
 }
@@ -183,8 +138,7 @@ fn class2_some_degenerate_draws_are_redrawn_and_reported() {
         );
     let o = sweep(d, &case, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("reports/tiny/summary.json")).unwrap()).unwrap();
+    let summary = common::json(&d.join("reports/tiny/summary.json"));
     let rejected = summary["draws"][0]["rejected"].as_u64().unwrap();
     assert!(rejected > 0 && rejected <= 30, "{rejected}");
     assert_eq!(summary["draws"][0]["drawn"].as_u64().unwrap(), 2000 + rejected);
@@ -204,15 +158,7 @@ fn class3_loops_past_the_driver_limit_are_refused() {
     let input = write(d, "in.jsonl", &format!("{CONFIG}\n"));
     let output = d.join("out.jsonl");
     let before = snapshot(d);
-    let o = linelight(&[
-        "eval",
-        "--input",
-        s(&input),
-        "--output",
-        s(&output),
-        "--methods",
-        "line.numeric@1000000",
-    ]);
+    let o = eval(&input, &output, &["--methods", "line.numeric@1000000"]);
     refused(&o, &["line.numeric@1000000", "loop-body iterations", "65535"]);
     let o = sweep(
         d,
@@ -230,15 +176,7 @@ fn class3_loops_past_the_driver_limit_are_refused() {
             "\"rect\":{\"normal\":[0.0,0.0,1.0],\"width\":0.05},\"material\"",
         ) + "\n"),
     );
-    let o = linelight(&[
-        "eval",
-        "--input",
-        s(&rect),
-        "--output",
-        s(&output),
-        "--methods",
-        "rectangle.numeric@256x4096",
-    ]);
+    let o = eval(&rect, &output, &["--methods", "rectangle.numeric@256x4096"]);
     refused(&o, &["rectangle.numeric@256x4096", "loop"]);
     only_changed(&before, &snapshot(d), &["case.toml", "rect.jsonl"]);
     assert!(!d.join("reports").exists());
@@ -339,25 +277,9 @@ fn class7_memory_is_estimated_and_limited() {
     let before = snapshot(d);
     let o = sweep(d, CASE, &["--max-memory", "1K"]);
     refused(&o, &["needs an estimated", "more than --max-memory 1.0 KiB"]);
-    let o = linelight(&[
-        "eval",
-        "--input",
-        s(&input),
-        "--output",
-        s(&output),
-        "--max-memory",
-        "100",
-    ]);
+    let o = eval(&input, &output, &["--max-memory", "100"]);
     refused(&o, &["eval of", "needs an estimated"]);
-    let o = linelight(&[
-        "eval",
-        "--input",
-        s(&input),
-        "--output",
-        s(&output),
-        "--max-memory",
-        "lots",
-    ]);
+    let o = eval(&input, &output, &["--max-memory", "lots"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--max-memory"), "{}", stderr(&o));
     only_changed(&before, &snapshot(d), &["case.toml", "big.wgsl"]);
@@ -374,7 +296,7 @@ fn class8_numbers_outside_f32_are_refused() {
             .replace("[0.9,0.4,1.6]", &format!("[{p},{p},{p}]"));
         let input = write(d, "in.jsonl", &format!("{line}\n"));
         let before = snapshot(d);
-        let o = linelight(&["eval", "--input", s(&input), "--output", s(&output)]);
+        let o = eval(&input, &output, &[]);
         refused(&o, &["in.jsonl:1:", what, "f32"]);
         assert!(!stderr(&o).contains("distance NaN"), "{}", stderr(&o));
         only_changed(&before, &snapshot(d), &[]);
@@ -384,7 +306,7 @@ fn class8_numbers_outside_f32_are_refused() {
         "{\"kind\":\"ltc\",\"minv\":[[1e30,0,0],[0,1,0],[0,0,1]]}",
     );
     let input = write(d, "in.jsonl", &format!("{line}\n"));
-    let o = linelight(&["eval", "--input", s(&input), "--output", s(&output)]);
+    let o = eval(&input, &output, &[]);
     refused(&o, &["an entry of minv = 1e30"]);
 }
 
@@ -449,17 +371,7 @@ fn class10_every_kernel_file_is_validated_the_same_way() {
     let half = write(d, "half.wgsl", "//! id: line.half\n//! target: line\nenable f16;\nfn method(scene: Scene) -> f32 { return f32(f16(scene.p1.x)); }\n");
     let before = snapshot(d);
     // A kernel no method uses is still compiled.
-    let o = linelight(&[
-        "eval",
-        "--input",
-        s(&input),
-        "--output",
-        s(&output),
-        "--kernel",
-        s(&unused),
-        "--methods",
-        "line.ltc2023",
-    ]);
+    let o = eval(&input, &output, &["--kernel", s(&unused), "--methods", "line.ltc2023"]);
     refused(&o, &["unused.wgsl:3:", "nope"]);
     for (k, what) in [
         (
@@ -470,34 +382,14 @@ fn class10_every_kernel_file_is_validated_the_same_way() {
         (&twice, "twice.wgsl:3: `//! id:` appears twice (first on line 1)"),
     ] {
         refused(&linelight(&["check", s(k)]), &[what]);
-        let o = linelight(&[
-            "eval",
-            "--input",
-            s(&input),
-            "--output",
-            s(&output),
-            "--kernel",
-            s(k),
-            "--methods",
-            "line.ltc2023",
-        ]);
+        let o = eval(&input, &output, &["--kernel", s(k), "--methods", "line.ltc2023"]);
         refused(&o, &[what]);
     }
     only_changed(&before, &snapshot(d), &[]);
     // `enable f16`: check and eval agree.
     let o = linelight(&["check", s(&half)]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = linelight(&[
-        "eval",
-        "--input",
-        s(&input),
-        "--output",
-        s(&output),
-        "--kernel",
-        s(&half),
-        "--methods",
-        "line.half",
-    ]);
+    let o = eval(&input, &output, &["--kernel", s(&half), "--methods", "line.half"]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
@@ -536,15 +428,7 @@ fn class12_the_rect_normal_used_is_recorded() {
     let input = write(d, "in.jsonl", &format!("{line}\n"));
     let output = d.join("out.jsonl");
     let before = snapshot(d);
-    let o = linelight(&[
-        "eval",
-        "--input",
-        s(&input),
-        "--output",
-        s(&output),
-        "--methods",
-        "rectangle.line",
-    ]);
+    let o = eval(&input, &output, &["--methods", "rectangle.line"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("in.jsonl:1: `a`: rect.normal made perpendicular"),
@@ -591,19 +475,11 @@ fn class13_messages_say_what_and_where_and_stay_short() {
     let case = write(d, "case.toml", CASE);
     let before = snapshot(d);
     refused(
-        &linelight(&["eval", "--input", s(&four), "--output", s(&output)]),
+        &eval(&four, &output, &[]),
         &["four.jsonl:1:", "expected 3 numbers [x, y, z], got 4"],
     );
     refused(
-        &linelight(&[
-            "eval",
-            "--input",
-            s(&four),
-            "--output",
-            s(&output),
-            "--methods",
-            "line.numeric@4294967296",
-        ]),
+        &eval(&four, &output, &["--methods", "line.numeric@4294967296"]),
         &["4294967296", "larger than 4294967295"],
     );
     refused(
@@ -616,7 +492,7 @@ fn class13_messages_say_what_and_where_and_stay_short() {
     refused(&o, &["--methods: `line.ltc2023` is listed twice (entries 1 and 3)"]);
     let o = linelight(&[&["bench", s(&case), "--count", "8"][..], &twice[..]].concat());
     refused(&o, &["--methods: `line.ltc2023` is listed twice"]);
-    let o = linelight(&["eval", "--input", s(&huge), "--output", s(&output)]);
+    let o = eval(&huge, &output, &[]);
     refused(&o, &["huge.jsonl:1:", "p1 and p2 coincide"]);
     only_changed(&before, &snapshot(d), &[]);
 }

@@ -1,8 +1,8 @@
 //! Sharded sweeps (docs/scale.md): shards run as separate processes, as a CI matrix would run
 //! them, and `linelight merge` of their states gives the report of the unsharded sweep.
 
-mod common;
-use common::{linelight, stderr, write};
+use crate::common;
+use common::{json, linelight, stderr, write};
 
 const CASE: &str = r#"
 name = "sharded"
@@ -35,10 +35,6 @@ restarts = 3
 steps = 3
 population = 8
 "#;
-
-fn json(path: &std::path::Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
 
 #[test]
 fn merged_shards_give_the_unsharded_report() {
@@ -330,18 +326,12 @@ fn eval_streams_in_chunks_keeping_the_order() {
     let input = write(d, "in.jsonl", &lines);
     let run = |chunk: &str, out: &str| {
         let output = d.join(out);
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_linelight"))
-            .env("LINELIGHT_EVAL_CHUNK", chunk)
-            .args([
-                "eval",
-                "--input",
-                input.to_str().unwrap(),
-                "--output",
-                output.to_str().unwrap(),
-            ])
-            .args(["--methods", "line.ltc2023,line.numeric@16"])
-            .output()
-            .unwrap();
+        let o = common::eval_with(
+            &[("LINELIGHT_EVAL_CHUNK", chunk)],
+            &input,
+            &output,
+            &["--methods", "line.ltc2023,line.numeric@16"],
+        );
         assert!(o.status.success(), "{}", stderr(&o));
         std::fs::read_to_string(output).unwrap()
     };

@@ -1,6 +1,7 @@
 //! `linelight scan`: counts on the GPU, rates with their interval, captured offenders that
 //! replay with `linelight eval`.
 
+use crate::common;
 use std::process::Command;
 
 #[test]
@@ -21,8 +22,7 @@ fn scan_counts_and_captures_offenders_that_replay() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let out = dir.path().join("line_fwt-scan");
-    let results: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let results = common::json(&out.join("summary.json"));
     let results = results.as_array().unwrap();
     // `ggx_iso` takes its M⁻¹ from the fitted table: not generated on the device.
     assert_eq!(
@@ -60,17 +60,7 @@ fn scan_counts_and_captures_offenders_that_replay() {
     let input = dir.path().join("in.jsonl");
     let output = dir.path().join("out.jsonl");
     std::fs::write(&input, lines.join("\n")).unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .args([
-            "eval",
-            "--input",
-            input.to_str().unwrap(),
-            "--output",
-            output.to_str().unwrap(),
-        ])
-        .args(["--methods", "line.ltc2017,line.ltc2023"])
-        .output()
-        .unwrap();
+    let o = common::eval(&input, &output, &["--methods", "line.ltc2017,line.ltc2023"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let configs: Vec<serde_json::Value> = lines.iter().map(|l| serde_json::from_str(l).unwrap()).collect();
     let mut above = 0;

@@ -6,7 +6,7 @@
 //! that commit) and must come out bit for bit the same. The layout test reads every member,
 //! old and new, back through a kernel on both paths.
 
-mod common;
+use crate::common;
 
 use linelight::eval::interp::{CpuColumns, Mode};
 use linelight::input::scene::{Config, GpuScene, Material, Rect, Roughness};
@@ -109,10 +109,10 @@ fn evaluate(gpu: &Gpu) -> Recorded {
 }
 
 /// Run once, on the commit before the contract changed, to write the recorded values.
-/// Re-recorded once since, when the host's 3×3 inverse moved to glam (issue 20): the
+/// Re-recorded once since, when the host's 3×3 inverse moved to glam: the
 /// anisotropic ggx configurations' exact-fit feed moved, and with it the last two f64 values
 /// by 1 and 2 ulp; every GPU and f32 value stayed bit for bit. Command:
-/// `cargo test --release --test scene_contract -- --ignored record`.
+/// `cargo test --release --test all scene_contract::record -- --ignored`.
 #[test]
 #[ignore]
 fn record_old_contract_values() {

@@ -1,38 +1,24 @@
-//! Issue 18, "What to ship": a small sweep with user kernels whose answer is known, run
+//! "What to ship": a small sweep with user kernels whose answer is known, run
 //! through the binary; and a `[budget]`'s values refused with a message naming them.
 
-mod common;
+use crate::common;
 use common::snapshot::{only_changed, refused, s, snapshot};
-use common::{linelight, write};
+use common::{case, linelight, write};
 
 /// Diffuse lights near the shading point. Lengths above 9.9 are rare in the natural sample
 /// (log-uniform on [0.1, 10]: 0.2 %), and the bin [9.9, 10] is topped up to 300 (rejection
 /// sampling: 200 draws per configuration of the count are enough).
-const CASE: &str = r#"
-name = "ship"
-title = "ship"
-seed = 11
-methods = ["line.numeric@256"]
-min_per_bin = 300
-topup_draws = 200
-[geometry]
-elevation = { dist = "uniform", min = 10.0, max = 90.0 }
-tilt_angle = { dist = "uniform", min = 0.0, max = 180.0 }
-length = { dist = "log_uniform", min = 0.1, max = 10.0 }
-center = { dist = "uniform", min = -1.0, max = 1.0 }
-[[materials]]
-name = "diffuse"
-kind = "diffuse"
-count = 2000
-[[bins]]
-axis = "length"
-edges = [0.1, 9.9, 10.0]
-[budget]
-quantile = 0.99
-value = 0.05
-target = "line"
-min_count = 300
-"#;
+fn ship() -> String {
+    case("ship")
+        .key("seed", "11")
+        .methods(&["line.numeric@256"])
+        .key("min_per_bin", "300")
+        .key("topup_draws", "200")
+        .diffuse(2000)
+        .table("[[bins]]\naxis = \"length\"\nedges = [0.1, 9.9, 10.0]")
+        .table("[budget]\nquantile = 0.99\nvalue = 0.05\ntarget = \"line\"\nmin_count = 300")
+        .to_string()
+}
 
 /// A claim quoting the answer, and one that expects another: the second is STALE.
 const CLAIMS: &str = r#"
@@ -62,9 +48,10 @@ fn kernel(id: &str, cut: Option<f64>) -> String {
 
 #[test]
 fn a_cheap_user_kernel_ships_except_where_it_breaks_and_a_dearer_method_meets_it_there() {
+    let ship = ship();
     let t = tempfile::tempdir().unwrap();
     let d = t.path();
-    let case = write(d, "case.toml", &format!("{CASE}{CLAIMS}"));
+    let case = write(d, "case.toml", &format!("{ship}{CLAIMS}"));
     let short = write(d, "short.wgsl", &kernel("my.short", Some(9.9)));
     let dark = write(
         d,
@@ -84,8 +71,7 @@ fn a_cheap_user_kernel_ships_except_where_it_breaks_and_a_dearer_method_meets_it
     ]);
     // Exit 3: a claim is STALE.
     assert_eq!(o.status.code(), Some(3), "{}", String::from_utf8_lossy(&o.stderr));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("ship/summary.json")).unwrap()).unwrap();
+    let summary = common::json(&out.join("ship/summary.json"));
     let holds: Vec<(&str, bool)> = summary["claims"]
         .as_array()
         .unwrap()
@@ -157,10 +143,11 @@ fn a_cheap_user_kernel_ships_except_where_it_breaks_and_a_dearer_method_meets_it
 
 #[test]
 fn bad_budget_values_are_refused_naming_the_key_and_the_value() {
+    let ship = ship();
     let t = tempfile::tempdir().unwrap();
     let d = t.path();
     let with = |budget: &str| {
-        CASE.replace(
+        ship.replace(
             "[budget]\nquantile = 0.99\nvalue = 0.05\ntarget = \"line\"\nmin_count = 300\n",
             budget,
         )
@@ -208,9 +195,10 @@ fn bad_budget_values_are_refused_naming_the_key_and_the_value() {
 
 #[test]
 fn a_case_without_a_budget_gets_the_documented_default_and_says_so() {
+    let ship = ship();
     let t = tempfile::tempdir().unwrap();
     let d = t.path();
-    let text = CASE
+    let text = ship
         .replace(
             "[budget]\nquantile = 0.99\nvalue = 0.05\ntarget = \"line\"\nmin_count = 300\n",
             "",
@@ -221,8 +209,7 @@ fn a_case_without_a_budget_gets_the_documented_default_and_says_so() {
     let out = d.join("reports");
     let o = linelight(&["sweep", s(&case), "--out", s(&out)]);
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("ship/summary.json")).unwrap()).unwrap();
+    let summary = common::json(&out.join("ship/summary.json"));
     let b = &summary["ship"]["budget"];
     // docs/statistics.md: p99 ≤ 1e-2, 300 per region, cost matters, against the first
     // method's target clipped to the surface (`line` → `line_upper`).

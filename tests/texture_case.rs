@@ -1,10 +1,10 @@
-//! Issue 25: texture content as a case distribution (`[materials.texture]`,
+//! Light textures: texture content as a case distribution (`[materials.texture]`,
 //! src/input/case/texture.rs). Good and bad case keys (a bad one exits 2 naming the key, nothing
 //! written), the sampler's texture draws (the same for a seed, texels in range), and the
 //! `frequency` axis against what the texels hold: the sign changes of a stripes texture along
 //! the light counted between its texel centres, against the zeros of the drawn square wave there.
 
-mod common;
+use crate::common;
 
 use common::snapshot::{only_changed, refused, s, snapshot};
 use common::{linelight, write};

@@ -1,13 +1,14 @@
-//! Issue 25: the texel buffer and the prelude's look-ups. A probe kernel reads texels and
+//! Light textures: the texel buffer and the prelude's look-ups. A probe kernel reads texels and
 //! bilinear values back: the GPU and the CPU evaluator read the same texels, the f32 paths agree,
 //! and the f64 evaluator's `ll_texel_bilinear` and `ll_texel_cube` match the host's definition
 //! (`Texture::bilinear`, `Texture::cube`) computed directly. The seed-002 tints scale a constant
 //! texture's line exactly by the constant.
 
-mod common;
+use crate::common;
+use common::gpu_values;
 
 use linelight::eval::interp::{CpuColumns, Mode};
-use linelight::input::scene::{gpu_scenes, Config, Material};
+use linelight::input::scene::{Config, Material};
 use linelight::input::texture::{Texture, TextureKind};
 use linelight::kernel::methods::{resolve, Method};
 use linelight::kernel::{builtin_kernels, KernelFile};
@@ -72,15 +73,6 @@ fn textures() -> Vec<Config> {
         config("cube", cube),
         config("c", cyl(7, 2)),
     ]
-}
-
-fn gpu_values(m: &Method, configs: &[Config]) -> Vec<f32> {
-    let gpu = common::gpu();
-    let (scenes, texels) = gpu_scenes(configs);
-    let pipeline = gpu.pipeline(m).unwrap();
-    gpu.run_textured(&pipeline, &scenes, &texels, 0, &mut |_| {})
-        .unwrap()
-        .values
 }
 
 #[test]
@@ -203,15 +195,7 @@ fn eval_refuses_malformed_textures_naming_the_field() {
     for (line, field) in cases {
         let input = common::write(dir.path(), "in.jsonl", &format!("{good}\n{line}\n"));
         let out = dir.path().join("out.jsonl");
-        let o = common::linelight(&[
-            "eval",
-            "--input",
-            input.to_str().unwrap(),
-            "--output",
-            out.to_str().unwrap(),
-            "--methods",
-            "line.texture_closest",
-        ]);
+        let o = common::eval(&input, &out, &["--methods", "line.texture_closest"]);
         let err = common::stderr(&o);
         assert_eq!(o.status.code(), Some(2), "{line}: {err}");
         assert!(err.contains("in.jsonl:2") && err.contains(field), "{line}: {err}");
@@ -219,15 +203,11 @@ fn eval_refuses_malformed_textures_naming_the_field() {
     }
     let input = common::write(dir.path(), "in.jsonl", &format!("{good}\n"));
     let out = dir.path().join("out.jsonl");
-    let o = common::linelight(&[
-        "eval",
-        "--input",
-        input.to_str().unwrap(),
-        "--output",
-        out.to_str().unwrap(),
-        "--methods",
-        "line.texture_closest,line.texture_average",
-    ]);
+    let o = common::eval(
+        &input,
+        &out,
+        &["--methods", "line.texture_closest,line.texture_average"],
+    );
     assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
     let row: serde_json::Value = serde_json::from_str(std::fs::read_to_string(&out).unwrap().trim()).unwrap();
     let reference = row["reference"]["line"].as_f64().unwrap();

@@ -1,6 +1,6 @@
-//! Issue 25's must-show for the textured references: with a cylindrical texture that varies
+//! The textured references: with a cylindrical texture that varies
 //! along (and around) the light, `reference()` for `line` and `cylinder` agrees with a brute
-//! force written here from the issue's definitions alone (its own bilinear lookup, its own
+//! force written here from the texture definitions alone (its own bilinear lookup, its own
 //! angular weighting, composite Gauss–Legendre in parametrisations the reference does not use)
 //! to 1e-7; and a constant texture c gives c × the untextured reference within the error
 //! estimates and 1e-12.
@@ -13,35 +13,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
 
-mod common;
+use crate::common;
 use common::independent::*;
-
-/// Listing 1.10 (diffuse is M⁻¹ = I).
-fn d_of(minv: &[[f64; 3]; 3], w: Vec3) -> f64 {
-    let wo = minv.map(|r| dot(r, w));
-    let lo = norm(wo);
-    let det = minv[0][0] * (minv[1][1] * minv[2][2] - minv[1][2] * minv[2][1])
-        - minv[0][1] * (minv[1][0] * minv[2][2] - minv[1][2] * minv[2][0])
-        + minv[0][2] * (minv[1][0] * minv[2][1] - minv[1][1] * minv[2][0]);
-    (wo[2] / lo).max(0.0) * det.abs() / (PI * lo * lo * lo)
-}
-
-/// ∫ f over [a, b] cut at `cuts`, `per` Gauss–Legendre-16 panels per piece.
-fn composite(f: &dyn Fn(f64) -> f64, a: f64, b: f64, cuts: &[f64], per: usize) -> f64 {
-    let rule = gauss16();
-    let mut ends: Vec<f64> = cuts.iter().copied().filter(|&c| c > a && c < b).collect();
-    ends.extend([a, b]);
-    ends.sort_by(f64::total_cmp);
-    let mut sum = 0.0;
-    for w in ends.windows(2) {
-        let h = (w[1] - w[0]) / per as f64;
-        for i in 0..per {
-            let c = w[0] + (i as f64 + 0.5) * h;
-            sum += rule.iter().map(|&(x, wt)| wt * f(c + 0.5 * h * x)).sum::<f64>() * 0.5 * h;
-        }
-    }
-    sum
-}
 
 /// The issue's lookup, written again: texel (i, j) at j·nu + i, centres at ((i+½)/nu, (j+½)/nv),
 /// clamped in u, wrapping in v.
@@ -156,7 +129,7 @@ fn brute_line(c: &Config) -> f64 {
         let r = norm(p);
         // dl/‖p‖² = dθ/d; the projected width's ‖ω_p × ω_t‖ = d/r cancels against the
         // normalisation of max(0, −ω_p·ω_n) = (d/r)·max(0, −n̂_foot·ω_n).
-        d_of(&minv, mul(p, 1.0 / r)) * (d / r) * weight((l - l0) / len) / d
+        ltc_d(&minv, mul(p, 1.0 / r)) * (d / r) * weight((l - l0) / len) / d
     };
     let (a, bb) = ((l0 / d).atan(), ((l0 + len) / d).atan());
     let cuts: Vec<f64> = (0..nu)
@@ -191,7 +164,7 @@ fn brute_cylinder(c: &Config) -> f64 {
             let p = add(foot, mul(t, l));
             let rr = norm(p);
             let u = (l - l0) / len;
-            d_of(&minv, mul(p, 1.0 / rr)) * (facing / rr) * lookup(nu, nv, &tex.texels, u, v) * r / d
+            ltc_d(&minv, mul(p, 1.0 / rr)) * (facing / rr) * lookup(nu, nv, &tex.texels, u, v) * r / d
         };
         let (a, bb) = ((l0 / d).atan(), ((l0 + len) / d).atan());
         let cuts: Vec<f64> = (0..nu)

@@ -2,7 +2,7 @@
 //! radius R → 0 (target `cylinder`) against the chapter's thin-cylinder line (`R·line`) and
 //! against isotropic emitters of the tube's power (`(π/2)·R·line_isotropic`, the model the
 //! engines shade). Prints the table quoted in docs/line_models.md:
-//! `cargo test --release --test tube_models -- --nocapture`.
+//! `cargo test --release --test all tube_models:: -- --nocapture`.
 
 use linelight::input::scene::{Config, Material};
 use linelight::input::target::Target;

@@ -84,3 +84,35 @@ pub fn ggx_d(alpha: [f64; 2], v: Vec3, w: Vec3) -> f64 {
     let lambda = |u: Vec3| (-1.0 + (1.0 + ((ax * u[0]).powi(2) + (ay * u[1]).powi(2)) / (u[2] * u[2])).sqrt()) / 2.0;
     ndf / (1.0 + lambda(v) + lambda(w)) / (4.0 * v[2])
 }
+
+/// Listing 1.10, the LTC distribution of M⁻¹ `minv` (diffuse is M⁻¹ = I) at the unit `w`.
+pub fn ltc_d(minv: &[[f64; 3]; 3], w: Vec3) -> f64 {
+    let wo = minv.map(|r| dot(r, w));
+    let lo = norm(wo);
+    let det = minv[0][0] * (minv[1][1] * minv[2][2] - minv[1][2] * minv[2][1])
+        - minv[0][1] * (minv[1][0] * minv[2][2] - minv[1][2] * minv[2][0])
+        + minv[0][2] * (minv[1][0] * minv[2][1] - minv[1][1] * minv[2][0]);
+    (wo[2] / lo).max(0.0) * det.abs() / (std::f64::consts::PI * lo * lo * lo)
+}
+
+/// The ends of the pieces of [a, b] cut at those `cuts` inside it, in order, each once.
+pub fn pieces(a: f64, b: f64, cuts: &[f64]) -> Vec<f64> {
+    let mut ends: Vec<f64> = cuts.iter().copied().filter(|&c| c > a && c < b).collect();
+    ends.extend([a, b]);
+    ends.sort_by(f64::total_cmp);
+    ends.dedup();
+    ends
+}
+
+/// ∫ f over [a, b] cut at `cuts`, `per` equal Gauss–Legendre-16 panels on every piece.
+pub fn composite(f: &dyn Fn(f64) -> f64, a: f64, b: f64, cuts: &[f64], per: usize) -> f64 {
+    let mut sum = 0.0;
+    for w in pieces(a, b, cuts).windows(2) {
+        let h = (w[1] - w[0]) / per as f64;
+        for i in 0..per {
+            let c = w[0] + (i as f64 + 0.5) * h;
+            sum += gauss16().iter().map(|&(x, wt)| wt * f(c + 0.5 * h * x)).sum::<f64>() * 0.5 * h;
+        }
+    }
+    sum
+}

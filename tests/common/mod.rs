@@ -1,9 +1,13 @@
 //! What the tests share: running the binary, its stderr, writing an input file, the GPU.
 #![allow(dead_code)] // each test binary uses its own share of these
 
+pub mod case;
 pub mod independent;
 pub mod snapshot;
 
+pub use case::case;
+use linelight::input::scene::{Config, Material};
+use snapshot::s;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -29,10 +33,38 @@ count = 20
 
 /// Runs `linelight` with `args` from the test's working directory.
 pub fn linelight(args: &[&str]) -> Output {
+    linelight_with(&[], args)
+}
+
+/// Runs `linelight` with `args` and the environment variables `env` set for it (never for
+/// this process, whose tests run in parallel threads).
+pub fn linelight_with(env: &[(&str, &str)], args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_linelight"))
         .args(args)
+        .envs(env.iter().copied())
         .output()
         .expect("linelight runs")
+}
+
+/// `linelight eval --input input --output output args…`.
+pub fn eval(input: &Path, output: &Path, args: &[&str]) -> Output {
+    eval_with(&[], input, output, args)
+}
+
+/// [`eval`] with the environment variables `env` set for it.
+pub fn eval_with(env: &[(&str, &str)], input: &Path, output: &Path, args: &[&str]) -> Output {
+    let mut all = vec!["eval", "--input", s(input), "--output", s(output)];
+    all.extend(args);
+    linelight_with(env, &all)
+}
+
+/// `linelight sweep` of `case` (written to `dir/case.toml`) into `dir/reports`, with `extra`.
+pub fn sweep(dir: &Path, case: &str, extra: &[&str]) -> Output {
+    let case = write(dir, "case.toml", case);
+    let out = dir.join("reports");
+    let mut args = vec!["sweep", s(&case), "--out", s(&out)];
+    args.extend(extra);
+    linelight(&args)
 }
 
 /// Runs `linelight` with `args` from the folder `dir` (for the default output folders).
@@ -42,6 +74,25 @@ pub fn linelight_in(dir: &Path, args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("linelight runs")
+}
+
+/// A JSON file (a summary, a record), parsed.
+pub fn json(path: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// A segment light from `p1` to `p2` lit onto `material`: no radius, rectangle or texture.
+pub fn segment(id: impl Into<String>, p1: [f64; 3], p2: [f64; 3], material: Material) -> Config {
+    Config {
+        id: id.into(),
+        p1,
+        p2,
+        radius: None,
+        rect: None,
+        material,
+        texture: None,
+    }
 }
 
 pub fn stderr(o: &Output) -> String {
@@ -63,6 +114,16 @@ pub fn gpu() -> &'static linelight::measure::gpu::Gpu {
         linelight::measure::gpu::Gpu::new(None)
             .unwrap_or_else(|e| panic!("lavapipe is installed (scripts/ensure-vulkan): {e}"))
     })
+}
+
+/// `method`'s f32 values on the shared GPU for `configs`, their textures and LTC tables bound.
+pub fn gpu_values(method: &linelight::kernel::methods::Method, configs: &[Config]) -> Vec<f32> {
+    let gpu = gpu();
+    let (scenes, texels) = linelight::input::scene::gpu_scenes(configs);
+    let pipeline = gpu.pipeline(method).unwrap();
+    gpu.run_textured(&pipeline, &scenes, &texels, 0, &mut |_| {})
+        .unwrap()
+        .values
 }
 
 /// A test that cannot run its check here (another GPU than the one its values were recorded

@@ -1,6 +1,6 @@
 //! id: user.old_contract
 //! target: line
-//! source: tests/scene_contract.rs: a user kernel written to the documented kernel contract as it stood before the Scene carried the view and roughness (session 2); it reads every Scene member of that contract and calls every prelude helper
+//! source: tests/scene_contract.rs: a user kernel written to the documented kernel contract as it stood before the Scene carried the view and roughness; it reads every Scene member of that contract and calls every prelude helper
 //! minv: full
 
 // Not a formula: a kernel that depends on every old member and helper, so a layout or prelude
