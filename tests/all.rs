@@ -31,6 +31,7 @@ mod gpu_methods;
 mod guards;
 mod hlsl;
 mod html_browser;
+mod kernel_lib;
 mod layering;
 mod ltc_aniso;
 mod ltc_aniso_resolution;

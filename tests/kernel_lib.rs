@@ -5,7 +5,7 @@
 //! files as they were before, frozen for this comparison (they are not built in). Also: an
 //! error inside a piece names the piece's own file and line.
 
-mod common;
+use crate::common;
 
 use linelight::eval::interp::{CpuColumns, Mode};
 use linelight::input::scene::{Config, GpuScene, Material, Rect, Roughness};
