@@ -210,8 +210,22 @@ fn resolve(path: &[&str], known: &BTreeSet<String>) -> Option<String> {
 }
 
 /// File-level modules → the modules they import (`crate::` and `super::` paths), for every
-/// file of src/ but main.rs, lib.rs and test files.
+/// file of src/ but main.rs, lib.rs and test files; an import from the file's own ancestor
+/// module is left out (see [`ancestor_edges`]).
 fn file_graph() -> BTreeMap<String, BTreeSet<String>> {
+    file_edges().0
+}
+
+/// [`file_graph`], and the edges it leaves out: a file importing from one of its ancestor
+/// modules (`interp/exec.rs` from `interp/mod.rs`). The ancestor declares the child and uses
+/// it, so the two depend on each other: a circle the file graph cannot see.
+fn ancestor_edges() -> BTreeMap<String, BTreeSet<String>> {
+    file_edges().1
+}
+
+type Graph = BTreeMap<String, BTreeSet<String>>;
+
+fn file_edges() -> (Graph, Graph) {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut files = Vec::new();
     walk(&src, &mut files);
@@ -225,9 +239,10 @@ fn file_graph() -> BTreeMap<String, BTreeSet<String>> {
         texts.push((module_of(&rel), code(&std::fs::read_to_string(&f).unwrap())));
     }
     let known: BTreeSet<String> = texts.iter().map(|(m, _)| m.clone()).collect();
-    let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    let mut g: Graph = BTreeMap::new();
+    let mut up: Graph = BTreeMap::new();
     for (module, text) in &texts {
-        let entry = g.entry(module.clone()).or_default();
+        g.entry(module.clone()).or_default();
         let parent: Vec<&str> = module.split("::").collect();
         let parent = &parent[..parent.len() - 1];
         for (prefix, base) in [("crate::", Vec::new()), ("super::", parent.to_vec())] {
@@ -245,14 +260,36 @@ fn file_graph() -> BTreeMap<String, BTreeSet<String>> {
                 let mut path: Vec<&str> = base.clone();
                 path.extend(rest[..end].split("::").filter(|p| !p.is_empty()));
                 if let Some(m) = resolve(&path, &known) {
-                    if &m != module && !module.starts_with(&format!("{m}::")) {
-                        entry.insert(m);
+                    if module.starts_with(&format!("{m}::")) {
+                        up.entry(module.clone()).or_default().insert(m);
+                    } else if &m != module {
+                        g.entry(module.clone()).or_default().insert(m);
                     }
                 }
             }
         }
     }
-    g
+    (g, up)
+}
+
+/// The folders whose files import nothing from their ancestor modules (the others still do:
+/// a folder joins the list once its `mod.rs` holds only what its children do not need).
+const NO_ANCESTOR_IMPORTS: &[&str] = &["eval"];
+
+#[test]
+fn no_file_imports_from_its_parent_module_in_the_listed_folders() {
+    let up = ancestor_edges();
+    assert!(!up.is_empty(), "the scanner sees no ancestor edge at all: {up:?}");
+    let found: Vec<String> = up
+        .iter()
+        .filter(|(from, _)| NO_ANCESTOR_IMPORTS.iter().any(|f| from.starts_with(&format!("{f}::"))))
+        .map(|(from, to)| format!("{from} → {}", to.iter().cloned().collect::<Vec<_>>().join(", ")))
+        .collect();
+    assert!(
+        found.is_empty(),
+        "files importing from their ancestor module (which declares and uses them):\n{}",
+        found.join("\n")
+    );
 }
 
 #[test]

@@ -1092,6 +1092,16 @@ mod tests {
     }
 
     /// What `ll_main` itself does around `method`: `ll_i >= ll_count`, its `if`, the call.
+    /// Transcendental counts by name.
+    fn named(pairs: &[(&str, u64)]) -> BTreeMap<String, u64> {
+        pairs.iter().map(|&(k, v)| (k.to_string(), v)).collect()
+    }
+
+    /// The own count of a method whose body is `b`.
+    fn body(b: &str) -> OpCount {
+        own(&cost("", b))
+    }
+
     fn harness() -> OpCount {
         cost("", "return 0.0;")
     }
@@ -1138,12 +1148,12 @@ mod tests {
         // length3 = dot3 + sqrt.
         let c = own(&cost("", "return length(scene.p1);"));
         assert_eq!((c.arithmetic, c.transcendental), (5, 1));
-        assert_eq!(c.transcendental_fns, BTreeMap::from([("sqrt".to_string(), 1)]));
+        assert_eq!(c.transcendental_fns, named(&[("sqrt", 1)]));
         assert_eq!(c.total, 5 + TRANSCENDENTAL_WEIGHT);
         // normalize3 = dot3 + inverseSqrt + 3 multiplies; then .x and max (other math).
         let c = own(&cost("", "return max(normalize(scene.p1).x, 0.0);"));
         assert_eq!((c.arithmetic, c.transcendental, c.other_math), (8, 1, 1));
-        assert_eq!(c.transcendental_fns, BTreeMap::from([("inverseSqrt".to_string(), 1)]));
+        assert_eq!(c.transcendental_fns, named(&[("inverseSqrt", 1)]));
         // mat3x3 · vec3 = 9 multiplies + 6 adds; vec3 atan is 3 transcendentals.
         let c = own(&cost("", "return atan(scene.minv * scene.p1).y;"));
         assert_eq!((c.arithmetic, c.transcendental), (15, 3));
@@ -1151,13 +1161,12 @@ mod tests {
 
     #[test]
     fn a_literal_bounded_loop_counts_its_body_per_trip() {
-        let c = own(&cost(
-            "",
+        let c = body(
             "var s = 0.0;\nlet x = scene.p1.x;\nfor (var i = 0u; i < 10u; i++) {\n    s += atan(x);\n}\nreturn s;",
-        ));
+        );
         assert_eq!(c.loop_trips, Some(10));
         assert_eq!((c.loops, c.transcendental), (1, 10));
-        assert_eq!(c.transcendental_fns, BTreeMap::from([("atan".to_string(), 10)]));
+        assert_eq!(c.transcendental_fns, named(&[("atan", 10)]));
         // Per trip `i < 10`, `s + atan`, `i + 1`; the failing `i < 10` once more.
         assert_eq!(c.arithmetic, 3 * 10 + 1);
         assert_eq!(c.branches, 10 + 1);
@@ -1188,74 +1197,44 @@ mod tests {
     #[test]
     fn other_loop_shapes() {
         // `loop` with a `break` on the condition and a step of 2: i = 0, 2, 4.
-        let c = own(&cost(
-            "",
-            "var s = 0.0;\nvar i = 0;\nloop {\n    if (i >= 5) { break; }\n    s += cos(s);\n    continuing { i += 2; }\n}\nreturn s;",
-        ));
+        let c = body("var s = 0.0;\nvar i = 0;\nloop {\n    if (i >= 5) { break; }\n    s += cos(s);\n    continuing { i += 2; }\n}\nreturn s;");
         assert_eq!((c.loop_trips, c.transcendental), (Some(3), 3));
         // Counting down, the counter set before the loop (i = 9, 6, 3).
-        let c = own(&cost(
-            "",
-            "var s = 0.0;\nvar i: i32;\ni = 9;\nfor (; i > 0; i -= 3) {\n    s += sin(s);\n}\nreturn s;",
-        ));
+        let c = body("var s = 0.0;\nvar i: i32;\ni = 9;\nfor (; i > 0; i -= 3) {\n    s += sin(s);\n}\nreturn s;");
         assert_eq!((c.loop_trips, c.transcendental), (Some(3), 3));
         // ... but not inside a preceding `if`.
-        let c = own(&cost(
-            "",
-            "var s = 0.0;\nvar i = 9;\nif (s > 0.0) { i = 90; }\nfor (; i > 0; i -= 3) {\n    s += sin(s);\n}\nreturn s;",
-        ));
+        let c = body("var s = 0.0;\nvar i = 9;\nif (s > 0.0) { i = 90; }\nfor (; i > 0; i -= 3) {\n    s += sin(s);\n}\nreturn s;");
         assert_eq!(c.loop_trips, None);
         // Nested: 3 outer trips, each entering a 4-trip loop.
-        let c = own(&cost(
-            "",
-            "var s = 0.0;\nfor (var i = 0u; i < 3u; i++) {\n    for (var j = 0u; j < 4u; j++) {\n        s += log(s);\n    }\n}\nreturn s;",
-        ));
+        let c = body("var s = 0.0;\nfor (var i = 0u; i < 3u; i++) {\n    for (var j = 0u; j < 4u; j++) {\n        s += log(s);\n    }\n}\nreturn s;");
         assert_eq!((c.loops, c.loop_trips, c.transcendental), (4, Some(3 + 12), 12));
     }
 
     #[test]
     fn loops_without_a_static_count_count_once() {
         // A bound from the scene.
-        let c = own(&cost(
-            "",
-            "var s = 0.0;\nfor (var i = 0u; i < scene.flags; i++) {\n    s += atan(s);\n}\nreturn s;",
-        ));
+        let c = body("var s = 0.0;\nfor (var i = 0u; i < scene.flags; i++) {\n    s += atan(s);\n}\nreturn s;");
         assert_eq!((c.loop_trips, c.loops, c.transcendental), (None, 1, 1));
         // The counter changed in the body.
-        let c = own(&cost(
-            "",
-            "var s = 0.0;\nfor (var i = 0u; i < 10u; i++) {\n    s += atan(s);\n    if (s > 1.0) { i += 1u; }\n}\nreturn s;",
-        ));
+        let c = body("var s = 0.0;\nfor (var i = 0u; i < 10u; i++) {\n    s += atan(s);\n    if (s > 1.0) { i += 1u; }\n}\nreturn s;");
         assert_eq!((c.loop_trips, c.transcendental), (None, 1));
         // An unsigned counter that wraps instead of ending.
-        let c = own(&cost(
-            "",
-            "var s = 0.0;\nfor (var i = 3u; i >= 0u; i--) {\n    s += atan(s);\n    if (s > 1.0) { break; }\n}\nreturn s;",
-        ));
+        let c = body("var s = 0.0;\nfor (var i = 3u; i >= 0u; i--) {\n    s += atan(s);\n    if (s > 1.0) { break; }\n}\nreturn s;");
         assert_eq!(c.loop_trips, None);
     }
 
     #[test]
     fn branches_count_the_costlier_path() {
         // The early return is cheaper than going on: 1 transcendental.
-        let c = own(&cost(
-            "",
-            "if (scene.p1.x > 0.0) {\n    return 1.0;\n}\nreturn atan(scene.p1.y);",
-        ));
+        let c = body("if (scene.p1.x > 0.0) {\n    return 1.0;\n}\nreturn atan(scene.p1.y);");
         assert_eq!((c.transcendental, c.branches, c.arithmetic), (1, 1, 1));
         // The early return is the costlier path.
-        let c = own(&cost(
-            "",
-            "if (scene.p1.x > 0.0) {\n    return atan(scene.p1.y) + acos(scene.p1.z);\n}\nreturn scene.p1.y;",
-        ));
+        let c = body("if (scene.p1.x > 0.0) {\n    return atan(scene.p1.y) + acos(scene.p1.z);\n}\nreturn scene.p1.y;");
         assert_eq!((c.transcendental, c.branches, c.arithmetic), (2, 1, 2));
         // Only one arm of an if/else.
-        let c = own(&cost(
-            "",
-            "var r = 0.0;\nif (scene.p1.x > 0.0) {\n    r = sqrt(scene.p1.y);\n} else {\n    r = exp(scene.p1.y) * exp(scene.p1.z);\n}\nreturn r;",
-        ));
+        let c = body("var r = 0.0;\nif (scene.p1.x > 0.0) {\n    r = sqrt(scene.p1.y);\n} else {\n    r = exp(scene.p1.y) * exp(scene.p1.z);\n}\nreturn r;");
         assert_eq!(c.transcendental, 2);
-        assert_eq!(c.transcendental_fns, BTreeMap::from([("exp".to_string(), 2)]));
+        assert_eq!(c.transcendental_fns, named(&[("exp", 2)]));
     }
 
     #[test]
@@ -1279,21 +1258,13 @@ mod tests {
         // 2017: Fpo twice (one atan each), normalize twice, length twice.
         assert_eq!(
             c2017.transcendental_fns,
-            BTreeMap::from([
-                ("atan".to_string(), 2),
-                ("inverseSqrt".to_string(), 2),
-                ("sqrt".to_string(), 2)
-            ])
+            named(&[("atan", 2), ("inverseSqrt", 2), ("sqrt", 2)])
         );
         // 2023: one acos, four rsqrt in the listing, and the normalize and length that
         // derive its centre/axis/half length from the end points.
         assert_eq!(
             c2023.transcendental_fns,
-            BTreeMap::from([
-                ("acos".to_string(), 1),
-                ("inverseSqrt".to_string(), 5),
-                ("sqrt".to_string(), 1)
-            ])
+            named(&[("acos", 1), ("inverseSqrt", 5), ("sqrt", 1)])
         );
         let inverse_trig = |c: &OpCount| fns(c, "atan") + fns(c, "acos") + fns(c, "atan2");
         assert!(inverse_trig(&c2023) < inverse_trig(&c2017));

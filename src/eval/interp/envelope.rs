@@ -8,28 +8,20 @@
 //! assumes finite math"), as does an operation outside the range where the spec bounds it;
 //! the stop names the source line.
 
-use super::{Program, NO_LINE};
 use crate::eval::envelope::accuracy::{self as acc, Bound};
 use crate::eval::envelope::interval::{self as iv, Gap, Iv};
-use naga::{
-    BinaryOperator as B, Expression as E, Handle, MathFunction as M, ScalarKind, Statement as S, TypeInner,
-    UnaryOperator as U,
-};
+use crate::eval::program::{Const, Program, NO_LINE};
+use crate::eval::walk::{Arms, Domain, Frame, Looping, Walker};
+use naga::{BinaryOperator as B, Handle, MathFunction as M, RelationalFunction, ScalarKind, UnaryOperator as U};
 
 type V = Vec<Iv>;
 
 #[derive(Clone, Debug)]
-struct Ptr {
+pub(super) struct Ptr {
     slot: usize,
     /// Every component offset the pointer may have (a dynamic index over a range).
     offs: Vec<usize>,
     len: usize,
-}
-
-#[derive(Clone, Debug)]
-enum Slot {
-    Val(V),
-    Ptr(Ptr),
 }
 
 /// Why no interval is given.
@@ -59,12 +51,6 @@ pub struct Outcome {
     pub loose: Vec<usize>,
 }
 
-struct Frame {
-    fun: Handle<naga::Function>,
-    vals: Vec<Option<Slot>>,
-    ret: Option<V>,
-}
-
 /// Where `break` and `continue` take their states.
 struct Ctl {
     is_loop: bool,
@@ -92,105 +78,71 @@ fn join_into(acc: &mut Option<Vec<V>>, heap: &[V]) {
     }
 }
 
-fn kind(inner: &TypeInner) -> Option<ScalarKind> {
-    inner.scalar_kind()
-}
-
 /// A written value as f32: either neighbour (a point when representable).
 fn either(x: f64) -> Iv {
     Iv::new(iv::down(x, 0.0), iv::up(x, 0.0))
 }
 
-pub(super) struct Walk<'p> {
+/// The interval domain of the walker (`walk.rs`).
+pub(super) struct Intervals<'p> {
     p: &'p Program,
     heap: Vec<V>,
     globals: Vec<Option<usize>>,
     line: u32,
+    /// Whether some path still runs the statements that follow.
+    live: bool,
+    /// Where `break` and `continue` take their states, innermost last.
+    ctl: Vec<Ctl>,
     forked: u32,
     /// A line whose operations are held to correct rounding ("where the freedom goes").
     strict: u32,
     loose: Vec<bool>,
 }
 
-impl<'p> Walk<'p> {
+impl<'p> Intervals<'p> {
     /// `texels`: the configuration's texture (one 0 untextured), read through `ll_texels`.
     pub(super) fn run(p: &'p Program, scene: V, texels: V, strict: Option<usize>) -> Outcome {
-        let mut w = Walk {
+        let d = Intervals {
             p,
             heap: Vec::new(),
             globals: vec![None; p.module.global_variables.len()],
             line: NO_LINE,
+            live: true,
+            ctl: Vec::new(),
             forked: 0,
             strict: strict.map_or(NO_LINE, |s| s as u32),
             loose: vec![false; p.lines.len()],
         };
-        let value = w.start(scene, texels);
+        let mut w = Walker::new(p, d);
+        let ltc = |_: &mut Intervals| {
+            // The LTC tables (binding 4), f32 texels, points.
+            crate::input::ltc::device::ours()
+                .iter()
+                .map(|&x| Iv::point(f64::from(x)))
+                .collect()
+        };
+        let value = w.run(scene, texels, ltc).and_then(|v| {
+            v.and_then(|v| v.first().copied())
+                .ok_or_else(|| Stop::Unsupported("`method` returned nothing".into()))
+        });
+        let d = w.d;
         Outcome {
             value,
-            loose: (0..w.loose.len()).filter(|&i| w.loose[i]).collect(),
+            loose: (0..d.loose.len()).filter(|&i| d.loose[i]).collect(),
         }
     }
 
-    fn start(&mut self, scene: V, texels: V) -> R<Iv> {
-        let p = self.p;
-        let mut texels = Some(texels);
-        for (h, g) in p.module.global_variables.iter() {
-            if g.name.as_deref() == Some("ll_texels") {
-                self.globals[h.index()] = Some(self.heap.len());
-                self.heap.push(texels.take().unwrap_or_default());
-                continue;
-            }
-            if g.name.as_deref() == Some("ll_ltc") {
-                // The LTC tables (binding 4), f32 texels, points; unbound when no function reads them.
-                if p.reads_ltc {
-                    self.globals[h.index()] = Some(self.heap.len());
-                    self.heap.push(
-                        crate::input::ltc::device::ours()
-                            .iter()
-                            .map(|&x| Iv::point(f64::from(x)))
-                            .collect(),
-                    );
-                }
-                continue;
-            }
-            if g.space != naga::AddressSpace::Private {
-                continue;
-            }
-            let v = match g.init {
-                Some(init) => self.constant(&p.global_consts[init.index()], g.ty),
-                None => self.zero(g.ty),
-            };
-            self.globals[h.index()] = Some(self.heap.len());
-            let v = match g.name.as_deref() {
-                Some("ll_scene") => scene.clone(),
-                Some("Minv") => {
-                    let (off, len) = p.scene_minv;
-                    scene[off..off + len].to_vec()
-                }
-                _ => v,
-            };
-            self.heap.push(v);
-        }
-        let v = self.call(p.method, vec![Slot::Val(scene)])?;
-        v.and_then(|v| v.first().copied())
-            .ok_or_else(|| Stop::Unsupported("`method` returned nothing".into()))
-    }
-
-    fn zero(&self, ty: Handle<naga::Type>) -> V {
+    fn zero_iv(&self, ty: Handle<naga::Type>) -> V {
         vec![Iv::point(0.0); self.p.flat[ty.index()]]
     }
 
     /// A module constant: a float one is its written digits rounded either way.
-    fn constant(&self, (v32, v64): &super::Const, ty: Handle<naga::Type>) -> V {
+    fn constant_iv(&self, (v32, v64): &Const, ty: Handle<naga::Type>) -> V {
         let float = self.p.module.types[ty].inner.scalar_kind() == Some(ScalarKind::Float);
         match (float, v64) {
             (true, Ok(w)) => w.iter().map(|&x| either(x)).collect(),
             _ => v32.iter().map(|&x| Iv::point(x)).collect(),
         }
-    }
-
-    fn inner(&self, fun: Handle<naga::Function>, h: Handle<naga::Expression>) -> &'p TypeInner {
-        self.p.info[fun][h].ty.inner_with(&self.p.module.types)
     }
 
     fn unsupported(&self, msg: &str) -> Stop {
@@ -238,41 +190,24 @@ impl<'p> Walk<'p> {
         }
     }
 
-    fn add(&self, a: Iv, b: Iv) -> R<Iv> {
+    fn plus(&self, a: Iv, b: Iv) -> R<Iv> {
         self.fin(iv::add(a, b))
     }
-    fn sub(&self, a: Iv, b: Iv) -> R<Iv> {
+    fn minus(&self, a: Iv, b: Iv) -> R<Iv> {
         self.fin(iv::sub(a, b))
     }
-    fn mul(&self, a: Iv, b: Iv) -> R<Iv> {
+    fn times(&self, a: Iv, b: Iv) -> R<Iv> {
         self.fin(iv::mul(a, b))
     }
-    fn div(&mut self, a: Iv, b: Iv) -> R<Iv> {
+    fn over(&mut self, a: Iv, b: Iv) -> R<Iv> {
         let k = self.ulps("x / y");
         let q = iv::div(a, b, k).map_err(|g| self.gap(g))?;
         self.fin(q)
     }
     /// `x * x` of one value: never negative (a product of two intervals would be).
-    fn square(&self, x: Iv) -> R<Iv> {
+    fn sq(&self, x: Iv) -> R<Iv> {
         let (lo, hi) = (x.mig(), x.mag());
         self.fin(Iv::new(iv::down(lo * lo, 0.0), iv::up(hi * hi, 0.0)).flush())
-    }
-    /// `dot(x, x)`, left to right, each term a square.
-    fn dot_self(&mut self, a: &[Iv]) -> R<Iv> {
-        let mut acc = self.square(a[0])?;
-        for &x in &a[1..] {
-            let t = self.square(x)?;
-            acc = self.add(acc, t)?;
-        }
-        Ok(acc)
-    }
-    fn dot(&mut self, a: &[Iv], b: &[Iv]) -> R<Iv> {
-        let mut acc = self.mul(a[0], b[0])?;
-        for k in 1..a.len() {
-            let t = self.mul(a[k], b[k])?;
-            acc = self.add(acc, t)?;
-        }
-        Ok(acc)
     }
     fn rsqrt(&mut self, x: Iv) -> R<Iv> {
         if x.lo <= 0.0 {
@@ -292,7 +227,7 @@ impl<'p> Walk<'p> {
         }
         let positive = Iv::new(if x.lo == 0.0 { x.hi } else { x.lo }, x.hi);
         let r = self.rsqrt(positive)?;
-        let s = self.div(Iv::point(1.0), r)?;
+        let s = self.over(Iv::point(1.0), r)?;
         Ok(if x.lo == 0.0 { Iv::new(0.0, s.hi) } else { s })
     }
     /// A monotone function's exact range, widened by `bound`.
@@ -339,8 +274,8 @@ impl<'p> Walk<'p> {
         }
         let abs = iv::widen_abs(lo, hi, acc::absolute(if cos { "acos" } else { "asin" }));
         let inherited = (|| {
-            let xx = self.mul(x, x)?;
-            let d = self.sub(Iv::point(1.0), xx)?;
+            let xx = self.times(x, x)?;
+            let d = self.minus(Iv::point(1.0), xx)?;
             let s = self.sqrt(d)?;
             if cos {
                 self.atan2(s, x)
@@ -399,760 +334,246 @@ impl<'p> Walk<'p> {
         }
         self.fin(r)
     }
+}
 
-    fn call(&mut self, fun: Handle<naga::Function>, args: Vec<Slot>) -> R<Option<V>> {
-        let p = self.p;
-        let f = &p.module.functions[fun];
-        let heap_top = self.heap.len();
-        let mut fr = Frame {
-            fun,
-            vals: vec![None; f.expressions.len()],
-            ret: None,
-        };
-        let mut locals = Vec::with_capacity(f.local_variables.len());
-        for (_, lv) in f.local_variables.iter() {
-            locals.push(self.heap.len());
-            let z = self.zero(lv.ty);
-            self.heap.push(z);
-        }
-        let fp = &p.funs[fun.index()];
-        let saved_line = self.line;
-        for (h, e) in f.expressions.iter() {
-            if fp.emitted[h.index()] || matches!(e, E::CallResult(_)) {
-                continue;
-            }
-            let v = match e {
-                E::FunctionArgument(i) => args[*i as usize].clone(),
-                E::LocalVariable(lv) => Slot::Ptr(Ptr {
-                    slot: locals[lv.index()],
-                    offs: vec![0],
-                    len: p.flat[f.local_variables[*lv].ty.index()],
-                }),
-                _ => {
-                    self.line = fp.line[h.index()];
-                    self.eval(&mut fr, h)?;
-                    continue;
-                }
-            };
-            fr.vals[h.index()] = Some(v);
-        }
-        for (lv, v) in f.local_variables.iter() {
-            if let Some(init) = v.init {
-                if fr.vals[init.index()].is_none() {
-                    self.line = fp.line[init.index()];
-                    self.eval(&mut fr, init)?;
-                }
-                let val = self.val(&fr, init)?.clone();
-                self.heap[locals[lv.index()]] = val;
-            }
-        }
-        let mut ctl = Vec::new();
-        self.block(&mut fr, &f.body, &mut ctl)?;
-        self.heap.truncate(heap_top);
-        self.line = saved_line;
-        Ok(fr.ret)
+/// What the caller of a function keeps across the call.
+pub(super) struct Saved {
+    heap: usize,
+    line: u32,
+    live: bool,
+    ctl: Vec<Ctl>,
+}
+
+impl<'p> Domain for Intervals<'p> {
+    type V = Iv;
+    type P = Ptr;
+    type Ret = Option<V>;
+    type Err = Stop;
+    type Saved = Saved;
+
+    fn at(&mut self, line: u32, _emitted: bool) {
+        self.line = line;
     }
 
-    fn val<'f>(&self, fr: &'f Frame, h: Handle<naga::Expression>) -> R<&'f V> {
-        match fr.vals[h.index()].as_ref() {
-            Some(Slot::Val(v)) => Ok(v),
-            _ => Err(self.unsupported("a value used before it is computed, or a pointer")),
-        }
+    fn fail(&self, msg: String) -> Stop {
+        self.unsupported(&msg)
     }
 
-    fn ptr<'f>(&self, fr: &'f Frame, h: Handle<naga::Expression>) -> R<&'f Ptr> {
-        match fr.vals[h.index()].as_ref() {
-            Some(Slot::Ptr(p)) => Ok(p),
-            _ => Err(self.unsupported("not a pointer")),
-        }
+    fn fail_statement(&self, msg: String) -> Stop {
+        self.unsupported(&msg)
     }
 
-    /// Runs `block` on the current state; false when no path leaves it normally (each
-    /// `return`, `break` and `continue` has put its state where it goes).
-    fn block(&mut self, fr: &mut Frame, block: &naga::Block, ctl: &mut Vec<Ctl>) -> R<bool> {
-        for st in block.iter() {
-            match st {
-                S::Emit(range) => {
-                    for h in range.clone() {
-                        self.line = self.p.funs[fr.fun.index()].line[h.index()];
-                        self.eval(fr, h)?;
-                    }
-                }
-                S::Block(b) => {
-                    if !self.block(fr, b, ctl)? {
-                        return Ok(false);
-                    }
-                }
-                S::If {
-                    condition,
-                    accept,
-                    reject,
-                } => {
-                    let c = self.val(fr, *condition)?[0];
-                    let live = if c.lo != 0.0 {
-                        self.block(fr, accept, ctl)?
-                    } else if c.hi == 0.0 {
-                        self.block(fr, reject, ctl)?
-                    } else {
-                        // Straddles: both ways, joined where they meet.
-                        let before = self.heap.clone();
-                        self.forked += 1;
-                        let yes = self.block(fr, accept, ctl);
-                        let after_yes = std::mem::replace(&mut self.heap, before);
-                        let no = self.block(fr, reject, ctl);
-                        self.forked -= 1;
-                        let (yes, no) = (yes?, no?);
-                        match (yes, no) {
-                            (true, true) => join_heaps(&mut self.heap, &after_yes),
-                            (true, false) => self.heap = after_yes,
-                            _ => {}
-                        }
-                        yes || no
-                    };
-                    if !live {
-                        return Ok(false);
-                    }
-                }
-                S::Switch { selector, cases } => {
-                    let sel = self.val(fr, *selector)?[0];
-                    if !sel.is_point() {
-                        return Err(Stop::TooWide("a switch on a range of values".into()));
-                    }
-                    let matches = |v: &naga::SwitchValue| match v {
-                        naga::SwitchValue::I32(i) => *i as f64 == sel.lo,
-                        naga::SwitchValue::U32(u) => *u as f64 == sel.lo,
-                        naga::SwitchValue::Default => false,
-                    };
-                    let start = cases
-                        .iter()
-                        .position(|c| matches(&c.value))
-                        .or_else(|| cases.iter().position(|c| c.value == naga::SwitchValue::Default));
-                    ctl.push(Ctl {
-                        is_loop: false,
-                        brk: None,
-                        cont: None,
-                    });
-                    let mut live = true;
-                    if let Some(start) = start {
-                        for case in &cases[start..] {
-                            live = self.block(fr, &case.body, ctl)?;
-                            if !live || !case.fall_through {
-                                break;
-                            }
-                        }
-                    }
-                    let c = ctl.pop().expect("pushed above");
-                    if let Some(cont) = c.cont {
-                        match ctl.iter_mut().rev().find(|c| c.is_loop) {
-                            Some(outer) => join_into(&mut outer.cont, &cont),
-                            None => return Err(self.unsupported("`continue` outside a loop")),
-                        }
-                    }
-                    match (live, c.brk) {
-                        (true, Some(b)) => join_heaps(&mut self.heap, &b),
-                        (false, Some(b)) => {
-                            self.heap = b;
-                            live = true;
-                        }
-                        _ => {}
-                    }
-                    if !live {
-                        return Ok(false);
-                    }
-                }
-                S::Loop {
-                    body,
-                    continuing,
-                    break_if,
-                } => {
-                    ctl.push(Ctl {
-                        is_loop: true,
-                        brk: None,
-                        cont: None,
-                    });
-                    let forked_at = self.forked;
-                    let mut iterations = 0u64;
-                    let result = (|| -> R<()> {
-                        loop {
-                            iterations += 1;
-                            if iterations > LOOP_LIMIT {
-                                return Err(Stop::TooWide(format!(
-                                    "a loop kept running on some path after {LOOP_LIMIT} iterations"
-                                )));
-                            }
-                            let mut live = self.block(fr, body, ctl)?;
-                            let top = ctl.last_mut().expect("pushed above");
-                            if let Some(c) = top.cont.take() {
-                                if live {
-                                    join_heaps(&mut self.heap, &c);
-                                } else {
-                                    self.heap = c;
-                                    live = true;
-                                }
-                            }
-                            if !live {
-                                return Ok(());
-                            }
-                            if !self.block(fr, continuing, ctl)? {
-                                return Ok(());
-                            }
-                            if let Some(b) = break_if {
-                                let c = self.val(fr, *b)?[0];
-                                let top = ctl.last_mut().expect("pushed above");
-                                if c.lo != 0.0 {
-                                    join_into(&mut top.brk, &self.heap);
-                                    return Ok(());
-                                }
-                                if c.hi != 0.0 {
-                                    join_into(&mut top.brk, &self.heap);
-                                    if self.forked == forked_at {
-                                        self.forked += 1;
-                                    }
-                                }
-                            }
-                        }
-                    })();
-                    self.forked = forked_at;
-                    let c = ctl.pop().expect("pushed above");
-                    result?;
-                    match c.brk {
-                        Some(b) => self.heap = b,
-                        None => return Ok(false),
-                    }
-                }
-                S::Break => {
-                    let top = ctl
-                        .last_mut()
-                        .ok_or_else(|| Stop::Unsupported("`break` outside a loop".into()))?;
-                    join_into(&mut top.brk, &self.heap);
-                    return Ok(false);
-                }
-                S::Continue => {
-                    let top = ctl
-                        .iter_mut()
-                        .rev()
-                        .find(|c| c.is_loop)
-                        .ok_or_else(|| Stop::Unsupported("`continue` outside a loop".into()))?;
-                    join_into(&mut top.cont, &self.heap);
-                    return Ok(false);
-                }
-                S::Return { value } => {
-                    if let Some(v) = value {
-                        let v = self.val(fr, *v)?.clone();
-                        fr.ret = Some(match fr.ret.take() {
-                            Some(r) => r.iter().zip(&v).map(|(a, b)| a.hull(*b)).collect(),
-                            None => v,
-                        });
-                    }
-                    return Ok(false);
-                }
-                S::Store { pointer, value } => {
-                    let ptr = self.ptr(fr, *pointer)?.clone();
-                    let v = self.val(fr, *value)?.clone();
-                    let slot = &mut self.heap[ptr.slot];
-                    let strong = ptr.offs.len() == 1;
-                    for &o in &ptr.offs {
-                        for c in 0..ptr.len {
-                            slot[o + c] = if strong { v[c] } else { slot[o + c].hull(v[c]) };
-                        }
-                    }
-                }
-                S::Call {
-                    function,
-                    arguments,
-                    result,
-                } => {
-                    let args = arguments
-                        .iter()
-                        .map(|a| {
-                            fr.vals[a.index()]
-                                .clone()
-                                .ok_or_else(|| self.unsupported("argument not computed"))
-                        })
-                        .collect::<R<Vec<_>>>()?;
-                    let r = self.call(*function, args)?;
-                    if let (Some(h), Some(r)) = (result, r) {
-                        fr.vals[h.index()] = Some(Slot::Val(r));
-                    }
-                }
-                other => return Err(self.unsupported(&format!("unsupported statement {other:?}"))),
-            }
-        }
-        Ok(true)
+    fn live(&self) -> bool {
+        self.live
     }
 
-    fn eval(&mut self, fr: &mut Frame, h: Handle<naga::Expression>) -> R<()> {
-        let p = self.p;
-        let fun = fr.fun;
-        let f = &p.module.functions[fun];
-        let e = &f.expressions[h];
-        let ty = self.inner(fun, h);
-        let float = kind(ty) == Some(ScalarKind::Float);
-        let slot = match e {
-            E::Literal(l) => Slot::Val(vec![match *l {
-                naga::Literal::F32(x) => match &p.funs[fun.index()].lit64[h.index()] {
-                    Ok(w) => either(*w),
-                    Err(_) => Iv::point(x as f64),
-                },
-                naga::Literal::U32(x) => Iv::point(x as f64),
-                naga::Literal::I32(x) => Iv::point(x as f64),
-                naga::Literal::Bool(x) => Iv::point(x as u8 as f64),
-                other => return Err(self.unsupported(&format!("unsupported literal {other:?}"))),
-            }]),
-            E::Constant(c) => {
-                let k = &p.module.constants[*c];
-                Slot::Val(self.constant(&p.global_consts[k.init.index()], k.ty))
-            }
-            E::Override(o) => Slot::Val(vec![Iv::point(p.overrides[o.index()])]),
-            E::ZeroValue(t) => Slot::Val(self.zero(*t)),
-            E::Compose { components, .. } => {
-                let mut out = Vec::new();
-                for c in components {
-                    out.extend(self.val(fr, *c)?.iter().copied());
-                }
-                Slot::Val(out)
-            }
-            E::Splat { size, value } => Slot::Val(vec![self.val(fr, *value)?[0]; *size as usize]),
-            E::Swizzle { size, vector, pattern } => {
-                let v = self.val(fr, *vector)?;
-                Slot::Val(pattern[..*size as usize].iter().map(|c| v[*c as usize]).collect())
-            }
-            E::AccessIndex { base, index } => {
-                let bty = self.inner(fun, *base);
-                match fr.vals[base.index()].as_ref() {
-                    Some(Slot::Ptr(ptr)) => {
-                        let (off, len) = p.child(&p.pointee(bty), *index as usize);
-                        Slot::Ptr(Ptr {
-                            slot: ptr.slot,
-                            offs: ptr.offs.iter().map(|o| o + off).collect(),
-                            len,
-                        })
-                    }
-                    Some(Slot::Val(v)) => {
-                        let (off, len) = p.child(bty, *index as usize);
-                        Slot::Val(v[off..off + len].to_vec())
-                    }
-                    None => return Err(self.unsupported("base not computed")),
-                }
-            }
-            E::Access { base, index } => {
-                let bty = self.inner(fun, *base);
-                let idx = self.val(fr, *index)?[0];
-                let range = |count: usize| {
-                    let k = |x: f64| (x.max(0.0) as usize).min(count - 1);
-                    k(idx.lo)..=k(idx.hi)
-                };
-                match fr.vals[base.index()].as_ref() {
-                    Some(Slot::Ptr(ptr)) => {
-                        let (count, stride) = p.elements(&p.pointee(bty));
-                        let count = if count == 0 {
-                            (self.heap[ptr.slot].len() / stride.max(1)).max(1)
-                        } else {
-                            count
-                        };
-                        let offs = range(count)
-                            .flat_map(|k| ptr.offs.iter().map(move |o| o + k * stride))
-                            .collect();
-                        Slot::Ptr(Ptr {
-                            slot: ptr.slot,
-                            offs,
-                            len: stride,
-                        })
-                    }
-                    Some(Slot::Val(v)) => {
-                        let (count, stride) = p.elements(bty);
-                        let mut out: Option<V> = None;
-                        for k in range(count) {
-                            let part = &v[k * stride..(k + 1) * stride];
-                            out = Some(match out {
-                                Some(o) => o.iter().zip(part).map(|(a, b)| a.hull(*b)).collect(),
-                                None => part.to_vec(),
-                            });
-                        }
-                        Slot::Val(out.unwrap_or_default())
-                    }
-                    None => return Err(self.unsupported("base not computed")),
-                }
-            }
-            E::GlobalVariable(g) => {
-                let slot = self.globals[g.index()]
-                    .ok_or_else(|| self.unsupported("only private globals can be read on the CPU"))?;
-                Slot::Ptr(Ptr {
-                    slot,
-                    offs: vec![0],
-                    len: p.flat[p.module.global_variables[*g].ty.index()],
-                })
-            }
-            E::Load { pointer } => {
-                let ptr = self.ptr(fr, *pointer)?;
-                let src = &self.heap[ptr.slot];
-                let mut out: V = src[ptr.offs[0]..ptr.offs[0] + ptr.len].to_vec();
-                for &o in &ptr.offs[1..] {
-                    for c in 0..ptr.len {
-                        out[c] = out[c].hull(src[o + c]);
-                    }
-                }
-                Slot::Val(out)
-            }
-            E::Unary { op, expr } => {
-                let a = self.val(fr, *expr)?;
-                let out = a
-                    .iter()
-                    .map(|x| match (op, float) {
-                        (U::Negate, _) => Ok(x.negated()),
-                        (U::LogicalNot, _) => Ok(Iv::new(1.0 - x.hi, 1.0 - x.lo)),
-                        (U::BitwiseNot, _) if x.is_point() => Ok(Iv::point(match kind(ty) {
-                            Some(ScalarKind::Sint) => !(x.lo as i32) as f64,
-                            _ => !(x.lo as u32) as f64,
-                        })),
-                        _ => Err(Stop::TooWide("a bitwise operation on a range".into())),
-                    })
-                    .collect::<R<V>>()?;
-                Slot::Val(out)
-            }
-            E::Binary { op, left, right } => {
-                let lt = self.inner(fun, *left);
-                let rt = self.inner(fun, *right);
-                let (a, b) = (self.val(fr, *left)?.clone(), self.val(fr, *right)?.clone());
-                if left == right && *op == B::Multiply && float && a.len() == b.len() {
-                    // One value times itself: a square per component.
-                    Slot::Val(a.iter().map(|&x| self.square(x)).collect::<R<V>>()?)
-                } else {
-                    Slot::Val(self.binary(*op, lt, rt, &a, &b)?)
-                }
-            }
-            E::Select {
-                condition,
-                accept,
-                reject,
-            } => {
-                let c = self.val(fr, *condition)?;
-                let a = self.val(fr, *accept)?;
-                let r = self.val(fr, *reject)?;
-                Slot::Val(
-                    (0..a.len())
-                        .map(|k| {
-                            let ck = c[k.min(c.len() - 1)];
-                            if ck.lo != 0.0 {
-                                a[k]
-                            } else if ck.hi == 0.0 {
-                                r[k]
-                            } else {
-                                a[k].hull(r[k])
-                            }
-                        })
-                        .collect(),
-                )
-            }
-            E::Relational { fun: rf, argument } => {
-                let a = self.val(fr, *argument)?;
-                let out = match rf {
-                    naga::RelationalFunction::All => {
-                        vec![iv::truth(a.iter().all(|x| x.lo != 0.0), a.iter().any(|x| x.hi == 0.0))]
-                    }
-                    naga::RelationalFunction::Any => {
-                        vec![iv::truth(a.iter().any(|x| x.lo != 0.0), a.iter().all(|x| x.hi == 0.0))]
-                    }
-                    // Every interval reaching here is finite (a non-finite one stopped the walk).
-                    naga::RelationalFunction::IsNan | naga::RelationalFunction::IsInf => {
-                        vec![Iv::point(0.0); a.len()]
-                    }
-                };
-                Slot::Val(out)
-            }
-            E::Math {
-                fun: mf,
-                arg,
-                arg1,
-                arg2,
-                ..
-            } => {
-                let a = self.val(fr, *arg)?.clone();
-                let b = arg1.map(|x| self.val(fr, x).cloned()).transpose()?;
-                let c = arg2.map(|x| self.val(fr, x).cloned()).transpose()?;
-                let at = self.inner(fun, *arg);
-                if *mf == M::Dot && *arg1 == Some(*arg) {
-                    Slot::Val(vec![self.dot_self(&a)?])
-                } else {
-                    Slot::Val(self.math(*mf, at, &a, b.as_ref(), c.as_ref())?)
-                }
-            }
-            E::As {
-                expr,
-                kind: to,
-                convert,
-            } => {
-                if convert.is_none() {
-                    return Err(self.unsupported("bitcast is not supported"));
-                }
-                let from = kind(self.inner(fun, *expr));
-                let a = self.val(fr, *expr)?;
-                let trunc = |x: Iv, lo: f64, hi: f64| Iv::new(x.lo.trunc().clamp(lo, hi), x.hi.trunc().clamp(lo, hi));
-                let out = a
-                    .iter()
-                    .map(|&x| match (to, from) {
-                        (ScalarKind::Float, Some(ScalarKind::Float)) => x,
-                        (ScalarKind::Float, _) => iv::round_out(x.lo, x.hi),
-                        (ScalarKind::Uint, Some(ScalarKind::Float)) => trunc(x, 0.0, u32::MAX as f64),
-                        (ScalarKind::Sint, Some(ScalarKind::Float)) => trunc(x, i32::MIN as f64, i32::MAX as f64),
-                        (ScalarKind::Uint, Some(ScalarKind::Sint)) if x.lo >= 0.0 => x,
-                        (ScalarKind::Sint, Some(ScalarKind::Uint)) if x.hi <= i32::MAX as f64 => x,
-                        (ScalarKind::Bool, _) => iv::truth(!x.contains(0.0), x.is_point() && x.lo == 0.0),
-                        (ScalarKind::Uint | ScalarKind::Sint, _) if x.is_point() => {
-                            Iv::point(if *to == ScalarKind::Uint {
-                                x.lo as i64 as i32 as u32 as f64
-                            } else {
-                                x.lo as i64 as u32 as i32 as f64
-                            })
-                        }
-                        _ => x,
-                    })
-                    .collect();
-                Slot::Val(out)
-            }
-            E::CallResult(_) => return Err(self.unsupported("call result read before the call")),
-            other => return Err(self.unsupported(&format!("unsupported expression {other:?}"))),
-        };
-        fr.vals[h.index()] = Some(slot);
-        Ok(())
-    }
-
-    fn binary(&mut self, op: B, lt: &TypeInner, rt: &TypeInner, a: &V, b: &V) -> R<V> {
-        use TypeInner as T;
-        let k = kind(lt);
-        let float = k == Some(ScalarKind::Float);
-        match (op, lt, rt) {
-            (B::Multiply, T::Matrix { columns, rows, .. }, T::Vector { .. }) => {
-                let r = *rows as usize;
-                let mut out = Vec::new();
-                for i in 0..r {
-                    let mut acc = self.mul(a[i], b[0])?;
-                    for j in 1..*columns as usize {
-                        let t = self.mul(a[j * r + i], b[j])?;
-                        acc = self.add(acc, t)?;
-                    }
-                    out.push(acc);
-                }
-                return Ok(out);
-            }
-            (B::Multiply, T::Vector { .. }, T::Matrix { columns, rows, .. }) => {
-                let r = *rows as usize;
-                return (0..*columns as usize)
-                    .map(|j| self.dot(a, &b[j * r..(j + 1) * r]))
-                    .collect();
-            }
-            (
-                B::Multiply,
-                T::Matrix {
-                    columns: ac, rows: ar, ..
-                },
-                T::Matrix { columns: bc, .. },
-            ) => {
-                let (ar, ac) = (*ar as usize, *ac as usize);
-                let mut out = Vec::new();
-                for j in 0..*bc as usize {
-                    for i in 0..ar {
-                        let mut acc = self.mul(a[i], b[j * ac])?;
-                        for kk in 1..ac {
-                            let t = self.mul(a[kk * ar + i], b[j * ac + kk])?;
-                            acc = self.add(acc, t)?;
-                        }
-                        out.push(acc);
-                    }
-                }
-                return Ok(out);
-            }
-            _ => {}
-        }
-        let len = a.len().max(b.len());
-        let pick = |v: &V, i: usize| v[if v.len() == 1 { 0 } else { i }];
-        let mut out = Vec::with_capacity(len);
-        for i in 0..len {
-            let (x, y) = (pick(a, i), pick(b, i));
-            let less = |x: Iv, y: Iv| iv::truth(x.hi < y.lo, x.lo >= y.hi);
-            let less_eq = |x: Iv, y: Iv| iv::truth(x.hi <= y.lo, x.lo > y.hi);
-            let equal = iv::truth(x.is_point() && y.is_point() && x.lo == y.lo, x.hi < y.lo || y.hi < x.lo);
-            let not = |t: Iv| Iv::new(1.0 - t.hi, 1.0 - t.lo);
-            let l = match op {
-                B::Add if float => self.add(x, y)?,
-                B::Subtract if float => self.sub(x, y)?,
-                B::Multiply if float => self.mul(x, y)?,
-                B::Divide if float => self.div(x, y)?,
-                B::Modulo if float => {
-                    // Inherited from x - y * trunc(x / y).
-                    let q = self.div(x, y)?;
-                    let t = Iv::new(q.lo.trunc(), q.hi.trunc());
-                    let m = self.mul(y, t)?;
-                    self.sub(x, m)?
-                }
-                B::Equal => equal,
-                B::NotEqual => not(equal),
-                B::Less => less(x, y),
-                B::LessEqual => less_eq(x, y),
-                B::Greater => less(y, x),
-                B::GreaterEqual => less_eq(y, x),
-                B::LogicalAnd => iv::truth(x.lo != 0.0 && y.lo != 0.0, x.hi == 0.0 || y.hi == 0.0),
-                B::LogicalOr => iv::truth(x.lo != 0.0 || y.lo != 0.0, x.hi == 0.0 && y.hi == 0.0),
-                _ if x.is_point() && y.is_point() => {
-                    Iv::point(super::exec::int_op(op, x.lo, y.lo, k == Some(ScalarKind::Sint)))
-                }
-                B::Add => Iv::new(x.lo + y.lo, x.hi + y.hi),
-                B::Subtract => Iv::new(x.lo - y.hi, x.hi - y.lo),
-                _ => return Err(Stop::TooWide(format!("an integer {op:?} on a range"))),
-            };
-            out.push(l);
-        }
-        Ok(out)
-    }
-
-    fn math(&mut self, f: M, at: &TypeInner, a: &V, b: Option<&V>, c: Option<&V>) -> R<V> {
-        let need = |v: Option<&V>| {
-            v.cloned()
-                .ok_or_else(|| Stop::Unsupported(format!("{f:?}: missing argument")))
-        };
-        let pick = |v: &V, i: usize| v[if v.len() == 1 { 0 } else { i }];
-        let each = |s: &mut Self, g: &dyn Fn(&mut Self, Iv) -> R<Iv>| a.iter().map(|&x| g(s, x)).collect::<R<V>>();
-        let mono = |x: Iv, g: fn(f64) -> f64| Iv::new(g(x.lo), g(x.hi));
-        Ok(match f {
-            M::Abs => each(self, &|_, x| {
-                Ok(if x.contains(0.0) {
-                    Iv::new(0.0, x.mag())
-                } else {
-                    Iv::new(x.mig(), x.mag())
-                })
-            })?,
-            M::Sqrt => each(self, &|s, x| s.sqrt(x))?,
-            M::InverseSqrt => each(self, &|s, x| s.rsqrt(x))?,
-            M::Sin => each(self, &|s, x| s.trig(x, false))?,
-            M::Cos => each(self, &|s, x| s.trig(x, true))?,
-            M::Tan => each(self, &|s, x| {
-                let (sn, cs) = (s.trig(x, false)?, s.trig(x, true)?);
-                s.div(sn, cs)
-            })?,
-            M::Asin => each(self, &|s, x| s.arc(x, false))?,
-            M::Acos => each(self, &|s, x| s.arc(x, true))?,
-            M::Atan => each(self, &|s, x| {
-                s.ulp_fn(libm::atan(x.lo), libm::atan(x.hi), acc::ulps("atan"))
-            })?,
-            M::Exp => each(self, &|s, x| s.exp(x, false))?,
-            M::Exp2 => each(self, &|s, x| s.exp(x, true))?,
-            M::Log => each(self, &|s, x| s.log(x, false))?,
-            M::Log2 => each(self, &|s, x| s.log(x, true))?,
-            M::Floor => each(self, &|_, x| Ok(mono(x, f64::floor)))?,
-            M::Ceil => each(self, &|_, x| Ok(mono(x, f64::ceil)))?,
-            M::Trunc => each(self, &|_, x| Ok(mono(x, f64::trunc)))?,
-            M::Round => each(self, &|_, x| Ok(mono(x, f64::round_ties_even)))?,
-            M::Fract => each(self, &|s, x| s.sub(x, mono(x, f64::floor)))?,
-            M::Saturate => each(self, &|_, x| Ok(Iv::new(x.lo.clamp(0.0, 1.0), x.hi.clamp(0.0, 1.0))))?,
-            M::Sign => each(self, &|_, x| Ok(Iv::new(sign(x.lo), sign(x.hi))))?,
-            M::Min | M::Max | M::Atan2 | M::Pow | M::Step => {
-                let b = need(b)?;
-                (0..a.len())
-                    .map(|i| {
-                        let (x, y) = (pick(a, i), pick(&b, i));
-                        match f {
-                            M::Min => Ok(Iv::new(x.lo.min(y.lo), x.hi.min(y.hi))),
-                            M::Max => Ok(Iv::new(x.lo.max(y.lo), x.hi.max(y.hi))),
-                            M::Atan2 => self.atan2(x, y),
-                            M::Pow => {
-                                // Inherited from exp2(y * log2(x)).
-                                let l = self.log(x, true)?;
-                                let m = self.mul(y, l)?;
-                                self.exp(m, true)
-                            }
-                            // step(edge, x): 1 where x >= edge.
-                            _ => Ok(iv::truth(y.lo >= x.hi, y.hi < x.lo)),
-                        }
-                    })
-                    .collect::<R<V>>()?
-            }
-            M::Clamp | M::Fma | M::Mix => {
-                let (b, c) = (need(b)?, need(c)?);
-                (0..a.len())
-                    .map(|i| {
-                        let (x, y, z) = (pick(a, i), pick(&b, i), pick(&c, i));
-                        match f {
-                            M::Clamp => Ok(Iv::new(x.lo.max(y.lo).min(z.lo), x.hi.max(y.hi).min(z.hi))),
-                            M::Fma => {
-                                let p = self.mul(x, y)?;
-                                self.add(p, z)
-                            }
-                            _ => {
-                                let u = self.sub(Iv::point(1.0), z)?;
-                                let p = self.mul(x, u)?;
-                                let q = self.mul(y, z)?;
-                                self.add(p, q)
-                            }
-                        }
-                    })
-                    .collect::<R<V>>()?
-            }
-            M::Dot => {
-                let b = need(b)?;
-                vec![self.dot(a, &b)?]
-            }
-            M::Cross => {
-                let b = need(b)?;
-                let mut out = Vec::new();
-                for (i, j) in [(1, 2), (2, 0), (0, 1)] {
-                    let p = self.mul(a[i], b[j])?;
-                    let q = self.mul(a[j], b[i])?;
-                    out.push(self.sub(p, q)?);
-                }
-                out
-            }
-            M::Length => vec![self.length(a)?],
-            M::Distance => {
-                let b = need(b)?;
-                let diff = (0..a.len()).map(|i| self.sub(a[i], b[i])).collect::<R<V>>()?;
-                vec![self.length(&diff)?]
-            }
-            M::Normalize => {
-                // Inherited from x / length(x).
-                let l = self.length(a)?;
-                a.iter().map(|&x| self.div(x, l)).collect::<R<V>>()?
-            }
-            M::Determinant => {
-                // Beyond the spec ("infinite ULP"): inherited from the cofactor expansion along
-                // the first column, the evaluator's order (accuracy.rs).
-                let m = a;
-                match m.len() {
-                    4 => {
-                        let p = self.mul(m[0], m[3])?;
-                        let q = self.mul(m[2], m[1])?;
-                        vec![self.sub(p, q)?]
-                    }
-                    9 => {
-                        let e = |c: usize, r: usize| m[3 * c + r];
-                        let minor = |s: &mut Self, c1: usize, c2: usize, r1: usize, r2: usize| -> R<Iv> {
-                            let p = s.mul(e(c1, r1), e(c2, r2))?;
-                            let q = s.mul(e(c2, r1), e(c1, r2))?;
-                            s.sub(p, q)
-                        };
-                        let m0 = minor(self, 1, 2, 1, 2)?;
-                        let m1 = minor(self, 1, 2, 0, 2)?;
-                        let m2 = minor(self, 1, 2, 0, 1)?;
-                        let t0 = self.mul(e(0, 0), m0)?;
-                        let t1 = self.mul(e(0, 1), m1)?;
-                        let t2 = self.mul(e(0, 2), m2)?;
-                        let s = self.sub(t0, t1)?;
-                        vec![self.add(s, t2)?]
-                    }
-                    n => return Err(self.unsupported(&format!("determinant of a {n}-component matrix"))),
-                }
-            }
-            M::Transpose => {
-                let TypeInner::Matrix { columns, rows, .. } = at else {
-                    return Err(self.unsupported("transpose of a non-matrix"));
-                };
-                let (c, r) = (*columns as usize, *rows as usize);
-                (0..r)
-                    .flat_map(|i| (0..c).map(move |j| (i, j)))
-                    .map(|(i, j)| a[j * r + i])
-                    .collect()
-            }
-            other => return Err(self.unsupported(&format!("math function {other:?} is not supported"))),
+    fn literal(&mut self, lit: naga::Literal, written: &Result<f64, String>) -> R<Iv> {
+        Ok(match lit {
+            naga::Literal::F32(x) => match written {
+                Ok(w) => either(*w),
+                Err(_) => Iv::point(x as f64),
+            },
+            naga::Literal::U32(x) => Iv::point(x as f64),
+            naga::Literal::I32(x) => Iv::point(x as f64),
+            naga::Literal::Bool(x) => Iv::point(x as u8 as f64),
+            other => return Err(self.unsupported(&format!("unsupported literal {other:?}"))),
         })
+    }
+
+    fn constant(&mut self, c: &Const, ty: Handle<naga::Type>) -> R<V> {
+        Ok(self.constant_iv(c, ty))
+    }
+
+    fn override_value(&mut self, v: f64, _ty: &naga::TypeInner) -> R<Iv> {
+        Ok(Iv::point(v))
+    }
+
+    fn zero(&mut self, ty: Handle<naga::Type>) -> R<V> {
+        Ok(self.zero_iv(ty))
+    }
+
+    fn float(&mut self, x: f64) -> Iv {
+        Iv::point(x)
+    }
+
+    fn add(&mut self, a: &Iv, b: &Iv) -> R<Iv> {
+        self.plus(*a, *b)
+    }
+    fn sub(&mut self, a: &Iv, b: &Iv) -> R<Iv> {
+        self.minus(*a, *b)
+    }
+    fn mul(&mut self, a: &Iv, b: &Iv) -> R<Iv> {
+        self.times(*a, *b)
+    }
+    fn div(&mut self, a: &Iv, b: &Iv) -> R<Iv> {
+        self.over(*a, *b)
+    }
+    /// Inherited from x - y * trunc(x / y).
+    fn rem(&mut self, x: &Iv, y: &Iv) -> R<Iv> {
+        let q = self.over(*x, *y)?;
+        let t = Iv::new(q.lo.trunc(), q.hi.trunc());
+        let m = self.times(*y, t)?;
+        self.minus(*x, m)
+    }
+
+    fn int(&mut self, op: B, x: &Iv, y: &Iv, kind: Option<ScalarKind>) -> R<Iv> {
+        let signed = kind == Some(ScalarKind::Sint);
+        Ok(match op {
+            _ if x.is_point() && y.is_point() => Iv::point(crate::eval::interp::exec::int_op(op, x.lo, y.lo, signed)),
+            B::Add => Iv::new(x.lo + y.lo, x.hi + y.hi),
+            B::Subtract => Iv::new(x.lo - y.hi, x.hi - y.lo),
+            _ => return Err(Stop::TooWide(format!("an integer {op:?} on a range"))),
+        })
+    }
+
+    fn compare(&mut self, op: B, x: &Iv, y: &Iv, _kind: Option<ScalarKind>) -> R<Iv> {
+        let (x, y) = (*x, *y);
+        let less = |x: Iv, y: Iv| iv::truth(x.hi < y.lo, x.lo >= y.hi);
+        let less_eq = |x: Iv, y: Iv| iv::truth(x.hi <= y.lo, x.lo > y.hi);
+        let equal = iv::truth(x.is_point() && y.is_point() && x.lo == y.lo, x.hi < y.lo || y.hi < x.lo);
+        let not = |t: Iv| Iv::new(1.0 - t.hi, 1.0 - t.lo);
+        Ok(match op {
+            B::Equal => equal,
+            B::NotEqual => not(equal),
+            B::Less => less(x, y),
+            B::LessEqual => less_eq(x, y),
+            B::Greater => less(y, x),
+            _ => less_eq(y, x),
+        })
+    }
+
+    fn logical(&mut self, op: B, x: &Iv, y: &Iv) -> R<Iv> {
+        Ok(match op {
+            B::LogicalAnd => iv::truth(x.lo != 0.0 && y.lo != 0.0, x.hi == 0.0 || y.hi == 0.0),
+            _ => iv::truth(x.lo != 0.0 || y.lo != 0.0, x.hi == 0.0 && y.hi == 0.0),
+        })
+    }
+
+    fn unary(&mut self, op: U, x: &Iv, kind: Option<ScalarKind>) -> R<Iv> {
+        match op {
+            U::Negate => Ok(x.negated()),
+            U::LogicalNot => Ok(Iv::new(1.0 - x.hi, 1.0 - x.lo)),
+            U::BitwiseNot if x.is_point() => Ok(Iv::point(match kind {
+                Some(ScalarKind::Sint) => !(x.lo as i32) as f64,
+                _ => !(x.lo as u32) as f64,
+            })),
+            _ => Err(Stop::TooWide("a bitwise operation on a range".into())),
+        }
+    }
+
+    fn select(&mut self, c: &Iv, a: &Iv, r: &Iv) -> R<Iv> {
+        Ok(if c.lo != 0.0 {
+            *a
+        } else if c.hi == 0.0 {
+            *r
+        } else {
+            a.hull(*r)
+        })
+    }
+
+    fn relational(&mut self, f: RelationalFunction, a: &[Iv]) -> R<V> {
+        Ok(match f {
+            RelationalFunction::All => {
+                vec![iv::truth(a.iter().all(|x| x.lo != 0.0), a.iter().any(|x| x.hi == 0.0))]
+            }
+            RelationalFunction::Any => {
+                vec![iv::truth(a.iter().any(|x| x.lo != 0.0), a.iter().all(|x| x.hi == 0.0))]
+            }
+            // Every interval reaching here is finite (a non-finite one stopped the walk).
+            RelationalFunction::IsNan | RelationalFunction::IsInf => vec![Iv::point(0.0); a.len()],
+        })
+    }
+
+    fn convert(&mut self, to: ScalarKind, from: Option<ScalarKind>, x: &Iv) -> R<Iv> {
+        let x = *x;
+        let trunc = |x: Iv, lo: f64, hi: f64| Iv::new(x.lo.trunc().clamp(lo, hi), x.hi.trunc().clamp(lo, hi));
+        Ok(match (to, from) {
+            (ScalarKind::Float, Some(ScalarKind::Float)) => x,
+            (ScalarKind::Float, _) => iv::round_out(x.lo, x.hi),
+            (ScalarKind::Uint, Some(ScalarKind::Float)) => trunc(x, 0.0, u32::MAX as f64),
+            (ScalarKind::Sint, Some(ScalarKind::Float)) => trunc(x, i32::MIN as f64, i32::MAX as f64),
+            (ScalarKind::Uint, Some(ScalarKind::Sint)) if x.lo >= 0.0 => x,
+            (ScalarKind::Sint, Some(ScalarKind::Uint)) if x.hi <= i32::MAX as f64 => x,
+            (ScalarKind::Bool, _) => iv::truth(!x.contains(0.0), x.is_point() && x.lo == 0.0),
+            (ScalarKind::Uint | ScalarKind::Sint, _) if x.is_point() => Iv::point(if to == ScalarKind::Uint {
+                x.lo as i64 as i32 as u32 as f64
+            } else {
+                x.lo as i64 as u32 as i32 as f64
+            }),
+            _ => x,
+        })
+    }
+
+    fn math1(&mut self, f: M, x: &Iv, _kind: Option<ScalarKind>) -> R<Iv> {
+        let x = *x;
+        let mono = |x: Iv, g: fn(f64) -> f64| Iv::new(g(x.lo), g(x.hi));
+        match f {
+            M::Abs => Ok(if x.contains(0.0) {
+                Iv::new(0.0, x.mag())
+            } else {
+                Iv::new(x.mig(), x.mag())
+            }),
+            M::Sqrt => self.sqrt(x),
+            M::InverseSqrt => self.rsqrt(x),
+            M::Sin => self.trig(x, false),
+            M::Cos => self.trig(x, true),
+            M::Tan => {
+                let (sn, cs) = (self.trig(x, false)?, self.trig(x, true)?);
+                self.over(sn, cs)
+            }
+            M::Asin => self.arc(x, false),
+            M::Acos => self.arc(x, true),
+            M::Atan => self.ulp_fn(libm::atan(x.lo), libm::atan(x.hi), acc::ulps("atan")),
+            M::Exp => self.exp(x, false),
+            M::Exp2 => self.exp(x, true),
+            M::Log => self.log(x, false),
+            M::Log2 => self.log(x, true),
+            M::Floor => Ok(mono(x, f64::floor)),
+            M::Ceil => Ok(mono(x, f64::ceil)),
+            M::Trunc => Ok(mono(x, f64::trunc)),
+            M::Round => Ok(mono(x, f64::round_ties_even)),
+            M::Fract => self.minus(x, mono(x, f64::floor)),
+            M::Saturate => Ok(Iv::new(x.lo.clamp(0.0, 1.0), x.hi.clamp(0.0, 1.0))),
+            _ => Ok(Iv::new(sign(x.lo), sign(x.hi))),
+        }
+    }
+
+    fn math2(&mut self, f: M, x: &Iv, y: &Iv, _kind: Option<ScalarKind>) -> R<Iv> {
+        let (x, y) = (*x, *y);
+        match f {
+            M::Min => Ok(Iv::new(x.lo.min(y.lo), x.hi.min(y.hi))),
+            M::Max => Ok(Iv::new(x.lo.max(y.lo), x.hi.max(y.hi))),
+            M::Atan2 => self.atan2(x, y),
+            M::Pow => {
+                // Inherited from exp2(y * log2(x)).
+                let l = self.log(x, true)?;
+                let m = self.times(y, l)?;
+                self.exp(m, true)
+            }
+            // step(edge, x): 1 where x >= edge.
+            _ => Ok(iv::truth(y.lo >= x.hi, y.hi < x.lo)),
+        }
+    }
+
+    fn math3(&mut self, f: M, x: &Iv, y: &Iv, z: &Iv, _kind: Option<ScalarKind>) -> R<Iv> {
+        let (x, y, z) = (*x, *y, *z);
+        match f {
+            M::Clamp => Ok(Iv::new(x.lo.max(y.lo).min(z.lo), x.hi.max(y.hi).min(z.hi))),
+            _ => {
+                let p = self.times(x, y)?;
+                self.plus(p, z)
+            }
+        }
+    }
+
+    /// `dot(x, x)`, left to right, each term a square.
+    fn dot_self(&mut self, a: &[Iv]) -> R<Iv> {
+        let mut acc = self.sq(a[0])?;
+        for &x in &a[1..] {
+            let t = self.sq(x)?;
+            acc = self.plus(acc, t)?;
+        }
+        Ok(acc)
     }
 
     /// Inherited from `sqrt(dot(x, x))` (vector) or `sqrt(x * x)` (scalar).
@@ -1160,6 +581,312 @@ impl<'p> Walk<'p> {
         let d = self.dot_self(a)?;
         self.sqrt(d)
     }
+
+    /// Inherited from x / length(x).
+    fn normalize(&mut self, a: &[Iv]) -> R<V> {
+        let l = self.length(a)?;
+        a.iter().map(|&x| self.over(x, l)).collect()
+    }
+
+    fn squares(&self) -> bool {
+        true
+    }
+
+    fn square(&mut self, x: &Iv) -> R<Iv> {
+        self.sq(*x)
+    }
+
+    fn local(&mut self, ty: Handle<naga::Type>) -> R<Ptr> {
+        let z = self.zero_iv(ty);
+        self.heap.push(z);
+        Ok(Ptr {
+            slot: self.heap.len() - 1,
+            offs: vec![0],
+            len: self.p.flat[ty.index()],
+        })
+    }
+
+    fn bind(&mut self, g: Handle<naga::GlobalVariable>, v: V) {
+        self.globals[g.index()] = Some(self.heap.len());
+        self.heap.push(v);
+    }
+
+    fn global(&mut self, g: Handle<naga::GlobalVariable>, len: usize) -> R<Ptr> {
+        let slot =
+            self.globals[g.index()].ok_or_else(|| self.unsupported("only private globals can be read on the CPU"))?;
+        Ok(Ptr {
+            slot,
+            offs: vec![0],
+            len,
+        })
+    }
+
+    fn child(&mut self, ptr: &Ptr, off: usize, len: usize) -> Ptr {
+        Ptr {
+            slot: ptr.slot,
+            offs: ptr.offs.iter().map(|o| o + off).collect(),
+            len,
+        }
+    }
+
+    fn held(&self, ptr: &Ptr) -> usize {
+        self.heap[ptr.slot].len()
+    }
+
+    fn index(&mut self, ptr: &Ptr, idx: &Iv, count: usize, stride: usize, _signed: bool) -> R<Ptr> {
+        let offs = range(idx, count)
+            .flat_map(|k| ptr.offs.iter().map(move |o| o + k * stride))
+            .collect();
+        Ok(Ptr {
+            slot: ptr.slot,
+            offs,
+            len: stride,
+        })
+    }
+
+    fn index_value(&mut self, v: &[Iv], idx: &Iv, count: usize, stride: usize, _signed: bool) -> R<V> {
+        let mut out: Option<V> = None;
+        for k in range(idx, count) {
+            let part = &v[k * stride..(k + 1) * stride];
+            out = Some(match out {
+                Some(o) => o.iter().zip(part).map(|(a, b)| a.hull(*b)).collect(),
+                None => part.to_vec(),
+            });
+        }
+        Ok(out.unwrap_or_default())
+    }
+
+    fn load(&mut self, ptr: &Ptr) -> R<V> {
+        let src = &self.heap[ptr.slot];
+        let mut out: V = src[ptr.offs[0]..ptr.offs[0] + ptr.len].to_vec();
+        for &o in &ptr.offs[1..] {
+            for c in 0..ptr.len {
+                out[c] = out[c].hull(src[o + c]);
+            }
+        }
+        Ok(out)
+    }
+
+    fn store(&mut self, ptr: &Ptr, v: &[Iv]) -> R<()> {
+        let slot = &mut self.heap[ptr.slot];
+        let strong = ptr.offs.len() == 1;
+        for &o in &ptr.offs {
+            for c in 0..ptr.len {
+                slot[o + c] = if strong { v[c] } else { slot[o + c].hull(v[c]) };
+            }
+        }
+        Ok(())
+    }
+
+    fn init(&mut self, ptr: &Ptr, v: V) {
+        self.heap[ptr.slot] = v;
+    }
+
+    fn enter(&mut self, _result: Option<Handle<naga::Type>>) -> R<(Saved, Option<V>)> {
+        let saved = Saved {
+            heap: self.heap.len(),
+            line: self.line,
+            live: self.live,
+            ctl: std::mem::take(&mut self.ctl),
+        };
+        Ok((saved, None))
+    }
+
+    fn leave(&mut self, saved: Saved, ret: Option<V>) -> Option<V> {
+        self.heap.truncate(saved.heap);
+        self.line = saved.line;
+        self.live = saved.live;
+        self.ctl = saved.ctl;
+        ret
+    }
+
+    fn unwind(&mut self, saved: Saved) {
+        self.live = saved.live;
+        self.ctl = saved.ctl;
+    }
+
+    /// Where a condition's interval straddles, both ways on copies of the state, joined where
+    /// they meet.
+    fn if_(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, c: &Iv, arms: Arms) -> R<()> {
+        let Arms { accept, reject } = arms;
+        if c.lo != 0.0 {
+            return w.block(fr, accept);
+        }
+        if c.hi == 0.0 {
+            return w.block(fr, reject);
+        }
+        let before = w.d.heap.clone();
+        w.d.forked += 1;
+        let yes = w.block(fr, accept);
+        let yes_live = std::mem::replace(&mut w.d.live, true);
+        let after_yes = std::mem::replace(&mut w.d.heap, before);
+        let no = w.block(fr, reject);
+        let no_live = w.d.live;
+        w.d.forked -= 1;
+        yes?;
+        no?;
+        match (yes_live, no_live) {
+            (true, true) => join_heaps(&mut w.d.heap, &after_yes),
+            (true, false) => w.d.heap = after_yes,
+            _ => {}
+        }
+        w.d.live = yes_live || no_live;
+        Ok(())
+    }
+
+    fn switch(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, sel: &Iv, cases: &[naga::SwitchCase]) -> R<()> {
+        let sel = *sel;
+        if !sel.is_point() {
+            return Err(Stop::TooWide("a switch on a range of values".into()));
+        }
+        let matches = |v: &naga::SwitchValue| match v {
+            naga::SwitchValue::I32(i) => *i as f64 == sel.lo,
+            naga::SwitchValue::U32(u) => *u as f64 == sel.lo,
+            naga::SwitchValue::Default => false,
+        };
+        let start = cases
+            .iter()
+            .position(|c| matches(&c.value))
+            .or_else(|| cases.iter().position(|c| c.value == naga::SwitchValue::Default));
+        w.d.ctl.push(Ctl {
+            is_loop: false,
+            brk: None,
+            cont: None,
+        });
+        let mut live = true;
+        if let Some(start) = start {
+            for case in &cases[start..] {
+                w.block(fr, &case.body)?;
+                live = w.d.live;
+                if !live || !case.fall_through {
+                    break;
+                }
+            }
+        }
+        let d = &mut w.d;
+        let c = d.ctl.pop().expect("pushed above");
+        if let Some(cont) = c.cont {
+            match d.ctl.iter_mut().rev().find(|c| c.is_loop) {
+                Some(outer) => join_into(&mut outer.cont, &cont),
+                None => return Err(d.unsupported("`continue` outside a loop")),
+            }
+        }
+        match (live, c.brk) {
+            (true, Some(b)) => join_heaps(&mut d.heap, &b),
+            (false, Some(b)) => {
+                d.heap = b;
+                live = true;
+            }
+            _ => {}
+        }
+        d.live = live;
+        Ok(())
+    }
+
+    fn loop_(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, l: Looping) -> R<()> {
+        let (body, continuing, break_if) = (l.body, l.continuing, l.break_if);
+        w.d.ctl.push(Ctl {
+            is_loop: true,
+            brk: None,
+            cont: None,
+        });
+        let forked_at = w.d.forked;
+        let mut iterations = 0u64;
+        let mut trips = || -> R<()> {
+            loop {
+                iterations += 1;
+                if iterations > LOOP_LIMIT {
+                    return Err(Stop::TooWide(format!(
+                        "a loop kept running on some path after {LOOP_LIMIT} iterations"
+                    )));
+                }
+                w.block(fr, body)?;
+                let d = &mut w.d;
+                let top = d.ctl.last_mut().expect("pushed above");
+                if let Some(c) = top.cont.take() {
+                    if d.live {
+                        join_heaps(&mut d.heap, &c);
+                    } else {
+                        d.heap = c;
+                        d.live = true;
+                    }
+                }
+                if !d.live {
+                    return Ok(());
+                }
+                w.block(fr, continuing)?;
+                if !w.d.live {
+                    return Ok(());
+                }
+                if let Some(b) = break_if {
+                    let c = w.val(fr, b)?[0];
+                    let d = &mut w.d;
+                    let top = d.ctl.last_mut().expect("pushed above");
+                    if c.lo != 0.0 {
+                        join_into(&mut top.brk, &d.heap);
+                        return Ok(());
+                    }
+                    if c.hi != 0.0 {
+                        join_into(&mut top.brk, &d.heap);
+                        if d.forked == forked_at {
+                            d.forked += 1;
+                        }
+                    }
+                }
+            }
+        };
+        let result = trips();
+        w.d.forked = forked_at;
+        let c = w.d.ctl.pop().expect("pushed above");
+        result?;
+        match c.brk {
+            Some(b) => {
+                w.d.heap = b;
+                w.d.live = true;
+            }
+            None => w.d.live = false,
+        }
+        Ok(())
+    }
+
+    fn break_(&mut self) -> R<()> {
+        let top = self
+            .ctl
+            .last_mut()
+            .ok_or_else(|| Stop::Unsupported("`break` outside a loop".into()))?;
+        join_into(&mut top.brk, &self.heap);
+        self.live = false;
+        Ok(())
+    }
+
+    fn continue_(&mut self) -> R<()> {
+        let top = self
+            .ctl
+            .iter_mut()
+            .rev()
+            .find(|c| c.is_loop)
+            .ok_or_else(|| Stop::Unsupported("`continue` outside a loop".into()))?;
+        join_into(&mut top.cont, &self.heap);
+        self.live = false;
+        Ok(())
+    }
+
+    fn return_(&mut self, ret: &mut Option<V>, v: Option<&[Iv]>) -> R<()> {
+        if let Some(v) = v {
+            *ret = Some(match ret.take() {
+                Some(r) => r.iter().zip(v).map(|(a, b)| a.hull(*b)).collect(),
+                None => v.to_vec(),
+            });
+        }
+        self.live = false;
+        Ok(())
+    }
+}
+
+/// The elements an index interval may pick of `count`.
+fn range(idx: &Iv, count: usize) -> std::ops::RangeInclusive<usize> {
+    let k = |x: f64| (x.max(0.0) as usize).min(count - 1);
+    k(idx.lo)..=k(idx.hi)
 }
 
 fn sign(x: f64) -> f64 {

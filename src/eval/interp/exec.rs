@@ -9,12 +9,11 @@
 //! shadow of f32 lane `i`: it follows lane i's control flow (every non-float value is
 //! copied from the f32 half) and each float operation's local error is recorded there.
 
-use super::{Program, NO_LINE};
+use crate::eval::program::{Const, Program, NO_LINE};
+use crate::eval::walk::{Arms, Consts, Domain, Frame, Looping, Walker};
+use crate::input::scene::Config;
 use anyhow::{anyhow, bail, Result};
-use naga::{
-    BinaryOperator as B, Expression as E, Handle, MathFunction as M, ScalarKind, Statement as S, TypeInner,
-    UnaryOperator as U,
-};
+use naga::{BinaryOperator as B, Handle, MathFunction as M, RelationalFunction, ScalarKind, UnaryOperator as U};
 
 /// One scalar component over the lanes, shared until written (copy on write).
 pub(super) type Lanes = std::rc::Rc<Buf>;
@@ -98,8 +97,7 @@ trait CollectLanes: Iterator<Item = f64> + Sized {
 impl<I: Iterator<Item = f64>> CollectLanes for I {}
 
 /// A value: its scalar components in declaration order (matrices column by column).
-#[derive(Clone, Debug)]
-pub(super) struct Val(pub Vec<Lanes>);
+pub(super) type Val = Vec<Lanes>;
 
 #[derive(Clone, Debug)]
 enum Off {
@@ -109,16 +107,10 @@ enum Off {
 
 /// A pointer: into heap slot `slot`, at component offset `off`, `len` components.
 #[derive(Clone, Debug)]
-struct Ptr {
+pub(super) struct Ptr {
     slot: usize,
     off: Off,
     len: usize,
-}
-
-#[derive(Clone, Debug)]
-enum Slot {
-    Val(Val),
-    Ptr(Ptr),
 }
 
 /// Local error of one source line, for the f32 lane of each shadow (one entry per
@@ -171,7 +163,14 @@ pub(super) struct Exec<'p> {
     heap: Vec<Val>,
     globals: Vec<Option<usize>>,
     pub(super) errors: LineErrors,
+    /// The line operations are recorded on (`NO_LINE`: none), and the line errors name.
     line: u32,
+    loc: u32,
+    /// The lanes that run the current statement.
+    cur: Vec<bool>,
+    /// Where `break` and `continue` go, innermost last.
+    ctl: Vec<Ctl>,
+    /// The lanes the operations of the current `Emit` are recorded on.
     mask: Vec<bool>,
     /// The shadow half of `mask`, summarised when it is set.
     shadow_on: Shadow,
@@ -185,14 +184,8 @@ pub(super) struct Exec<'p> {
     /// Whether the float operations' lane loops run in their AVX2 build ([`avx2`]).
     wide: bool,
     /// Per function, its constant expressions' values (filled on its first call).
-    consts: Vec<Option<Vec<Option<Slot>>>>,
+    consts: Vec<Option<Consts<Exec<'p>>>>,
     zero_lanes: Lanes,
-}
-
-struct Frame {
-    fun: Handle<naga::Function>,
-    vals: Vec<Option<Slot>>,
-    ret: Option<Val>,
 }
 
 /// Where `break` and `continue` go.
@@ -236,7 +229,7 @@ pub fn ulp_bits(a: f32, b: f32) -> f64 {
 
 /// `log2(1 + k)` for the small ULP distances most operations lose, computed once by the same
 /// expression as the general case (the same bits): the attribution calls `ulp_bits` for every
-/// lane of every rounding operation, and `log2` was a tenth of its time (issue 23).
+/// lane of every rounding operation, and `log2` was a tenth of its time.
 static SMALL_ULP_BITS: std::sync::LazyLock<[f64; 256]> =
     std::sync::LazyLock::new(|| std::array::from_fn(|k| (k as f64 + 1.0).log2()));
 
@@ -447,10 +440,6 @@ fn all(mask: &[bool]) -> bool {
     mask.iter().fold(true, |acc, &m| acc & m)
 }
 
-fn kind(inner: &TypeInner) -> Option<ScalarKind> {
-    inner.scalar_kind()
-}
-
 impl<'p> Exec<'p> {
     pub(super) fn new(p: &'p Program, n: usize, split: usize, shadow: bool) -> Exec<'p> {
         Exec {
@@ -462,6 +451,9 @@ impl<'p> Exec<'p> {
             globals: vec![None; p.module.global_variables.len()],
             errors: vec![None; p.lines.len()],
             line: NO_LINE,
+            loc: NO_LINE,
+            cur: vec![true; n],
+            ctl: Vec::new(),
             mask: vec![true; n],
             shadow_on: Shadow::Off,
             ulps: Vec::with_capacity(n - split.min(n)),
@@ -493,12 +485,12 @@ impl<'p> Exec<'p> {
     }
 
     /// A module constant; its written digits are needed only when there are f64 lanes.
-    fn constant(&self, (v32, v64): &super::Const) -> Result<Val, String> {
+    fn constant_lanes(&self, (v32, v64): &Const) -> Result<Val, String> {
         if self.split == self.n {
-            return Ok(Val(v32.iter().map(|&a| self.fill(a, a)).collect()));
+            return Ok(v32.iter().map(|&a| self.fill(a, a)).collect());
         }
         let v64 = v64.as_ref().map_err(Clone::clone)?;
-        Ok(Val(v32.iter().zip(v64).map(|(&a, &b)| self.fill(a, b)).collect()))
+        Ok(v32.iter().zip(v64).map(|(&a, &b)| self.fill(a, b)).collect())
     }
 
     /// Non-float results: the shadow lanes take the f32 lanes' values, so that they
@@ -519,14 +511,14 @@ impl<'p> Exec<'p> {
         }
     }
 
-    /// Sets the mask of the operations that follow (an `Emit`'s), and what the attribution
-    /// records them on.
-    fn set_mask(&mut self, mask: &[bool]) {
+    /// Sets the mask of the operations that follow (an `Emit`'s) to the current lanes, and
+    /// what the attribution records them on.
+    fn set_mask(&mut self) {
         if !self.shadow {
             return;
         }
-        self.mask.clone_from_slice(mask);
-        let shadow = &mask[self.split..self.n];
+        self.mask.clone_from_slice(&self.cur);
+        let shadow = &self.mask[self.split..self.n];
         self.shadow_on = if all(shadow) {
             Shadow::All
         } else if any(shadow) {
@@ -753,25 +745,17 @@ impl<'p> Exec<'p> {
         lanes(v)
     }
 
-    fn add(&mut self, a: &[f64], b: &[f64]) -> Lanes {
+    fn fadd(&mut self, a: &[f64], b: &[f64]) -> Lanes {
         self.f2(a, b, |x, y| x + y, |x, y| x + y, Round::Cheap)
     }
-    fn sub(&mut self, a: &[f64], b: &[f64]) -> Lanes {
+    fn fsub(&mut self, a: &[f64], b: &[f64]) -> Lanes {
         self.f2(a, b, |x, y| x - y, |x, y| x - y, Round::Cheap)
     }
-    fn mul(&mut self, a: &[f64], b: &[f64]) -> Lanes {
+    fn fmul(&mut self, a: &[f64], b: &[f64]) -> Lanes {
         self.f2(a, b, |x, y| x * y, |x, y| x * y, Round::Cheap)
     }
-    fn div(&mut self, a: &[f64], b: &[f64]) -> Lanes {
+    fn fdiv(&mut self, a: &[f64], b: &[f64]) -> Lanes {
         self.f2(a, b, |x, y| x / y, |x, y| x / y, Round::Cheap)
-    }
-    fn dot(&mut self, a: &[Lanes], b: &[Lanes]) -> Lanes {
-        let mut acc = self.mul(&a[0], &b[0]);
-        for k in 1..a.len() {
-            let t = self.mul(&a[k], &b[k]);
-            acc = self.add(&acc, &t);
-        }
-        acc
     }
     fn rsqrt(&mut self, a: &[f64]) -> Lanes {
         // Correctly rounded in f32 (the f64 quotient of an f32 argument, rounded once).
@@ -782,896 +766,621 @@ impl<'p> Exec<'p> {
             Round::Cheap,
         )
     }
-
-    /// Runs `method` on `scene` (one value per lane) and returns its result.
-    /// `texels`: each lane's texture (`Program::texel_lanes`), read through `ll_texels`.
-    pub(super) fn run(&mut self, scene: Val, texels: Val) -> Result<Vec<f64>> {
-        let p = self.p;
-        let mut texels = Some(texels);
-        for (h, g) in p.module.global_variables.iter() {
-            if g.name.as_deref() == Some("ll_texels") {
-                self.globals[h.index()] = Some(self.heap.len());
-                self.heap.push(texels.take().unwrap_or_else(|| Val(Vec::new())));
-                continue;
-            }
-            if g.name.as_deref() == Some("ll_ltc") {
-                // The LTC tables, one-lane components shared by every lane (`Program::ltc_lanes`);
-                // left unbound when no function reads them.
-                if let Some(t) = p.ltc_lanes() {
-                    self.globals[h.index()] = Some(self.heap.len());
-                    self.heap.push(t);
-                }
-                continue;
-            }
-            if g.space != naga::AddressSpace::Private {
-                continue;
-            }
-            let v = match g.init {
-                Some(init) => self.constant(&p.global_consts[init.index()]).map_err(|e| anyhow!(e))?,
-                None => self.zero(g.ty),
-            };
-            self.globals[h.index()] = Some(self.heap.len());
-            self.heap.push(v);
-            // What the entry point does before calling `method` (compose.rs).
-            let slot = self.heap.len() - 1;
-            match g.name.as_deref() {
-                Some("ll_scene") => self.heap[slot] = scene.clone(),
-                Some("Minv") => {
-                    let (off, len) = p.scene_minv;
-                    self.heap[slot] = Val(scene.0[off..off + len].to_vec());
-                }
-                _ => {}
-            }
-        }
-        let mask = vec![true; self.n];
-        let v = self.call(p.method, vec![Slot::Val(scene)], &mask)?;
-        let v = v.ok_or_else(|| anyhow!("`method` returned nothing"))?;
-        Ok(v.0[0].to_vec())
+    /// Runs `method` on `scene` (one value per lane) and returns its result, and the
+    /// engine (its recorded local errors). `texels`: each lane's texture ([`texel_lanes`]),
+    /// read through `ll_texels`.
+    pub(super) fn run(self, scene: Val, texels: Val) -> (Result<Vec<f64>>, Exec<'p>) {
+        let mut w = Walker::new(self.p, self);
+        let v = w.run(scene, texels, |_| ltc_tables());
+        let v = v.and_then(|v| {
+            let v = v.ok_or_else(|| anyhow!("`method` returned nothing"))?;
+            Ok(v[0].to_vec())
+        });
+        (v, w.d)
     }
 
-    fn zero(&self, ty: Handle<naga::Type>) -> Val {
-        Val(vec![self.zero_lanes.clone(); self.p.flat[ty.index()]])
-    }
-
-    fn inner(&self, fun: Handle<naga::Function>, h: Handle<naga::Expression>) -> &'p TypeInner {
-        self.p.info[fun][h].ty.inner_with(&self.p.module.types)
-    }
-
-    fn call(&mut self, fun: Handle<naga::Function>, args: Vec<Slot>, mask: &[bool]) -> Result<Option<Val>> {
-        let p = self.p;
-        let f = &p.module.functions[fun];
-        let heap_top = self.heap.len();
-        let mut fr = Frame {
-            fun,
-            vals: vec![None; f.expressions.len()],
-            ret: f.result.as_ref().map(|r| self.zero(r.ty)),
-        };
-        let mut locals = Vec::with_capacity(f.local_variables.len());
-        for (_, lv) in f.local_variables.iter() {
-            locals.push(self.heap.len());
-            self.heap.push(self.zero(lv.ty));
-        }
-        let fp = &p.funs[fun.index()];
-        // Expressions no `Emit` covers (literals, constants, arguments, variables) first;
-        // the constant ones once per chunk.
-        let cached = self.consts[fun.index()].take();
-        for (h, e) in f.expressions.iter() {
-            if fp.emitted[h.index()] || matches!(e, E::CallResult(_)) {
-                continue;
-            }
-            if let (Some(c), true) = (&cached, fp.constant[h.index()]) {
-                fr.vals[h.index()] = c[h.index()].clone();
-                continue;
-            }
-            let v = match e {
-                E::FunctionArgument(i) => args[*i as usize].clone(),
-                E::LocalVariable(lv) => Slot::Ptr(Ptr {
-                    slot: locals[lv.index()],
-                    off: Off::Uniform(0),
-                    len: p.flat[f.local_variables[*lv].ty.index()],
-                }),
-                _ => {
-                    self.line = NO_LINE;
-                    self.eval(&mut fr, h)?;
-                    continue;
-                }
-            };
-            fr.vals[h.index()] = Some(v);
-        }
-        self.consts[fun.index()] = Some(cached.unwrap_or_else(|| {
-            (0..fr.vals.len())
-                .map(|i| if fp.constant[i] { fr.vals[i].clone() } else { None })
-                .collect()
-        }));
-        for (lv, v) in f.local_variables.iter() {
-            if let Some(init) = v.init {
-                // naga may leave a constant initializer (`var c = vec3<f32>(0.0);`) inside an
-                // `Emit` of the body: it is needed now, before the body runs.
-                if fr.vals[init.index()].is_none() {
-                    self.line = NO_LINE;
-                    self.eval(&mut fr, init)?;
-                }
-                let val = self.val(&fr, init)?.clone();
-                self.heap[locals[lv.index()]] = val;
-            }
-        }
-        let mut m = mask.to_vec();
-        let mut ctl = Vec::new();
-        self.block(&mut fr, &f.body, &mut m, &mut ctl)?;
-        self.heap.truncate(heap_top);
-        Ok(fr.ret)
-    }
-
-    fn val<'f>(&self, fr: &'f Frame, h: Handle<naga::Expression>) -> Result<&'f Val> {
-        match fr.vals[h.index()].as_ref() {
-            Some(Slot::Val(v)) => Ok(v),
-            Some(Slot::Ptr(_)) => bail!("internal: expression {h:?} is a pointer"),
-            None => Err(self.at(fr.fun, h, "value used before it is computed")),
-        }
-    }
-
-    fn ptr<'f>(&self, fr: &'f Frame, h: Handle<naga::Expression>) -> Result<&'f Ptr> {
-        match fr.vals[h.index()].as_ref() {
-            Some(Slot::Ptr(p)) => Ok(p),
-            _ => Err(self.at(fr.fun, h, "not a pointer")),
-        }
-    }
-
-    fn at(&self, fun: Handle<naga::Function>, h: Handle<naga::Expression>, msg: &str) -> anyhow::Error {
-        let line = self.p.funs[fun.index()].line[h.index()];
-        match self.p.lines.get(line as usize) {
+    /// An error at the current expression's line.
+    fn located(&self, msg: &str) -> anyhow::Error {
+        match self.p.lines.get(self.loc as usize) {
             Some(l) => anyhow!("{}:{}: CPU evaluator: {msg} (`{}`)", l.path, l.line, l.text.trim()),
             None => anyhow!("CPU evaluator: {msg}"),
         }
     }
 
-    fn block(&mut self, fr: &mut Frame, block: &naga::Block, mask: &mut Vec<bool>, ctl: &mut Vec<Ctl>) -> Result<()> {
-        for st in block.iter() {
-            if !any(mask) {
-                return Ok(());
-            }
-            match st {
-                S::Emit(range) => {
-                    self.set_mask(mask);
-                    for h in range.clone() {
-                        self.line = self.p.funs[fr.fun.index()].line[h.index()];
-                        self.eval(fr, h)?;
-                    }
+    /// A float operation's lanes where every lane takes `f`'s value (exact in f32).
+    fn map(a: &[f64], f: impl Fn(f64) -> f64) -> Lanes {
+        a.iter().map(|&x| f(x)).lanes()
+    }
+}
+
+/// [`Exec::run`]'s LTC tables, made once per thread (its components are `Rc`s): one one-lane
+/// component per float. The harness's LTC tables as the kernel reads them through `ll_ltc`
+/// (binding 4, `input::ltc::device`): the same f32 texels on every lane, f32 and f64 lanes
+/// alike (the table is data a shader reads as f32), held once as one-lane components that a
+/// load gives every lane.
+fn ltc_tables() -> Val {
+    thread_local! {
+        static T: Val = crate::input::ltc::device::ours()
+            .iter()
+            .map(|&x| lanes(vec![f64::from(x)]))
+            .collect();
+    }
+    T.with(Clone::clone)
+}
+
+/// The texels of each lane's texture: component k of lane i is texel k of lane i's
+/// configuration (f32 lanes read them rounded), padded with 0 to the longest; each lane's
+/// texels start at 0, so its scene's `tex_offset` is 0 (`SceneInput::new`).
+pub(super) fn texel_lanes(configs: &[&Config], n: usize, split: usize, shadow_f32: bool) -> Val {
+    let len = configs
+        .iter()
+        .filter_map(|c| c.texture.as_ref().map(|t| t.texels.len()))
+        .max()
+        .unwrap_or(0)
+        .max(1);
+    let mut comps = vec![vec![0.0; n]; len];
+    let half = if shadow_f32 { split } else { n };
+    for (i, c) in configs.iter().enumerate() {
+        let Some(t) = &c.texture else { continue };
+        for (k, &x) in t.texels.iter().enumerate() {
+            for lane in [i, i + half] {
+                if lane < n {
+                    comps[k][lane] = if lane < split || shadow_f32 { x as f32 as f64 } else { x };
                 }
-                S::Block(b) => self.block(fr, b, mask, ctl)?,
-                S::If {
-                    condition,
-                    accept,
-                    reject,
-                } => {
-                    let c = &self.val(fr, *condition)?.0[0];
-                    let mut yes: Vec<bool> = mask.iter().zip(c.iter()).map(|(&m, &c)| m && c != 0.0).collect();
-                    let mut no: Vec<bool> = mask.iter().zip(c.iter()).map(|(&m, &c)| m && c == 0.0).collect();
-                    if any(&yes) {
-                        self.block(fr, accept, &mut yes, ctl)?;
-                    }
-                    if any(&no) {
-                        self.block(fr, reject, &mut no, ctl)?;
-                    }
-                    or_into(&mut yes, &no);
-                    *mask = yes;
-                }
-                S::Switch { selector, cases } => {
-                    let sel = self.val(fr, *selector)?.0[0].clone();
-                    let value = |v: &naga::SwitchValue| match v {
-                        naga::SwitchValue::I32(i) => Some(*i as f64),
-                        naga::SwitchValue::U32(u) => Some(*u as f64),
-                        naga::SwitchValue::Default => None,
-                    };
-                    let listed: Vec<f64> = cases.iter().filter_map(|c| value(&c.value)).collect();
-                    ctl.push(Ctl {
-                        is_loop: false,
-                        brk: vec![false; self.n],
-                        cont: vec![false; self.n],
-                    });
-                    let mut out = vec![false; self.n];
-                    let mut carry = vec![false; self.n];
-                    for case in cases {
-                        let mut m: Vec<bool> = (0..self.n)
-                            .map(|i| {
-                                mask[i]
-                                    && match value(&case.value) {
-                                        Some(v) => sel[i] == v,
-                                        None => !listed.contains(&sel[i]),
-                                    }
-                            })
-                            .collect();
-                        or_into(&mut m, &carry);
-                        if any(&m) {
-                            self.block(fr, &case.body, &mut m, ctl)?;
-                        }
-                        if case.fall_through {
-                            carry = m;
-                        } else {
-                            or_into(&mut out, &m);
-                            carry = vec![false; self.n];
-                        }
-                    }
-                    let c = ctl.pop().expect("pushed above");
-                    or_into(&mut out, &c.brk);
-                    if let Some(outer) = ctl.iter_mut().rev().find(|c| c.is_loop) {
-                        or_into(&mut outer.cont, &c.cont);
-                    }
-                    *mask = out;
-                }
-                S::Loop {
-                    body,
-                    continuing,
-                    break_if,
-                } => {
-                    ctl.push(Ctl {
-                        is_loop: true,
-                        brk: vec![false; self.n],
-                        cont: vec![false; self.n],
-                    });
-                    let mut active = mask.clone();
-                    let mut iterations = 0u64;
-                    while any(&active) {
-                        iterations += 1;
-                        if iterations > 1 << 24 {
-                            bail!("CPU evaluator: a loop ran more than 2^24 iterations");
-                        }
-                        self.block(fr, body, &mut active, ctl)?;
-                        let top = ctl.last_mut().expect("pushed above");
-                        or_into(&mut active, &top.cont);
-                        top.cont.fill(false);
-                        self.block(fr, continuing, &mut active, ctl)?;
-                        // naga's `break_if` is emitted in the continuing block, which runs only
-                        // while some lane is still in the loop: when every lane left the body
-                        // by `break` (or `return`), nothing is left to test (and on the first
-                        // pass the condition has no value yet).
-                        if let Some(b) = break_if.filter(|_| any(&active)) {
-                            let c = &self.val(fr, b)?.0[0];
-                            let top = ctl.last_mut().expect("pushed above");
-                            for i in 0..self.n {
-                                if active[i] && c[i] != 0.0 {
-                                    active[i] = false;
-                                    top.brk[i] = true;
-                                }
-                            }
-                        }
-                    }
-                    *mask = ctl.pop().expect("pushed above").brk;
-                }
-                S::Break => {
-                    let top = ctl.last_mut().ok_or_else(|| anyhow!("`break` outside a loop"))?;
-                    or_into(&mut top.brk, mask);
-                    mask.fill(false);
-                }
-                S::Continue => {
-                    let top = ctl
-                        .iter_mut()
-                        .rev()
-                        .find(|c| c.is_loop)
-                        .ok_or_else(|| anyhow!("`continue` outside a loop"))?;
-                    or_into(&mut top.cont, mask);
-                    mask.fill(false);
-                }
-                S::Return { value } => {
-                    if let Some(v) = value {
-                        let v = self.val(fr, *v)?.clone();
-                        let ret = fr
-                            .ret
-                            .as_mut()
-                            .ok_or_else(|| anyhow!("return value in a void function"))?;
-                        for (r, x) in ret.0.iter_mut().zip(&v.0) {
-                            assign(r, x, mask);
-                        }
-                    }
-                    mask.fill(false);
-                }
-                S::Store { pointer, value } => {
-                    let ptr = self.ptr(fr, *pointer)?.clone();
-                    let v = self.val(fr, *value)?;
-                    let slot = &mut self.heap[ptr.slot];
-                    match &ptr.off {
-                        Off::Uniform(o) => {
-                            for c in 0..ptr.len {
-                                assign(&mut slot.0[o + c], &v.0[c], mask);
-                            }
-                        }
-                        Off::PerLane(o) => {
-                            for c in 0..ptr.len {
-                                for i in 0..self.n {
-                                    if mask[i] {
-                                        std::rc::Rc::make_mut(&mut slot.0[o[i] + c])[i] = v.0[c][i];
-                                    }
-                                }
-                            }
-                        }
-                    }
-                }
-                S::Call {
-                    function,
-                    arguments,
-                    result,
-                } => {
-                    let args = arguments
-                        .iter()
-                        .map(|a| {
-                            fr.vals[a.index()]
-                                .clone()
-                                .ok_or_else(|| anyhow!("argument not computed"))
-                        })
-                        .collect::<Result<Vec<_>>>()?;
-                    let r = self.call(*function, args, mask)?;
-                    if let (Some(h), Some(r)) = (result, r) {
-                        fr.vals[h.index()] = Some(Slot::Val(r));
-                    }
-                }
-                other => bail!("CPU evaluator: unsupported statement {other:?}"),
             }
         }
-        Ok(())
     }
+    comps.into_iter().map(lanes).collect()
+}
 
-    fn eval(&mut self, fr: &mut Frame, h: Handle<naga::Expression>) -> Result<()> {
-        let p = self.p;
-        let fun = fr.fun;
-        let f = &p.module.functions[fun];
-        let e = &f.expressions[h];
-        let ty = self.inner(fun, h);
-        let float = kind(ty) == Some(ScalarKind::Float);
-        let slot = match e {
-            E::Literal(l) => {
-                let v = match *l {
-                    naga::Literal::F32(x) => {
-                        let v64 = match self.split == self.n {
-                            true => x as f64,
-                            false => p.funs[fun.index()].lit64[h.index()]
-                                .clone()
-                                .map_err(|m| self.at(fun, h, &m))?,
-                        };
-                        self.fill(x as f64, v64)
-                    }
-                    naga::Literal::U32(x) => self.fill(x as f64, x as f64),
-                    naga::Literal::I32(x) => self.fill(x as f64, x as f64),
-                    naga::Literal::Bool(x) => self.fill(x as u8 as f64, x as u8 as f64),
-                    other => return Err(self.at(fun, h, &format!("unsupported literal {other:?}"))),
-                };
-                Slot::Val(Val(vec![v]))
-            }
-            E::Constant(c) => {
-                let init = p.module.constants[*c].init;
-                Slot::Val(
-                    self.constant(&p.global_consts[init.index()])
-                        .map_err(|m| self.at(fun, h, &m))?,
-                )
-            }
-            E::Override(o) => {
-                let v = p.overrides[o.index()];
-                Slot::Val(Val(vec![self.fill(v, v)]))
-            }
-            E::ZeroValue(t) => Slot::Val(self.zero(*t)),
-            E::Compose { components, .. } => {
-                let mut out = Vec::new();
-                for c in components {
-                    out.extend(self.val(fr, *c)?.0.iter().cloned());
-                }
-                Slot::Val(Val(out))
-            }
-            E::Splat { size, value } => {
-                let v = &self.val(fr, *value)?.0[0];
-                Slot::Val(Val(vec![v.clone(); *size as usize]))
-            }
-            E::Swizzle { size, vector, pattern } => {
-                let v = self.val(fr, *vector)?;
-                Slot::Val(Val(pattern[..*size as usize]
-                    .iter()
-                    .map(|c| v.0[*c as usize].clone())
-                    .collect()))
-            }
-            E::AccessIndex { base, index } => {
-                let bty = self.inner(fun, *base);
-                match fr.vals[base.index()].as_ref() {
-                    Some(Slot::Ptr(ptr)) => {
-                        let (off, len) = p.child(&p.pointee(bty), *index as usize);
-                        let off = match &ptr.off {
-                            Off::Uniform(o) => Off::Uniform(o + off),
-                            Off::PerLane(o) => Off::PerLane(o.iter().map(|x| x + off).collect()),
-                        };
-                        Slot::Ptr(Ptr {
-                            slot: ptr.slot,
-                            off,
-                            len,
-                        })
-                    }
-                    Some(Slot::Val(v)) => {
-                        let (off, len) = p.child(bty, *index as usize);
-                        Slot::Val(Val(v.0[off..off + len].to_vec()))
-                    }
-                    None => return Err(self.at(fun, h, "base not computed")),
-                }
-            }
-            E::Access { base, index } => {
-                let bty = self.inner(fun, *base);
-                let idx = self.val(fr, *index)?.0[0].clone();
-                match fr.vals[base.index()].as_ref() {
-                    Some(Slot::Ptr(ptr)) => {
-                        let inner = p.pointee(bty);
-                        let (count, stride) = p.elements(&inner);
-                        let count = if count == 0 {
-                            (self.heap[ptr.slot].0.len() / stride.max(1)).max(1)
-                        } else {
-                            count
-                        };
-                        let off = (0..self.n)
-                            .map(|i| {
-                                let k = (idx[i].max(0.0) as usize).min(count - 1);
-                                k * stride
-                                    + match &ptr.off {
-                                        Off::Uniform(o) => *o,
-                                        Off::PerLane(o) => o[i],
-                                    }
-                            })
-                            .collect();
-                        Slot::Ptr(Ptr {
-                            slot: ptr.slot,
-                            off: Off::PerLane(off),
-                            len: stride,
-                        })
-                    }
-                    Some(Slot::Val(v)) => {
-                        let (count, stride) = p.elements(bty);
-                        let out = (0..stride)
-                            .map(|c| {
-                                (0..self.n)
-                                    .map(|i| v.0[(idx[i].max(0.0) as usize).min(count - 1) * stride + c][i])
-                                    .lanes()
-                            })
-                            .collect();
-                        Slot::Val(Val(out))
-                    }
-                    None => return Err(self.at(fun, h, "base not computed")),
-                }
-            }
-            E::GlobalVariable(g) => {
-                let slot = self.globals[g.index()]
-                    .ok_or_else(|| self.at(fun, h, "only private globals can be read on the CPU"))?;
-                Slot::Ptr(Ptr {
-                    slot,
-                    off: Off::Uniform(0),
-                    len: p.flat[p.module.global_variables[*g].ty.index()],
-                })
-            }
-            E::Load { pointer } => {
-                let ptr = self.ptr(fr, *pointer)?;
-                let src = &self.heap[ptr.slot];
-                // A one-lane component (the shared LTC tables, `ll_ltc`) is every lane's value.
-                let n = self.n;
-                let out = match &ptr.off {
-                    Off::Uniform(o) => src.0[*o..*o + ptr.len]
-                        .iter()
-                        .map(|l| {
-                            if l.len() == n {
-                                l.clone()
-                            } else {
-                                std::iter::repeat_n(l[0], n).lanes()
-                            }
-                        })
-                        .collect(),
-                    Off::PerLane(o) => (0..ptr.len)
-                        .map(|c| {
-                            (0..n)
-                                .map(|i| {
-                                    let l = &src.0[o[i] + c];
-                                    l[if l.len() == n { i } else { 0 }]
-                                })
-                                .lanes()
-                        })
-                        .collect(),
-                };
-                Slot::Val(Val(out))
-            }
-            E::Unary { op, expr } => {
-                let a = self.val(fr, *expr)?;
-                let out =
-                    a.0.iter()
-                        .map(|l| match (op, float) {
-                            (U::Negate, true) => l.iter().map(|x| -x).lanes(),
-                            (U::Negate, false) => l.iter().map(|x| -(*x as i64 as i32 as f64)).lanes(),
-                            (U::LogicalNot, _) => l.iter().map(|&x| (x == 0.0) as u8 as f64).lanes(),
-                            (U::BitwiseNot, _) => match kind(ty) {
-                                Some(ScalarKind::Sint) => l.iter().map(|&x| !(x as i32) as f64).lanes(),
-                                _ => l.iter().map(|&x| !(x as u32) as f64).lanes(),
-                            },
-                        })
-                        .collect();
-                Slot::Val(Val(out))
-            }
-            E::Binary { op, left, right } => {
-                let lt = self.inner(fun, *left);
-                let rt = self.inner(fun, *right);
-                let (a, b) = (self.val(fr, *left)?, self.val(fr, *right)?);
-                Slot::Val(self.binary(*op, lt, rt, a, b).map_err(|m| self.at(fun, h, &m))?)
-            }
-            E::Select {
-                condition,
-                accept,
-                reject,
-            } => {
-                let c = self.val(fr, *condition)?;
-                let a = self.val(fr, *accept)?;
-                let r = self.val(fr, *reject)?;
-                let out = (0..a.0.len())
-                    .map(|k| {
-                        let ck = &c.0[k.min(c.0.len() - 1)];
-                        (0..self.n)
-                            .map(|i| if ck[i] != 0.0 { a.0[k][i] } else { r.0[k][i] })
-                            .lanes()
-                    })
-                    .collect();
-                Slot::Val(Val(out))
-            }
-            E::Relational { fun: rf, argument } => {
-                let a = self.val(fr, *argument)?;
-                let out = match rf {
-                    naga::RelationalFunction::All => {
-                        vec![(0..self.n)
-                            .map(|i| a.0.iter().all(|l| l[i] != 0.0) as u8 as f64)
-                            .lanes()]
-                    }
-                    naga::RelationalFunction::Any => {
-                        vec![(0..self.n)
-                            .map(|i| a.0.iter().any(|l| l[i] != 0.0) as u8 as f64)
-                            .lanes()]
-                    }
-                    naga::RelationalFunction::IsNan => {
-                        a.0.iter()
-                            .map(|l| l.iter().map(|x| x.is_nan() as u8 as f64).lanes())
-                            .collect()
-                    }
-                    naga::RelationalFunction::IsInf => {
-                        a.0.iter()
-                            .map(|l| l.iter().map(|x| x.is_infinite() as u8 as f64).lanes())
-                            .collect()
-                    }
-                };
-                Slot::Val(Val(out))
-            }
-            E::Math {
-                fun: mf,
-                arg,
-                arg1,
-                arg2,
-                ..
-            } => {
-                let a = self.val(fr, *arg)?;
-                let b = arg1.map(|x| self.val(fr, x)).transpose()?;
-                let c = arg2.map(|x| self.val(fr, x)).transpose()?;
-                let at = self.inner(fun, *arg);
-                Slot::Val(self.math(*mf, at, a, b, c).map_err(|m| self.at(fun, h, &m))?)
-            }
-            E::As {
-                expr,
-                kind: to,
-                convert,
-            } => {
-                if convert.is_none() {
-                    return Err(self.at(fun, h, "bitcast is not supported"));
-                }
-                let from = kind(self.inner(fun, *expr));
-                let a = self.val(fr, *expr)?;
-                let mut out = Vec::new();
-                for l in &a.0 {
-                    out.push(match (to, from) {
-                        (ScalarKind::Float, Some(ScalarKind::Float)) => l.clone(),
-                        (ScalarKind::Float, _) => self.f1(l, |x| x, |x| x, Round::Exact),
-                        (ScalarKind::Uint, Some(ScalarKind::Float)) => l
-                            .iter()
-                            .map(|&x| x.trunc().clamp(0.0, u32::MAX as f64))
-                            .map(nan0)
-                            .lanes(),
-                        (ScalarKind::Sint, Some(ScalarKind::Float)) => l
-                            .iter()
-                            .map(|&x| x.trunc().clamp(i32::MIN as f64, i32::MAX as f64))
-                            .map(nan0)
-                            .lanes(),
-                        (ScalarKind::Uint, Some(ScalarKind::Sint)) => l.iter().map(|&x| x as i32 as u32 as f64).lanes(),
-                        (ScalarKind::Sint, Some(ScalarKind::Uint)) => l.iter().map(|&x| x as u32 as i32 as f64).lanes(),
-                        (ScalarKind::Bool, _) => l.iter().map(|&x| (x != 0.0) as u8 as f64).lanes(),
-                        _ => l.clone(),
-                    });
-                }
-                Slot::Val(Val(out))
-            }
-            E::CallResult(_) => return Err(self.at(fun, h, "call result read before the call")),
-            other => return Err(self.at(fun, h, &format!("unsupported expression {other:?}"))),
-        };
-        let slot = match slot {
-            Slot::Val(mut v) if !float && self.shadow => {
-                for l in &mut v.0 {
-                    self.follow(l);
-                }
-                Slot::Val(v)
-            }
-            s => s,
-        };
-        fr.vals[h.index()] = Some(slot);
-        Ok(())
-    }
-
-    fn binary(&mut self, op: B, lt: &TypeInner, rt: &TypeInner, a: &Val, b: &Val) -> Result<Val, String> {
-        use TypeInner as T;
-        let k = kind(lt);
-        let float = k == Some(ScalarKind::Float);
-        match (op, lt, rt) {
-            (B::Multiply, T::Matrix { columns, rows, .. }, T::Vector { .. }) => {
-                let r = *rows as usize;
-                let mut out = Vec::new();
-                for i in 0..r {
-                    let mut acc = self.mul(&a.0[i], &b.0[0]);
-                    for j in 1..*columns as usize {
-                        let t = self.mul(&a.0[j * r + i], &b.0[j]);
-                        acc = self.add(&acc, &t);
-                    }
-                    out.push(acc);
-                }
-                return Ok(Val(out));
-            }
-            (B::Multiply, T::Vector { .. }, T::Matrix { columns, rows, .. }) => {
-                let r = *rows as usize;
-                let out = (0..*columns as usize)
-                    .map(|j| self.dot(&a.0, &b.0[j * r..(j + 1) * r]))
-                    .collect();
-                return Ok(Val(out));
-            }
-            (
-                B::Multiply,
-                T::Matrix {
-                    columns: ac, rows: ar, ..
-                },
-                T::Matrix { columns: bc, .. },
-            ) => {
-                let (ar, ac) = (*ar as usize, *ac as usize);
-                let mut out = Vec::new();
-                for j in 0..*bc as usize {
-                    for i in 0..ar {
-                        let mut acc = self.mul(&a.0[i], &b.0[j * ac]);
-                        for kk in 1..ac {
-                            let t = self.mul(&a.0[kk * ar + i], &b.0[j * ac + kk]);
-                            acc = self.add(&acc, &t);
-                        }
-                        out.push(acc);
+/// Each lane's scene (f32 lanes, and an attribution's shadow, read it in f32).
+pub(super) fn scene_lanes(p: &Program, configs: &[&Config], n: usize, split: usize, shadow_f32: bool) -> Val {
+    let total: usize = p.scene.iter().map(|s| s.2).sum();
+    let mut comps = vec![vec![0.0; n]; total];
+    let half = if shadow_f32 { split } else { n };
+    for (i, c) in configs.iter().enumerate() {
+        let input = crate::input::scene::SceneInput::new(c);
+        for (name, off, _) in &p.scene {
+            let v = input.member(name).expect("checked in prepare");
+            for (k, x) in v.into_iter().enumerate() {
+                let r = x as f32 as f64;
+                for lane in [i, i + half] {
+                    if lane < n {
+                        comps[off + k][lane] = if lane < split || shadow_f32 { r } else { x };
                     }
                 }
-                return Ok(Val(out));
             }
-            _ => {}
         }
-        let len = a.0.len().max(b.0.len());
-        let pick = |v: &Val, i: usize| if v.0.len() == 1 { 0 } else { i };
-        let mut out = Vec::with_capacity(len);
-        for i in 0..len {
-            let (x, y) = (&a.0[pick(a, i)], &b.0[pick(b, i)]);
-            let cmp = |f: fn(f64, f64) -> bool| -> Lanes {
-                x.iter().zip(y.iter()).map(|(&p, &q)| f(p, q) as u8 as f64).lanes()
-            };
-            let l = match op {
-                B::Add if float => self.add(x, y),
-                B::Subtract if float => self.sub(x, y),
-                B::Multiply if float => self.mul(x, y),
-                B::Divide if float => self.div(x, y),
-                B::Modulo if float => self.f2(x, y, |p, q| p % q, |p, q| p % q, Round::Call),
-                B::Add
-                | B::Subtract
-                | B::Multiply
-                | B::Divide
-                | B::Modulo
-                | B::And
-                | B::InclusiveOr
-                | B::ExclusiveOr
-                | B::ShiftLeft
-                | B::ShiftRight => {
-                    let signed = k == Some(ScalarKind::Sint);
-                    x.iter().zip(y.iter()).map(|(&p, &q)| int_op(op, p, q, signed)).lanes()
-                }
-                B::Equal => cmp(|p, q| p == q),
-                B::NotEqual => cmp(|p, q| p != q),
-                B::Less => cmp(|p, q| p < q),
-                B::LessEqual => cmp(|p, q| p <= q),
-                B::Greater => cmp(|p, q| p > q),
-                B::GreaterEqual => cmp(|p, q| p >= q),
-                B::LogicalAnd => cmp(|p, q| p != 0.0 && q != 0.0),
-                B::LogicalOr => cmp(|p, q| p != 0.0 || q != 0.0),
-            };
-            out.push(l);
-        }
-        Ok(Val(out))
+    }
+    comps.into_iter().map(lanes).collect()
+}
+
+/// What the caller of a function keeps across the call: its heap, its lanes, its `break`
+/// and `continue` targets.
+pub(super) struct Saved {
+    heap: usize,
+    cur: Vec<bool>,
+    ctl: Vec<Ctl>,
+}
+
+impl<'p> Domain for Exec<'p> {
+    type V = Lanes;
+    type P = Ptr;
+    type Ret = Option<Val>;
+    type Err = anyhow::Error;
+    type Saved = Saved;
+
+    fn at(&mut self, line: u32, emitted: bool) {
+        self.loc = line;
+        self.line = if emitted { line } else { NO_LINE };
     }
 
-    fn math(&mut self, f: M, at: &TypeInner, a: &Val, b: Option<&Val>, c: Option<&Val>) -> Result<Val, String> {
-        let float = kind(at) == Some(ScalarKind::Float);
-        let need = |v: Option<&Val>| v.ok_or_else(|| format!("{f:?}: missing argument")).cloned();
-        // Component by component, a scalar argument standing for every component.
-        let each1 = |s: &mut Self, g: &dyn Fn(&mut Self, &[f64]) -> Lanes| Val(a.0.iter().map(|l| g(s, l)).collect());
-        let pick = |v: &Val, i: usize| v.0[if v.0.len() == 1 { 0 } else { i }].clone();
-        Ok(match f {
-            M::Abs => each1(self, &|s, l| s.f1(l, f64::abs, f32::abs, Round::Exact)),
-            M::Sqrt => each1(self, &|s, l| s.f1(l, f64::sqrt, f32::sqrt, Round::Cheap)),
-            M::InverseSqrt => each1(self, &|s, l| s.rsqrt(l)),
-            M::Sin => each1(self, &|s, l| s.f1(l, libm::sin, libm::sinf, Round::Call)),
-            M::Cos => each1(self, &|s, l| s.f1(l, libm::cos, libm::cosf, Round::Call)),
-            M::Tan => each1(self, &|s, l| s.f1(l, libm::tan, libm::tanf, Round::Call)),
-            M::Asin => each1(self, &|s, l| s.f1(l, libm::asin, libm::asinf, Round::Call)),
-            M::Acos => each1(self, &|s, l| s.f1(l, libm::acos, libm::acosf, Round::Call)),
-            M::Atan => each1(self, &|s, l| s.f1(l, libm::atan, libm::atanf, Round::Call)),
-            M::Exp => each1(self, &|s, l| s.f1(l, libm::exp, libm::expf, Round::Call)),
-            M::Exp2 => each1(self, &|s, l| s.f1(l, libm::exp2, libm::exp2f, Round::Call)),
-            M::Log => each1(self, &|s, l| s.f1(l, libm::log, libm::logf, Round::Call)),
-            M::Log2 => each1(self, &|s, l| s.f1(l, libm::log2, libm::log2f, Round::Call)),
-            M::Floor => each1(self, &|s, l| s.f1(l, f64::floor, f32::floor, Round::Exact)),
-            M::Ceil => each1(self, &|s, l| s.f1(l, f64::ceil, f32::ceil, Round::Exact)),
-            M::Trunc => each1(self, &|s, l| s.f1(l, f64::trunc, f32::trunc, Round::Exact)),
-            M::Round => each1(self, &|s, l| {
-                s.f1(l, f64::round_ties_even, f32::round_ties_even, Round::Exact)
-            }),
-            M::Fract => each1(self, &|s, l| {
-                s.f1(l, |x| x - x.floor(), |x| x - x.floor(), Round::Cheap)
-            }),
-            M::Saturate => each1(self, &|s, l| {
-                s.f1(l, |x| x.clamp(0.0, 1.0), |x| x.clamp(0.0, 1.0), Round::Exact)
-            }),
-            M::Sign => each1(self, &|s, l| {
-                s.f1(
-                    l,
-                    |x| {
-                        if x > 0.0 {
-                            1.0
-                        } else if x < 0.0 {
-                            -1.0
-                        } else {
-                            0.0
-                        }
-                    },
-                    |x| {
-                        if x > 0.0 {
-                            1.0
-                        } else if x < 0.0 {
-                            -1.0
-                        } else {
-                            0.0
-                        }
-                    },
-                    Round::Exact,
-                )
-            }),
-            M::Min | M::Max | M::Atan2 | M::Pow | M::Step => {
-                let b = need(b)?;
-                let out = (0..a.0.len())
-                    .map(|i| {
-                        let (x, y) = (pick(a, i), pick(&b, i));
-                        match f {
-                            // WGSL min/max of a NaN: either; IEEE minNum here.
-                            M::Min => self.f2(&x, &y, f64::min, f32::min, Round::Exact),
-                            M::Max => self.f2(&x, &y, f64::max, f32::max, Round::Exact),
-                            M::Atan2 => self.f2(&x, &y, libm::atan2, libm::atan2f, Round::Call),
-                            M::Pow => self.f2(&x, &y, libm::pow, libm::powf, Round::Call),
-                            _ => self.f2(
-                                &x,
-                                &y,
-                                |e, v| (v >= e) as u8 as f64,
-                                |e, v| (v >= e) as u8 as f32,
-                                Round::Exact,
-                            ),
-                        }
-                    })
-                    .collect();
-                Val(out)
-            }
-            M::Clamp | M::Fma | M::Mix => {
-                let (b, c) = (need(b)?, need(c)?);
-                let out = (0..a.0.len())
-                    .map(|i| {
-                        let (x, y, z) = (pick(a, i), pick(&b, i), pick(&c, i));
-                        match f {
-                            M::Clamp => self.f3(
-                                &x,
-                                &y,
-                                &z,
-                                |v, lo, hi| v.max(lo).min(hi),
-                                |v, lo, hi| v.max(lo).min(hi),
-                                Round::Exact,
-                            ),
-                            M::Fma => self.f3(&x, &y, &z, f64::mul_add, f32::mul_add, Round::Call),
-                            _ => {
-                                // mix(x, y, t) = x·(1 − t) + y·t
-                                let one = vec![1.0; self.n];
-                                let u = self.sub(&one, &z);
-                                let p = self.mul(&x, &u);
-                                let q = self.mul(&y, &z);
-                                self.add(&p, &q)
-                            }
-                        }
-                    })
-                    .collect();
-                Val(out)
-            }
-            M::Dot => {
-                let b = need(b)?;
-                Val(vec![self.dot(&a.0, &b.0)])
-            }
-            M::Cross => {
-                let b = need(b)?;
-                let (x, y) = (&a.0, &b.0);
-                let mut out = Vec::new();
-                for (i, j) in [(1, 2), (2, 0), (0, 1)] {
-                    let p = self.mul(&x[i], &y[j]);
-                    let q = self.mul(&x[j], &y[i]);
-                    out.push(self.sub(&p, &q));
-                }
-                Val(out)
-            }
-            M::Length => {
-                if !float {
-                    return Err("length of a non-float".into());
-                }
-                let d = if a.0.len() == 1 {
-                    self.f1(&a.0[0], f64::abs, f32::abs, Round::Exact)
-                } else {
-                    let d = self.dot(&a.0, &a.0);
-                    self.f1(&d, f64::sqrt, f32::sqrt, Round::Cheap)
+    fn fail(&self, msg: String) -> anyhow::Error {
+        self.located(&msg)
+    }
+
+    fn fail_statement(&self, msg: String) -> anyhow::Error {
+        anyhow!("CPU evaluator: {msg}")
+    }
+
+    fn live(&self) -> bool {
+        any(&self.cur)
+    }
+
+    fn emit(&mut self) {
+        self.set_mask();
+    }
+
+    fn literal(&mut self, lit: naga::Literal, written: &Result<f64, String>) -> Result<Lanes> {
+        Ok(match lit {
+            naga::Literal::F32(x) => {
+                let v64 = match self.split == self.n {
+                    true => x as f64,
+                    false => written.clone().map_err(|m| self.located(&m))?,
                 };
-                Val(vec![d])
+                self.fill(x as f64, v64)
             }
-            M::Distance => {
-                let b = need(b)?;
-                let diff: Vec<Lanes> = (0..a.0.len()).map(|i| self.sub(&a.0[i], &b.0[i])).collect();
-                let d = self.dot(&diff, &diff);
-                Val(vec![self.f1(&d, f64::sqrt, f32::sqrt, Round::Cheap)])
-            }
-            M::Normalize => {
-                // v · inverseSqrt(v·v), as drivers lower it.
-                let d = self.dot(&a.0, &a.0);
-                let r = self.rsqrt(&d);
-                Val(a.0.iter().map(|l| self.mul(l, &r)).collect())
-            }
-            M::Determinant => {
-                let m = &a.0;
-                match m.len() {
-                    4 => {
-                        let p = self.mul(&m[0], &m[3]);
-                        let q = self.mul(&m[2], &m[1]);
-                        Val(vec![self.sub(&p, &q)])
-                    }
-                    9 => {
-                        // m[c][r] = m[3c + r]; cofactor expansion along the first column.
-                        let e = |c: usize, r: usize| &m[3 * c + r];
-                        let minor = |s: &mut Self, c1: usize, c2: usize, r1: usize, r2: usize| {
-                            let p = s.mul(e(c1, r1), e(c2, r2));
-                            let q = s.mul(e(c2, r1), e(c1, r2));
-                            s.sub(&p, &q)
-                        };
-                        let m0 = minor(self, 1, 2, 1, 2);
-                        let m1 = minor(self, 1, 2, 0, 2);
-                        let m2 = minor(self, 1, 2, 0, 1);
-                        let t0 = self.mul(e(0, 0), &m0);
-                        let t1 = self.mul(e(0, 1), &m1);
-                        let t2 = self.mul(e(0, 2), &m2);
-                        let s = self.sub(&t0, &t1);
-                        Val(vec![self.add(&s, &t2)])
-                    }
-                    n => return Err(format!("determinant of a {n}-component matrix")),
-                }
-            }
-            M::Transpose => {
-                let TypeInner::Matrix { columns, rows, .. } = at else {
-                    return Err("transpose of a non-matrix".into());
-                };
-                let (c, r) = (*columns as usize, *rows as usize);
-                // The result has r columns of c rows: out[i][j] = in[j][i].
-                Val((0..r)
-                    .flat_map(|i| (0..c).map(move |j| (i, j)))
-                    .map(|(i, j)| a.0[j * r + i].clone())
-                    .collect())
-            }
-            other => return Err(format!("math function {other:?} is not supported")),
+            naga::Literal::U32(x) => self.fill(x as f64, x as f64),
+            naga::Literal::I32(x) => self.fill(x as f64, x as f64),
+            naga::Literal::Bool(x) => self.fill(x as u8 as f64, x as u8 as f64),
+            other => return Err(self.located(&format!("unsupported literal {other:?}"))),
         })
+    }
+
+    fn constant(&mut self, c: &Const, _ty: Handle<naga::Type>) -> Result<Val> {
+        self.constant_lanes(c).map_err(|m| self.located(&m))
+    }
+
+    fn override_value(&mut self, v: f64, _ty: &naga::TypeInner) -> Result<Lanes> {
+        Ok(self.fill(v, v))
+    }
+
+    fn zero(&mut self, ty: Handle<naga::Type>) -> Result<Val> {
+        Ok(vec![self.zero_lanes.clone(); self.p.flat[ty.index()]])
+    }
+
+    fn float(&mut self, x: f64) -> Lanes {
+        self.fill(x, x)
+    }
+
+    /// Non-float results: the shadow lanes take the f32 lanes' values.
+    fn settle(&mut self, v: &mut [Lanes], float: bool) {
+        if !float && self.shadow {
+            for l in v {
+                self.follow(l);
+            }
+        }
+    }
+
+    fn add(&mut self, a: &Lanes, b: &Lanes) -> Result<Lanes> {
+        Ok(self.fadd(a, b))
+    }
+    fn sub(&mut self, a: &Lanes, b: &Lanes) -> Result<Lanes> {
+        Ok(self.fsub(a, b))
+    }
+    fn mul(&mut self, a: &Lanes, b: &Lanes) -> Result<Lanes> {
+        Ok(self.fmul(a, b))
+    }
+    fn div(&mut self, a: &Lanes, b: &Lanes) -> Result<Lanes> {
+        Ok(self.fdiv(a, b))
+    }
+    fn rem(&mut self, a: &Lanes, b: &Lanes) -> Result<Lanes> {
+        Ok(self.f2(a, b, |p, q| p % q, |p, q| p % q, Round::Call))
+    }
+
+    fn int(&mut self, op: B, a: &Lanes, b: &Lanes, kind: Option<ScalarKind>) -> Result<Lanes> {
+        let signed = kind == Some(ScalarKind::Sint);
+        Ok(a.iter().zip(b.iter()).map(|(&p, &q)| int_op(op, p, q, signed)).lanes())
+    }
+
+    fn compare(&mut self, op: B, a: &Lanes, b: &Lanes, _kind: Option<ScalarKind>) -> Result<Lanes> {
+        let cmp =
+            |f: fn(f64, f64) -> bool| -> Lanes { a.iter().zip(b.iter()).map(|(&p, &q)| f(p, q) as u8 as f64).lanes() };
+        Ok(match op {
+            B::Equal => cmp(|p, q| p == q),
+            B::NotEqual => cmp(|p, q| p != q),
+            B::Less => cmp(|p, q| p < q),
+            B::LessEqual => cmp(|p, q| p <= q),
+            B::Greater => cmp(|p, q| p > q),
+            _ => cmp(|p, q| p >= q),
+        })
+    }
+
+    fn logical(&mut self, op: B, a: &Lanes, b: &Lanes) -> Result<Lanes> {
+        let f: fn(f64, f64) -> bool = match op {
+            B::LogicalAnd => |p, q| p != 0.0 && q != 0.0,
+            _ => |p, q| p != 0.0 || q != 0.0,
+        };
+        Ok(a.iter().zip(b.iter()).map(|(&p, &q)| f(p, q) as u8 as f64).lanes())
+    }
+
+    fn unary(&mut self, op: U, l: &Lanes, kind: Option<ScalarKind>) -> Result<Lanes> {
+        Ok(match (op, kind == Some(ScalarKind::Float)) {
+            (U::Negate, true) => Self::map(l, |x| -x),
+            (U::Negate, false) => Self::map(l, |x| -(x as i64 as i32 as f64)),
+            (U::LogicalNot, _) => Self::map(l, |x| (x == 0.0) as u8 as f64),
+            (U::BitwiseNot, _) => match kind {
+                Some(ScalarKind::Sint) => Self::map(l, |x| !(x as i32) as f64),
+                _ => Self::map(l, |x| !(x as u32) as f64),
+            },
+        })
+    }
+
+    fn select(&mut self, c: &Lanes, a: &Lanes, r: &Lanes) -> Result<Lanes> {
+        Ok((0..self.n).map(|i| if c[i] != 0.0 { a[i] } else { r[i] }).lanes())
+    }
+
+    fn relational(&mut self, f: RelationalFunction, a: &[Lanes]) -> Result<Val> {
+        Ok(match f {
+            RelationalFunction::All => {
+                vec![(0..self.n).map(|i| a.iter().all(|l| l[i] != 0.0) as u8 as f64).lanes()]
+            }
+            RelationalFunction::Any => {
+                vec![(0..self.n).map(|i| a.iter().any(|l| l[i] != 0.0) as u8 as f64).lanes()]
+            }
+            RelationalFunction::IsNan => a.iter().map(|l| Self::map(l, |x| x.is_nan() as u8 as f64)).collect(),
+            RelationalFunction::IsInf => a
+                .iter()
+                .map(|l| Self::map(l, |x| x.is_infinite() as u8 as f64))
+                .collect(),
+        })
+    }
+
+    fn convert(&mut self, to: ScalarKind, from: Option<ScalarKind>, l: &Lanes) -> Result<Lanes> {
+        Ok(match (to, from) {
+            (ScalarKind::Float, Some(ScalarKind::Float)) => l.clone(),
+            (ScalarKind::Float, _) => self.f1(l, |x| x, |x| x, Round::Exact),
+            (ScalarKind::Uint, Some(ScalarKind::Float)) => {
+                Self::map(l, |x| nan0(x.trunc().clamp(0.0, u32::MAX as f64)))
+            }
+            (ScalarKind::Sint, Some(ScalarKind::Float)) => {
+                Self::map(l, |x| nan0(x.trunc().clamp(i32::MIN as f64, i32::MAX as f64)))
+            }
+            (ScalarKind::Uint, Some(ScalarKind::Sint)) => Self::map(l, |x| x as i32 as u32 as f64),
+            (ScalarKind::Sint, Some(ScalarKind::Uint)) => Self::map(l, |x| x as u32 as i32 as f64),
+            (ScalarKind::Bool, _) => Self::map(l, |x| (x != 0.0) as u8 as f64),
+            _ => l.clone(),
+        })
+    }
+
+    fn math1(&mut self, f: M, l: &Lanes, _kind: Option<ScalarKind>) -> Result<Lanes> {
+        let sign = |x: f64| {
+            if x > 0.0 {
+                1.0
+            } else if x < 0.0 {
+                -1.0
+            } else {
+                0.0
+            }
+        };
+        let sign32 = |x: f32| {
+            if x > 0.0 {
+                1.0
+            } else if x < 0.0 {
+                -1.0
+            } else {
+                0.0
+            }
+        };
+        Ok(match f {
+            M::Abs => self.f1(l, f64::abs, f32::abs, Round::Exact),
+            M::Sqrt => self.f1(l, f64::sqrt, f32::sqrt, Round::Cheap),
+            M::InverseSqrt => self.rsqrt(l),
+            M::Sin => self.f1(l, libm::sin, libm::sinf, Round::Call),
+            M::Cos => self.f1(l, libm::cos, libm::cosf, Round::Call),
+            M::Tan => self.f1(l, libm::tan, libm::tanf, Round::Call),
+            M::Asin => self.f1(l, libm::asin, libm::asinf, Round::Call),
+            M::Acos => self.f1(l, libm::acos, libm::acosf, Round::Call),
+            M::Atan => self.f1(l, libm::atan, libm::atanf, Round::Call),
+            M::Exp => self.f1(l, libm::exp, libm::expf, Round::Call),
+            M::Exp2 => self.f1(l, libm::exp2, libm::exp2f, Round::Call),
+            M::Log => self.f1(l, libm::log, libm::logf, Round::Call),
+            M::Log2 => self.f1(l, libm::log2, libm::log2f, Round::Call),
+            M::Floor => self.f1(l, f64::floor, f32::floor, Round::Exact),
+            M::Ceil => self.f1(l, f64::ceil, f32::ceil, Round::Exact),
+            M::Trunc => self.f1(l, f64::trunc, f32::trunc, Round::Exact),
+            M::Round => self.f1(l, f64::round_ties_even, f32::round_ties_even, Round::Exact),
+            M::Fract => self.f1(l, |x| x - x.floor(), |x| x - x.floor(), Round::Cheap),
+            M::Saturate => self.f1(l, |x| x.clamp(0.0, 1.0), |x| x.clamp(0.0, 1.0), Round::Exact),
+            _ => self.f1(l, sign, sign32, Round::Exact),
+        })
+    }
+
+    fn math2(&mut self, f: M, x: &Lanes, y: &Lanes, _kind: Option<ScalarKind>) -> Result<Lanes> {
+        Ok(match f {
+            // WGSL min/max of a NaN: either; IEEE minNum here.
+            M::Min => self.f2(x, y, f64::min, f32::min, Round::Exact),
+            M::Max => self.f2(x, y, f64::max, f32::max, Round::Exact),
+            M::Atan2 => self.f2(x, y, libm::atan2, libm::atan2f, Round::Call),
+            M::Pow => self.f2(x, y, libm::pow, libm::powf, Round::Call),
+            _ => self.f2(
+                x,
+                y,
+                |e, v| (v >= e) as u8 as f64,
+                |e, v| (v >= e) as u8 as f32,
+                Round::Exact,
+            ),
+        })
+    }
+
+    fn math3(&mut self, f: M, x: &Lanes, y: &Lanes, z: &Lanes, _kind: Option<ScalarKind>) -> Result<Lanes> {
+        Ok(match f {
+            M::Clamp => self.f3(
+                x,
+                y,
+                z,
+                |v, lo, hi| v.max(lo).min(hi),
+                |v, lo, hi| v.max(lo).min(hi),
+                Round::Exact,
+            ),
+            _ => self.f3(x, y, z, f64::mul_add, f32::mul_add, Round::Call),
+        })
+    }
+
+    fn local(&mut self, ty: Handle<naga::Type>) -> Result<Ptr> {
+        let z = self.zero(ty)?;
+        self.heap.push(z);
+        Ok(Ptr {
+            slot: self.heap.len() - 1,
+            off: Off::Uniform(0),
+            len: self.p.flat[ty.index()],
+        })
+    }
+
+    fn bind(&mut self, g: Handle<naga::GlobalVariable>, v: Val) {
+        self.globals[g.index()] = Some(self.heap.len());
+        self.heap.push(v);
+    }
+
+    fn global(&mut self, g: Handle<naga::GlobalVariable>, len: usize) -> Result<Ptr> {
+        let slot =
+            self.globals[g.index()].ok_or_else(|| self.located("only private globals can be read on the CPU"))?;
+        Ok(Ptr {
+            slot,
+            off: Off::Uniform(0),
+            len,
+        })
+    }
+
+    fn child(&mut self, ptr: &Ptr, off: usize, len: usize) -> Ptr {
+        let off = match &ptr.off {
+            Off::Uniform(o) => Off::Uniform(o + off),
+            Off::PerLane(o) => Off::PerLane(o.iter().map(|x| x + off).collect()),
+        };
+        Ptr {
+            slot: ptr.slot,
+            off,
+            len,
+        }
+    }
+
+    fn held(&self, ptr: &Ptr) -> usize {
+        self.heap[ptr.slot].len()
+    }
+
+    fn index(&mut self, ptr: &Ptr, idx: &Lanes, count: usize, stride: usize, _signed: bool) -> Result<Ptr> {
+        let off = (0..self.n)
+            .map(|i| {
+                let k = (idx[i].max(0.0) as usize).min(count - 1);
+                k * stride
+                    + match &ptr.off {
+                        Off::Uniform(o) => *o,
+                        Off::PerLane(o) => o[i],
+                    }
+            })
+            .collect();
+        Ok(Ptr {
+            slot: ptr.slot,
+            off: Off::PerLane(off),
+            len: stride,
+        })
+    }
+
+    fn index_value(&mut self, v: &[Lanes], idx: &Lanes, count: usize, stride: usize, _signed: bool) -> Result<Val> {
+        Ok((0..stride)
+            .map(|c| {
+                (0..self.n)
+                    .map(|i| v[(idx[i].max(0.0) as usize).min(count - 1) * stride + c][i])
+                    .lanes()
+            })
+            .collect())
+    }
+
+    fn load(&mut self, ptr: &Ptr) -> Result<Val> {
+        let src = &self.heap[ptr.slot];
+        // A one-lane component (the shared LTC tables, `ll_ltc`) is every lane's value.
+        let n = self.n;
+        Ok(match &ptr.off {
+            Off::Uniform(o) => src[*o..*o + ptr.len]
+                .iter()
+                .map(|l| {
+                    if l.len() == n {
+                        l.clone()
+                    } else {
+                        std::iter::repeat_n(l[0], n).lanes()
+                    }
+                })
+                .collect(),
+            Off::PerLane(o) => (0..ptr.len)
+                .map(|c| {
+                    (0..n)
+                        .map(|i| {
+                            let l = &src[o[i] + c];
+                            l[if l.len() == n { i } else { 0 }]
+                        })
+                        .lanes()
+                })
+                .collect(),
+        })
+    }
+
+    fn store(&mut self, ptr: &Ptr, v: &[Lanes]) -> Result<()> {
+        let mask = &self.cur;
+        let slot = &mut self.heap[ptr.slot];
+        match &ptr.off {
+            Off::Uniform(o) => {
+                for c in 0..ptr.len {
+                    assign(&mut slot[o + c], &v[c], mask);
+                }
+            }
+            Off::PerLane(o) => {
+                for c in 0..ptr.len {
+                    for i in 0..self.n {
+                        if mask[i] {
+                            std::rc::Rc::make_mut(&mut slot[o[i] + c])[i] = v[c][i];
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn init(&mut self, ptr: &Ptr, v: Val) {
+        self.heap[ptr.slot] = v;
+    }
+
+    fn enter(&mut self, result: Option<Handle<naga::Type>>) -> Result<(Saved, Option<Val>)> {
+        let ret = result.map(|t| self.zero(t)).transpose()?;
+        let saved = Saved {
+            heap: self.heap.len(),
+            cur: self.cur.clone(),
+            ctl: std::mem::take(&mut self.ctl),
+        };
+        Ok((saved, ret))
+    }
+
+    fn leave(&mut self, saved: Saved, ret: Option<Val>) -> Option<Val> {
+        self.heap.truncate(saved.heap);
+        self.cur = saved.cur;
+        self.ctl = saved.ctl;
+        ret
+    }
+
+    fn cached(&mut self, fun: Handle<naga::Function>) -> Option<Consts<Self>> {
+        self.consts[fun.index()].take()
+    }
+
+    fn keep(&mut self, fun: Handle<naga::Function>, consts: impl FnOnce() -> Consts<Self>) {
+        self.consts[fun.index()] = Some(consts());
+    }
+
+    fn if_(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, c: &Lanes, arms: Arms) -> Result<()> {
+        let Arms { accept, reject } = arms;
+        let mask = std::mem::take(&mut w.d.cur);
+        let mut yes: Vec<bool> = mask.iter().zip(c.iter()).map(|(&m, &c)| m && c != 0.0).collect();
+        let mut no: Vec<bool> = mask.iter().zip(c.iter()).map(|(&m, &c)| m && c == 0.0).collect();
+        if any(&yes) {
+            w.d.cur = yes;
+            w.block(fr, accept)?;
+            yes = std::mem::take(&mut w.d.cur);
+        }
+        if any(&no) {
+            w.d.cur = no;
+            w.block(fr, reject)?;
+            no = std::mem::take(&mut w.d.cur);
+        }
+        or_into(&mut yes, &no);
+        w.d.cur = yes;
+        Ok(())
+    }
+
+    fn switch(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, sel: &Lanes, cases: &[naga::SwitchCase]) -> Result<()> {
+        let n = w.d.n;
+        let value = |v: &naga::SwitchValue| match v {
+            naga::SwitchValue::I32(i) => Some(*i as f64),
+            naga::SwitchValue::U32(u) => Some(*u as f64),
+            naga::SwitchValue::Default => None,
+        };
+        let listed: Vec<f64> = cases.iter().filter_map(|c| value(&c.value)).collect();
+        w.d.ctl.push(Ctl {
+            is_loop: false,
+            brk: vec![false; n],
+            cont: vec![false; n],
+        });
+        let mask = std::mem::take(&mut w.d.cur);
+        let mut out = vec![false; n];
+        let mut carry = vec![false; n];
+        for case in cases {
+            let mut m: Vec<bool> = (0..n)
+                .map(|i| {
+                    mask[i]
+                        && match value(&case.value) {
+                            Some(v) => sel[i] == v,
+                            None => !listed.contains(&sel[i]),
+                        }
+                })
+                .collect();
+            or_into(&mut m, &carry);
+            if any(&m) {
+                w.d.cur = m;
+                w.block(fr, &case.body)?;
+                m = std::mem::take(&mut w.d.cur);
+            }
+            if case.fall_through {
+                carry = m;
+            } else {
+                or_into(&mut out, &m);
+                carry = vec![false; n];
+            }
+        }
+        let c = w.d.ctl.pop().expect("pushed above");
+        or_into(&mut out, &c.brk);
+        if let Some(outer) = w.d.ctl.iter_mut().rev().find(|c| c.is_loop) {
+            or_into(&mut outer.cont, &c.cont);
+        }
+        w.d.cur = out;
+        Ok(())
+    }
+
+    fn loop_(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, l: Looping) -> Result<()> {
+        let (body, continuing, break_if) = (l.body, l.continuing, l.break_if);
+        let n = w.d.n;
+        w.d.ctl.push(Ctl {
+            is_loop: true,
+            brk: vec![false; n],
+            cont: vec![false; n],
+        });
+        let mut iterations = 0u64;
+        while any(&w.d.cur) {
+            iterations += 1;
+            if iterations > 1 << 24 {
+                bail!("CPU evaluator: a loop ran more than 2^24 iterations");
+            }
+            w.block(fr, body)?;
+            let d = &mut w.d;
+            let top = d.ctl.last_mut().expect("pushed above");
+            or_into(&mut d.cur, &top.cont);
+            top.cont.fill(false);
+            w.block(fr, continuing)?;
+            // naga's `break_if` is emitted in the continuing block, which runs only
+            // while some lane is still in the loop: when every lane left the body
+            // by `break` (or `return`), nothing is left to test (and on the first
+            // pass the condition has no value yet).
+            if let Some(b) = break_if.filter(|_| any(&w.d.cur)) {
+                let c = w.val(fr, b)?[0].clone();
+                let d = &mut w.d;
+                let top = d.ctl.last_mut().expect("pushed above");
+                for i in 0..n {
+                    if d.cur[i] && c[i] != 0.0 {
+                        d.cur[i] = false;
+                        top.brk[i] = true;
+                    }
+                }
+            }
+        }
+        w.d.cur = w.d.ctl.pop().expect("pushed above").brk;
+        Ok(())
+    }
+
+    fn break_(&mut self) -> Result<()> {
+        let top = self.ctl.last_mut().ok_or_else(|| anyhow!("`break` outside a loop"))?;
+        or_into(&mut top.brk, &self.cur);
+        self.cur.fill(false);
+        Ok(())
+    }
+
+    fn continue_(&mut self) -> Result<()> {
+        let top = self
+            .ctl
+            .iter_mut()
+            .rev()
+            .find(|c| c.is_loop)
+            .ok_or_else(|| anyhow!("`continue` outside a loop"))?;
+        or_into(&mut top.cont, &self.cur);
+        self.cur.fill(false);
+        Ok(())
+    }
+
+    fn return_(&mut self, ret: &mut Option<Val>, v: Option<&[Lanes]>) -> Result<()> {
+        if let Some(v) = v {
+            let ret = ret.as_mut().ok_or_else(|| anyhow!("return value in a void function"))?;
+            for (r, x) in ret.iter_mut().zip(v) {
+                assign(r, x, &self.cur);
+            }
+        }
+        self.cur.fill(false);
+        Ok(())
     }
 }
 

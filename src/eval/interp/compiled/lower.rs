@@ -1,10 +1,11 @@
-//! naga IR → Cranelift IR: one configuration per call ([`Lower::block`], control flow as
-//! branches), or several with the interpreter's execution masks ([`Lower::lblock`]): in
-//! SIMD vectors (f32 as F32X4, f64 as F64X2; one or more vectors per call), or interleaved
-//! scalar lanes.
+//! naga IR → Cranelift IR: a value domain of the walker (`eval/walk.rs`) whose values are
+//! Cranelift values, one per lane. One configuration per call (control flow as branches),
+//! or several with the interpreter's execution masks ([`Lower::masked_loop`] and the arms of
+//! `if_` and `switch`): in SIMD vectors (f32 as F32X4, f64 as F64X2; one or more vectors per
+//! call), or interleaved scalar lanes.
 //!
-//! The interpreter (`../exec.rs`) is the specification; this file mirrors it operation by
-//! operation, scalar by scalar, in the same order:
+//! The interpreter (`../exec.rs`) is the specification; the walker gives both the same
+//! operations, scalar by scalar, in the same order, and this file makes each one:
 //!
 //! - every float operation in the mode's type (f32 ops are IEEE single, correctly rounded,
 //!   never contracted into an fma: Cranelift does not fuse), transcendentals and `min`/`max`
@@ -20,18 +21,16 @@
 //! Anything else is an error naming the construct: the caller falls back to the
 //! interpreter for that kernel.
 
-use super::super::{Mode, Program};
 use super::shims::{shim, F};
+use crate::eval::program::{Const, Mode, Program};
+use crate::eval::walk::{Arms, Domain, Frame, Looping, Slot, Walker};
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
 use cranelift_codegen::ir::{types, AbiParam, Block, InstBuilder, MemFlagsData, SigRef, Signature, Type, Value};
 use cranelift_codegen::isa::CallConv;
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext, Variable};
 use cranelift_module::Module;
-use naga::{
-    BinaryOperator as B, Expression as E, Handle, MathFunction as M, ScalarKind, Statement as S, TypeInner,
-    UnaryOperator as U,
-};
+use naga::{BinaryOperator as B, Handle, MathFunction as M, ScalarKind, TypeInner, UnaryOperator as U};
 use std::collections::HashMap;
 
 /// The compiled kernel: `scene` points at the Scene's components as f64 (rounded to f32
@@ -111,6 +110,7 @@ pub(super) fn compile(p: &Program, mode: Mode, lanes: usize, simd: bool) -> Resu
             lanes,
             simd,
             lane: 0,
+            loc: crate::eval::program::NO_LINE,
             cur: Vec::new(),
             ltargets: Vec::new(),
             loops: 0,
@@ -122,7 +122,13 @@ pub(super) fn compile(p: &Program, mode: Mode, lanes: usize, simd: bool) -> Resu
             ptr,
             cc: frontend.default_call_conv,
         };
-        l.entry()?;
+        let (scene, out) = l.prologue()?;
+        let mut w = Walker::new(p, l);
+        let ret = w
+            .call(p.method, vec![Slot::Val(scene)])?
+            .ok_or("`method` returned nothing")?;
+        let mut l = w.d;
+        l.epilogue(&ret[0], out);
         l.b.seal_all_blocks();
         l.b.finalize(frontend);
     }
@@ -140,13 +146,6 @@ pub(super) fn compile(p: &Program, mode: Mode, lanes: usize, simd: bool) -> Resu
         entry,
         per_call: if simd { lanes * simd_width(mode) } else { lanes },
     })
-}
-
-/// One compiled value: its scalar components (matrices column by column), or a pointer.
-#[derive(Clone)]
-enum Slot {
-    Val(Vec<Value>),
-    Ptr(Ptr),
 }
 
 /// A pointer into storage `store`: `len` components from a constant offset, or from
@@ -169,16 +168,6 @@ enum Off {
     },
 }
 
-/// One inlined call. With several lanes, every value, local and return slot is kept per
-/// lane (`[lane][…]`); the lane being lowered is `Lower::lane`.
-struct Frame {
-    fun: Handle<naga::Function>,
-    vals: Vec<Vec<Option<Slot>>>,
-    locals: Vec<Vec<usize>>,
-    ret: Option<Vec<usize>>,
-    exit: Block,
-}
-
 /// Where `break` and `continue` send a lane in the lane path: the lanes that left, kept per
 /// lane in variables (0/1) until the construct ends.
 enum LTarget {
@@ -197,7 +186,7 @@ struct Lower<'p, 'b> {
     /// Innermost last: where `break` goes, and `continue` (loops only).
     targets: Vec<(Block, Option<Block>)>,
     /// Configurations per call: 1 is the one-configuration path (control flow as branches),
-    /// more is the lane path (see [`Lower::lblock`]).
+    /// more is the lane path (module doc).
     lanes: usize,
     /// The SIMD path: every value is a vector of [`simd_width`] configurations', masks are
     /// one vector per lane (`lanes` vectors per call), operations without a vector form are
@@ -207,8 +196,10 @@ struct Lower<'p, 'b> {
     /// lane-wise i32 operation keeps the two copies equal and an integer compare's I32X4
     /// mask, read as I64X2, is the boolean mask).
     simd: bool,
-    /// The lane whose values are being lowered.
+    /// The lane whose values are being written.
     lane: usize,
+    /// The current expression's source line (errors name it).
+    loc: u32,
     /// The lane path's execution mask: per lane 1 while the lane runs the current statement.
     cur: Vec<Variable>,
     /// The lane path's `break`/`continue` targets, innermost last.
@@ -436,18 +427,6 @@ impl<'p> Lower<'p, '_> {
         self.comps(&self.p.module.types[ty].inner)
     }
 
-    fn inner(&self, fun: Handle<naga::Function>, h: Handle<naga::Expression>) -> &'p TypeInner {
-        self.p.info[fun][h].ty.inner_with(&self.p.module.types)
-    }
-
-    fn at(&self, fun: Handle<naga::Function>, h: Handle<naga::Expression>, msg: &str) -> String {
-        let line = self.p.funs[fun.index()].line[h.index()];
-        match self.p.lines.get(line as usize) {
-            Some(l) => format!("{}:{}: {msg} (`{}`)", l.path, l.line, l.text.trim()),
-            None => msg.to_string(),
-        }
-    }
-
     /// A constant `v` (a value as the interpreter holds it, in f64) of machine type `t`.
     fn konst(&mut self, t: Type, v: f64) -> Value {
         if self.simd {
@@ -591,23 +570,6 @@ impl<'p> Lower<'p, '_> {
         self.b.inst_results(call)[0]
     }
 
-    fn add(&mut self, a: Value, b: Value) -> Value {
-        self.b.ins().fadd(a, b)
-    }
-    fn sub(&mut self, a: Value, b: Value) -> Value {
-        self.b.ins().fsub(a, b)
-    }
-    fn mul(&mut self, a: Value, b: Value) -> Value {
-        self.b.ins().fmul(a, b)
-    }
-    fn dot(&mut self, a: &[Value], b: &[Value]) -> Value {
-        let mut acc = self.mul(a[0], b[0]);
-        for k in 1..a.len() {
-            let t = self.mul(a[k], b[k]);
-            acc = self.add(acc, t);
-        }
-        acc
-    }
     /// `inverseSqrt`: in f32, `1/√x` in f64 rounded once (as the interpreter has it).
     fn rsqrt(&mut self, x: Value) -> Value {
         if self.simd && self.mode == Mode::F32 {
@@ -673,9 +635,9 @@ impl<'p> Lower<'p, '_> {
         b
     }
 
-    /// The whole function: read the scene, set the private globals as the entry point does
-    /// (compose.rs), call `method`, write its result.
-    fn entry(&mut self) -> R<()> {
+    /// The function's start: read the scene (returned, one value per component, and the
+    /// result pointer), set the private globals as the entry point does (compose.rs).
+    fn prologue(&mut self) -> R<(Vec<Lv>, Value)> {
         let p = self.p;
         let start = self.b.create_block();
         self.b.append_block_params_for_function_params(start);
@@ -747,7 +709,7 @@ impl<'p> Lower<'p, '_> {
                         scene[off..off + len].to_vec()
                     }
                     _ => match g.init {
-                        Some(init) => self.global_const(init, &comps)?,
+                        Some(init) => self.global_const(&p.global_consts[init.index()], &comps)?,
                         None => comps.iter().map(|&(t, _)| self.konst(t, 0.0)).collect(),
                     },
                 };
@@ -768,14 +730,18 @@ impl<'p> Lower<'p, '_> {
                 self.cur.push(v);
             }
         }
-        let args = scenes.into_iter().map(|s| vec![Slot::Val(s)]).collect();
-        let ret = self.call(p.method, args)?.ok_or("`method` returned nothing")?;
-        for (lane, r) in ret.iter().enumerate() {
+        Ok((by_component(scenes), out_ptr))
+    }
+
+    /// The function's end: `method`'s result `r` (per lane) written, the status returned.
+    fn epilogue(&mut self, r: &Lv, out_ptr: Value) {
+        let per = self.width();
+        for (lane, &r) in r.iter().enumerate() {
             for v in 0..per {
                 let x = if self.simd {
-                    self.b.ins().extractlane(r[0], v as u8)
+                    self.b.ins().extractlane(r, v as u8)
                 } else {
-                    r[0]
+                    r
                 };
                 let x = match self.mode {
                     Mode::F32 => self.b.ins().fpromote(types::F64, x),
@@ -793,12 +759,10 @@ impl<'p> Lower<'p, '_> {
             let one = self.b.ins().iconst(types::I32, 1);
             self.b.ins().return_(&[one]);
         }
-        Ok(())
     }
 
     /// A module constant as values: its f32 values, or in the f64 mode its written digits.
-    fn global_const(&mut self, init: Handle<naga::Expression>, comps: &[(Type, ScalarKind)]) -> R<Vec<Value>> {
-        let (v32, v64) = &self.p.global_consts[init.index()];
+    fn global_const(&mut self, (v32, v64): &Const, comps: &[(Type, ScalarKind)]) -> R<Vec<Value>> {
         let vals = match self.mode {
             Mode::F32 => v32.clone(),
             Mode::F64 => v64.clone()?,
@@ -807,97 +771,6 @@ impl<'p> Lower<'p, '_> {
             return Err("a constant does not match its type".into());
         }
         Ok(comps.iter().zip(vals).map(|(&(t, _), v)| self.konst(t, v)).collect())
-    }
-
-    /// A call, inlined: arguments, locals, the body, and its return value.
-    /// `args` and the result per lane.
-    fn call(&mut self, fun: Handle<naga::Function>, args: Vec<Vec<Slot>>) -> R<Option<Vec<Vec<Value>>>> {
-        let p = self.p;
-        if self.depth >= MAX_DEPTH {
-            return Err(format!("calls nested deeper than {MAX_DEPTH}"));
-        }
-        self.depth += 1;
-        let n = self.lanes;
-        let f = &p.module.functions[fun];
-        let exit = self.b.create_block();
-        let ret = match &f.result {
-            Some(r) => {
-                let c = self.ty_comps(r.ty)?;
-                Some((0..n).map(|_| self.storage(&c, None)).collect::<Vec<_>>())
-            }
-            None => None,
-        };
-        let mut locals = vec![Vec::new(); n];
-        for (_, lv) in f.local_variables.iter() {
-            let c = self.ty_comps(lv.ty)?;
-            for l in &mut locals {
-                l.push(self.storage(&c, None));
-            }
-        }
-        let mut fr = Frame {
-            fun,
-            vals: vec![vec![None; f.expressions.len()]; n],
-            locals,
-            ret,
-            exit,
-        };
-        let fp = &p.funs[fun.index()];
-        // As the interpreter: expressions no `Emit` covers first, in order.
-        for (h, e) in f.expressions.iter() {
-            if fp.emitted[h.index()] || matches!(e, E::CallResult(_)) {
-                continue;
-            }
-            for (lane, lane_args) in args.iter().enumerate() {
-                self.lane = lane;
-                match e {
-                    E::FunctionArgument(i) => {
-                        let a = lane_args.get(*i as usize).cloned().ok_or("missing argument")?;
-                        fr.vals[lane][h.index()] = Some(a);
-                    }
-                    E::LocalVariable(lv) => {
-                        fr.vals[lane][h.index()] = Some(Slot::Ptr(Ptr {
-                            store: fr.locals[lane][lv.index()],
-                            off: Off::Const(0),
-                            len: p.flat[f.local_variables[*lv].ty.index()],
-                        }));
-                    }
-                    _ => self.expr(&mut fr, h)?,
-                }
-            }
-        }
-        for (lv, v) in f.local_variables.iter() {
-            if let Some(init) = v.init {
-                for lane in 0..n {
-                    self.lane = lane;
-                    if fr.vals[lane][init.index()].is_none() {
-                        self.expr(&mut fr, init)?;
-                    }
-                    let val = self.val(&fr, init)?;
-                    let store = fr.locals[lane][lv.index()];
-                    self.write(store, 0, &val);
-                }
-            }
-        }
-        if self.masked() {
-            // The lanes that call leave together at the end (those that returned early
-            // hold their result in `ret`).
-            let entry = self.mask();
-            self.lblock(&mut fr, &f.body)?;
-            self.b.ins().jump(exit, &[]);
-            self.switch(exit);
-            self.set_mask(&entry);
-        } else {
-            self.block(&mut fr, &f.body)?;
-            if self.open {
-                self.b.ins().jump(exit, &[]);
-            }
-            self.switch(exit);
-        }
-        self.open = true;
-        self.depth -= 1;
-        Ok(fr
-            .ret
-            .map(|ids| ids.iter().map(|&s| self.read(s, 0, self.stores[s].len())).collect()))
     }
 
     fn read(&mut self, store: usize, off: usize, len: usize) -> Vec<Value> {
@@ -926,22 +799,7 @@ impl<'p> Lower<'p, '_> {
         }
     }
 
-    fn val(&self, fr: &Frame, h: Handle<naga::Expression>) -> R<Vec<Value>> {
-        match &fr.vals[self.lane][h.index()] {
-            Some(Slot::Val(v)) => Ok(v.clone()),
-            Some(Slot::Ptr(_)) => Err(self.at(fr.fun, h, "a pointer used as a value")),
-            None => Err(self.at(fr.fun, h, "value used before it is computed")),
-        }
-    }
-
-    fn ptr(&self, fr: &Frame, h: Handle<naga::Expression>) -> R<Ptr> {
-        match &fr.vals[self.lane][h.index()] {
-            Some(Slot::Ptr(p)) => Ok(p.clone()),
-            _ => Err(self.at(fr.fun, h, "not a pointer")),
-        }
-    }
-
-    fn load(&mut self, ptr: &Ptr) -> Vec<Value> {
+    fn load_one(&mut self, ptr: &Ptr) -> Vec<Value> {
         match ptr.off {
             Off::Const(o) => self.read(ptr.store, o, ptr.len),
             Off::Dyn {
@@ -963,7 +821,7 @@ impl<'p> Lower<'p, '_> {
         }
     }
 
-    fn store(&mut self, ptr: &Ptr, vals: &[Value]) {
+    fn store_one(&mut self, ptr: &Ptr, vals: &[Value]) {
         match ptr.off {
             Off::Const(o) => self.write(ptr.store, o, &vals[..ptr.len]),
             Off::Dyn {
@@ -995,193 +853,6 @@ impl<'p> Lower<'p, '_> {
         };
         let top = self.iconst32(count.saturating_sub(1) as i64);
         self.b.ins().umin(idx, top)
-    }
-
-    fn block(&mut self, fr: &mut Frame, block: &naga::Block) -> R<()> {
-        for st in block.iter() {
-            if !self.open {
-                // After a jump: the rest is never reached (the interpreter's mask is empty).
-                return Ok(());
-            }
-            match st {
-                S::Emit(range) => {
-                    for h in range.clone() {
-                        self.expr(fr, h)?;
-                    }
-                }
-                S::Block(b) => self.block(fr, b)?,
-                S::If {
-                    condition,
-                    accept,
-                    reject,
-                } => {
-                    let c = self.val(fr, *condition)?[0];
-                    let (yes, no, merge) = (self.b.create_block(), self.b.create_block(), self.b.create_block());
-                    self.b.ins().brif(c, yes, &[], no, &[]);
-                    for (blk, body) in [(yes, accept), (no, reject)] {
-                        self.switch(blk);
-                        self.open = true;
-                        self.block(fr, body)?;
-                        if self.open {
-                            self.b.ins().jump(merge, &[]);
-                        }
-                    }
-                    self.switch(merge);
-                    self.open = true;
-                }
-                S::Switch { selector, cases } => {
-                    let sel = self.val(fr, *selector)?[0];
-                    let merge = self.b.create_block();
-                    let bodies: Vec<Block> = cases.iter().map(|_| self.b.create_block()).collect();
-                    let mut default = None;
-                    for (case, &body) in cases.iter().zip(&bodies) {
-                        let v = match case.value {
-                            naga::SwitchValue::I32(i) => i64::from(i),
-                            naga::SwitchValue::U32(u) => i64::from(u as i32),
-                            naga::SwitchValue::Default => {
-                                default = Some(body);
-                                continue;
-                            }
-                        };
-                        let next = self.b.create_block();
-                        let hit = self.icmp_k(IntCC::Equal, sel, v);
-                        self.b.ins().brif(hit, body, &[], next, &[]);
-                        self.switch(next);
-                    }
-                    self.b.ins().jump(default.unwrap_or(merge), &[]);
-                    self.targets.push((merge, None));
-                    for (i, case) in cases.iter().enumerate() {
-                        self.switch(bodies[i]);
-                        self.open = true;
-                        self.block(fr, &case.body)?;
-                        if self.open {
-                            let to = match (case.fall_through, bodies.get(i + 1)) {
-                                (true, Some(&b)) => b,
-                                _ => merge,
-                            };
-                            self.b.ins().jump(to, &[]);
-                        }
-                    }
-                    self.targets.pop();
-                    self.switch(merge);
-                    self.open = true;
-                }
-                S::Loop {
-                    body,
-                    continuing,
-                    break_if,
-                } => {
-                    let count = self.b.declare_var(types::I32);
-                    let zero = self.b.ins().iconst(types::I32, 0);
-                    self.b.def_var(count, zero);
-                    let (head, first, cont, exit) = (
-                        self.b.create_block(),
-                        self.b.create_block(),
-                        self.b.create_block(),
-                        self.b.create_block(),
-                    );
-                    self.b.ins().jump(head, &[]);
-                    self.switch(head);
-                    let n = self.b.use_var(count);
-                    let n = self.b.ins().iadd_imm_s(n, 1);
-                    self.b.def_var(count, n);
-                    let over = self.icmp_k(IntCC::SignedGreaterThan, n, LOOP_LIMIT);
-                    let fail = self.fail_block();
-                    self.b.ins().brif(over, fail, &[], first, &[]);
-                    self.switch(first);
-                    self.open = true;
-                    self.targets.push((exit, Some(cont)));
-                    self.loops += 1;
-                    self.block(fr, body)?;
-                    if self.open {
-                        self.b.ins().jump(cont, &[]);
-                    }
-                    self.switch(cont);
-                    self.open = true;
-                    self.block(fr, continuing)?;
-                    if self.open {
-                        match break_if {
-                            Some(c) => {
-                                let c = self.val(fr, *c)?[0];
-                                self.b.ins().brif(c, exit, &[], head, &[]);
-                            }
-                            None => {
-                                self.b.ins().jump(head, &[]);
-                            }
-                        }
-                    }
-                    self.targets.pop();
-                    self.loops -= 1;
-                    self.switch(exit);
-                    self.open = true;
-                }
-                S::Break => {
-                    let (to, _) = *self.targets.last().ok_or("`break` outside a loop")?;
-                    self.b.ins().jump(to, &[]);
-                    self.open = false;
-                }
-                S::Continue => {
-                    let to = self
-                        .targets
-                        .iter()
-                        .rev()
-                        .find_map(|t| t.1)
-                        .ok_or("`continue` outside a loop")?;
-                    self.b.ins().jump(to, &[]);
-                    self.open = false;
-                }
-                S::Return { value } => {
-                    if let Some(v) = value {
-                        let v = self.val(fr, *v)?;
-                        let ret = fr.ret.as_ref().ok_or("return value in a void function")?[0];
-                        self.write(ret, 0, &v);
-                    }
-                    self.b.ins().jump(fr.exit, &[]);
-                    self.open = false;
-                }
-                S::Store { pointer, value } => {
-                    let ptr = self.ptr(fr, *pointer)?;
-                    let v = self.val(fr, *value)?;
-                    self.store(&ptr, &v);
-                }
-                S::Call {
-                    function,
-                    arguments,
-                    result,
-                } => self.call_stmt(fr, *function, arguments, *result)?,
-                other => return Err(format!("statement {other:?} is not compiled")),
-            }
-        }
-        Ok(())
-    }
-
-    /// A call statement: its arguments and result per lane.
-    fn call_stmt(
-        &mut self,
-        fr: &mut Frame,
-        function: Handle<naga::Function>,
-        arguments: &[Handle<naga::Expression>],
-        result: Option<Handle<naga::Expression>>,
-    ) -> R<()> {
-        let args = (0..self.lanes)
-            .map(|lane| {
-                arguments
-                    .iter()
-                    .map(|a| {
-                        fr.vals[lane][a.index()]
-                            .clone()
-                            .ok_or_else(|| "argument not computed".to_string())
-                    })
-                    .collect::<R<Vec<_>>>()
-            })
-            .collect::<R<Vec<_>>>()?;
-        let r = self.call(function, args)?;
-        if let (Some(h), Some(r)) = (result, r) {
-            for (lane, r) in r.into_iter().enumerate() {
-                fr.vals[lane][h.index()] = Some(Slot::Val(r));
-            }
-        }
-        Ok(())
     }
 
     /// The lane path's mask as values (per lane 0 or 1).
@@ -1236,7 +907,7 @@ impl<'p> Lower<'p, '_> {
     }
 
     /// Adds the current lanes to `to` and stops them (`break`, `continue`, `return`).
-    fn leave(&mut self, to: Option<Vec<Variable>>) {
+    fn leave_lanes(&mut self, to: Option<Vec<Variable>>) {
         let m = self.mask();
         if let Some(to) = to {
             for (l, &x) in m.iter().enumerate() {
@@ -1248,643 +919,6 @@ impl<'p> Lower<'p, '_> {
         let z = self.zeros();
         self.set_mask(&z);
         self.open = false;
-    }
-
-    /// A boolean expression's value in every lane.
-    fn lane_bools(&mut self, fr: &Frame, h: Handle<naga::Expression>) -> R<Vec<Value>> {
-        (0..self.lanes)
-            .map(|lane| {
-                self.lane = lane;
-                self.val(fr, h).map(|v| v[0])
-            })
-            .collect()
-    }
-
-    /// `body` on the lanes of `m`, skipped when there are none; the lanes still running at
-    /// its end.
-    fn arm(&mut self, fr: &mut Frame, body: &naga::Block, m: &[Value]) -> R<Vec<Value>> {
-        if body.is_empty() {
-            return Ok(m.to_vec());
-        }
-        self.set_mask(m);
-        let any = self.any(m);
-        let (run, join) = (self.b.create_block(), self.b.create_block());
-        self.b.ins().brif(any, run, &[], join, &[]);
-        self.switch(run);
-        self.open = true;
-        self.lblock(fr, body)?;
-        self.b.ins().jump(join, &[]);
-        self.switch(join);
-        self.open = true;
-        Ok(self.mask())
-    }
-
-    /// The lane path: `lanes` configurations per call, each naga value computed once per
-    /// lane (the lanes' operations side by side, independent chains the processor overlaps),
-    /// and control flow as the interpreter has it, with execution masks: a divergent `if`
-    /// runs each side on its lanes (a side no lane takes is jumped over), a loop runs while
-    /// any lane is in it, `break`/`continue`/`return` take lanes out of the mask, every
-    /// store is a select on the lane's mask. Uniform control flow thus still costs a branch
-    /// per construct; nothing here changes a value's bits (selects only choose).
-    fn lblock(&mut self, fr: &mut Frame, block: &naga::Block) -> R<()> {
-        let n = self.lanes;
-        for st in block.iter() {
-            if !self.open {
-                // Every lane that ran this block has left it.
-                return Ok(());
-            }
-            match st {
-                S::Emit(range) => {
-                    for h in range.clone() {
-                        for lane in 0..n {
-                            self.lane = lane;
-                            self.expr(fr, h)?;
-                        }
-                    }
-                }
-                S::Block(b) => self.lblock(fr, b)?,
-                S::If {
-                    condition,
-                    accept,
-                    reject,
-                } => {
-                    let parent = self.mask();
-                    let c = self.lane_bools(fr, *condition)?;
-                    let yes = self.and(&parent, &c);
-                    let no = self.and_not(&parent, &c);
-                    let a = self.arm(fr, accept, &yes)?;
-                    let r = self.arm(fr, reject, &no)?;
-                    let m = self.or(&a, &r);
-                    self.set_mask(&m);
-                    self.open = true;
-                }
-                S::Switch { selector, cases } => {
-                    let entry = self.mask();
-                    let sel: Vec<Value> = (0..n)
-                        .map(|lane| {
-                            self.lane = lane;
-                            self.val(fr, *selector).map(|v| v[0])
-                        })
-                        .collect::<R<_>>()?;
-                    let mut hits = Vec::with_capacity(cases.len());
-                    let mut matched = self.zeros();
-                    for case in cases {
-                        let v = match case.value {
-                            naga::SwitchValue::I32(i) => i64::from(i),
-                            naga::SwitchValue::U32(u) => i64::from(u as i32),
-                            naga::SwitchValue::Default => {
-                                hits.push(None);
-                                continue;
-                            }
-                        };
-                        let h: Vec<Value> = sel.iter().map(|&s| self.icmp_k(IntCC::Equal, s, v)).collect();
-                        matched = self.or(&matched, &h);
-                        hits.push(Some(h));
-                    }
-                    let zeros = self.zeros();
-                    let brk = self.lane_vars(&zeros);
-                    self.ltargets.push(LTarget::Switch { brk: brk.clone() });
-                    let (mut carry, mut done) = (zeros.clone(), zeros);
-                    for (case, hit) in cases.iter().zip(hits) {
-                        let hit = match hit {
-                            Some(h) => self.and(&entry, &h),
-                            None => self.and_not(&entry, &matched),
-                        };
-                        let m = self.or(&hit, &carry);
-                        let end = self.arm(fr, &case.body, &m)?;
-                        if case.fall_through {
-                            carry = end;
-                        } else {
-                            done = self.or(&done, &end);
-                            carry = self.zeros();
-                        }
-                    }
-                    self.ltargets.pop();
-                    let b: Vec<Value> = brk.iter().map(|&v| self.b.use_var(v)).collect();
-                    let m = self.or(&done, &carry);
-                    let m = self.or(&m, &b);
-                    self.set_mask(&m);
-                    self.open = true;
-                }
-                S::Loop {
-                    body,
-                    continuing,
-                    break_if,
-                } => {
-                    let entry = self.mask();
-                    // `live`: lanes still looping; `brk`: lanes that left by `break` or
-                    // `break if`; `cont`: lanes that took `continue` this pass.
-                    let live = self.lane_vars(&entry);
-                    let zeros = self.zeros();
-                    let brk = self.lane_vars(&zeros);
-                    let cont = self.lane_vars(&zeros);
-                    let count = self.b.declare_var(types::I32);
-                    let zero = self.b.ins().iconst(types::I32, 0);
-                    self.b.def_var(count, zero);
-                    let (head, first, exit) = (self.b.create_block(), self.b.create_block(), self.b.create_block());
-                    let any = self.any(&entry);
-                    self.b.ins().brif(any, head, &[], exit, &[]);
-                    self.switch(head);
-                    let c = self.b.use_var(count);
-                    let c = self.b.ins().iadd_imm_s(c, 1);
-                    self.b.def_var(count, c);
-                    let over = self.icmp_k(IntCC::SignedGreaterThan, c, LOOP_LIMIT);
-                    let fail = self.fail_block();
-                    self.b.ins().brif(over, fail, &[], first, &[]);
-                    self.switch(first);
-                    let m: Vec<Value> = live.iter().map(|&v| self.b.use_var(v)).collect();
-                    self.set_mask(&m);
-                    let z = self.zeros();
-                    for (&v, &x) in cont.iter().zip(&z) {
-                        self.b.def_var(v, x);
-                    }
-                    self.ltargets.push(LTarget::Loop {
-                        brk: brk.clone(),
-                        cont: cont.clone(),
-                    });
-                    self.loops += 1;
-                    self.open = true;
-                    self.lblock(fr, body)?;
-                    self.open = true;
-                    let m = self.mask();
-                    let k: Vec<Value> = cont.iter().map(|&v| self.b.use_var(v)).collect();
-                    let m = self.or(&m, &k);
-                    self.set_mask(&m);
-                    self.lblock(fr, continuing)?;
-                    self.open = true;
-                    let m = self.mask();
-                    let stay = match break_if {
-                        Some(c) => {
-                            let c = self.lane_bools(fr, *c)?;
-                            let out = self.and(&m, &c);
-                            for (l, &x) in out.iter().enumerate() {
-                                let old = self.b.use_var(brk[l]);
-                                let v = self.b.ins().bor(old, x);
-                                self.b.def_var(brk[l], v);
-                            }
-                            self.and_not(&m, &c)
-                        }
-                        None => m,
-                    };
-                    for (&v, &x) in live.iter().zip(&stay) {
-                        self.b.def_var(v, x);
-                    }
-                    let again = self.any(&stay);
-                    self.b.ins().brif(again, head, &[], exit, &[]);
-                    self.ltargets.pop();
-                    self.loops -= 1;
-                    self.switch(exit);
-                    let m: Vec<Value> = brk.iter().map(|&v| self.b.use_var(v)).collect();
-                    self.set_mask(&m);
-                    self.open = true;
-                }
-                S::Break => {
-                    let to = match self.ltargets.last().ok_or("`break` outside a loop")? {
-                        LTarget::Loop { brk, .. } | LTarget::Switch { brk } => brk.clone(),
-                    };
-                    self.leave(Some(to));
-                }
-                S::Continue => {
-                    let to = self
-                        .ltargets
-                        .iter()
-                        .rev()
-                        .find_map(|t| match t {
-                            LTarget::Loop { cont, .. } => Some(cont.clone()),
-                            LTarget::Switch { .. } => None,
-                        })
-                        .ok_or("`continue` outside a loop")?;
-                    self.leave(Some(to));
-                }
-                S::Return { value } => {
-                    if let Some(v) = value {
-                        let ids = fr.ret.clone().ok_or("return value in a void function")?;
-                        for (lane, &ret) in ids.iter().enumerate() {
-                            self.lane = lane;
-                            let v = self.val(fr, *v)?;
-                            self.write(ret, 0, &v);
-                        }
-                    }
-                    self.leave(None);
-                }
-                S::Store { pointer, value } => {
-                    for lane in 0..n {
-                        self.lane = lane;
-                        let ptr = self.ptr(fr, *pointer)?;
-                        let v = self.val(fr, *value)?;
-                        self.store(&ptr, &v);
-                    }
-                }
-                S::Call {
-                    function,
-                    arguments,
-                    result,
-                } => self.call_stmt(fr, *function, arguments, *result)?,
-                other => return Err(format!("statement {other:?} is not compiled")),
-            }
-        }
-        Ok(())
-    }
-
-    fn expr(&mut self, fr: &mut Frame, h: Handle<naga::Expression>) -> R<()> {
-        let p = self.p;
-        let fun = fr.fun;
-        let f = &p.module.functions[fun];
-        let ty = self.inner(fun, h);
-        let slot = match &f.expressions[h] {
-            E::Literal(l) => Slot::Val(vec![match *l {
-                naga::Literal::F32(x) => match self.mode {
-                    Mode::F32 => self.konst(types::F32, f64::from(x)),
-                    Mode::F64 => {
-                        let v = p.funs[fun.index()].lit64[h.index()]
-                            .clone()
-                            .map_err(|m| self.at(fun, h, &m))?;
-                        self.konst(types::F64, v)
-                    }
-                },
-                naga::Literal::U32(x) => self.iconst32(i64::from(x)),
-                naga::Literal::I32(x) => self.iconst32(i64::from(x)),
-                naga::Literal::Bool(x) => self.mask_const(x),
-                other => return Err(self.at(fun, h, &format!("literal {other:?} is not compiled"))),
-            }]),
-            E::Constant(c) => {
-                let comps = self.comps(ty)?;
-                let init = p.module.constants[*c].init;
-                Slot::Val(self.global_const(init, &comps).map_err(|m| self.at(fun, h, &m))?)
-            }
-            E::Override(o) => {
-                let v = p.overrides[o.index()];
-                let (t, _) = *self.comps(ty)?.first().ok_or("an override without a value")?;
-                // The interpreter keeps an override's value unrounded until an f32 operation
-                // reads it; only values exact in f32 behave the same here.
-                if t == types::F32 && v as f32 as f64 != v && !v.is_nan() {
-                    return Err(self.at(fun, h, "an f32 override whose value is not exact in f32"));
-                }
-                Slot::Val(vec![self.konst(t, v)])
-            }
-            E::ZeroValue(t) => {
-                let comps = self.ty_comps(*t)?;
-                Slot::Val(comps.iter().map(|&(t, _)| self.konst(t, 0.0)).collect())
-            }
-            E::Compose { components, .. } => {
-                let mut out = Vec::new();
-                for c in components {
-                    out.extend(self.val(fr, *c)?);
-                }
-                Slot::Val(out)
-            }
-            E::Splat { size, value } => Slot::Val(vec![self.val(fr, *value)?[0]; *size as usize]),
-            E::Swizzle { size, vector, pattern } => {
-                let v = self.val(fr, *vector)?;
-                Slot::Val(pattern[..*size as usize].iter().map(|c| v[*c as usize]).collect())
-            }
-            E::AccessIndex { base, index } => {
-                let bty = self.inner(fun, *base);
-                match fr.vals[self.lane][base.index()].clone() {
-                    Some(Slot::Ptr(ptr)) => {
-                        let (off, len) = p.child(&p.pointee(bty), *index as usize);
-                        let off = match ptr.off {
-                            Off::Const(o) => Off::Const(o + off),
-                            Off::Dyn {
-                                base,
-                                idx,
-                                stride,
-                                count,
-                            } => Off::Dyn {
-                                base: base + off,
-                                idx,
-                                stride,
-                                count,
-                            },
-                        };
-                        Slot::Ptr(Ptr {
-                            store: ptr.store,
-                            off,
-                            len,
-                        })
-                    }
-                    Some(Slot::Val(v)) => {
-                        let (off, len) = p.child(bty, *index as usize);
-                        Slot::Val(v[off..off + len].to_vec())
-                    }
-                    None => return Err(self.at(fun, h, "base not computed")),
-                }
-            }
-            E::Access { base, index } => {
-                let bty = self.inner(fun, *base);
-                let signed = self.inner(fun, *index).scalar_kind() == Some(ScalarKind::Sint);
-                let raw = self.val(fr, *index)?[0];
-                match fr.vals[self.lane][base.index()].clone() {
-                    Some(Slot::Ptr(ptr)) => {
-                        let (count, stride) = p.elements(&p.pointee(bty));
-                        let idx = self.clamp_index(raw, signed, count);
-                        let Off::Const(base) = ptr.off else {
-                            return Err(self.at(fun, h, "two dynamic indices into one variable are not compiled"));
-                        };
-                        Slot::Ptr(Ptr {
-                            store: ptr.store,
-                            off: Off::Dyn {
-                                base,
-                                idx,
-                                stride,
-                                count,
-                            },
-                            len: stride,
-                        })
-                    }
-                    Some(Slot::Val(v)) => {
-                        let (count, stride) = p.elements(bty);
-                        let idx = self.clamp_index(raw, signed, count);
-                        let out = (0..stride)
-                            .map(|c| {
-                                let mut x = v[c];
-                                for k in 1..count {
-                                    let hit = self.icmp_k(IntCC::Equal, idx, k as i64);
-                                    x = self.sel(hit, v[k * stride + c], x);
-                                }
-                                x
-                            })
-                            .collect();
-                        Slot::Val(out)
-                    }
-                    None => return Err(self.at(fun, h, "base not computed")),
-                }
-            }
-            E::GlobalVariable(g) => {
-                let store = self.globals[g.index()]
-                    .as_ref()
-                    .map(|s| s[self.lane])
-                    .ok_or_else(|| self.at(fun, h, "a global outside the private space is not compiled"))?;
-                Slot::Ptr(Ptr {
-                    store,
-                    off: Off::Const(0),
-                    len: p.flat[p.module.global_variables[*g].ty.index()],
-                })
-            }
-            E::Load { pointer } => {
-                let ptr = self.ptr(fr, *pointer)?;
-                Slot::Val(self.load(&ptr))
-            }
-            E::Unary { op, expr } => {
-                let a = self.val(fr, *expr)?;
-                let kind = ty.scalar_kind();
-                let mut out = Vec::new();
-                for x in a {
-                    out.push(match (op, kind) {
-                        (U::Negate, Some(ScalarKind::Float)) => self.b.ins().fneg(x),
-                        (U::Negate, Some(ScalarKind::Sint)) => self.b.ins().ineg(x),
-                        (U::LogicalNot, _) => self.icmp_k(IntCC::Equal, x, 0),
-                        (U::BitwiseNot, Some(ScalarKind::Sint | ScalarKind::Uint)) => self.b.ins().bnot(x),
-                        _ => return Err(self.at(fun, h, &format!("{op:?} on {kind:?} is not compiled"))),
-                    });
-                }
-                Slot::Val(out)
-            }
-            E::Binary { op, left, right } => {
-                let lt = self.inner(fun, *left);
-                let rt = self.inner(fun, *right);
-                let (a, b) = (self.val(fr, *left)?, self.val(fr, *right)?);
-                Slot::Val(self.binary(*op, lt, rt, &a, &b).map_err(|m| self.at(fun, h, &m))?)
-            }
-            E::Select {
-                condition,
-                accept,
-                reject,
-            } => {
-                let c = self.val(fr, *condition)?;
-                let a = self.val(fr, *accept)?;
-                let r = self.val(fr, *reject)?;
-                let out = (0..a.len())
-                    .map(|k| self.sel(c[k.min(c.len() - 1)], a[k], r[k]))
-                    .collect();
-                Slot::Val(out)
-            }
-            E::Relational { fun: rf, argument } => {
-                let a = self.val(fr, *argument)?;
-                let out = match rf {
-                    naga::RelationalFunction::All | naga::RelationalFunction::Any => {
-                        let all = matches!(rf, naga::RelationalFunction::All);
-                        let mut acc = a[0];
-                        for &x in &a[1..] {
-                            acc = if all {
-                                self.b.ins().band(acc, x)
-                            } else {
-                                self.b.ins().bor(acc, x)
-                            };
-                        }
-                        vec![acc]
-                    }
-                    naga::RelationalFunction::IsNan => {
-                        a.iter().map(|&x| self.b.ins().fcmp(FloatCC::Unordered, x, x)).collect()
-                    }
-                    naga::RelationalFunction::IsInf => a
-                        .iter()
-                        .map(|&x| {
-                            let m = self.b.ins().fabs(x);
-                            let inf = self.fconst(f64::INFINITY);
-                            self.b.ins().fcmp(FloatCC::Equal, m, inf)
-                        })
-                        .collect(),
-                };
-                Slot::Val(out)
-            }
-            E::Math {
-                fun: mf,
-                arg,
-                arg1,
-                arg2,
-                ..
-            } => {
-                let a = self.val(fr, *arg)?;
-                let b = arg1.map(|x| self.val(fr, x)).transpose()?;
-                let c = arg2.map(|x| self.val(fr, x)).transpose()?;
-                let at = self.inner(fun, *arg);
-                Slot::Val(
-                    self.math(*mf, at, &a, b.as_deref(), c.as_deref())
-                        .map_err(|m| self.at(fun, h, &m))?,
-                )
-            }
-            E::As {
-                expr,
-                kind: to,
-                convert,
-            } => {
-                if convert.is_none() {
-                    return Err(self.at(fun, h, "bitcast is not compiled"));
-                }
-                let from = self.inner(fun, *expr).scalar_kind();
-                let a = self.val(fr, *expr)?;
-                let ft = self.fty();
-                // The f64 SIMD path's integers are duplicated in I32X4: converted lane by lane.
-                let wide = self.simd && self.mode == Mode::F64;
-                let mut out = Vec::new();
-                for x in a {
-                    out.push(match (to, from) {
-                        (ScalarKind::Float, Some(ScalarKind::Float)) => x,
-                        (ScalarKind::Float, Some(ScalarKind::Sint | ScalarKind::Bool)) if wide => {
-                            let w = match from {
-                                Some(ScalarKind::Bool) => self.bool_to_int(x),
-                                _ => x,
-                            };
-                            self.per_lane(&[w], &mut |s, a| {
-                                let ft = s.fty();
-                                s.b.ins().fcvt_from_sint(ft, a[0])
-                            })
-                        }
-                        (ScalarKind::Float, Some(ScalarKind::Sint)) => self.b.ins().fcvt_from_sint(ft, x),
-                        (ScalarKind::Float, Some(ScalarKind::Uint)) => self.per_lane(&[x], &mut |s, a| {
-                            let ft = s.fty();
-                            s.b.ins().fcvt_from_uint(ft, a[0])
-                        }),
-                        (ScalarKind::Float, Some(ScalarKind::Bool)) => {
-                            let w = self.bool_to_int(x);
-                            self.b.ins().fcvt_from_sint(ft, w)
-                        }
-                        (ScalarKind::Uint, Some(ScalarKind::Float)) => {
-                            self.per_lane(&[x], &mut |s, a| s.b.ins().fcvt_to_uint_sat(types::I32, a[0]))
-                        }
-                        (ScalarKind::Sint, Some(ScalarKind::Float)) => {
-                            self.per_lane(&[x], &mut |s, a| s.b.ins().fcvt_to_sint_sat(types::I32, a[0]))
-                        }
-                        (ScalarKind::Uint | ScalarKind::Sint, Some(ScalarKind::Uint | ScalarKind::Sint)) => x,
-                        (ScalarKind::Uint | ScalarKind::Sint, Some(ScalarKind::Bool)) => self.bool_to_int(x),
-                        (ScalarKind::Bool, Some(ScalarKind::Float)) => {
-                            let z = self.fconst(0.0);
-                            self.b.ins().fcmp(FloatCC::NotEqual, x, z)
-                        }
-                        (ScalarKind::Bool, Some(ScalarKind::Uint | ScalarKind::Sint)) => {
-                            self.icmp_k(IntCC::NotEqual, x, 0)
-                        }
-                        (ScalarKind::Bool, Some(ScalarKind::Bool)) => x,
-                        other => return Err(self.at(fun, h, &format!("conversion {other:?} is not compiled"))),
-                    });
-                }
-                Slot::Val(out)
-            }
-            E::CallResult(_) => return Err(self.at(fun, h, "call result read before the call")),
-            other => return Err(self.at(fun, h, &format!("expression {other:?} is not compiled"))),
-        };
-        fr.vals[self.lane][h.index()] = Some(slot);
-        Ok(())
-    }
-
-    fn binary(&mut self, op: B, lt: &TypeInner, rt: &TypeInner, a: &[Value], b: &[Value]) -> R<Vec<Value>> {
-        use TypeInner as T;
-        let k = lt.scalar_kind();
-        let float = k == Some(ScalarKind::Float);
-        match (op, lt, rt) {
-            (B::Multiply, T::Matrix { columns, rows, .. }, T::Vector { .. }) => {
-                let r = *rows as usize;
-                let mut out = Vec::new();
-                for i in 0..r {
-                    let mut acc = self.mul(a[i], b[0]);
-                    for j in 1..*columns as usize {
-                        let t = self.mul(a[j * r + i], b[j]);
-                        acc = self.add(acc, t);
-                    }
-                    out.push(acc);
-                }
-                return Ok(out);
-            }
-            (B::Multiply, T::Vector { .. }, T::Matrix { columns, rows, .. }) => {
-                let r = *rows as usize;
-                return Ok((0..*columns as usize)
-                    .map(|j| self.dot(a, &b[j * r..(j + 1) * r]))
-                    .collect());
-            }
-            (
-                B::Multiply,
-                T::Matrix {
-                    columns: ac, rows: ar, ..
-                },
-                T::Matrix { columns: bc, .. },
-            ) => {
-                let (ar, ac) = (*ar as usize, *ac as usize);
-                let mut out = Vec::new();
-                for j in 0..*bc as usize {
-                    for i in 0..ar {
-                        let mut acc = self.mul(a[i], b[j * ac]);
-                        for kk in 1..ac {
-                            let t = self.mul(a[kk * ar + i], b[j * ac + kk]);
-                            acc = self.add(acc, t);
-                        }
-                        out.push(acc);
-                    }
-                }
-                return Ok(out);
-            }
-            _ => {}
-        }
-        let len = a.len().max(b.len());
-        let pick = |v: &[Value], i: usize| if v.len() == 1 { v[0] } else { v[i] };
-        let signed = k == Some(ScalarKind::Sint);
-        let mut out = Vec::with_capacity(len);
-        for i in 0..len {
-            let (x, y) = (pick(a, i), pick(b, i));
-            let ins = self.b.ins();
-            let fcmp = |cc| if float { Some(cc) } else { None };
-            let icmp = |s: IntCC, u: IntCC| if signed { s } else { u };
-            let v = match op {
-                B::Add if float => ins.fadd(x, y),
-                B::Subtract if float => ins.fsub(x, y),
-                B::Multiply if float => ins.fmul(x, y),
-                B::Divide if float => ins.fdiv(x, y),
-                B::Modulo if float => self.call_shim(F::Rem, &[x, y]),
-                B::Add => ins.iadd(x, y),
-                B::Subtract => ins.isub(x, y),
-                B::Multiply => ins.imul(x, y),
-                B::Divide | B::Modulo if k == Some(ScalarKind::Bool) => return Err(format!("{op:?} on bool")),
-                B::Divide | B::Modulo => self.per_lane(&[x, y], &mut |s, a| s.int_div(op, a[0], a[1], signed)),
-                B::ShiftLeft | B::ShiftRight if self.simd => self.per_lane(&[x, y], &mut |s, a| match op {
-                    B::ShiftLeft => s.b.ins().ishl(a[0], a[1]),
-                    _ if signed => s.b.ins().sshr(a[0], a[1]),
-                    _ => s.b.ins().ushr(a[0], a[1]),
-                }),
-                B::And => ins.band(x, y),
-                B::InclusiveOr => ins.bor(x, y),
-                B::ExclusiveOr => ins.bxor(x, y),
-                B::ShiftLeft => ins.ishl(x, y),
-                B::ShiftRight if signed => ins.sshr(x, y),
-                B::ShiftRight => ins.ushr(x, y),
-                B::Equal => match fcmp(FloatCC::Equal) {
-                    Some(cc) => ins.fcmp(cc, x, y),
-                    None => ins.icmp(IntCC::Equal, x, y),
-                },
-                B::NotEqual => match fcmp(FloatCC::NotEqual) {
-                    Some(cc) => ins.fcmp(cc, x, y),
-                    None => ins.icmp(IntCC::NotEqual, x, y),
-                },
-                B::Less => match fcmp(FloatCC::LessThan) {
-                    Some(cc) => ins.fcmp(cc, x, y),
-                    None => ins.icmp(icmp(IntCC::SignedLessThan, IntCC::UnsignedLessThan), x, y),
-                },
-                B::LessEqual => match fcmp(FloatCC::LessThanOrEqual) {
-                    Some(cc) => ins.fcmp(cc, x, y),
-                    None => ins.icmp(icmp(IntCC::SignedLessThanOrEqual, IntCC::UnsignedLessThanOrEqual), x, y),
-                },
-                B::Greater => match fcmp(FloatCC::GreaterThan) {
-                    Some(cc) => ins.fcmp(cc, x, y),
-                    None => ins.icmp(icmp(IntCC::SignedGreaterThan, IntCC::UnsignedGreaterThan), x, y),
-                },
-                B::GreaterEqual => match fcmp(FloatCC::GreaterThanOrEqual) {
-                    Some(cc) => ins.fcmp(cc, x, y),
-                    None => ins.icmp(
-                        icmp(IntCC::SignedGreaterThanOrEqual, IntCC::UnsignedGreaterThanOrEqual),
-                        x,
-                        y,
-                    ),
-                },
-                B::LogicalAnd => ins.band(x, y),
-                B::LogicalOr => ins.bor(x, y),
-            };
-            let compare = matches!(
-                op,
-                B::Equal | B::NotEqual | B::Less | B::LessEqual | B::Greater | B::GreaterEqual
-            );
-            let v = if compare { self.as_mask(v) } else { v };
-            out.push(v);
-        }
-        Ok(out)
     }
 
     /// WGSL integer `/` and `%` as `exec::int_op`: `x / 0 = x`, `x % 0 = 0`, and the one
@@ -1920,186 +954,81 @@ impl<'p> Lower<'p, '_> {
         };
         self.sel(is_zero, by_zero, safe)
     }
+}
 
-    fn math(&mut self, f: M, at: &TypeInner, a: &[Value], b: Option<&[Value]>, c: Option<&[Value]>) -> R<Vec<Value>> {
-        let kind = at.scalar_kind();
-        let float = kind == Some(ScalarKind::Float);
-        let need = |v: Option<&[Value]>| {
-            v.map(<[Value]>::to_vec)
-                .ok_or_else(|| format!("{f:?}: missing argument"))
-        };
-        let pick = |v: &[Value], i: usize| v[if v.len() == 1 { 0 } else { i }];
-        if !float {
-            return self.int_math(f, kind, a, b, c);
+/// One component of a value, one machine value per lane.
+type Lv = Vec<Value>;
+
+/// Lane `l` of a value's components.
+fn lane_of(v: &[Lv], l: usize) -> Vec<Value> {
+    v.iter().map(|c| c[l]).collect()
+}
+
+/// Per-lane components as components of per-lane values.
+fn by_component(per_lane: Vec<Vec<Value>>) -> Vec<Lv> {
+    let len = per_lane.first().map_or(0, Vec::len);
+    (0..len).map(|k| per_lane.iter().map(|v| v[k]).collect()).collect()
+}
+
+/// A call's return slot: its storage per lane (None for a void function), and the block
+/// every `return` jumps to.
+pub(super) struct Ret {
+    ids: Option<Vec<usize>>,
+    exit: Block,
+}
+
+impl<'p> Lower<'p, '_> {
+    /// `f` on each lane's value.
+    fn each(&mut self, a: &Lv, mut f: impl FnMut(&mut Self, Value) -> Value) -> Lv {
+        a.iter().map(|&x| f(self, x)).collect()
+    }
+
+    /// `f` on each lane's two values.
+    fn each2(&mut self, a: &Lv, b: &Lv, mut f: impl FnMut(&mut Self, Value, Value) -> Value) -> Lv {
+        a.iter().zip(b).map(|(&x, &y)| f(self, x, y)).collect()
+    }
+
+    /// A constant in every lane.
+    fn konsts(&mut self, t: Type, v: f64) -> Lv {
+        (0..self.lanes).map(|_| self.konst(t, v)).collect()
+    }
+
+    /// An error at the current expression's line.
+    fn located(&self, msg: &str) -> String {
+        match self.p.lines.get(self.loc as usize) {
+            Some(l) => format!("{}:{}: {msg} (`{}`)", l.path, l.line, l.text.trim()),
+            None => msg.to_string(),
         }
-        let unary =
-            |s: &mut Self, g: &dyn Fn(&mut Self, Value) -> Value| a.iter().map(|&x| g(s, x)).collect::<Vec<_>>();
-        let shim1 = |s: &mut Self, which: F| a.iter().map(|&x| s.call_shim(which, &[x])).collect::<Vec<_>>();
-        Ok(match f {
-            M::Abs => unary(self, &|s, x| s.b.ins().fabs(x)),
-            M::Sqrt => unary(self, &|s, x| s.b.ins().sqrt(x)),
-            M::InverseSqrt => unary(self, &|s, x| s.rsqrt(x)),
-            M::Sin => shim1(self, F::Sin),
-            M::Cos => shim1(self, F::Cos),
-            M::Tan => shim1(self, F::Tan),
-            M::Asin => shim1(self, F::Asin),
-            M::Acos => shim1(self, F::Acos),
-            M::Atan => shim1(self, F::Atan),
-            M::Exp => shim1(self, F::Exp),
-            M::Exp2 => shim1(self, F::Exp2),
-            M::Log => shim1(self, F::Log),
-            M::Log2 => shim1(self, F::Log2),
-            M::Floor => unary(self, &|s, x| s.per_lane(&[x], &mut |s, a| s.b.ins().floor(a[0]))),
-            M::Ceil => unary(self, &|s, x| s.per_lane(&[x], &mut |s, a| s.b.ins().ceil(a[0]))),
-            M::Trunc => unary(self, &|s, x| s.per_lane(&[x], &mut |s, a| s.b.ins().trunc(a[0]))),
-            M::Round => unary(self, &|s, x| s.per_lane(&[x], &mut |s, a| s.b.ins().nearest(a[0]))),
-            M::Fract => unary(self, &|s, x| {
-                let fl = s.per_lane(&[x], &mut |s, a| s.b.ins().floor(a[0]));
-                s.b.ins().fsub(x, fl)
-            }),
-            M::Saturate => unary(self, &|s, x| {
-                // Rust's clamp: below 0 → 0, above 1 → 1, NaN and −0 kept.
-                let (zero, one) = (s.fconst(0.0), s.fconst(1.0));
-                let lo = s.b.ins().fcmp(FloatCC::LessThan, x, zero);
-                let x = s.sel(lo, zero, x);
-                let hi = s.b.ins().fcmp(FloatCC::GreaterThan, x, one);
-                s.sel(hi, one, x)
-            }),
-            M::Sign => unary(self, &|s, x| {
-                let (zero, one, minus) = (s.fconst(0.0), s.fconst(1.0), s.fconst(-1.0));
-                let lt = s.b.ins().fcmp(FloatCC::LessThan, x, zero);
-                let neg = s.sel(lt, minus, zero);
-                let gt = s.b.ins().fcmp(FloatCC::GreaterThan, x, zero);
-                s.sel(gt, one, neg)
-            }),
-            M::Min | M::Max | M::Atan2 | M::Pow | M::Step => {
-                let b = need(b)?;
-                (0..a.len())
-                    .map(|i| {
-                        let (x, y) = (pick(a, i), pick(&b, i));
-                        match f {
-                            M::Min => self.min_max(false, x, y),
-                            M::Max => self.min_max(true, x, y),
-                            M::Atan2 => self.call_shim(F::Atan2, &[x, y]),
-                            M::Pow => self.call_shim(F::Pow, &[x, y]),
-                            _ => {
-                                // step(edge, v) = v >= edge
-                                let ge = self.b.ins().fcmp(FloatCC::GreaterThanOrEqual, y, x);
-                                let (one, zero) = (self.fconst(1.0), self.fconst(0.0));
-                                self.sel(ge, one, zero)
-                            }
-                        }
-                    })
-                    .collect()
-            }
-            M::Clamp | M::Fma | M::Mix => {
-                let (b, c) = (need(b)?, need(c)?);
-                (0..a.len())
-                    .map(|i| {
-                        let (x, y, z) = (pick(a, i), pick(&b, i), pick(&c, i));
-                        match f {
-                            M::Clamp => {
-                                let m = self.min_max(true, x, y);
-                                self.min_max(false, m, z)
-                            }
-                            M::Fma => self.call_shim(F::Fma, &[x, y, z]),
-                            _ => {
-                                let one = self.fconst(1.0);
-                                let u = self.sub(one, z);
-                                let p = self.mul(x, u);
-                                let q = self.mul(y, z);
-                                self.add(p, q)
-                            }
-                        }
-                    })
-                    .collect()
-            }
-            M::Dot => {
-                let b = need(b)?;
-                vec![self.dot(a, &b)]
-            }
-            M::Cross => {
-                let y = need(b)?;
-                let mut out = Vec::new();
-                for (i, j) in [(1, 2), (2, 0), (0, 1)] {
-                    let p = self.mul(a[i], y[j]);
-                    let q = self.mul(a[j], y[i]);
-                    out.push(self.sub(p, q));
-                }
-                out
-            }
-            M::Length => {
-                if a.len() == 1 {
-                    vec![self.b.ins().fabs(a[0])]
-                } else {
-                    let d = self.dot(a, a);
-                    vec![self.b.ins().sqrt(d)]
-                }
-            }
-            M::Distance => {
-                let b = need(b)?;
-                let diff: Vec<Value> = (0..a.len()).map(|i| self.sub(a[i], b[i])).collect();
-                let d = self.dot(&diff, &diff);
-                vec![self.b.ins().sqrt(d)]
-            }
-            M::Normalize => {
-                let d = self.dot(a, a);
-                let r = self.rsqrt(d);
-                a.iter().map(|&x| self.mul(x, r)).collect()
-            }
-            M::Determinant => match a.len() {
-                4 => {
-                    let p = self.mul(a[0], a[3]);
-                    let q = self.mul(a[2], a[1]);
-                    vec![self.sub(p, q)]
-                }
-                9 => {
-                    let e = |c: usize, r: usize| a[3 * c + r];
-                    let minor = |s: &mut Self, c1: usize, c2: usize, r1: usize, r2: usize| {
-                        let p = s.mul(e(c1, r1), e(c2, r2));
-                        let q = s.mul(e(c2, r1), e(c1, r2));
-                        s.sub(p, q)
-                    };
-                    let m0 = minor(self, 1, 2, 1, 2);
-                    let m1 = minor(self, 1, 2, 0, 2);
-                    let m2 = minor(self, 1, 2, 0, 1);
-                    let t0 = self.mul(e(0, 0), m0);
-                    let t1 = self.mul(e(0, 1), m1);
-                    let t2 = self.mul(e(0, 2), m2);
-                    let s = self.sub(t0, t1);
-                    vec![self.add(s, t2)]
-                }
-                n => return Err(format!("determinant of a {n}-component matrix")),
-            },
-            M::Transpose => {
-                let TypeInner::Matrix { columns, rows, .. } = at else {
-                    return Err("transpose of a non-matrix".into());
-                };
-                let (c, r) = (*columns as usize, *rows as usize);
-                (0..r)
-                    .flat_map(|i| (0..c).map(move |j| (i, j)))
-                    .map(|(i, j)| a[j * r + i])
-                    .collect()
-            }
-            other => return Err(format!("math function {other:?} is not compiled")),
-        })
+    }
+
+    /// `body` on the lanes of `m`, skipped when there are none; the lanes still running at
+    /// its end.
+    fn arm(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, body: &naga::Block, m: &[Value]) -> R<Vec<Value>> {
+        let l = &mut w.d;
+        if body.is_empty() {
+            return Ok(m.to_vec());
+        }
+        l.set_mask(m);
+        let any = l.any(m);
+        let (run, join) = (l.b.create_block(), l.b.create_block());
+        l.b.ins().brif(any, run, &[], join, &[]);
+        l.switch(run);
+        l.open = true;
+        w.block(fr, body)?;
+        let l = &mut w.d;
+        l.b.ins().jump(join, &[]);
+        l.switch(join);
+        l.open = true;
+        Ok(l.mask())
     }
 
     /// The integer built-ins the interpreter evaluates on exact integer values.
-    fn int_math(
-        &mut self,
-        f: M,
-        kind: Option<ScalarKind>,
-        a: &[Value],
-        b: Option<&[Value]>,
-        c: Option<&[Value]>,
-    ) -> R<Vec<Value>> {
+    fn int_math(&mut self, f: M, kind: Option<ScalarKind>, args: [Option<&[Lv]>; 3]) -> R<Vec<Lv>> {
         let signed = match kind {
             Some(ScalarKind::Sint) => true,
             Some(ScalarKind::Uint) => false,
-            other => return Err(format!("{f:?} of {other:?} is not compiled")),
+            other => return Err(self.located(&format!("{f:?} of {other:?} is not compiled"))),
         };
-        let pick = |v: &[Value], i: usize| v[if v.len() == 1 { 0 } else { i }];
         let min = |s: &mut Self, x, y| {
             if signed {
                 s.b.ins().smin(x, y)
@@ -2114,17 +1043,817 @@ impl<'p> Lower<'p, '_> {
                 s.b.ins().umax(x, y)
             }
         };
+        let [Some(a), b, c] = args else {
+            return Err(self.located(&format!("{f:?}: missing argument")));
+        };
+        let pick = |v: &[Lv], i: usize| v[if v.len() == 1 { 0 } else { i }].clone();
         Ok(match (f, b, c) {
-            (M::Min, Some(b), _) => (0..a.len()).map(|i| min(self, pick(a, i), pick(b, i))).collect(),
-            (M::Max, Some(b), _) => (0..a.len()).map(|i| max(self, pick(a, i), pick(b, i))).collect(),
+            (M::Min, Some(b), _) => (0..a.len()).map(|i| self.each2(&a[i], &pick(b, i), min)).collect(),
+            (M::Max, Some(b), _) => (0..a.len()).map(|i| self.each2(&a[i], &pick(b, i), max)).collect(),
             (M::Clamp, Some(b), Some(c)) => (0..a.len())
                 .map(|i| {
-                    let m = max(self, pick(a, i), pick(b, i));
-                    min(self, m, pick(c, i))
+                    let m = self.each2(&a[i], &pick(b, i), max);
+                    self.each2(&m, &pick(c, i), min)
                 })
                 .collect(),
             (M::Abs, _, _) if !signed => a.to_vec(),
-            _ => return Err(format!("integer {f:?} is not compiled")),
+            _ => return Err(self.located(&format!("integer {f:?} is not compiled"))),
         })
+    }
+}
+
+impl<'p, 'b> Domain for Lower<'p, 'b> {
+    type V = Lv;
+    type P = Vec<Ptr>;
+    type Ret = Ret;
+    type Err = String;
+    /// The caller's mask on the lane path.
+    type Saved = Option<Vec<Value>>;
+
+    fn at(&mut self, line: u32, _emitted: bool) {
+        self.loc = line;
+    }
+
+    fn fail(&self, msg: String) -> String {
+        self.located(&msg)
+    }
+
+    fn fail_statement(&self, msg: String) -> String {
+        msg
+    }
+
+    /// Whether the current block still takes instructions (no jump or return yet). In the
+    /// lane path: whether any lane can still run the rest of the current naga block.
+    fn live(&self) -> bool {
+        self.open
+    }
+
+    fn literal(&mut self, lit: naga::Literal, written: &Result<f64, String>) -> R<Lv> {
+        let (t, v) = match lit {
+            naga::Literal::F32(x) => match self.mode {
+                Mode::F32 => (types::F32, f64::from(x)),
+                Mode::F64 => (types::F64, written.clone().map_err(|m| self.located(&m))?),
+            },
+            naga::Literal::U32(x) => (types::I32, f64::from(x)),
+            naga::Literal::I32(x) => (types::I32, f64::from(x)),
+            naga::Literal::Bool(x) => (types::I8, f64::from(u8::from(x))),
+            other => return Err(self.located(&format!("literal {other:?} is not compiled"))),
+        };
+        Ok(self.konsts(t, v))
+    }
+
+    fn constant(&mut self, c: &Const, ty: Handle<naga::Type>) -> R<Vec<Lv>> {
+        let comps = self.ty_comps(ty)?;
+        let per_lane = (0..self.lanes)
+            .map(|_| self.global_const(c, &comps))
+            .collect::<R<Vec<_>>>()
+            .map_err(|m| self.located(&m))?;
+        Ok(by_component(per_lane))
+    }
+
+    fn override_value(&mut self, v: f64, ty: &TypeInner) -> R<Lv> {
+        let (t, _) = *self.comps(ty)?.first().ok_or("an override without a value")?;
+        // The interpreter keeps an override's value unrounded until an f32 operation
+        // reads it; only values exact in f32 behave the same here.
+        if t == types::F32 && v as f32 as f64 != v && !v.is_nan() {
+            return Err(self.located("an f32 override whose value is not exact in f32"));
+        }
+        Ok(self.konsts(t, v))
+    }
+
+    fn zero(&mut self, ty: Handle<naga::Type>) -> R<Vec<Lv>> {
+        let comps = self.ty_comps(ty)?;
+        Ok(comps.iter().map(|&(t, _)| self.konsts(t, 0.0)).collect())
+    }
+
+    fn float(&mut self, x: f64) -> Lv {
+        let t = self.sty();
+        self.konsts(t, x)
+    }
+
+    fn add(&mut self, a: &Lv, b: &Lv) -> R<Lv> {
+        Ok(self.each2(a, b, |s, x, y| s.b.ins().fadd(x, y)))
+    }
+    fn sub(&mut self, a: &Lv, b: &Lv) -> R<Lv> {
+        Ok(self.each2(a, b, |s, x, y| s.b.ins().fsub(x, y)))
+    }
+    fn mul(&mut self, a: &Lv, b: &Lv) -> R<Lv> {
+        Ok(self.each2(a, b, |s, x, y| s.b.ins().fmul(x, y)))
+    }
+    fn div(&mut self, a: &Lv, b: &Lv) -> R<Lv> {
+        Ok(self.each2(a, b, |s, x, y| s.b.ins().fdiv(x, y)))
+    }
+    fn rem(&mut self, a: &Lv, b: &Lv) -> R<Lv> {
+        Ok(self.each2(a, b, |s, x, y| s.call_shim(F::Rem, &[x, y])))
+    }
+
+    fn int(&mut self, op: B, a: &Lv, b: &Lv, kind: Option<ScalarKind>) -> R<Lv> {
+        let signed = kind == Some(ScalarKind::Sint);
+        if matches!(op, B::Divide | B::Modulo) && kind == Some(ScalarKind::Bool) {
+            return Err(self.located(&format!("{op:?} on bool")));
+        }
+        Ok(self.each2(a, b, |s, x, y| {
+            let ins = s.b.ins();
+            match op {
+                B::Add => ins.iadd(x, y),
+                B::Subtract => ins.isub(x, y),
+                B::Multiply => ins.imul(x, y),
+                B::Divide | B::Modulo => s.per_lane(&[x, y], &mut |s, a| s.int_div(op, a[0], a[1], signed)),
+                B::ShiftLeft | B::ShiftRight if s.simd => s.per_lane(&[x, y], &mut |s, a| match op {
+                    B::ShiftLeft => s.b.ins().ishl(a[0], a[1]),
+                    _ if signed => s.b.ins().sshr(a[0], a[1]),
+                    _ => s.b.ins().ushr(a[0], a[1]),
+                }),
+                B::And => ins.band(x, y),
+                B::InclusiveOr => ins.bor(x, y),
+                B::ExclusiveOr => ins.bxor(x, y),
+                B::ShiftLeft => ins.ishl(x, y),
+                B::ShiftRight if signed => ins.sshr(x, y),
+                _ => ins.ushr(x, y),
+            }
+        }))
+    }
+
+    fn compare(&mut self, op: B, a: &Lv, b: &Lv, kind: Option<ScalarKind>) -> R<Lv> {
+        let float = kind == Some(ScalarKind::Float);
+        let signed = kind == Some(ScalarKind::Sint);
+        let icmp = |s: IntCC, u: IntCC| if signed { s } else { u };
+        let (f, i) = match op {
+            B::Equal => (FloatCC::Equal, IntCC::Equal),
+            B::NotEqual => (FloatCC::NotEqual, IntCC::NotEqual),
+            B::Less => (FloatCC::LessThan, icmp(IntCC::SignedLessThan, IntCC::UnsignedLessThan)),
+            B::LessEqual => (
+                FloatCC::LessThanOrEqual,
+                icmp(IntCC::SignedLessThanOrEqual, IntCC::UnsignedLessThanOrEqual),
+            ),
+            B::Greater => (
+                FloatCC::GreaterThan,
+                icmp(IntCC::SignedGreaterThan, IntCC::UnsignedGreaterThan),
+            ),
+            _ => (
+                FloatCC::GreaterThanOrEqual,
+                icmp(IntCC::SignedGreaterThanOrEqual, IntCC::UnsignedGreaterThanOrEqual),
+            ),
+        };
+        Ok(self.each2(a, b, |s, x, y| {
+            let v = if float {
+                s.b.ins().fcmp(f, x, y)
+            } else {
+                s.b.ins().icmp(i, x, y)
+            };
+            s.as_mask(v)
+        }))
+    }
+
+    fn logical(&mut self, op: B, a: &Lv, b: &Lv) -> R<Lv> {
+        Ok(self.each2(a, b, |s, x, y| match op {
+            B::LogicalAnd => s.b.ins().band(x, y),
+            _ => s.b.ins().bor(x, y),
+        }))
+    }
+
+    fn unary(&mut self, op: U, a: &Lv, kind: Option<ScalarKind>) -> R<Lv> {
+        match (op, kind) {
+            (U::Negate, Some(ScalarKind::Float)) => Ok(self.each(a, |s, x| s.b.ins().fneg(x))),
+            (U::Negate, Some(ScalarKind::Sint)) => Ok(self.each(a, |s, x| s.b.ins().ineg(x))),
+            (U::LogicalNot, _) => Ok(self.each(a, |s, x| s.icmp_k(IntCC::Equal, x, 0))),
+            (U::BitwiseNot, Some(ScalarKind::Sint | ScalarKind::Uint)) => Ok(self.each(a, |s, x| s.b.ins().bnot(x))),
+            _ => Err(self.located(&format!("{op:?} on {kind:?} is not compiled"))),
+        }
+    }
+
+    fn select(&mut self, c: &Lv, a: &Lv, r: &Lv) -> R<Lv> {
+        Ok((0..c.len()).map(|l| self.sel(c[l], a[l], r[l])).collect())
+    }
+
+    fn relational(&mut self, f: naga::RelationalFunction, a: &[Lv]) -> R<Vec<Lv>> {
+        use naga::RelationalFunction as RF;
+        Ok(match f {
+            RF::All | RF::Any => {
+                let all = matches!(f, RF::All);
+                let mut acc = a[0].clone();
+                for x in &a[1..] {
+                    acc = self.each2(
+                        &acc,
+                        x,
+                        |s, p, q| {
+                            if all {
+                                s.b.ins().band(p, q)
+                            } else {
+                                s.b.ins().bor(p, q)
+                            }
+                        },
+                    );
+                }
+                vec![acc]
+            }
+            RF::IsNan => a
+                .iter()
+                .map(|x| self.each(x, |s, x| s.b.ins().fcmp(FloatCC::Unordered, x, x)))
+                .collect(),
+            RF::IsInf => a
+                .iter()
+                .map(|x| {
+                    self.each(x, |s, x| {
+                        let m = s.b.ins().fabs(x);
+                        let inf = s.fconst(f64::INFINITY);
+                        s.b.ins().fcmp(FloatCC::Equal, m, inf)
+                    })
+                })
+                .collect(),
+        })
+    }
+
+    fn convert(&mut self, to: ScalarKind, from: Option<ScalarKind>, a: &Lv) -> R<Lv> {
+        let ft = self.fty();
+        // The f64 SIMD path's integers are duplicated in I32X4: converted lane by lane.
+        let wide = self.simd && self.mode == Mode::F64;
+        let mut out = Vec::with_capacity(a.len());
+        for &x in a {
+            out.push(match (to, from) {
+                (ScalarKind::Float, Some(ScalarKind::Float)) => x,
+                (ScalarKind::Float, Some(ScalarKind::Sint | ScalarKind::Bool)) if wide => {
+                    let w = match from {
+                        Some(ScalarKind::Bool) => self.bool_to_int(x),
+                        _ => x,
+                    };
+                    self.per_lane(&[w], &mut |s, a| {
+                        let ft = s.fty();
+                        s.b.ins().fcvt_from_sint(ft, a[0])
+                    })
+                }
+                (ScalarKind::Float, Some(ScalarKind::Sint)) => self.b.ins().fcvt_from_sint(ft, x),
+                (ScalarKind::Float, Some(ScalarKind::Uint)) => self.per_lane(&[x], &mut |s, a| {
+                    let ft = s.fty();
+                    s.b.ins().fcvt_from_uint(ft, a[0])
+                }),
+                (ScalarKind::Float, Some(ScalarKind::Bool)) => {
+                    let w = self.bool_to_int(x);
+                    self.b.ins().fcvt_from_sint(ft, w)
+                }
+                (ScalarKind::Uint, Some(ScalarKind::Float)) => {
+                    self.per_lane(&[x], &mut |s, a| s.b.ins().fcvt_to_uint_sat(types::I32, a[0]))
+                }
+                (ScalarKind::Sint, Some(ScalarKind::Float)) => {
+                    self.per_lane(&[x], &mut |s, a| s.b.ins().fcvt_to_sint_sat(types::I32, a[0]))
+                }
+                (ScalarKind::Uint | ScalarKind::Sint, Some(ScalarKind::Uint | ScalarKind::Sint)) => x,
+                (ScalarKind::Uint | ScalarKind::Sint, Some(ScalarKind::Bool)) => self.bool_to_int(x),
+                (ScalarKind::Bool, Some(ScalarKind::Float)) => {
+                    let z = self.fconst(0.0);
+                    self.b.ins().fcmp(FloatCC::NotEqual, x, z)
+                }
+                (ScalarKind::Bool, Some(ScalarKind::Uint | ScalarKind::Sint)) => self.icmp_k(IntCC::NotEqual, x, 0),
+                (ScalarKind::Bool, Some(ScalarKind::Bool)) => x,
+                other => return Err(self.located(&format!("conversion {other:?} is not compiled"))),
+            });
+        }
+        Ok(out)
+    }
+
+    /// Integer built-ins, from the interpreter's exact integer values.
+    fn math_special(&mut self, f: M, at: &TypeInner, args: [Option<&[Lv]>; 3]) -> Option<R<Vec<Lv>>> {
+        let kind = at.scalar_kind();
+        (kind != Some(ScalarKind::Float)).then(|| self.int_math(f, kind, args))
+    }
+
+    fn math1(&mut self, f: M, a: &Lv, _kind: Option<ScalarKind>) -> R<Lv> {
+        let shim = |which: F| move |s: &mut Self, x: Value| s.call_shim(which, &[x]);
+        Ok(match f {
+            M::Abs => self.each(a, |s, x| s.b.ins().fabs(x)),
+            M::Sqrt => self.each(a, |s, x| s.b.ins().sqrt(x)),
+            M::InverseSqrt => self.each(a, |s, x| s.rsqrt(x)),
+            M::Sin => self.each(a, shim(F::Sin)),
+            M::Cos => self.each(a, shim(F::Cos)),
+            M::Tan => self.each(a, shim(F::Tan)),
+            M::Asin => self.each(a, shim(F::Asin)),
+            M::Acos => self.each(a, shim(F::Acos)),
+            M::Atan => self.each(a, shim(F::Atan)),
+            M::Exp => self.each(a, shim(F::Exp)),
+            M::Exp2 => self.each(a, shim(F::Exp2)),
+            M::Log => self.each(a, shim(F::Log)),
+            M::Log2 => self.each(a, shim(F::Log2)),
+            M::Floor => self.each(a, |s, x| s.per_lane(&[x], &mut |s, a| s.b.ins().floor(a[0]))),
+            M::Ceil => self.each(a, |s, x| s.per_lane(&[x], &mut |s, a| s.b.ins().ceil(a[0]))),
+            M::Trunc => self.each(a, |s, x| s.per_lane(&[x], &mut |s, a| s.b.ins().trunc(a[0]))),
+            M::Round => self.each(a, |s, x| s.per_lane(&[x], &mut |s, a| s.b.ins().nearest(a[0]))),
+            M::Fract => self.each(a, |s, x| {
+                let fl = s.per_lane(&[x], &mut |s, a| s.b.ins().floor(a[0]));
+                s.b.ins().fsub(x, fl)
+            }),
+            M::Saturate => self.each(a, |s, x| {
+                // Rust's clamp: below 0 → 0, above 1 → 1, NaN and −0 kept.
+                let (zero, one) = (s.fconst(0.0), s.fconst(1.0));
+                let lo = s.b.ins().fcmp(FloatCC::LessThan, x, zero);
+                let x = s.sel(lo, zero, x);
+                let hi = s.b.ins().fcmp(FloatCC::GreaterThan, x, one);
+                s.sel(hi, one, x)
+            }),
+            M::Sign => self.each(a, |s, x| {
+                let (zero, one, minus) = (s.fconst(0.0), s.fconst(1.0), s.fconst(-1.0));
+                let lt = s.b.ins().fcmp(FloatCC::LessThan, x, zero);
+                let neg = s.sel(lt, minus, zero);
+                let gt = s.b.ins().fcmp(FloatCC::GreaterThan, x, zero);
+                s.sel(gt, one, neg)
+            }),
+            other => return Err(self.located(&format!("math function {other:?} is not compiled"))),
+        })
+    }
+
+    fn math2(&mut self, f: M, a: &Lv, b: &Lv, _kind: Option<ScalarKind>) -> R<Lv> {
+        Ok(self.each2(a, b, |s, x, y| match f {
+            M::Min => s.min_max(false, x, y),
+            M::Max => s.min_max(true, x, y),
+            M::Atan2 => s.call_shim(F::Atan2, &[x, y]),
+            M::Pow => s.call_shim(F::Pow, &[x, y]),
+            _ => {
+                // step(edge, v) = v >= edge
+                let ge = s.b.ins().fcmp(FloatCC::GreaterThanOrEqual, y, x);
+                let (one, zero) = (s.fconst(1.0), s.fconst(0.0));
+                s.sel(ge, one, zero)
+            }
+        }))
+    }
+
+    fn math3(&mut self, f: M, a: &Lv, b: &Lv, c: &Lv, _kind: Option<ScalarKind>) -> R<Lv> {
+        Ok((0..a.len())
+            .map(|l| {
+                let (x, y, z) = (a[l], b[l], c[l]);
+                match f {
+                    M::Clamp => {
+                        let m = self.min_max(true, x, y);
+                        self.min_max(false, m, z)
+                    }
+                    _ => self.call_shim(F::Fma, &[x, y, z]),
+                }
+            })
+            .collect())
+    }
+
+    fn local(&mut self, ty: Handle<naga::Type>) -> R<Vec<Ptr>> {
+        let c = self.ty_comps(ty)?;
+        let len = self.p.flat[ty.index()];
+        Ok((0..self.lanes)
+            .map(|_| Ptr {
+                store: self.storage(&c, None),
+                off: Off::Const(0),
+                len,
+            })
+            .collect())
+    }
+
+    /// Not called: the entry binds the private globals itself ([`Lower::prologue`]), and
+    /// no other global is compiled.
+    fn bind(&mut self, _g: Handle<naga::GlobalVariable>, _v: Vec<Lv>) {}
+
+    fn global(&mut self, g: Handle<naga::GlobalVariable>, len: usize) -> R<Vec<Ptr>> {
+        let stores = self.globals[g.index()]
+            .clone()
+            .ok_or_else(|| self.located("a global outside the private space is not compiled"))?;
+        Ok(stores
+            .into_iter()
+            .map(|store| Ptr {
+                store,
+                off: Off::Const(0),
+                len,
+            })
+            .collect())
+    }
+
+    fn child(&mut self, p: &Vec<Ptr>, off: usize, len: usize) -> Vec<Ptr> {
+        p.iter()
+            .map(|ptr| {
+                let off = match ptr.off {
+                    Off::Const(o) => Off::Const(o + off),
+                    Off::Dyn {
+                        base,
+                        idx,
+                        stride,
+                        count,
+                    } => Off::Dyn {
+                        base: base + off,
+                        idx,
+                        stride,
+                        count,
+                    },
+                };
+                Ptr {
+                    store: ptr.store,
+                    off,
+                    len,
+                }
+            })
+            .collect()
+    }
+
+    fn held(&self, p: &Vec<Ptr>) -> usize {
+        p.first().map_or(0, |ptr| self.stores[ptr.store].len())
+    }
+
+    fn index(&mut self, p: &Vec<Ptr>, idx: &Lv, count: usize, stride: usize, signed: bool) -> R<Vec<Ptr>> {
+        let mut out = Vec::with_capacity(p.len());
+        for (ptr, &raw) in p.iter().zip(idx) {
+            let idx = self.clamp_index(raw, signed, count);
+            let Off::Const(base) = ptr.off else {
+                return Err(self.located("two dynamic indices into one variable are not compiled"));
+            };
+            out.push(Ptr {
+                store: ptr.store,
+                off: Off::Dyn {
+                    base,
+                    idx,
+                    stride,
+                    count,
+                },
+                len: stride,
+            });
+        }
+        Ok(out)
+    }
+
+    fn index_value(&mut self, v: &[Lv], idx: &Lv, count: usize, stride: usize, signed: bool) -> R<Vec<Lv>> {
+        let per_lane = (0..idx.len())
+            .map(|l| {
+                let idx = self.clamp_index(idx[l], signed, count);
+                (0..stride)
+                    .map(|c| {
+                        let mut x = v[c][l];
+                        for k in 1..count {
+                            let hit = self.icmp_k(IntCC::Equal, idx, k as i64);
+                            x = self.sel(hit, v[k * stride + c][l], x);
+                        }
+                        x
+                    })
+                    .collect()
+            })
+            .collect();
+        Ok(by_component(per_lane))
+    }
+
+    fn load(&mut self, p: &Vec<Ptr>) -> R<Vec<Lv>> {
+        let per_lane = p.iter().map(|ptr| self.load_one(ptr)).collect();
+        Ok(by_component(per_lane))
+    }
+
+    fn store(&mut self, p: &Vec<Ptr>, v: &[Lv]) -> R<()> {
+        for (lane, ptr) in p.iter().enumerate() {
+            self.lane = lane;
+            let v = lane_of(v, lane);
+            self.store_one(ptr, &v);
+        }
+        Ok(())
+    }
+
+    fn init(&mut self, p: &Vec<Ptr>, v: Vec<Lv>) {
+        for (lane, ptr) in p.iter().enumerate() {
+            self.lane = lane;
+            let v = lane_of(&v, lane);
+            self.write(ptr.store, 0, &v);
+        }
+    }
+
+    /// A call, inlined: its return storage per lane and the block it leaves by.
+    fn enter(&mut self, result: Option<Handle<naga::Type>>) -> R<(Option<Vec<Value>>, Ret)> {
+        if self.depth >= MAX_DEPTH {
+            return Err(format!("calls nested deeper than {MAX_DEPTH}"));
+        }
+        self.depth += 1;
+        let exit = self.b.create_block();
+        let ids = match result {
+            Some(t) => {
+                let c = self.ty_comps(t)?;
+                Some((0..self.lanes).map(|_| self.storage(&c, None)).collect::<Vec<_>>())
+            }
+            None => None,
+        };
+        // The lanes that call leave together at the end (those that returned early hold
+        // their result in `ret`).
+        let entry = self.masked().then(|| self.mask());
+        Ok((entry, Ret { ids, exit }))
+    }
+
+    fn leave(&mut self, entry: Option<Vec<Value>>, ret: Ret) -> Option<Vec<Lv>> {
+        match entry {
+            Some(entry) => {
+                self.b.ins().jump(ret.exit, &[]);
+                self.switch(ret.exit);
+                self.set_mask(&entry);
+            }
+            None => {
+                if self.open {
+                    self.b.ins().jump(ret.exit, &[]);
+                }
+                self.switch(ret.exit);
+            }
+        }
+        self.open = true;
+        self.depth -= 1;
+        let ids = ret.ids?;
+        let per_lane = ids.iter().map(|&s| self.read(s, 0, self.stores[s].len())).collect();
+        Some(by_component(per_lane))
+    }
+
+    fn if_(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, c: &Lv, arms: Arms) -> R<()> {
+        let Arms { accept, reject } = arms;
+        let l = &mut w.d;
+        if l.masked() {
+            let parent = l.mask();
+            let yes = l.and(&parent, c);
+            let no = l.and_not(&parent, c);
+            let a = Self::arm(w, fr, accept, &yes)?;
+            let r = Self::arm(w, fr, reject, &no)?;
+            let l = &mut w.d;
+            let m = l.or(&a, &r);
+            l.set_mask(&m);
+            l.open = true;
+            return Ok(());
+        }
+        let (yes, no, merge) = (l.b.create_block(), l.b.create_block(), l.b.create_block());
+        l.b.ins().brif(c[0], yes, &[], no, &[]);
+        for (blk, body) in [(yes, accept), (no, reject)] {
+            w.d.switch(blk);
+            w.d.open = true;
+            w.block(fr, body)?;
+            if w.d.open {
+                w.d.b.ins().jump(merge, &[]);
+            }
+        }
+        w.d.switch(merge);
+        w.d.open = true;
+        Ok(())
+    }
+
+    fn switch(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, sel: &Lv, cases: &[naga::SwitchCase]) -> R<()> {
+        let value = |case: &naga::SwitchCase| match case.value {
+            naga::SwitchValue::I32(i) => Some(i64::from(i)),
+            naga::SwitchValue::U32(u) => Some(i64::from(u as i32)),
+            naga::SwitchValue::Default => None,
+        };
+        if w.d.masked() {
+            let l = &mut w.d;
+            let entry = l.mask();
+            let mut hits = Vec::with_capacity(cases.len());
+            let mut matched = l.zeros();
+            for case in cases {
+                let Some(v) = value(case) else {
+                    hits.push(None);
+                    continue;
+                };
+                let h: Vec<Value> = sel.iter().map(|&s| l.icmp_k(IntCC::Equal, s, v)).collect();
+                matched = l.or(&matched, &h);
+                hits.push(Some(h));
+            }
+            let zeros = l.zeros();
+            let brk = l.lane_vars(&zeros);
+            l.ltargets.push(LTarget::Switch { brk: brk.clone() });
+            let (mut carry, mut done) = (zeros.clone(), zeros);
+            for (case, hit) in cases.iter().zip(hits) {
+                let l = &mut w.d;
+                let hit = match hit {
+                    Some(h) => l.and(&entry, &h),
+                    None => l.and_not(&entry, &matched),
+                };
+                let m = l.or(&hit, &carry);
+                let end = Self::arm(w, fr, &case.body, &m)?;
+                if case.fall_through {
+                    carry = end;
+                } else {
+                    done = w.d.or(&done, &end);
+                    carry = w.d.zeros();
+                }
+            }
+            let l = &mut w.d;
+            l.ltargets.pop();
+            let b: Vec<Value> = brk.iter().map(|&v| l.b.use_var(v)).collect();
+            let m = l.or(&done, &carry);
+            let m = l.or(&m, &b);
+            l.set_mask(&m);
+            l.open = true;
+            return Ok(());
+        }
+        let l = &mut w.d;
+        let merge = l.b.create_block();
+        let bodies: Vec<Block> = cases.iter().map(|_| l.b.create_block()).collect();
+        let mut default = None;
+        for (case, &body) in cases.iter().zip(&bodies) {
+            let Some(v) = value(case) else {
+                default = Some(body);
+                continue;
+            };
+            let next = l.b.create_block();
+            let hit = l.icmp_k(IntCC::Equal, sel[0], v);
+            l.b.ins().brif(hit, body, &[], next, &[]);
+            l.switch(next);
+        }
+        l.b.ins().jump(default.unwrap_or(merge), &[]);
+        l.targets.push((merge, None));
+        for (i, case) in cases.iter().enumerate() {
+            w.d.switch(bodies[i]);
+            w.d.open = true;
+            w.block(fr, &case.body)?;
+            if w.d.open {
+                let to = match (case.fall_through, bodies.get(i + 1)) {
+                    (true, Some(&b)) => b,
+                    _ => merge,
+                };
+                w.d.b.ins().jump(to, &[]);
+            }
+        }
+        w.d.targets.pop();
+        w.d.switch(merge);
+        w.d.open = true;
+        Ok(())
+    }
+
+    fn loop_(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, lp: Looping) -> R<()> {
+        if w.d.masked() {
+            return Self::masked_loop(w, fr, lp);
+        }
+        let (body, continuing, break_if) = (lp.body, lp.continuing, lp.break_if);
+        let l = &mut w.d;
+        let count = l.counter();
+        let (head, first, cont, exit) = (
+            l.b.create_block(),
+            l.b.create_block(),
+            l.b.create_block(),
+            l.b.create_block(),
+        );
+        l.b.ins().jump(head, &[]);
+        l.trip(head, count, first);
+        l.open = true;
+        l.targets.push((exit, Some(cont)));
+        l.loops += 1;
+        w.block(fr, body)?;
+        if w.d.open {
+            w.d.b.ins().jump(cont, &[]);
+        }
+        w.d.switch(cont);
+        w.d.open = true;
+        w.block(fr, continuing)?;
+        if w.d.open {
+            match break_if {
+                Some(c) => {
+                    let c = w.val(fr, c)?[0][0];
+                    w.d.b.ins().brif(c, exit, &[], head, &[]);
+                }
+                None => {
+                    w.d.b.ins().jump(head, &[]);
+                }
+            }
+        }
+        let l = &mut w.d;
+        l.targets.pop();
+        l.loops -= 1;
+        l.switch(exit);
+        l.open = true;
+        Ok(())
+    }
+
+    fn break_(&mut self) -> R<()> {
+        if self.masked() {
+            let to = match self.ltargets.last().ok_or("`break` outside a loop")? {
+                LTarget::Loop { brk, .. } | LTarget::Switch { brk } => brk.clone(),
+            };
+            self.leave_lanes(Some(to));
+            return Ok(());
+        }
+        let (to, _) = *self.targets.last().ok_or("`break` outside a loop")?;
+        self.b.ins().jump(to, &[]);
+        self.open = false;
+        Ok(())
+    }
+
+    fn continue_(&mut self) -> R<()> {
+        if self.masked() {
+            let to = self
+                .ltargets
+                .iter()
+                .rev()
+                .find_map(|t| match t {
+                    LTarget::Loop { cont, .. } => Some(cont.clone()),
+                    LTarget::Switch { .. } => None,
+                })
+                .ok_or("`continue` outside a loop")?;
+            self.leave_lanes(Some(to));
+            return Ok(());
+        }
+        let to = self
+            .targets
+            .iter()
+            .rev()
+            .find_map(|t| t.1)
+            .ok_or("`continue` outside a loop")?;
+        self.b.ins().jump(to, &[]);
+        self.open = false;
+        Ok(())
+    }
+
+    fn return_(&mut self, ret: &mut Ret, v: Option<&[Lv]>) -> R<()> {
+        if let Some(v) = v {
+            let ids = ret.ids.clone().ok_or("return value in a void function")?;
+            let lanes = if self.masked() { ids.len() } else { 1 };
+            for (lane, &id) in ids.iter().enumerate().take(lanes) {
+                self.lane = lane;
+                let v = lane_of(v, lane);
+                self.write(id, 0, &v);
+            }
+        }
+        if self.masked() {
+            self.leave_lanes(None);
+        } else {
+            self.b.ins().jump(ret.exit, &[]);
+            self.open = false;
+        }
+        Ok(())
+    }
+}
+
+impl<'p> Lower<'p, '_> {
+    /// A loop's trip counter, 0.
+    fn counter(&mut self) -> Variable {
+        let count = self.b.declare_var(types::I32);
+        let zero = self.b.ins().iconst(types::I32, 0);
+        self.b.def_var(count, zero);
+        count
+    }
+
+    /// A loop's head block: one more trip counted, status 1 past the limit, else on to
+    /// `first`.
+    fn trip(&mut self, head: Block, count: Variable, first: Block) {
+        self.switch(head);
+        let n = self.b.use_var(count);
+        let n = self.b.ins().iadd_imm_s(n, 1);
+        self.b.def_var(count, n);
+        let over = self.icmp_k(IntCC::SignedGreaterThan, n, LOOP_LIMIT);
+        let fail = self.fail_block();
+        self.b.ins().brif(over, fail, &[], first, &[]);
+        self.switch(first);
+    }
+
+    /// A loop on the lane path: it runs while any lane is in it.
+    fn masked_loop(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, lp: Looping) -> R<()> {
+        let (body, continuing, break_if) = (lp.body, lp.continuing, lp.break_if);
+        let l = &mut w.d;
+        let entry = l.mask();
+        // `live`: lanes still looping; `brk`: lanes that left by `break` or
+        // `break if`; `cont`: lanes that took `continue` this pass.
+        let live = l.lane_vars(&entry);
+        let zeros = l.zeros();
+        let brk = l.lane_vars(&zeros);
+        let cont = l.lane_vars(&zeros);
+        let count = l.counter();
+        let (head, first, exit) = (l.b.create_block(), l.b.create_block(), l.b.create_block());
+        let any = l.any(&entry);
+        l.b.ins().brif(any, head, &[], exit, &[]);
+        l.trip(head, count, first);
+        let m: Vec<Value> = live.iter().map(|&v| l.b.use_var(v)).collect();
+        l.set_mask(&m);
+        let z = l.zeros();
+        for (&v, &x) in cont.iter().zip(&z) {
+            l.b.def_var(v, x);
+        }
+        l.ltargets.push(LTarget::Loop {
+            brk: brk.clone(),
+            cont: cont.clone(),
+        });
+        l.loops += 1;
+        l.open = true;
+        w.block(fr, body)?;
+        let l = &mut w.d;
+        l.open = true;
+        let m = l.mask();
+        let k: Vec<Value> = cont.iter().map(|&v| l.b.use_var(v)).collect();
+        let m = l.or(&m, &k);
+        l.set_mask(&m);
+        w.block(fr, continuing)?;
+        w.d.open = true;
+        let m = w.d.mask();
+        let stay = match break_if {
+            Some(c) => {
+                let c = w.val(fr, c)?[0].clone();
+                let l = &mut w.d;
+                let out = l.and(&m, &c);
+                for (i, &x) in out.iter().enumerate() {
+                    let old = l.b.use_var(brk[i]);
+                    let v = l.b.ins().bor(old, x);
+                    l.b.def_var(brk[i], v);
+                }
+                l.and_not(&m, &c)
+            }
+            None => m,
+        };
+        let l = &mut w.d;
+        for (&v, &x) in live.iter().zip(&stay) {
+            l.b.def_var(v, x);
+        }
+        let again = l.any(&stay);
+        l.b.ins().brif(again, head, &[], exit, &[]);
+        l.ltargets.pop();
+        l.loops -= 1;
+        l.switch(exit);
+        let m: Vec<Value> = brk.iter().map(|&v| l.b.use_var(v)).collect();
+        l.set_mask(&m);
+        l.open = true;
+        Ok(())
     }
 }

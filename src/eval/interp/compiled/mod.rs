@@ -8,7 +8,7 @@
 mod lower;
 mod shims;
 
-use super::{Mode, Program};
+use crate::eval::program::{Mode, Program};
 use crate::input::scene::{scene_member, Config, SceneInput, SCENE_COMPONENTS};
 use anyhow::{bail, Result};
 use rayon::prelude::*;
@@ -21,12 +21,15 @@ pub const LANES: usize = 4;
 /// time the choice); unset: one F32X4 in f32, two F64X2 in f64 (4 configurations each).
 fn vectors_wanted() -> Option<usize> {
     static WANTED: std::sync::OnceLock<Option<usize>> = std::sync::OnceLock::new();
-    *WANTED.get_or_init(|| {
-        std::env::var("LINELIGHT_VECTORS")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .filter(|n| (1..=4).contains(n))
-    })
+    *WANTED.get_or_init(|| count_var("LINELIGHT_VECTORS", 4))
+}
+
+/// The environment variable `name` as a count from 1 to `most`, or None.
+fn count_var(name: &str, most: usize) -> Option<usize> {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .filter(|n| (1..=most).contains(n))
 }
 
 /// `LINELIGHT_F64_PATH=lanes`: f64 on the previous path, 4 interleaved scalar lanes per
@@ -41,12 +44,7 @@ fn f64_lanes_wanted() -> bool {
 /// `LINELIGHT_LANES=4` is the f64 path before F64X2.
 fn lanes_wanted() -> Option<usize> {
     static WANTED: std::sync::OnceLock<Option<usize>> = std::sync::OnceLock::new();
-    *WANTED.get_or_init(|| {
-        std::env::var("LINELIGHT_LANES")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .filter(|n| (1..=16).contains(n))
-    })
+    *WANTED.get_or_init(|| count_var("LINELIGHT_LANES", 16))
 }
 
 /// How a compiled kernel runs its configurations.
