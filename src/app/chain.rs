@@ -29,6 +29,22 @@ use crate::input::case::Case;
 use crate::report::chain::FitRecords;
 use std::path::Path;
 
+/// Options of `linelight chain`.
+#[derive(clap::Args)]
+pub struct ChainOptions {
+    /// Case file with ggx materials, e.g. cases/ggx.toml.
+    #[arg(default_value = "cases/ggx.toml")]
+    pub case: std::path::PathBuf,
+    /// Output folder, a chain report folder of its own (default: reports/<case name>-chain).
+    #[arg(long)]
+    pub out: Option<std::path::PathBuf>,
+    /// Override every material's count (quick runs).
+    #[arg(long)]
+    pub count: Option<usize>,
+    #[command(flatten)]
+    pub gpu: super::GpuOptions,
+}
+
 /// `linelight chain CASE [--out DIR] [--count N]`: the output folder (default
 /// `reports/<case>-chain`, a chain report folder of its own) and the run's size checked before
 /// any work, then measured and written.

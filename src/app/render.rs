@@ -19,18 +19,28 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 /// Options of `linelight render`.
+#[derive(clap::Args)]
 pub struct RenderOptions {
+    /// Scene file (TOML with a [render] table), e.g. cases/render/floor_tube.toml.
     pub scene: PathBuf,
+    /// The render goes to OUT/<scene name>/.
+    #[arg(long, default_value = "reports/render")]
     pub out: PathBuf,
-    /// `--save-baseline DIR`: save this render as a render baseline (src/app/gate/render.rs).
+    /// Save this render as a render baseline in DIR (render-baseline.json + images/), for a
+    /// later --baseline.
+    #[arg(long, value_name = "DIR")]
     pub save_baseline: Option<PathBuf>,
-    /// `--baseline DIR`: compare with a render baseline; a regression exits 1.
+    /// Compare with the render baseline in DIR, pixel by pixel: any regression exits 1.
+    #[arg(long, value_name = "DIR")]
     pub baseline: Option<PathBuf>,
-    /// `--junit FILE`: the gate's rules as JUnit XML.
+    /// Write the render gate's rules as JUnit XML (with --baseline).
+    #[arg(long, value_name = "FILE")]
     pub junit: Option<PathBuf>,
-    /// `--flip-noise X`: a change of a method's mean FLIP against the reference within ±X is
-    /// no change.
+    /// A change of a method's mean FLIP against the reference within ±X is no change (0 to 1).
+    #[arg(long, value_name = "X", default_value_t = FLIP_NOISE, value_parser = super::options::fraction)]
     pub flip_noise: f64,
+    #[command(flatten)]
+    pub gpu: GpuOptions,
 }
 
 /// The default of `--flip-noise`.
@@ -93,7 +103,8 @@ fn flip_stats(values: &mut [f64]) -> Value {
     })
 }
 
-pub fn render(options: RenderOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
+pub fn render(options: RenderOptions) -> anyhow::Result<Status> {
+    let gpu = &options.gpu;
     let total = Instant::now();
     let command_line = shell_words::join(std::env::args());
     let scene = RenderScene::load(&options.scene)?;

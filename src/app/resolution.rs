@@ -54,6 +54,21 @@ fn describe(path: &Path, t: &AnisoTable) -> String {
     s
 }
 
+/// Options of `linelight resolution`.
+#[derive(clap::Args)]
+pub struct ResolutionOptions {
+    /// Case file with anisotropic ggx families (a `slice` family for a slice table).
+    #[arg(default_value = "cases/ggx_resolution.toml")]
+    pub case: PathBuf,
+    /// An anisotropic table file (repeatable, coarsest first; default: the 4⁴ table, the
+    /// committed 8⁴ and the fine slice in data/).
+    #[arg(long = "table")]
+    pub tables: Vec<PathBuf>,
+    /// Output folder (default: reports/<case name with - for _>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
 /// `linelight resolution [CASE] [--table FILE]… [--out DIR]`.
 pub fn run(case_path: &Path, tables: Vec<PathBuf>, out: Option<PathBuf>) -> anyhow::Result<super::Status> {
     let case = Case::load(case_path)?;

@@ -14,50 +14,88 @@ use crate::input::case::Case;
 use crate::io::{stage_output, OutputPlan, SetKind};
 use crate::measure::gpu::Gpu;
 use crate::measure::sweep::{self, MeasureOptions, Measured, Setup};
-use anyhow::Context;
+// Reached here by the tests and examples that set a sweep up.
+pub use super::{check_memory, prepare, prepare_with};
+pub use crate::measure::setup::Holds;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// The CI gate's options of `linelight sweep` (docs/ci/): baselines and JUnit.
+/// The CI gate (docs/ci/): baselines and JUnit.
+#[derive(clap::Args)]
 pub struct GateFlags {
-    /// `--save-baseline DIR`.
+    /// Save this run as a baseline in DIR (baseline.json + errors/), for a later --baseline.
+    #[arg(long, value_name = "DIR")]
     pub save_baseline: Option<PathBuf>,
-    /// `--baseline DIR`: any regression exits 1.
+    /// Compare with the baseline in DIR: any regression exits 1.
+    #[arg(long, value_name = "DIR")]
     pub baseline: Option<PathBuf>,
-    /// `--junit FILE`.
+    /// Write JUnit XML: one testcase per method × material × rule.
+    #[arg(long, value_name = "FILE")]
     pub junit: Option<PathBuf>,
+    /// Error ratios within ±NOISE (at the 95 % bootstrap bounds) are unchanged (0 to 1).
+    #[arg(long, default_value_t = 0.05, value_parser = super::options::fraction)]
     pub noise: f64,
+    /// Op-count growth beyond this fraction is a regression (0 to 1).
+    #[arg(long, default_value_t = 0.10, value_parser = super::options::fraction)]
     pub ops_growth: f64,
+    /// The share rule: the share of configurations allowed to get worse, per material and bin
+    /// (0 to 1; a one-sided binomial test at P < 0.01, at least 5 worse).
+    #[arg(long, default_value_t = 0.05, value_parser = super::options::fraction)]
     pub worse_share: f64,
+    /// The share rule: an error that grew by at most K ULPs of the reference did not get worse
+    /// (a driver's last-bit change).
+    #[arg(long, value_name = "K", default_value_t = 4.0, value_parser = super::options::ulps)]
     pub worse_ulps: f64,
 }
 
 /// Options of `linelight sweep`.
+#[derive(clap::Args)]
 pub struct SweepOptions {
-    /// The case file.
+    /// Case file (TOML), e.g. cases/line_fwt.toml.
     pub case: PathBuf,
-    /// Reports go to OUT/<case name>/ (shard states to OUT/).
+    /// Reports go to OUT/<case name>/.
+    #[arg(long, default_value = "reports")]
     pub out: PathBuf,
-    /// `--raw FILE`: every configuration's values.
+    /// Also write every configuration's values (JSONL) to this file.
+    #[arg(long)]
     pub raw: Option<PathBuf>,
-    /// `--count`: every material's count.
+    /// Override every material's count (quick runs; the committed reports use the case's).
+    #[arg(long)]
     pub count: Option<usize>,
-    /// `--shard I/N`, as typed.
+    /// Evaluate shard I of N (a deterministic partition of the configurations) and write its
+    /// mergeable state to OUT/shard-I-of-N.cbor instead of a report (docs/scale.md).
+    #[arg(long, value_name = "I/N")]
     pub shard: Option<String>,
+    #[command(flatten)]
+    pub gpu: GpuOptions,
+    #[command(flatten)]
     pub gate: GateFlags,
+}
+
+/// Options of `linelight merge`.
+#[derive(clap::Args)]
+pub struct MergeOptions {
+    /// Directories holding the shard-I-of-N.cbor files (every shard exactly once).
+    #[arg(required = true)]
+    pub shards: Vec<PathBuf>,
+    /// Reports go to OUT/<case name>/.
+    #[arg(long, default_value = "reports")]
+    pub out: PathBuf,
 }
 
 /// `linelight sweep`: the case's inputs checked, measured (or one shard of it), analysed,
 /// reported, and the verdict's status.
-pub fn sweep(options: SweepOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
+pub fn sweep(options: SweepOptions) -> anyhow::Result<Status> {
     let SweepOptions {
         case,
         out,
         raw,
         count,
         shard,
+        gpu,
         gate,
     } = options;
+    let gpu = &gpu;
     let started = std::time::Instant::now();
     let case_path = case.display().to_string();
     if count == Some(0) {
@@ -268,7 +306,8 @@ impl Named<'_> {
 /// sweep writes. No GPU: the shards climbed the searches and shard 0 timed the methods; the
 /// merge adds the statistics, settles the top-ups and keeps the climbs of the whole sample's
 /// best starts (`measure::sweep::assemble`).
-pub fn merge(dirs: &[PathBuf], out: &Path) -> anyhow::Result<Status> {
+pub fn merge(options: MergeOptions) -> anyhow::Result<Status> {
+    let (dirs, out) = (&options.shards[..], options.out.as_path());
     let started = std::time::Instant::now();
     let command_line = shell_words::join(std::env::args());
     // The case and kernels are found beside the records and must be what the shards ran.
@@ -429,88 +468,6 @@ fn report_sweep(
     })
 }
 
-/// Loads and checks everything a sweep needs, without touching the GPU, and draws the whole
-/// sample into `Setup::samples` (bench and others that hold every configuration).
-pub fn prepare(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> anyhow::Result<Setup> {
-    let holds = Holds {
-        all_samples: true,
-        ..Holds::default()
-    };
-    let mut setup = prepare_with(case, user_kernels, count, holds)?;
-    let (mut samples, draws) = crate::input::sampler::sample_case_counted(&setup.case)
-        .map_err(|e| anyhow::anyhow!("case `{}`: {e}", setup.case.name))?;
-    let (extra, topups) = crate::input::sampler::top_up(&setup.case, &samples);
-    samples.extend(extra);
-    setup.samples = samples;
-    setup.draws = draws;
-    setup.topups = topups;
-    Ok(setup)
-}
-
-/// What a run holds beside one measuring chunk and the statistics, for its memory estimate.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Holds {
-    /// `--raw` rows are written (a chunk's at a time).
-    pub raw: bool,
-    /// Every natural configuration's observation is kept (the gate's baseline, `diff`).
-    pub observations: bool,
-    /// Every configuration is drawn up front ([`prepare`]: bench).
-    pub all_samples: bool,
-}
-
-/// [`prepare`] for a streamed sweep ([`crate::measure::sweep::measure_chunks`] draws the sample chunk by chunk): nothing is
-/// sampled here, `samples`, `draws` and `topups` stay empty. The run's memory ([`memory_budget`]
-/// with what it `holds`) is checked against `--max-memory`.
-pub fn prepare_with(case: Case, user_kernels: &[PathBuf], count: Option<usize>, holds: Holds) -> anyhow::Result<Setup> {
-    let mut case = case;
-    if let Some(n) = count {
-        crate::limits::check_count("--count", n as u64).map_err(anyhow::Error::msg)?;
-        // The bins' minimum shrinks with the counts, so a quick run stays quick.
-        let largest = case.materials.iter().map(|m| m.count).max().unwrap_or(1).max(1);
-        let scale = |min: usize| min.saturating_mul(n).div_ceil(largest).min(min);
-        case.min_per_bin = scale(case.min_per_bin);
-        for b in case.bins.iter_mut() {
-            if let Some(min) = b.min_per_bin.as_mut() {
-                *min = scale(*min);
-            }
-        }
-        for m in &mut case.materials {
-            m.count = n;
-        }
-    }
-    let kernels = crate::kernel::methods::kernel_set(user_kernels)?;
-    let mut methods = Vec::new();
-    for spec in &case.methods {
-        methods.push(crate::kernel::methods::resolve(spec, &kernels).with_context(|| format!("case `{}`", case.name))?);
-    }
-    // `--kernel FILE`: the case's methods plus every kernel given (unless the case names it).
-    for path in user_kernels {
-        let k = crate::kernel::KernelFile::read(path)?;
-        if !methods.iter().any(|m| m.id() == k.id) {
-            methods.push(crate::kernel::methods::resolve(&k.id, &kernels)?);
-        }
-    }
-    for [a, b] in &case.compare {
-        let target = |l: &String| methods.iter().find(|m| &m.label == l).map(|m| m.target());
-        if target(a) != target(b) {
-            anyhow::bail!(
-                "case `{}`: compare [{a}, {b}]: the two methods approximate different targets",
-                case.name
-            );
-        }
-    }
-    let setup = Setup {
-        case,
-        methods,
-        samples: Vec::new(),
-        topups: Vec::new(),
-        count_override: count,
-        draws: Vec::new(),
-    };
-    check_memory(&setup, holds)?;
-    Ok(setup)
-}
-
 /// Refuses a `[budget]` whose target no method of the sweep is judged against (bench and diff
 /// time or compare methods and do not read the budget).
 fn check_budget_target(setup: &Setup) -> anyhow::Result<()> {
@@ -530,116 +487,6 @@ fn check_budget_target(setup: &Setup) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-/// Refuses a run whose [`memory_budget`] exceeds `--max-memory`, before anything is allocated.
-pub fn check_memory(setup: &Setup, holds: Holds) -> anyhow::Result<()> {
-    let case = &setup.case;
-    let (_, total) = configurations(case);
-    memory_budget(setup, holds)
-        .check(&format!("case `{}` with {total} configurations", case.name))
-        .map_err(anyhow::Error::msg)
-}
-
-/// (natural, natural and top-up) configurations a run of the case may measure: a family's
-/// top-ups fill its bins to `min_per_bin`, within `topup_draws` times its count.
-fn configurations(case: &Case) -> (u64, u64) {
-    let wanted: u64 = case
-        .bins
-        .iter()
-        .map(|b| (b.edges.len().saturating_sub(1) as u64).saturating_mul(b.min_per_bin(case.min_per_bin) as u64))
-        .sum();
-    case.materials.iter().fold((0u64, 0u64), |(n, t), m| {
-        let count = m.count as u64;
-        let topups = wanted.min(count.saturating_mul(case.topup_draws as u64));
-        (n.saturating_add(count), t.saturating_add(count).saturating_add(topups))
-    })
-}
-
-/// The memory of a sweep (and of merge, diff and bench, which run its stages), part by part:
-/// one measuring chunk of configurations (samples, scenes, references, values, --raw rows),
-/// or every configuration when all are drawn up front; every bin and map cell of the
-/// statistics; one step of the worst-case search; the gate's observations.
-pub fn memory_budget(setup: &Setup, holds: Holds) -> crate::limits::Budget {
-    let case = &setup.case;
-    let (naturals, total) = configurations(case);
-    let methods = setup.methods.len() as u64;
-    let targets = crate::measure::sweep::needed_targets(&setup.methods).len() as u64;
-    let mut budget = crate::limits::Budget::new();
-    let held = if holds.all_samples {
-        total
-    } else {
-        total.min(crate::measure::sweep::MEASURE_CHUNK as u64)
-    };
-    budget.add(
-        format!("{held} configurations measured at once"),
-        crate::limits::sweep_estimate(held, methods, targets, holds.raw),
-    );
-    // Light textures drawn by the case (`[materials.texture]`): each configuration held carries
-    // its texels; the top-ups are held all at once, and a top-up batch holds at most
-    // TOPUP_BATCH_TEXELS.
-    let texels = case
-        .materials
-        .iter()
-        .filter_map(|m| m.texture.as_ref().map(|t| t.texel_count()))
-        .max()
-        .unwrap_or(0);
-    if texels > 0 {
-        let topups = total.saturating_sub(naturals);
-        let held_textures = held.saturating_add(if holds.all_samples { 0 } else { topups });
-        budget.add(
-            format!("light textures of {held_textures} configurations held at once, {texels} texels each"),
-            crate::limits::texel_estimate(held_textures, texels, holds.raw),
-        );
-        budget.add(
-            "one top-up batch of textured draws",
-            crate::limits::Bytes(crate::limits::TOPUP_BATCH_TEXELS.max(texels).saturating_mul(8)),
-        );
-    }
-    let size = crate::analyse::analysis::statistics_size(case, &setup.methods);
-    let bins: usize = case.bins.iter().map(|b| b.edges.len().saturating_sub(1)).sum();
-    let cells: usize = case
-        .maps
-        .iter()
-        .map(|m| (m.x.edges.len() - 1).saturating_mul(m.y.edges.len() - 1))
-        .fold(0, usize::saturating_add);
-    budget.add(
-        format!("statistics of {bins} bins and {cells} map cells, per method and material",),
-        crate::limits::statistics_estimate(size, total),
-    );
-    if let Some(search) = &case.search {
-        // One step's candidates (samples, scenes, references) at a time.
-        let batch = (search.restarts as u64).saturating_mul(search.population as u64);
-        budget.add(
-            format!(
-                "[search] with {} × {} candidates per step",
-                search.restarts, search.population
-            ),
-            crate::limits::search_estimate(batch),
-        );
-        if texels > 0 {
-            budget.add(
-                "[search] candidates' light textures",
-                crate::limits::texel_estimate(batch, texels, false),
-            );
-        }
-    }
-    if texels > 0 && !case.compare.is_empty() {
-        // The disagreement search's candidates of one step carry their textures too.
-        let d = case.disagreements.clone().unwrap_or_default();
-        let batch = (d.restarts as u64).saturating_mul(d.population as u64);
-        budget.add(
-            format!("disagreement candidates' light textures ({batch} per step)"),
-            crate::limits::texel_estimate(batch, texels, false),
-        );
-    }
-    if holds.observations {
-        budget.add(
-            format!("the gate's observations of {naturals} configurations"),
-            crate::limits::observations_estimate(naturals, methods),
-        );
-    }
-    budget
 }
 
 /// A measured sweep with its folded statistics: what the analysis, the report and the gate

@@ -12,4 +12,5 @@ pub mod progress;
 pub mod resolution;
 pub mod scan;
 pub mod search;
+pub mod setup;
 pub mod sweep;
