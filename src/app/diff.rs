@@ -129,7 +129,7 @@ pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
     crate::app::check_memory(&setup, holds)?;
     let gpu = Gpu::new(options.adapter.as_deref())?;
     eprintln!("adapter: {}", gpu.adapter);
-    let swept = crate::app::sweep::measure(
+    let swept = crate::app::swept::measure(
         &setup,
         &gpu,
         crate::measure::sweep::MeasureOptions {

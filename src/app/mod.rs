@@ -18,6 +18,7 @@ pub mod scan;
 pub mod shard;
 mod status;
 pub mod sweep;
+pub mod swept;
 
 pub use bench::{bench, BenchOptions};
 pub use check::{adapters, check, CheckOptions};

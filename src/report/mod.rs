@@ -13,6 +13,7 @@ mod findings;
 pub mod format;
 pub mod html;
 pub mod image;
+pub mod junit;
 mod markdown;
 pub mod markup;
 pub mod objectives;

@@ -1,24 +1,23 @@
-//! The sweep's orchestration: the measure stage yields measured chunks (`measure::sweep::measure_chunks`),
-//! and each is folded here into the statistics (`analysis::Accumulators`), the leak below the
-//! horizon and, for the gate, the per-configuration observations (`app::gate::Observations`, an `Accumulate`)
-//! before it is dropped. Also the shard state files (`--shard`, `linelight merge`,
-//! docs/scale.md), which hold both the measure stage's kept state and the statistics.
+//! `linelight sweep` and `linelight merge`: the case's inputs and outputs checked before any
+//! work, the run set up (`measure::setup`), measured with its folds (`app::swept`), or one
+//! shard of it written as a shard state (`--shard`, docs/scale.md), or the shard states merged;
+//! then the verdict (`report`: analysed, reported, gated).
 
-use super::shard::{read_shards, shard_path, write_shard, Partial, Recorded, SHARD_FORMAT};
+use super::shard::{read_shards, shard_path, write_shard, Partial, Recorded};
 use super::{kernel_inputs, open_gpu, GpuOptions, Status};
-use crate::analyse::analysis::{Accumulators, Fold, Leak, LeakAccumulator, Verdict};
-use crate::analyse::stats::{add_to_each, Accumulate};
-use crate::analyse::summary::Summary;
-use crate::app::gate::Observations;
 use crate::input::case::Case;
 use crate::io::{stage_output, OutputPlan, SetKind};
-use crate::measure::gpu::Gpu;
-use crate::measure::sweep::{self, MeasureOptions, Measured, Setup};
+use crate::measure::sweep::{self, Setup};
+use std::path::{Path, PathBuf};
+
 // Reached here by the tests and examples that set a sweep up.
+pub use super::swept::{finish, measure, measure_part, Swept};
 pub use super::{check_memory, prepare, prepare_with};
 pub use crate::measure::setup::Holds;
-use std::path::{Path, PathBuf};
-use std::time::Instant;
+
+/// The verdict of a measured sweep: analysed, reported, gated.
+mod report;
+use report::{report_sweep, SweepRun};
 
 /// The CI gate (docs/ci/): baselines and JUnit.
 #[derive(clap::Args)]
@@ -355,119 +354,6 @@ pub fn merge(options: MergeOptions) -> anyhow::Result<Status> {
     )
 }
 
-/// Where a sweep's report goes and how the run was called.
-struct SweepRun<'a> {
-    case_path: &'a str,
-    command_line: &'a str,
-    dir: &'a std::path::Path,
-    started: std::time::Instant,
-    raw: Option<&'a std::path::Path>,
-}
-
-/// Analyses a measured sweep (or merged shards), writes its report set, and gives the verdict's
-/// exit code.
-fn report_sweep(
-    run: SweepRun,
-    setup: &crate::measure::sweep::Setup,
-    swept: &Swept,
-    staged: Option<crate::io::Staged>,
-    gate: &crate::app::gate::GateRun,
-) -> anyhow::Result<Status> {
-    let SweepRun {
-        case_path,
-        command_line,
-        dir,
-        started,
-        raw,
-    } = run;
-    let t = std::time::Instant::now();
-    let measured = &swept.measured;
-    let analysis = swept.accumulators.finish(&setup.case, &setup.methods);
-    let facts = crate::analyse::claims::Facts {
-        analysis: Some(analysis.clone()),
-        configurations: measured.natural.iter().sum(),
-        costs: crate::analyse::bench::costs(&measured.costs),
-        disagreements: measured.disagreements.clone(),
-        found: measured.found.clone(),
-        ..crate::analyse::claims::dry_facts(&setup.case, setup.methods.iter().map(|m| m.label.clone()).collect())
-    };
-    let claim_results = crate::analyse::claims::evaluate(&setup.case.claims, facts);
-    let stages = crate::analyse::summary::Stages {
-        analysis_seconds: measured.timing.statistics_seconds + t.elapsed().as_secs_f64(),
-        until_report_seconds: started.elapsed().as_secs_f64(),
-    };
-    let gate_report = gate.compare(setup, (measured, swept.observations.as_ref()))?;
-    let mut input = Summary::new(
-        crate::analyse::summary::RunInfo {
-            case_path,
-            command_line,
-            stages,
-        },
-        setup,
-        measured,
-        swept.leak.clone(),
-        analysis,
-        claim_results,
-    )?;
-    if let Some(g) = &gate_report {
-        input.set_baseline(g.clone())?;
-    }
-    for path in crate::report::write_reports(dir, &input)? {
-        eprintln!("wrote {}", path.display());
-    }
-    if let (Some(staged), Some(raw)) = (staged, &raw) {
-        staged.commit()?;
-        eprintln!("wrote {}", raw.display());
-    }
-    let (analysis, claim_results) = (&input.analysis, &input.claims);
-    gate.finish(
-        setup,
-        (measured, swept.observations.as_ref()),
-        &analysis.checks,
-        gate_report.as_ref(),
-        started.elapsed().as_secs_f64(),
-    )?;
-    let regressed = gate_report.as_ref().is_some_and(|g| g.regressed());
-    let failed = analysis.checks.iter().filter(|c| !c.pass).count();
-    let stale: Vec<&str> = claim_results
-        .iter()
-        .filter(|c| !c.holds)
-        .map(|c| c.id.as_str())
-        .collect();
-    println!(
-        "verdict: {} ({} of {} checks pass); claims: {} of {} hold{}; report: {}",
-        analysis.verdict.name(),
-        analysis.checks.len() - failed,
-        analysis.checks.len(),
-        claim_results.len() - stale.len(),
-        claim_results.len(),
-        if stale.is_empty() {
-            String::new()
-        } else {
-            format!(" (STALE: {})", stale.join(", "))
-        },
-        dir.join("report.md").display()
-    );
-    if let Some(g) = &gate_report {
-        if !g.replay.is_empty() {
-            eprintln!(
-                "{} configurations got worse, or NaN or false light new since the baseline: {} (replay with linelight eval)",
-                g.replay.len(),
-                dir.join("regressed.jsonl").display()
-            );
-        }
-        println!("{}", g.summary());
-    }
-    // 3: a finding no longer holds (the report says which); 1: a tolerance failed.
-    Ok(if !stale.is_empty() {
-        Status::StaleClaim
-    } else if analysis.verdict == Verdict::Fail || regressed {
-        Status::ToleranceFail
-    } else {
-        Status::Ok
-    })
-}
-
 /// Refuses a `[budget]` whose target no method of the sweep is judged against (bench and diff
 /// time or compare methods and do not read the budget).
 fn check_budget_target(setup: &Setup) -> anyhow::Result<()> {
@@ -487,66 +373,4 @@ fn check_budget_target(setup: &Setup) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-/// A measured sweep with its folded statistics: what the analysis, the report and the gate
-/// are made from.
-pub struct Swept {
-    pub measured: Measured,
-    pub accumulators: Accumulators,
-    /// How much of `line` lies below the horizon, per family (line cases).
-    pub leak: Vec<Leak>,
-    /// The gate's observations (`observe`).
-    pub observations: Option<Observations>,
-}
-
-/// Measures the configurations (all, or one shard's) chunk by chunk, folding each into the
-/// statistics and, when `observe`, into the gate's observations.
-pub fn measure_part(setup: &Setup, gpu: &Gpu, options: MeasureOptions, observe: bool) -> anyhow::Result<Partial> {
-    let case = &setup.case;
-    let methods = &setup.methods;
-    let shard = options.shard.unwrap_or((0, 1));
-    let mut accumulators = Accumulators::new(case, methods);
-    let mut leak = LeakAccumulator::new(case.materials.len());
-    let mut observations = observe.then(|| crate::app::gate::observations(methods.len(), case.materials.len()));
-    let mut statistics_seconds = 0.0;
-    let mut measured = sweep::measure_chunks(setup, gpu, options, &mut |c| {
-        let t = Instant::now();
-        add_to_each(&mut [&mut accumulators, &mut leak], Fold { case, chunk: c });
-        statistics_seconds += t.elapsed().as_secs_f64();
-        if let Some(obs) = &mut observations {
-            obs.add(Fold { case, chunk: c });
-        }
-        Ok(())
-    })?;
-    measured.timing.statistics_seconds += statistics_seconds;
-    Ok(Partial {
-        format: SHARD_FORMAT,
-        case: case.name.clone(),
-        seed: case.seed,
-        count_override: setup.count_override,
-        shard,
-        methods: methods.iter().map(|m| m.label.clone()).collect(),
-        accumulators,
-        leak,
-        measured,
-        observations,
-    })
-}
-
-/// The searches, the cost pass and the attribution after measuring: a swept sweep.
-pub fn finish(setup: &Setup, gpu: &Gpu, part: Partial) -> anyhow::Result<Swept> {
-    Ok(Swept {
-        measured: sweep::search_and_cost(setup, gpu, part.measured)?,
-        accumulators: part.accumulators,
-        leak: part.leak.finish(&setup.case),
-        observations: part.observations,
-    })
-}
-
-/// Measures a whole sweep: its configurations chunk by chunk ([`measure_part`]), then the
-/// searches, the cost pass and the attribution ([`finish`]).
-pub fn measure(setup: &Setup, gpu: &Gpu, options: MeasureOptions, observe: bool) -> anyhow::Result<Swept> {
-    let part = measure_part(setup, gpu, options, observe)?;
-    finish(setup, gpu, part)
 }
