@@ -166,7 +166,7 @@ pub const MAX_INCLUDE_DEPTH: usize = 16;
 /// time it is included.
 pub const MAX_INCLUDE_BYTES: u64 = 16 << 20;
 
-/// A light texture's longest side, in texels (`texture.size`, issue 25).
+/// A light texture's longest side, in texels (`texture.size` of `[materials.texture]`).
 pub const MAX_TEXTURE_SIDE: u32 = 4096;
 
 /// The most texels one configuration's texture may hold (a cubemap counts its six faces): a
@@ -431,7 +431,10 @@ pub fn run_budget(size: &RunSize) -> Budget {
             search_estimate(batch),
         );
         if texels > 0 {
-            budget.add("[search] candidates' light textures", texel_estimate(batch, texels, false));
+            budget.add(
+                "[search] candidates' light textures",
+                texel_estimate(batch, texels, false),
+            );
         }
     }
     if let (true, Some(batch)) = (texels > 0, size.disagreement_batch) {

@@ -13,7 +13,7 @@
 //! | rounding | the method in f32 on the CPU | the method in f64 |
 //! | driver | the GPU | the CPU f32 |
 //!
-//! each as |a − b|/T. Beside them, the Fresnel link (issue 24): our feed's
+//! each as |a − b|/T. Beside them, the Fresnel link: our feed's
 //! f0·magnitude + (1 − f0)·fresnel (what an LTC method is multiplied by) against the exact ∫D·F
 //! of the configuration's lobe, |a − b|/(∫D·F), with that value's own error estimate; it is the
 //! magnitude part of the table link, shown apart. The published table, which has no Fresnel

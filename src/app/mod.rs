@@ -127,4 +127,3 @@ pub fn bounded(message: &str) -> String {
     }
     out.join("\n")
 }
-

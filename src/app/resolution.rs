@@ -1,4 +1,4 @@
-//! `linelight resolution`: the anisotropic table's resolution study (issue 24, in the manner
+//! `linelight resolution`: the anisotropic table's resolution study (in the manner
 //! of seed 004's Fig. 12), cases/ggx_resolution.toml → reports/ggx-resolution/resolution.md,
 //! resolution.csv, resolution.json.
 //!

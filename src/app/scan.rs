@@ -175,4 +175,3 @@ pub fn scan(options: ScanOptions) -> Result<Status> {
     eprintln!("wrote {}", dir.display());
     Ok(Status::Ok)
 }
-

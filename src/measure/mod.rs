@@ -9,6 +9,7 @@ pub mod eval_rows;
 pub mod gpu;
 pub mod objectives;
 pub mod progress;
+pub mod render;
 pub mod resolution;
 pub mod scan;
 pub mod search;

@@ -9,8 +9,8 @@
 //! testcase has a `time`. A suite with no testcase is left out. quick-junit 0.8 wrote
 //! `skipped` on `<testsuites>`, which that schema refuses.
 
-use crate::analyse::gate::{Change, GateReport};
 use crate::analyse::analysis::Check;
+use crate::analyse::gate::{Change, GateReport};
 
 /// Text safe inside an XML attribute or element: the five special characters escaped, and
 /// the control characters XML 1.0 cannot hold at all replaced by `?`.

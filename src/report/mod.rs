@@ -17,6 +17,7 @@ pub mod junit;
 mod markdown;
 pub mod markup;
 pub mod objectives;
+pub mod render;
 pub mod resolution;
 pub mod scan;
 mod svg;

@@ -43,9 +43,22 @@ pub struct FitOptions {
 
 /// The fit asked for, its options checked.
 enum Fit {
-    Iso { out: PathBuf, size: usize },
-    Aniso { out: PathBuf, size: [usize; 4], slice: Option<[f64; 2]>, checkpoint: PathBuf, every: usize },
-    AnisoSw { out: PathBuf, size: [usize; 4], steps: usize },
+    Iso {
+        out: PathBuf,
+        size: usize,
+    },
+    Aniso {
+        out: PathBuf,
+        size: [usize; 4],
+        slice: Option<[f64; 2]>,
+        checkpoint: PathBuf,
+        every: usize,
+    },
+    AnisoSw {
+        out: PathBuf,
+        size: [usize; 4],
+        steps: usize,
+    },
 }
 
 /// `--aniso-size` as the four axes.
@@ -57,7 +70,17 @@ fn aniso_size(v: Vec<usize>) -> anyhow::Result<[usize; 4]> {
 impl FitOptions {
     /// Which fit, refusing options that belong to another one.
     fn fit(self) -> anyhow::Result<Fit> {
-        let FitOptions { out, size, aniso, aniso_size: sizes, aniso_slice, checkpoint, checkpoint_every, objective, sw_steps } = self;
+        let FitOptions {
+            out,
+            size,
+            aniso,
+            aniso_size: sizes,
+            aniso_slice,
+            checkpoint,
+            checkpoint_every,
+            objective,
+            sw_steps,
+        } = self;
         if !aniso && aniso_slice.is_some() {
             anyhow::bail!("--aniso-slice is for --aniso fits");
         }
@@ -73,7 +96,11 @@ impl FitOptions {
             }
             let size = aniso_size(sizes)?;
             let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_aniso_sw_subset.csv"));
-            Ok(Fit::AnisoSw { out, size, steps: sw_steps })
+            Ok(Fit::AnisoSw {
+                out,
+                size,
+                steps: sw_steps,
+            })
         } else if aniso {
             let size = aniso_size(sizes)?;
             let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_aniso.csv"));
@@ -84,7 +111,13 @@ impl FitOptions {
                         .map_err(|v| anyhow::anyhow!("--aniso-slice takes 2 numbers (φ,r), got {}", v.len()))
                 })
                 .transpose()?;
-            Ok(Fit::Aniso { out, size, slice, checkpoint, every: checkpoint_every })
+            Ok(Fit::Aniso {
+                out,
+                size,
+                slice,
+                checkpoint,
+                every: checkpoint_every,
+            })
         } else {
             let out = out.unwrap_or_else(|| PathBuf::from("data/ltc_ggx_iso.csv"));
             Ok(Fit::Iso { out, size })
@@ -96,7 +129,13 @@ impl FitOptions {
 pub fn run(options: FitOptions) -> anyhow::Result<crate::app::Status> {
     match options.fit()? {
         Fit::AnisoSw { out, size, steps } => super::aniso_sw(&out, size, steps)?,
-        Fit::Aniso { out, size, slice, checkpoint, every } => super::aniso(&out, size, slice, &checkpoint, every)?,
+        Fit::Aniso {
+            out,
+            size,
+            slice,
+            checkpoint,
+            every,
+        } => super::aniso(&out, size, slice, &checkpoint, every)?,
         Fit::Iso { out, size } => super::iso(&out, size)?,
     }
     Ok(crate::app::Status::Ok)

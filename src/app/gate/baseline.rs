@@ -3,8 +3,8 @@
 //! loaded, checked against this run's case and configurations, by `sweep --baseline DIR`.
 
 use super::{observed, sample_digest, Obs, Observations};
-use crate::measure::sweep::{Measured, Setup};
 use crate::analyse::stats::nearest_rank;
+use crate::measure::sweep::{Measured, Setup};
 use crate::report::format::{Format, Json, Layout, Plain};
 use anyhow::Context;
 use serde::{Deserialize, Serialize};
@@ -313,4 +313,3 @@ pub fn load(dir: &Path, setup: &Setup) -> anyhow::Result<Loaded> {
     }
     Ok(Loaded { baseline, errors })
 }
-

@@ -256,4 +256,3 @@ pub fn compare(
             .collect(),
     }
 }
-

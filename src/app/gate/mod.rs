@@ -11,9 +11,9 @@ use std::path::Path;
 
 pub use crate::analyse::gate::{paired, Change, GateReport, Paired, RuleResult, ShareOptions, Shares, ERROR_FLOOR};
 pub use crate::analyse::observations::{observations, observe, observed, sample_digest, Obs, Observations, Observed};
+use baseline::file_name;
 pub use baseline::{load, save, Baseline, Loaded, MaterialCount, MaterialEntry, MethodEntry, Timings, FORMAT};
 pub use compare::compare;
-use baseline::file_name;
 
 /// The baseline's files: saved, loaded and checked.
 mod baseline;

@@ -16,8 +16,8 @@ use std::path::PathBuf;
 
 /// The shard records on disk: what each ran, written and read back.
 mod records;
-pub use records::{read_shards, shard_path, write_shard, Recorded, Shards};
 use records::{read_record, ShardFile};
+pub use records::{read_shards, shard_path, write_shard, Recorded, Shards};
 
 /// The version of the shard record (`--shard`, docs/scale.md; 4 records the contents of the
 /// case and kernels, `app::shard`; 5 adds the `line_upper` view's per-bin accumulators, the
@@ -268,4 +268,3 @@ pub(crate) fn source_sha256(m: &Method) -> String {
     }
     format!("{:x}", h.finalize())
 }
-

@@ -119,4 +119,3 @@ pub(super) fn report_sweep(
         Status::Ok
     })
 }
-

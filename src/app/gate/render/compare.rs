@@ -148,4 +148,3 @@ pub fn compare(loaded: &Loaded, run: &RenderRun, options: RenderGateOptions) -> 
         regressed.into_iter().collect(),
     )
 }
-
