@@ -166,7 +166,7 @@ pub const MAX_INCLUDE_DEPTH: usize = 16;
 /// time it is included.
 pub const MAX_INCLUDE_BYTES: u64 = 16 << 20;
 
-/// A light texture's longest side, in texels (`texture.size`, issue 25).
+/// A light texture's longest side, in texels (`texture.size` of `[materials.texture]`).
 pub const MAX_TEXTURE_SIDE: u32 = 4096;
 
 /// The most texels one configuration's texture may hold (a cubemap counts its six faces): a
@@ -364,6 +364,105 @@ pub fn check(what: &str, estimate: Bytes, limit: Bytes) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// The sizes a sweep's memory is estimated from (`measure::setup::run_size`; merge, diff and
+/// bench run its stages too).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RunSize {
+    /// Natural configurations.
+    pub naturals: u64,
+    /// Natural and top-up configurations.
+    pub total: u64,
+    pub methods: u64,
+    /// Targets whose references are computed.
+    pub targets: u64,
+    /// Configurations of one measuring chunk.
+    pub chunk: u64,
+    /// Texels of the largest light texture a family draws (0: none).
+    pub texels: u64,
+    pub statistics: StatisticsSize,
+    /// Bins over every axis, and map cells over every map (for the message).
+    pub bins: usize,
+    pub cells: usize,
+    /// `[search]`: restarts and population.
+    pub search: Option<(usize, usize)>,
+    /// Candidates of one step of the disagreement search (the case compares pairs).
+    pub disagreement_batch: Option<u64>,
+    /// `--raw` rows are written.
+    pub raw: bool,
+    /// Every natural configuration's observation is kept (the gate, `diff`).
+    pub observations: bool,
+    /// Every configuration is drawn up front (bench).
+    pub all_samples: bool,
+}
+
+/// The memory of a sweep, part by part: one measuring chunk of configurations (samples,
+/// scenes, references, values, --raw rows), or every configuration when all are drawn up
+/// front; light textures; every bin and map cell of the statistics; one step of the
+/// worst-case search; the gate's observations.
+pub fn run_budget(size: &RunSize) -> Budget {
+    let mut budget = Budget::new();
+    let held = if size.all_samples {
+        size.total
+    } else {
+        size.total.min(size.chunk)
+    };
+    budget.add(
+        format!("{held} configurations measured at once"),
+        sweep_estimate(held, size.methods, size.targets, size.raw),
+    );
+    // Light textures drawn by the case (`[materials.texture]`): each configuration held carries
+    // its texels; the top-ups are held all at once, and a top-up batch holds at most
+    // TOPUP_BATCH_TEXELS.
+    let texels = size.texels;
+    if texels > 0 {
+        let topups = size.total.saturating_sub(size.naturals);
+        let held_textures = held.saturating_add(if size.all_samples { 0 } else { topups });
+        budget.add(
+            format!("light textures of {held_textures} configurations held at once, {texels} texels each"),
+            texel_estimate(held_textures, texels, size.raw),
+        );
+        budget.add(
+            "one top-up batch of textured draws",
+            Bytes(TOPUP_BATCH_TEXELS.max(texels).saturating_mul(8)),
+        );
+    }
+    budget.add(
+        format!(
+            "statistics of {} bins and {} map cells, per method and material",
+            size.bins, size.cells
+        ),
+        statistics_estimate(size.statistics, size.total),
+    );
+    if let Some((restarts, population)) = size.search {
+        // One step's candidates (samples, scenes, references) at a time.
+        let batch = (restarts as u64).saturating_mul(population as u64);
+        budget.add(
+            format!("[search] with {restarts} × {population} candidates per step"),
+            search_estimate(batch),
+        );
+        if texels > 0 {
+            budget.add(
+                "[search] candidates' light textures",
+                texel_estimate(batch, texels, false),
+            );
+        }
+    }
+    if let (true, Some(batch)) = (texels > 0, size.disagreement_batch) {
+        // The disagreement search's candidates of one step carry their textures too.
+        budget.add(
+            format!("disagreement candidates' light textures ({batch} per step)"),
+            texel_estimate(batch, texels, false),
+        );
+    }
+    if size.observations {
+        budget.add(
+            format!("the gate's observations of {} configurations", size.naturals),
+            observations_estimate(size.naturals, size.methods),
+        );
+    }
+    budget
 }
 
 #[cfg(test)]

@@ -9,6 +9,8 @@ pub mod envelope;
 pub mod gate;
 pub mod measured;
 pub mod objectives;
+pub mod observations;
+pub mod render;
 pub mod render_gate;
 pub mod resolution;
 pub mod scan;

@@ -4,22 +4,35 @@
 use std::path::PathBuf;
 
 /// What `linelight bench` was asked for.
-#[derive(Clone, Debug)]
+#[derive(clap::Args, Clone, Debug)]
 pub struct BenchOptions {
-    /// Case file whose sampler makes the configurations (and names the methods and pairs).
+    /// Case file whose sampler makes the configurations and names the methods and pairs.
+    #[arg(default_value = "cases/line_fwt.toml")]
     pub case: PathBuf,
-    /// Method specs; empty: the case's methods.
+    /// Comma-separated method specs (default: the case's methods).
+    #[arg(long, value_delimiter = ',')]
     pub methods: Vec<String>,
     /// Configurations per dispatch, split evenly over the case's materials.
+    #[arg(long, default_value_t = 65536)]
     pub count: usize,
+    /// Timed rounds (every method once per round, in rotated order).
+    #[arg(long, default_value_t = 9)]
     pub repeats: usize,
+    /// Untimed rounds first.
+    #[arg(long, default_value_t = 2)]
     pub warmup: usize,
+    /// Adapter to use: any part of its name (default: lavapipe / llvmpipe).
+    #[arg(long)]
     pub adapter: Option<String>,
+    /// Extra method kernel(s) to make available, validated like the built-ins.
+    #[arg(long = "kernel", value_name = "FILE")]
     pub kernels: Vec<PathBuf>,
-    /// Also write the costs as JSON here.
+    /// Also write the costs (one object per method) as JSON to this file.
+    #[arg(long)]
     pub json: Option<PathBuf>,
-    /// `--envelope N`: also time each method's envelope on N configurations spread over the
-    /// dispatch's (docs/envelope.md).
+    /// Also time each method's envelope (docs/envelope.md) on N configurations spread over
+    /// the dispatch's, beside the CPU f32 column, in the same rounds.
+    #[arg(long, value_name = "N")]
     pub envelope: Option<usize>,
 }
 
@@ -56,7 +69,7 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::analyse::bench::Be
     // The methods measured decide which pairs are compared (and `prepare` checks them).
     case.compare
         .retain(|pair| pair.iter().all(|l| case.methods.contains(l)));
-    let setup = crate::app::sweep::prepare(case, &options.kernels, Some(options.count.div_ceil(materials)))?;
+    let setup = crate::app::prepare(case, &options.kernels, Some(options.count.div_ceil(materials)))?;
     let configs = crate::measure::bench::split_evenly(&setup.samples, materials, options.count);
     for m in &setup.methods {
         let missing = configs.iter().filter(|c| !m.applies(c)).count();

@@ -13,7 +13,7 @@
 //! | rounding | the method in f32 on the CPU | the method in f64 |
 //! | driver | the GPU | the CPU f32 |
 //!
-//! each as |a − b|/T. Beside them, the Fresnel link (issue 24): our feed's
+//! each as |a − b|/T. Beside them, the Fresnel link: our feed's
 //! f0·magnitude + (1 − f0)·fresnel (what an LTC method is multiplied by) against the exact ∫D·F
 //! of the configuration's lobe, |a − b|/(∫D·F), with that value's own error estimate; it is the
 //! magnitude part of the table link, shown apart. The published table, which has no Fresnel
@@ -28,6 +28,22 @@
 use crate::input::case::Case;
 use crate::report::chain::FitRecords;
 use std::path::Path;
+
+/// Options of `linelight chain`.
+#[derive(clap::Args)]
+pub struct ChainOptions {
+    /// Case file with ggx materials, e.g. cases/ggx.toml.
+    #[arg(default_value = "cases/ggx.toml")]
+    pub case: std::path::PathBuf,
+    /// Output folder, a chain report folder of its own (default: reports/<case name>-chain).
+    #[arg(long)]
+    pub out: Option<std::path::PathBuf>,
+    /// Override every material's count (quick runs).
+    #[arg(long)]
+    pub count: Option<usize>,
+    #[command(flatten)]
+    pub gpu: super::GpuOptions,
+}
 
 /// `linelight chain CASE [--out DIR] [--count N]`: the output folder (default
 /// `reports/<case>-chain`, a chain report folder of its own) and the run's size checked before

@@ -9,16 +9,30 @@ use crate::kernel::KernelFile;
 use crate::measure::gpu::Gpu;
 use std::path::{Path, PathBuf};
 
+/// Options of `linelight diff`.
+#[derive(clap::Args)]
 pub struct DiffOptions {
+    /// Case file whose configurations (seed, materials, counts) the two are run on.
     pub case: PathBuf,
+    /// A method spec (`line.ltc2023`) or a kernel file (`old/my_line.wgsl`).
     pub a: String,
+    /// A method spec or a kernel file (may have the same id as A).
     pub b: String,
+    /// Override every material's count.
+    #[arg(long)]
     pub count: Option<usize>,
+    /// Error ratios within ±NOISE (at the 95 % bootstrap bounds) are no difference (0 to 1).
+    #[arg(long, default_value_t = 0.05, value_parser = super::options::fraction)]
     pub noise: f64,
-    pub adapter: Option<String>,
-    pub chunk: usize,
-    /// Where to write the disagreement configurations (eval input format), if anywhere.
+    /// Write the disagreement configurations here (eval input format, replayable).
+    #[arg(long)]
     pub output: Option<PathBuf>,
+    /// Adapter to use: any part of its name (default: lavapipe / llvmpipe).
+    #[arg(long)]
+    pub adapter: Option<String>,
+    /// Configurations per dispatch (not an option of `diff`).
+    #[arg(skip = 65536usize)]
+    pub chunk: usize,
 }
 
 /// Whether A or B names a kernel file rather than a method spec.
@@ -56,6 +70,15 @@ pub enum Outcome {
 impl Outcome {
     pub fn regressed(self) -> bool {
         matches!(self, Outcome::Regressed | Outcome::Mixed)
+    }
+
+    /// As the gate: B less accurate than A on any material is exit 1.
+    pub fn status(self) -> super::Status {
+        if self.regressed() {
+            super::Status::ToleranceFail
+        } else {
+            super::Status::Ok
+        }
     }
 }
 
@@ -97,16 +120,16 @@ pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
     case.claims.clear();
     case.search = None;
     // Every natural configuration's observation of both is kept, to pair them.
-    let holds = crate::app::sweep::Holds {
+    let holds = crate::measure::setup::Holds {
         observations: true,
         ..Default::default()
     };
-    let mut setup = crate::app::sweep::prepare_with(case, &[], options.count, holds)?;
+    let mut setup = crate::app::prepare_with(case, &[], options.count, holds)?;
     setup.methods = vec![a.clone(), b.clone()];
-    crate::app::sweep::check_memory(&setup, holds)?;
+    crate::app::check_memory(&setup, holds)?;
     let gpu = Gpu::new(options.adapter.as_deref())?;
     eprintln!("adapter: {}", gpu.adapter);
-    let swept = crate::app::sweep::measure(
+    let swept = crate::app::swept::measure(
         &setup,
         &gpu,
         crate::measure::sweep::MeasureOptions {

@@ -8,25 +8,37 @@ use rayon::prelude::*;
 use std::path::PathBuf;
 
 /// Options of `linelight eval`.
+#[derive(clap::Args)]
 pub struct EvalOptions {
+    #[arg(long)]
     pub input: PathBuf,
+    #[arg(long)]
     pub output: PathBuf,
-    /// Method specs (`id` or `id@N`); empty: every built-in and `--kernel` method.
+    /// Comma-separated method ids (`id` or `id@N`); default: every built-in and --kernel method.
+    #[arg(long, value_delimiter = ',')]
     pub methods: Vec<String>,
-    /// `--attribution`: each line's kernel source lines where f32 rounding loses bits.
+    /// Also give each line the kernel source lines where f32 rounding loses bits
+    /// (local error per operation, docs/eval-format.md `attribution`).
+    #[arg(long)]
     pub attribution: bool,
-    /// `--envelope`: each line's envelope per method (docs/envelope.md).
+    /// Also give each line the envelope of every method: the interval of f32 results any
+    /// WGSL implementation within the spec's accuracy rules may return (docs/envelope.md).
+    #[arg(long)]
     pub envelope: bool,
+    #[command(flatten)]
+    pub gpu: GpuOptions,
 }
 
-pub fn eval(options: EvalOptions, gpu: &GpuOptions) -> anyhow::Result<Status> {
+pub fn eval(options: EvalOptions) -> anyhow::Result<Status> {
     let EvalOptions {
         input,
         output,
         methods: specs,
         attribution,
         envelope,
+        gpu,
     } = options;
+    let gpu = &gpu;
     // The input is read three times (counted, checked, evaluated): a FIFO or a device
     // would give its lines once, or never end.
     if std::fs::metadata(&input).is_ok_and(|m| !m.is_file()) {

@@ -5,6 +5,7 @@
 
 mod bench;
 pub mod chain;
+mod check;
 pub mod diff;
 pub mod eval;
 pub mod fit;
@@ -13,29 +14,70 @@ pub mod objectives;
 pub mod options;
 pub mod render;
 pub mod resolution;
+pub mod scan;
 pub mod shard;
 mod status;
 pub mod sweep;
+pub mod swept;
 
 pub use bench::{bench, BenchOptions};
+pub use check::{adapters, check, CheckOptions};
+pub use scan::{scan, ScanOptions};
 
 pub use status::{status_of, Status};
 
-use crate::io::{OutputPlan, SetKind};
-use crate::kernel::methods;
-use crate::measure::gpu::{self, Gpu};
-use crate::report::format::{Format, Json, Jsonl, Layout, Markdown};
+use crate::measure::gpu::Gpu;
 use anyhow::Result;
 use std::path::{Path, PathBuf};
 
-/// The device options every GPU command takes.
+// The device options every GPU command takes (flattened into each command's options).
+#[derive(clap::Args, Clone, Debug)]
 pub struct GpuOptions {
-    /// Any part of the adapter's name (default: lavapipe / llvmpipe).
+    /// Adapter to use: any part of its name (default: lavapipe / llvmpipe).
+    #[arg(long)]
     pub adapter: Option<String>,
-    /// `--kernel` files.
+    /// Extra method kernel(s) to make available, validated like the built-ins.
+    #[arg(long = "kernel", value_name = "FILE")]
     pub kernels: Vec<PathBuf>,
-    /// Configurations per dispatch and readback.
+    /// Configurations per GPU dispatch and readback.
+    #[arg(long, default_value_t = 65536)]
     pub chunk: usize,
+}
+
+/// A run's setup ([`crate::measure::setup::resolve`]) with its memory checked against
+/// `--max-memory` ([`check_memory`]), for a streamed sweep: nothing sampled yet.
+pub fn prepare_with(
+    case: crate::input::case::Case,
+    user_kernels: &[PathBuf],
+    count: Option<usize>,
+    holds: crate::measure::setup::Holds,
+) -> Result<crate::measure::sweep::Setup> {
+    let setup = crate::measure::setup::resolve(case, user_kernels, count)?;
+    check_memory(&setup, holds)?;
+    Ok(setup)
+}
+
+/// [`prepare_with`] for a run that holds every configuration (bench), with the whole sample
+/// drawn into `Setup::samples`.
+pub fn prepare(
+    case: crate::input::case::Case,
+    user_kernels: &[PathBuf],
+    count: Option<usize>,
+) -> Result<crate::measure::sweep::Setup> {
+    let holds = crate::measure::setup::Holds {
+        all_samples: true,
+        ..Default::default()
+    };
+    let mut setup = prepare_with(case, user_kernels, count, holds)?;
+    crate::measure::setup::draw_all(&mut setup)?;
+    Ok(setup)
+}
+
+/// Refuses a run whose memory (the measure stage's sizes with the analysis's statistics,
+/// `limits::run_budget`) exceeds `--max-memory`, before anything is allocated.
+pub fn check_memory(setup: &crate::measure::sweep::Setup, holds: crate::measure::setup::Holds) -> Result<()> {
+    let statistics = crate::analyse::analysis::statistics_size(&setup.case, &setup.methods);
+    crate::measure::setup::check_memory(setup, holds, statistics)
 }
 
 /// `--kernel` files as inputs an output may not be.
@@ -84,256 +126,4 @@ pub fn bounded(message: &str) -> String {
         out.push(format!("… and {} more lines", lines.len() - LINES));
     }
     out.join("\n")
-}
-
-/// Options of `linelight scan`.
-pub struct ScanOptions {
-    pub case: PathBuf,
-    pub count: String,
-    pub methods: Vec<String>,
-    pub capture: usize,
-    pub bound: Option<f64>,
-    pub out: PathBuf,
-}
-
-/// `linelight scan`: the stability scan on the device (docs/scan.md).
-pub fn scan(options: ScanOptions, gpu: &GpuOptions) -> Result<Status> {
-    let ScanOptions {
-        case,
-        count,
-        methods: specs,
-        capture,
-        bound,
-        out,
-    } = options;
-    let command_line = shell_words::join(std::env::args());
-    let count = parse_count(&count)?;
-    if let Some(b) = bound {
-        options::check_float("--bound", b, options::BOUND).map_err(anyhow::Error::msg)?;
-    }
-    let max = crate::measure::scan::MAX_CAPTURE;
-    anyhow::ensure!(
-        capture <= max,
-        "--capture {capture}: at most {max} offending configurations are kept per method and family"
-    );
-    let case_path = case;
-    let case = crate::input::case::Case::load(&case_path)?;
-    let dir = out.join(format!("{}-scan", case.name));
-    let mut plan = OutputPlan::new();
-    plan.input("the case file", &case_path);
-    for (what, path) in kernel_inputs(&gpu.kernels) {
-        plan.input(what, path);
-    }
-    plan.set("--out", &dir, SetKind::Scan).check()?;
-    let kernels = methods::kernel_set(&gpu.kernels)?;
-    let given = !specs.is_empty();
-    let specs: Vec<String> = if given { specs } else { case.methods.clone() };
-    let mut chosen = Vec::new();
-    for s in &specs {
-        let m = methods::resolve(s, &kernels)?;
-        if matches!(
-            m.target(),
-            crate::input::target::Target::Line | crate::input::target::Target::LineUpper
-        ) {
-            chosen.push(m);
-        } else if given {
-            // Asked for by name: never dropped in silence.
-            anyhow::bail!(
-                "scan generates line configurations only: `{s}` approximates `{}`",
-                m.target()
-            );
-        } else {
-            eprintln!(
-                "note: `{s}` is not scanned: it approximates `{}`, and scan generates line configurations",
-                m.target()
-            );
-        }
-    }
-    if chosen.is_empty() {
-        anyhow::bail!("no line method to scan in {}", specs.join(", "));
-    }
-    // Families whose M⁻¹ comes from a fitted table are not generated on the device.
-    let scannable: Vec<usize> = (0..case.materials.len())
-        .filter(|&f| {
-            let family = &case.materials[f];
-            let ok = crate::measure::scan::generated_on_device(family.kind);
-            if !ok {
-                eprintln!(
-                    "note: family `{}` ({:?}) is not scanned: its M⁻¹ comes from a fitted table",
-                    family.name, family.kind
-                );
-            }
-            ok
-        })
-        .collect();
-    if scannable.is_empty() {
-        anyhow::bail!(
-            "no family of {} can be generated on the device (diffuse, ltc_sparse, ltc_full)",
-            case.name
-        );
-    }
-    // The captured offenders are held until the report is written: about 400 bytes each
-    // with their JSON line.
-    let captured = (capture as u64)
-        .saturating_mul(chosen.len() as u64)
-        .saturating_mul(scannable.len() as u64);
-    crate::limits::check(
-        &format!(
-            "scan of case `{}` capturing up to {captured} offending configurations",
-            case.name
-        ),
-        crate::limits::Bytes(captured.saturating_mul(400)),
-        crate::limits::max_memory(),
-    )
-    .map_err(anyhow::Error::msg)?;
-    let device = open_gpu(gpu.adapter.as_deref())?;
-    // Every method against the driver's loop limit before any is scanned (as sweep, eval and
-    // diff do): a static trip count past it is refused now, not after the methods before it.
-    for m in &chosen {
-        device.check_loops(m)?;
-    }
-    let families = scannable.len() as u64;
-    let per_family = count.div_ceil(families);
-    let pb = crate::measure::progress::styled(
-        per_family * families * chosen.len() as u64,
-        "",
-        "{msg:>40} [{bar:30}] {human_pos}/{human_len} ({per_sec}, eta {eta})",
-    );
-    let mut results = Vec::new();
-    let mut finished = 0u64;
-    for m in &chosen {
-        for &f in &scannable {
-            let size = crate::measure::scan::ScanSize {
-                count: per_family,
-                capture,
-                bound,
-            };
-            let scanned = crate::measure::scan::scan(&device, &case, m, f, size, &mut |done, bad| {
-                pb.set_position(finished + done);
-                pb.set_message(format!(
-                    "{} {}: rate {:.1e}",
-                    m.label,
-                    case.materials[f].name,
-                    bad as f64 / done as f64
-                ));
-            })?;
-            finished += per_family;
-            results.push(crate::analyse::scan::ScanResult::from(scanned));
-        }
-    }
-    pb.finish_and_clear();
-    let text = crate::report::scan::markdown(&case, &command_line, &device.adapter.to_string(), &results);
-    print!("{}", crate::report::scan::table(&results));
-    let rows: Vec<_> = results
-        .iter()
-        .flat_map(|r| &r.captured)
-        .map(serde_json::to_value)
-        .collect::<Result<_, _>>()?;
-    let outputs: Vec<Box<dyn Format>> = vec![
-        Box::new(Markdown::new("scan.md", text)),
-        Box::new(Json::new("summary.json", &results, Layout::Pretty)),
-        Box::new(Jsonl::new("offending.jsonl", rows)),
-    ];
-    crate::report::format::write_set(&dir, SetKind::Scan, &outputs)?;
-    eprintln!("wrote {}", dir.display());
-    Ok(Status::Ok)
-}
-
-/// `linelight adapters`: each Vulkan adapter and its loop limit as probed.
-pub fn adapters() -> Result<Status> {
-    let adapters = gpu::list_adapters();
-    if adapters.is_empty() {
-        println!("no Vulkan adapter found (on Debian/Ubuntu: apt-get install mesa-vulkan-drivers)");
-    }
-    for a in adapters {
-        // The loop limit is probed on the device (src/gpu/loops.rs).
-        let limit = match Gpu::new(Some(&a.name)).map(|g| g.loop_limit()) {
-            Ok(Ok(Some(l))) => format!("loops stop after {l} iterations"),
-            Ok(Ok(None)) => format!("no loop limit below {}", gpu::PROBE_TRIPS),
-            Ok(Err(e)) => format!("loop limit not probed: {e}"),
-            Err(e) => format!("loop limit not probed: {e}"),
-        };
-        println!("{a}; {limit}");
-    }
-    Ok(Status::Ok)
-}
-
-/// `linelight check`: each kernel file validated as every command validates a `--kernel`
-/// file, and its loops held against the driver's loop limit as eval holds them; `emit` prints
-/// the composed modules. Bad input (2) when one does not validate or loops past the limit.
-pub fn check(kernels: &[PathBuf], emit: bool) -> Result<Status> {
-    let mut bad = 0;
-    let mut known = crate::kernel::builtin_kernels();
-    // Opened for the first kernel with loops: the limit is the device's (gpu/loops.rs).
-    let mut device: Option<std::result::Result<Gpu, String>> = None;
-    for path in kernels {
-        // The same validation eval, sweep and bench give a --kernel file.
-        match methods::validate_kernel(path, &known) {
-            Ok(k) => {
-                // The CPU evaluator gives the kernel its f64 and cpu_f32 columns.
-                // (A composite with the default line method, as it is composed here.)
-                let mut set = vec![k.clone()];
-                set.extend(known.iter().filter(|b| b.id != k.id).cloned());
-                let method = methods::resolve(&k.id, &set);
-                let cpu = match method
-                    .as_ref()
-                    .map_err(|e| anyhow::anyhow!("{e:#}"))
-                    .and_then(|m| crate::eval::interp::program(m).map(|_| ()))
-                {
-                    Ok(()) => "CPU evaluator: ok".to_string(),
-                    Err(e) => format!("CPU evaluator: no f64/cpu_f32 values: {e:#}"),
-                };
-                let loops = match &method {
-                    Ok(m) => check_loops(m, &mut device),
-                    Err(_) => Ok(String::new()),
-                };
-                let loops = match loops {
-                    Ok(note) => note,
-                    Err(e) => {
-                        eprintln!("{}", bounded(&format!("{e:#}")));
-                        bad += 1;
-                        continue;
-                    }
-                };
-                let line = format!("{}: ok ({} → {}); {cpu}{loops}", path.display(), k.id, k.target);
-                if emit {
-                    eprintln!("{line}");
-                    let composed = crate::kernel::compose_with(&k, None, crate::kernel::kernel_capabilities())?;
-                    print!("{}", composed.source);
-                } else {
-                    println!("{line}");
-                }
-                known.push(k);
-            }
-            Err(e) => {
-                eprintln!("{}", bounded(&format!("{e:#}")));
-                bad += 1;
-            }
-        }
-    }
-    Ok(if bad == 0 { Status::Ok } else { Status::BadInput })
-}
-
-/// `check`'s loop-limit check of a method with its default parameters: the one every GPU
-/// command applies (`Gpu::check_loops`), on the default adapter. `Ok` carries a note for the
-/// kernel's line; with no adapter the limit cannot be known, which the note says.
-fn check_loops(
-    method: &crate::kernel::methods::Method,
-    device: &mut Option<std::result::Result<Gpu, String>>,
-) -> Result<String> {
-    let loops = crate::eval::cost::method_cost_of(method).map_or(1, |c| c.loops);
-    if loops == 0 {
-        return Ok(String::new());
-    }
-    let gpu = device.get_or_insert_with(|| Gpu::new(None).map_err(|e| format!("{e:#}")));
-    match gpu {
-        Ok(gpu) => Ok(match gpu.check_loops(method)? {
-            Some(_) => "; loops: no static trip count, counted on every run".to_string(),
-            None => "; loops: within the device's limit".to_string(),
-        }),
-        Err(e) => Ok(format!(
-            "; loops: not checked against a driver's loop limit (no device: {})",
-            crate::input::names::clip(e.lines().next().unwrap_or(""))
-        )),
-    }
 }

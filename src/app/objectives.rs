@@ -1,4 +1,4 @@
-//! `linelight objectives`: issue 24's comparison of seed 004's fitting objective (sliced
+//! `linelight objectives`: the comparison of seed 004's fitting objective (sliced
 //! Wasserstein, SGD) with ours (L1, Nelder–Mead) by what users see (reports/ggx-objectives/).
 //! The fits are committed data (`data/ltc_ggx_aniso_sw_subset.csv` from `linelight fit --aniso
 //! --objective sw`, and the L1 table compiled in), so this command only evaluates: lines drawn
@@ -10,6 +10,20 @@ use std::path::Path;
 
 /// The most lines per region and entry `--lines` takes (each is three adaptive references).
 pub const MAX_LINES: usize = 4096;
+
+/// Options of `linelight objectives`.
+#[derive(clap::Args)]
+pub struct ObjectivesOptions {
+    /// The SW-fitted entries (`linelight fit --aniso --objective sw`).
+    #[arg(long, default_value = "data/ltc_ggx_aniso_sw_subset.csv")]
+    pub subset: std::path::PathBuf,
+    /// Output folder, a report folder of its own.
+    #[arg(long, default_value = "reports/ggx-objectives")]
+    pub out: std::path::PathBuf,
+    /// Lines per region (near the highlight, natural) and entry.
+    #[arg(long, default_value_t = 8)]
+    pub lines: usize,
+}
 
 /// Runs the comparison: the SW subset read from `subset`, the L1 table's same entries, `lines`
 /// lines per region and entry, the report set written to `out`.

@@ -1,4 +1,4 @@
-//! `linelight resolution`: the anisotropic table's resolution study (issue 24, in the manner
+//! `linelight resolution`: the anisotropic table's resolution study (in the manner
 //! of seed 004's Fig. 12), cases/ggx_resolution.toml → reports/ggx-resolution/resolution.md,
 //! resolution.csv, resolution.json.
 //!
@@ -52,6 +52,21 @@ fn describe(path: &Path, t: &AnisoTable) -> String {
         }
     }
     s
+}
+
+/// Options of `linelight resolution`.
+#[derive(clap::Args)]
+pub struct ResolutionOptions {
+    /// Case file with anisotropic ggx families (a `slice` family for a slice table).
+    #[arg(default_value = "cases/ggx_resolution.toml")]
+    pub case: PathBuf,
+    /// An anisotropic table file (repeatable, coarsest first; default: the 4⁴ table, the
+    /// committed 8⁴ and the fine slice in data/).
+    #[arg(long = "table")]
+    pub tables: Vec<PathBuf>,
+    /// Output folder (default: reports/<case name with - for _>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
 }
 
 /// `linelight resolution [CASE] [--table FILE]… [--out DIR]`.

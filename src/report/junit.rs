@@ -1,5 +1,5 @@
 //! JUnit XML for CI systems: one testcase per method × material × rule. The rules are the
-//! case's tolerance checks and, with `--baseline`, the gate's rules (src/app/gate/mod.rs); each
+//! case's tolerance checks and, with `--baseline`, the gate's rules (src/app/gate/); each
 //! failure carries its numbers.
 //!
 //! Written by hand to the Apache Ant JUnit schema (the one Jenkins, GitLab and GitHub's
@@ -9,8 +9,8 @@
 //! testcase has a `time`. A suite with no testcase is left out. quick-junit 0.8 wrote
 //! `skipped` on `<testsuites>`, which that schema refuses.
 
-use super::{Change, GateReport};
 use crate::analyse::analysis::Check;
+use crate::analyse::gate::{Change, GateReport};
 
 /// Text safe inside an XML attribute or element: the five special characters escaped, and
 /// the control characters XML 1.0 cannot hold at all replaced by `?`.

@@ -8,6 +8,9 @@ use crate::input::ltc::{aniso, fit, table};
 use crate::io::OutputPlan;
 use std::path::Path;
 
+mod options;
+pub use options::{run, FitOptions};
+
 /// Checks, before a fit's minutes of work, the table `out` and its run record beside it, as
 /// every command's outputs are checked (`io::OutputPlan`).
 fn check_outputs(out: &Path) -> anyhow::Result<()> {
