@@ -9,6 +9,7 @@ pub mod envelope;
 pub mod gate;
 pub mod measured;
 pub mod objectives;
+pub mod pareto;
 pub mod render_gate;
 pub mod resolution;
 pub mod scan;

@@ -11,6 +11,7 @@ use crate::analyse::gate::{g, share_tests, Axis, Pair};
 pub use crate::analyse::gate::{paired, Change, GateReport, Paired, RuleResult, ShareOptions, Shares, ERROR_FLOOR};
 use crate::analyse::stats::{nearest_rank, Accumulate};
 use crate::input::scene::Config;
+use crate::limits::MAX_TOKEN_LINE;
 use crate::measure::sweep::{Measured, Setup};
 use crate::reference::Estimate;
 use crate::report::format::{Format, Json, Layout, Plain};
@@ -353,9 +354,6 @@ fn natural_counts(setup: &Setup) -> Vec<MaterialCount> {
         })
         .collect()
 }
-
-/// Bytes a line of an errors file may take (a token is at most about a dozen).
-const MAX_TOKEN_LINE: u64 = 32;
 
 /// A loaded baseline with its errors files.
 pub struct Loaded {

@@ -14,6 +14,7 @@
 
 use super::{file_name, Change, GateReport, RuleResult};
 use crate::analyse::render_gate::{MethodMaps, RenderGateOptions};
+use crate::limits::MAX_IMAGE_BYTES;
 use crate::report::format::{Bytes, Format, Json, Layout};
 use crate::report::image::{Rgb, NONFINITE};
 use anyhow::Context;
@@ -25,8 +26,6 @@ use std::path::{Path, PathBuf};
 pub const FORMAT: u32 = 1;
 /// The index file of a render baseline.
 pub const INDEX: &str = "render-baseline.json";
-/// Bytes an image of a render baseline may take (a 4096 × 4096 RGB image is 48 MiB raw).
-const MAX_IMAGE_BYTES: u64 = 64 << 20;
 
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]

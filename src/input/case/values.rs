@@ -1,16 +1,13 @@
 //! Checks of a case file's values, beyond their types: every error names the file, the
-//! key and the value (issue 8). Kept apart from the parser (`case.rs`) so the rules live in
+//! key and the value. Kept apart from the parser (`case.rs`) so the rules live in
 //! one place: names that become file names, distributions that can only make valid
 //! configurations, positive floors and tolerances, duplicate methods, search sizes.
 
 use crate::input::case::{Case, Dist, Geometry, MaterialFamily};
 pub use crate::input::names::clip;
 use crate::input::names::{chart_file, map_file};
+use crate::limits::MAX_NAME;
 use std::collections::BTreeMap;
-
-/// A case name becomes a folder under `--out`: letters, digits, `.`, `_`, `-`, starting
-/// with a letter or digit, at most this long.
-pub const MAX_NAME: usize = 100;
 
 // The caps on counts live with every other cap, in `crate::limits`.
 pub use crate::limits::{MAX_SEARCH_BATCH, MAX_STEPS, MAX_TOPUP_DRAWS};

@@ -117,7 +117,7 @@ impl Gpu {
         self.run_textured(pipeline, scenes, &[], chunk, progress)
     }
 
-    /// [`Gpu::run`] with the texel buffer of textured scenes (issue 25): `texels` as
+    /// [`Gpu::run`] with the texel buffer of textured scenes: `texels` as
     /// `crate::input::scene::gpu_scenes` lays them out, bound whole for every chunk (each
     /// scene's `tex_offset` indexes it); empty when no scene is textured.
     pub fn run_textured(
@@ -256,12 +256,11 @@ impl Gpu {
     }
 }
 
-/// Test-only hook (tests/promises.rs), not for users: with `LINELIGHT_TEST_FAIL_DISPATCH=N` set,
-/// every chunk dispatch after the first N of the process fails as a lost device would, so that
-/// a real CLI run ends in exit 4 (N = 1 lets the driver's loop-limit probe through).
+/// The test hook `LINELIGHT_TEST_FAIL_DISPATCH=N` (src/tuning.rs), not for users: every chunk
+/// dispatch after the first N of the process fails as a lost device would.
 fn injected_failure() -> Option<String> {
     static DISPATCHED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let pass: usize = std::env::var("LINELIGHT_TEST_FAIL_DISPATCH").ok()?.parse().ok()?;
+    let pass = crate::tuning::tuning().fail_dispatch?;
     let n = DISPATCHED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     (n >= pass).then(|| {
         format!(
