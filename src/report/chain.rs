@@ -351,7 +351,7 @@ fn versus_finding(v: &VersusPublished) -> String {
 
 /// The finding on one family's Fresnel link, for a family with a Fresnel term.
 fn fresnel_finding(l: &FresnelLink) -> Option<String> {
-    if l.f0[0] >= 1.0 {
+    if !(l.f0[0] < 1.0) {
         return None;
     }
     let q = l.link?;
@@ -413,4 +413,44 @@ fn aniso_finding(f: &AnisoFinding) -> String {
         counts(&f.dominant),
         f.bins
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn findings_are_written_from_the_analysed_facts() {
+        let f = LinkFinding {
+            method: "line.ltc".into(),
+            family: "rough".into(),
+            configurations: 12,
+            dominant: vec![("fit", 3), ("table", 1)],
+            bins: 4,
+            medians: [Some(1e-3), None, None, Some(2.5e-4), None, None],
+            total: None,
+        };
+        assert_eq!(
+            link_finding(&f),
+            "`line.ltc` on `rough` (12 configurations): the dominant link per bin is fit in 3, table in 1 of 4 \
+             bins. Medians over all: fit 1.00e-3, formula 2.50e-4; total —."
+        );
+        let v = VersusPublished {
+            method: "line.ltc".into(),
+            configurations: 10,
+            ours: 1e-2,
+            theirs: 2e-2,
+            near: 0,
+            near_medians: None,
+        };
+        assert!(versus_finding(&v).contains("our table is at least as close to the GGX truth as the published one"));
+        let l = FresnelLink {
+            family: "f".into(),
+            f0: [1.0, 1.0],
+            n: 3,
+            link: None,
+            reference: None,
+        };
+        assert_eq!(fresnel_finding(&l), None, "no Fresnel term, no sentence");
+    }
 }
