@@ -106,7 +106,7 @@ pub enum SetKind {
     Render,
     /// `render --save-baseline DIR`: a render baseline (src/app/gate/render.rs).
     RenderBaseline,
-    /// `objectives`: OUT, by default reports/ggx-objectives/ (issue 24).
+    /// `objectives`: OUT, by default reports/ggx-objectives/.
     Objectives,
 }
 
@@ -629,6 +629,30 @@ pub fn read_bounded(path: &Path, what: &str, max: u64) -> Result<Vec<u8>, InputE
         )));
     }
     Ok(bytes)
+}
+
+/// [`read_bounded`], as UTF-8 text (a scene file).
+pub fn read_text(path: &Path, what: &str, max: u64) -> Result<String, InputError> {
+    String::from_utf8(read_bounded(path, what, max)?)
+        .map_err(|e| InputError(format!("cannot read {what} {}: not UTF-8 text ({e})", path.display())))
+}
+
+/// Opens an input read as a stream, a block or a line at a time, never held whole (a JSONL
+/// file of configurations: its size is refused by the memory estimate, not here).
+pub fn open_stream(path: &Path, what: &str) -> Result<fs::File, InputError> {
+    fs::File::open(path).map_err(|e| InputError(format!("cannot read {what} {}: {e}", path.display())))
+}
+
+/// A JSON run record (a fit's `*.run.json` beside its table), None when absent, unreadable,
+/// larger than `limits::MAX_RECORD_BYTES` or not JSON: the report then leaves its sentence out.
+pub fn read_record(path: &Path, max: u64) -> Option<serde_json::Value> {
+    serde_json::from_slice(&read_regular(path, "run record", max).ok()?).ok()
+}
+
+/// A small file of the system (`/proc/meminfo`, the host name), None when it cannot be read
+/// or is larger than `max` bytes.
+pub fn read_system(path: &str, max: u64) -> Option<String> {
+    String::from_utf8(read_bounded(Path::new(path), path, max).ok()?).ok()
 }
 
 /// Reads an input file that a folder names (a baseline's files, a report folder's marker):

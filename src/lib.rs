@@ -8,7 +8,8 @@
 
 // The stages, in the order a command runs them (tests/layering.rs holds them to it):
 // input → kernel → eval (the CPU evaluator) → reference → measure → analyse → report, under
-// the app layer (one module per command). `io` writes every file; `limits` holds the caps.
+// the app layer (one module per command). `io` reads and writes every file; `limits` holds
+// the caps; `tuning` reads the environment once; `warnings` collects what a run warns of.
 pub mod analyse;
 pub mod app;
 pub mod eval;
@@ -19,3 +20,5 @@ pub mod limits;
 pub mod measure;
 pub mod reference;
 pub mod report;
+pub mod tuning;
+pub mod warnings;

@@ -67,7 +67,7 @@ pub fn parse_memory(s: &str) -> Result<Bytes, String> {
 /// The default limit: half of the machine's memory (MemTotal in /proc/meminfo), or 4 GiB
 /// where that cannot be read.
 pub fn default_max_memory() -> Bytes {
-    let total = std::fs::read_to_string("/proc/meminfo").ok().and_then(|m| {
+    let total = crate::io::read_system("/proc/meminfo", MAX_SYSTEM_FILE).and_then(|m| {
         m.lines()
             .find(|l| l.starts_with("MemTotal:"))
             .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
@@ -203,8 +203,48 @@ pub fn texel_buffer_bytes(texels: u64) -> Bytes {
     Bytes(texels.max(1).saturating_mul(4))
 }
 
+/// The largest file of the system read (`/proc/meminfo`, the host name).
+pub const MAX_SYSTEM_FILE: u64 = 1 << 20;
+
 /// The largest JSON record read back (a baseline's `baseline.json`, `timings.json`).
 pub const MAX_RECORD_BYTES: u64 = 64 << 20;
+
+/// Bytes a line of an errors file may take (a token is at most about a dozen).
+pub const MAX_TOKEN_LINE: u64 = 32;
+
+/// Bytes an image of a render baseline may take (a 4096 × 4096 RGB image is 48 MiB raw).
+pub const MAX_IMAGE_BYTES: u64 = 64 << 20;
+
+/// At most this many tables in one study (each is fed to every configuration).
+pub const MAX_TABLES: usize = 8;
+
+/// The most SGD steps `--sw-steps` takes (each about a millisecond per entry).
+pub const MAX_SW_STEPS: usize = 1_000_000;
+
+/// The most lines per region and entry `--lines` takes (each is three adaptive references).
+pub const MAX_LINES: usize = 4096;
+
+/// The longest id a kernel may have.
+pub const MAX_ID: usize = 100;
+
+/// The most entries `linelight fit` makes a table of (256 × 256, or 16⁴ anisotropic): a fit
+/// takes about a quarter of a second per core, so this is already hours, and larger sizes
+/// would overflow the table's size or memory. The published tables are 64 × 64.
+pub const MAX_TABLE_ENTRIES: usize = 1 << 16;
+
+/// A case name becomes a folder under `--out`: letters, digits, `.`, `_`, `-`, starting
+/// with a letter or digit, at most this long.
+pub const MAX_NAME: usize = 100;
+
+/// Pixels a render may have (memory: a few configurations' worth of values each).
+pub const MAX_PIXELS: u64 = 4096 * 4096;
+
+/// Bad lines listed in one message.
+pub const MAX_ERRORS: usize = 20;
+
+/// The most offending configurations `--capture` keeps per method and family: a buffer of
+/// 5 MiB on the device, well inside every device's storage binding.
+pub const MAX_CAPTURE: usize = 1 << 16;
 
 /// Refuses a count of configurations (`what` says where it came from: `--count`, a case
 /// file's key) that is 0 or above [`MAX_COUNT`].

@@ -77,7 +77,10 @@ fn main() -> ExitCode {
     gpu::quiet_driver_environment();
     let cli = Cli::parse();
     linelight::kernel::set_include_dirs(cli.include.clone());
-    let status = match run(cli) {
+    let result = run(cli);
+    // What the run warned of, in one place, before its error if it failed.
+    linelight::warnings::print();
+    let status = match result {
         Ok(status) => status,
         Err(e) => {
             // Kernel diagnostics arrive formatted by naga, already starting with `error`.
@@ -94,8 +97,8 @@ fn main() -> ExitCode {
 }
 
 fn run(cli: Cli) -> anyhow::Result<Status> {
-    // LINELIGHT_PROGRESS_SECONDS, checked before any work.
-    linelight::measure::progress::init_interval().map_err(anyhow::Error::msg)?;
+    // The environment (LINELIGHT_*), checked before any work.
+    linelight::tuning::init().map_err(anyhow::Error::msg)?;
     if let Some(limit) = cli.max_memory {
         limits::set_max_memory(limit);
     }

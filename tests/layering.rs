@@ -12,7 +12,7 @@ use std::path::Path;
 /// its stage, in order. An entry missing here fails the test: a new one is placed on purpose.
 const STAGES: &[(&str, &[&str])] = &[
     // Cross-cutting: every file is written through `io`; `limits` holds the caps.
-    ("base", &["io", "limits"]),
+    ("base", &["io", "limits", "tuning", "warnings"]),
     // Case files, sampler, scene, targets, LTC tables, names.
     ("input", &["input"]),
     // Kernel files, their composition and validation, the methods they define.

@@ -1025,7 +1025,7 @@ impl<'a> Accumulate<Fold<'a>> for LeakAccumulator {
 
 /// Small chunks built by hand, every expected number worked out on paper from the rules of
 /// docs/statistics.md (the values are chosen exact in f32, so a relative error is a fraction).
-/// Written for issue 26's mutation pass (docs/mutation.md).
+/// Written for the mutation pass (docs/mutation.md).
 #[cfg(test)]
 mod tests {
     use super::*;

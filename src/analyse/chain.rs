@@ -1,7 +1,7 @@
 //! The GGX error chain, analysed: each measured point's links (|a − b| / T, so they add up to
 //! the total), the medians per bin of roughness × view angle and the link that dominates, our
-//! table beside the published one, the anisotropic bins, and the findings as sentences computed
-//! from the data. What `report::chain` formats.
+//! table beside the published one, the anisotropic bins, and the facts the findings state
+//! (`report::chain` writes them as sentences).
 
 use crate::analyse::stats::{bin_index, Quantiles};
 use crate::measure::chain::{ChainRun, Point};
@@ -119,10 +119,10 @@ pub struct ByMiss {
     pub published: Option<f64>,
 }
 
-/// The anisotropic chain: its findings, and per method its bins of r × view angle and r × α.
+/// The anisotropic chain: per method what its findings say, and its its bins of r × view angle and r × α.
 #[derive(Clone, Debug)]
 pub struct Aniso {
-    pub findings: Vec<String>,
+    pub findings: Vec<AnisoFinding>,
     pub methods: Vec<(String, Vec<Bin2>, Vec<Bin2>)>,
 }
 
@@ -143,7 +143,9 @@ pub struct Chain {
     pub rows: Vec<Row>,
     pub fresnel: Vec<FresnelLink>,
     pub cells: Vec<Cell>,
-    pub findings: Vec<String>,
+    /// What the findings say, per method and family, and per method against the published table.
+    pub links: Vec<LinkFinding>,
+    pub versus: Vec<VersusPublished>,
     pub published: Vec<Published>,
     pub by_miss: Vec<ByMiss>,
     /// None without anisotropic configurations.
@@ -157,7 +159,8 @@ pub struct Chain {
 pub fn analyse(run: &ChainRun) -> Chain {
     let rows: Vec<Row> = run.points.iter().filter_map(Row::of).collect();
     let cells = cells(&rows, &ALPHA_EDGES, &VIEW_EDGES);
-    let findings = findings(&rows, &cells);
+    let links = link_findings(&rows, &cells);
+    let versus = versus_published(&rows);
     let mut published = Vec::new();
     let mut by_miss = Vec::new();
     for (method, rs) in by_method(&rows, true) {
@@ -188,13 +191,12 @@ pub fn analyse(run: &ChainRun) -> Chain {
     }
     let aniso = aniso(&rows);
     let fresnel = fresnel_links(&rows);
-    let mut findings = findings;
-    findings.extend(fresnel_findings(&fresnel));
     Chain {
         fresnel,
         rows,
         cells,
-        findings,
+        links,
+        versus,
         published,
         by_miss,
         aniso,
@@ -223,38 +225,6 @@ fn fresnel_links(rows: &[Row]) -> Vec<FresnelLink> {
                 link: quantiles(configs.values().map(|r| r.fresnel)),
                 reference: quantiles(configs.values().map(|r| r.fresnel_reference)),
             }
-        })
-        .collect()
-}
-
-/// One sentence per family with a Fresnel term, from its link's quantiles.
-fn fresnel_findings(links: &[FresnelLink]) -> Vec<String> {
-    links
-        .iter()
-        .filter(|l| l.f0[0] < 1.0)
-        .filter_map(|l| {
-            let q = l.link?;
-            let f0 = if l.f0[0] == l.f0[1] {
-                format!("F0 = {}", l.f0[0])
-            } else {
-                format!("F0 in [{}, {}]", l.f0[0], l.f0[1])
-            };
-            let r = l.reference.map_or(String::new(), |r| {
-                let verdict = if r.median * 10.0 <= q.median {
-                    "far below the link: the link is the feed's"
-                } else {
-                    "not far below the link: the link is partly the quadrature's"
-                };
-                format!(
-                    " The exact value's own error estimate has median {:.2e} ({verdict}).",
-                    r.median
-                )
-            });
-            Some(format!(
-                "Fresnel link on `{}` ({f0}, {} configurations): our feed's f0·magnitude + (1 − f0)·fresnel \
-                 against the exact ∫D·F has median {:.2e}, p90 {:.2e}, max {:.2e}.{r}",
-                l.family, l.n, q.median, q.p90, q.max
-            ))
         })
         .collect()
 }
@@ -294,11 +264,6 @@ fn median(values: impl Iterator<Item = f64>) -> Option<f64> {
 fn quantiles(values: impl Iterator<Item = f64>) -> Option<Quantiles> {
     let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
     Quantiles::of(&mut v)
-}
-
-/// A median as the chain's tables and sentences show it.
-pub fn sci(x: Option<f64>) -> String {
-    x.map_or("–".into(), |v| format!("{v:.2e}"))
 }
 
 /// One bin's medians per link and the link that dominates.
@@ -398,70 +363,6 @@ fn bins2(rows: &[&Row], fx: fn(&Row) -> f64, ex: &[f64], fy: fn(&Row) -> f64, ey
     out
 }
 
-/// Sentences about the anisotropic rows, computed from them.
-fn aniso_findings(rows: &[&Row]) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut methods: Vec<&str> = rows.iter().map(|r| r.method.as_str()).collect();
-    methods.sort();
-    methods.dedup();
-    for m in methods {
-        let rs: Vec<&Row> = rows.iter().copied().filter(|r| r.method == m).collect();
-        let med = |k: usize| median(rs.iter().map(|r| r.links[k]));
-        let bins = bins2(
-            &rs,
-            |r| r.ratio,
-            &RATIO_EDGES,
-            |r| r.view_angle,
-            &[0.0, 30.0, 60.0, 75.0, 90.0],
-        );
-        let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
-        for b in &bins {
-            if let Some(d) = b.5 {
-                *counts.entry(d).or_default() += 1;
-            }
-        }
-        let counts: Vec<String> = counts.iter().map(|(k, v)| format!("{k} in {v}")).collect();
-        let (fit, table) = (med(0), med(1));
-        let compare = match (fit, table) {
-            (Some(f), Some(t)) if t > f => {
-                format!("the look-up adds more than the fit itself (median table link {t:.2e} against fit {f:.2e})")
-            }
-            (Some(f), Some(t)) => {
-                format!("the look-up adds less than the fit itself (median table link {t:.2e} against fit {f:.2e})")
-            }
-            _ => "no table or fit link".into(),
-        };
-        let worst = bins
-            .iter()
-            .filter(|b| b.3[1].is_some())
-            .max_by(|a, b| a.3[1].unwrap_or(0.0).total_cmp(&b.3[1].unwrap_or(0.0)));
-        let worst = worst.map_or(String::new(), |b| {
-            format!(
-                " The table link is largest at r {}–{}, view {}–{}° (median {}, {} configurations).",
-                b.0[0],
-                b.0[1],
-                b.1[0],
-                b.1[1],
-                sci(b.3[1]),
-                b.2
-            )
-        });
-        out.push(format!(
-            "`{m}` ({} anisotropic configurations): {compare}; storage in binary16 {}, formula {}, rounding {}, \
-             driver {}; total {} (median |GPU − T|/T). Dominant link per r × view bin: {} of {} bins.{worst}",
-            rs.len(),
-            sci(med(2)),
-            sci(med(3)),
-            sci(med(4)),
-            sci(med(5)),
-            sci(median(rs.iter().map(|r| r.total))),
-            counts.join(", "),
-            bins.len()
-        ));
-    }
-    out
-}
-
 fn by_method(rows: &[Row], iso_only: bool) -> Vec<(String, Vec<&Row>)> {
     let mut out: BTreeMap<String, Vec<&Row>> = BTreeMap::new();
     for r in rows {
@@ -472,76 +373,137 @@ fn by_method(rows: &[Row], iso_only: bool) -> Vec<(String, Vec<&Row>)> {
     out.into_iter().collect()
 }
 
-/// Sentences computed from the data.
-fn findings(all: &[Row], cells: &[Cell]) -> Vec<String> {
+/// One method on one family of roughness: what the findings say of its links.
+#[derive(Clone, Debug)]
+pub struct LinkFinding {
+    pub method: String,
+    pub family: String,
+    pub configurations: usize,
+    /// How many bins of α × view angle each link dominates, by link name.
+    pub dominant: Vec<(&'static str, usize)>,
+    /// Bins with a configuration.
+    pub bins: usize,
+    /// Each link's median over all its configurations, in [`LINKS`] order.
+    pub medians: [Option<f64>; 6],
+    pub total: Option<f64>,
+}
+
+/// One method fed our table and the published one, isotropic configurations.
+#[derive(Clone, Debug)]
+pub struct VersusPublished {
+    pub method: String,
+    pub configurations: usize,
+    /// Median |GPU − T|/T fed ours, and fed the published table.
+    pub ours: f64,
+    pub theirs: f64,
+    /// The configurations whose light passes within 5° of the mirror direction, and their
+    /// medians (ours, published) when both exist.
+    pub near: usize,
+    pub near_medians: Option<(f64, f64)>,
+}
+
+/// One method on the anisotropic configurations.
+#[derive(Clone, Debug)]
+pub struct AnisoFinding {
+    pub method: String,
+    pub configurations: usize,
+    /// Each link's median, in [`LINKS`] order, and the total's.
+    pub medians: [Option<f64>; 6],
+    pub total: Option<f64>,
+    /// How many bins of r × view angle each link dominates, by link name, of `bins`.
+    pub dominant: Vec<(&'static str, usize)>,
+    pub bins: usize,
+    /// The bin where the table link is largest.
+    pub worst: Option<Bin2>,
+}
+
+/// How many bins each link dominates, in link-name order.
+fn dominant_counts(dominant: impl Iterator<Item = Option<&'static str>>) -> Vec<(&'static str, usize)> {
+    let mut counts: BTreeMap<&'static str, usize> = BTreeMap::new();
+    for d in dominant.flatten() {
+        *counts.entry(d).or_default() += 1;
+    }
+    counts.into_iter().collect()
+}
+
+/// The anisotropic rows, per method.
+fn aniso_findings(rows: &[&Row]) -> Vec<AnisoFinding> {
+    let mut methods: Vec<&str> = rows.iter().map(|r| r.method.as_str()).collect();
+    methods.sort();
+    methods.dedup();
+    methods
+        .into_iter()
+        .map(|m| {
+            let rs: Vec<&Row> = rows.iter().copied().filter(|r| r.method == m).collect();
+            let bins = bins2(&rs, |r| r.ratio, &RATIO_EDGES, |r| r.view_angle, &VIEW_EDGES);
+            let worst = bins
+                .iter()
+                .filter(|b| b.3[1].is_some())
+                .max_by(|a, b| a.3[1].unwrap_or(0.0).total_cmp(&b.3[1].unwrap_or(0.0)))
+                .cloned();
+            AnisoFinding {
+                method: m.to_string(),
+                configurations: rs.len(),
+                medians: std::array::from_fn(|k| median(rs.iter().map(|r| r.links[k]))),
+                total: median(rs.iter().map(|r| r.total)),
+                dominant: dominant_counts(bins.iter().map(|b| b.5)),
+                bins: bins.len(),
+                worst,
+            }
+        })
+        .collect()
+}
+
+/// Per method and family, its links; the bins are `cells`'.
+fn link_findings(all: &[Row], cells: &[Cell]) -> Vec<LinkFinding> {
     let mut out = Vec::new();
     for (method, rows) in by_method(all, false) {
-        let fams: Vec<String> = {
-            let mut f: Vec<String> = rows.iter().map(|r| r.family.clone()).collect();
-            f.sort();
-            f.dedup();
-            f
-        };
+        let mut fams: Vec<String> = rows.iter().map(|r| r.family.clone()).collect();
+        fams.sort();
+        fams.dedup();
         for fam in fams {
             let rs: Vec<&&Row> = rows.iter().filter(|r| r.family == fam).collect();
-            let meds: Vec<(&str, Option<f64>)> = LINKS
-                .iter()
-                .enumerate()
-                .map(|(k, n)| (*n, median(rs.iter().map(|r| r.links[k]))))
-                .collect();
-            let dominant: Vec<&Cell> = cells
+            let bins: Vec<&Cell> = cells
                 .iter()
                 .filter(|c| c.method == method && c.family == fam && c.count > 0)
                 .collect();
-            let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
-            for c in &dominant {
-                if let Some(d) = c.dominant {
-                    *counts.entry(d).or_default() += 1;
-                }
-            }
-            let counts: Vec<String> = counts.iter().map(|(k, v)| format!("{k} in {v}")).collect();
-            let medians: Vec<String> = meds
-                .iter()
-                .filter_map(|(n, m)| m.map(|m| format!("{n} {m:.2e}")))
-                .collect();
-            out.push(format!(
-                "`{method}` on `{fam}` ({} configurations): the dominant link per bin is {} of {} bins. \
-                 Medians over all: {}; total {}.",
-                rs.len(),
-                counts.join(", "),
-                dominant.len(),
-                medians.join(", "),
-                sci(median(rs.iter().map(|r| r.total)))
-            ));
+            out.push(LinkFinding {
+                method: method.clone(),
+                family: fam,
+                configurations: rs.len(),
+                dominant: dominant_counts(bins.iter().map(|c| c.dominant)),
+                bins: bins.len(),
+                medians: std::array::from_fn(|k| median(rs.iter().map(|r| r.links[k]))),
+                total: median(rs.iter().map(|r| r.total)),
+            });
         }
     }
+    out
+}
+
+/// Per method, our table against the published one (isotropic configurations).
+fn versus_published(all: &[Row]) -> Vec<VersusPublished> {
+    let mut out = Vec::new();
     for (method, rows) in by_method(all, true) {
         let ours = median(rows.iter().map(|r| r.total));
         let theirs = median(rows.iter().map(|r| r.published_total));
-        if let (Some(o), Some(t)) = (ours, theirs) {
-            let verdict = if o <= t {
-                "at least as close to the GGX truth as"
-            } else {
-                "farther from the GGX truth than"
-            };
+        if let (Some(ours), Some(theirs)) = (ours, theirs) {
             let near: Vec<&&Row> = rows.iter().filter(|r| r.miss < 5.0).collect();
-            let (no, nt) = (
+            let near_medians = match (
                 median(near.iter().map(|r| r.total)),
                 median(near.iter().map(|r| r.published_total)),
-            );
-            let near_text = match (no, nt) {
-                (Some(a), Some(b)) => format!(
-                    " On the {} lights that pass within 5° of the mirror direction: {a:.3e} against {b:.3e}.",
-                    near.len()
-                ),
-                _ => String::new(),
+            ) {
+                (Some(a), Some(b)) => Some((a, b)),
+                _ => None,
             };
-            out.push(format!(
-                "Fed to `{method}` (bilinear f32 look-up, {} isotropic configurations), our table is {verdict} the \
-                 published one: median relative error {o:.3e} against {t:.3e} (ratio {:.3}).{near_text}",
-                rows.len(),
-                o / t
-            ));
+            out.push(VersusPublished {
+                method,
+                configurations: rows.len(),
+                ours,
+                theirs,
+                near: near.len(),
+                near_medians,
+            });
         }
     }
     out

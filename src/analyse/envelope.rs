@@ -1,4 +1,4 @@
-//! The "Any conforming driver" answer (issue 22, docs/envelope.md): per method and material,
+//! The "Any conforming driver" answer (docs/envelope.md): per method and material,
 //! the envelope's worst relative error against the reference the budget judges by, the share
 //! of configurations whose envelope breaks the budget's value, the configurations with no
 //! finite envelope (and the lines named), and where the freedom goes.

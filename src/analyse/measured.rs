@@ -1,5 +1,5 @@
-//! The measure stage's mergeable state as [`Accumulate`]s, like the analysis's accumulators
-//! (issue 20): the best starts of the searches (`TopK`), the kept state (`Kept`), the times
+//! The measure stage's mergeable state as [`Accumulate`]s, like the analysis's accumulators:
+//! the best starts of the searches (`TopK`), the kept state (`Kept`), the times
 //! (`Timing`) and a sweep's part (`Part`), so that shards merge through one trait.
 
 use crate::analyse::stats::Accumulate;

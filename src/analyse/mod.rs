@@ -11,6 +11,7 @@ pub mod measured;
 pub mod objectives;
 pub mod observations;
 pub mod render;
+pub mod pareto;
 pub mod render_gate;
 pub mod resolution;
 pub mod scan;

@@ -1,8 +1,9 @@
-//! Issue 24's objective comparison, analysed: per region (near the highlight, the natural
-//! sample) and per slice or α_max, the line-light error |value − T|/T of the L1-fitted and the
-//! SW-fitted matrices (nearest-rank quantiles, over the lines whose truth is above 0, no floor),
-//! paired counts of which is nearer T, the lines whose truth is 0 apart (false light), the lobe
-//! errors of both, and findings as sentences computed from these numbers.
+//! The comparison of fitting objectives (L1 against sliced Wasserstein), analysed: per region
+//! (near the highlight, the natural sample) and per slice or α_max, the line-light error
+//! |value − T|/T of the L1-fitted and the SW-fitted matrices (nearest-rank quantiles, over the
+//! lines whose truth is above 0, no floor), paired counts of which is nearer T, the lines whose
+//! truth is 0 apart (false light), the lobe errors of both; `report::objectives` writes the
+//! findings from these numbers.
 
 use crate::analyse::stats::Quantiles;
 use crate::measure::objectives::{Line, Region, Run};
@@ -58,7 +59,9 @@ pub struct Objectives {
     /// Per region: entries where the SW fit's median line error is below the L1 fit's, above,
     /// and equal (the entry's lines with T > 0).
     pub entries_sw_better: Vec<(String, [usize; 3])>,
-    pub findings: Vec<String>,
+    /// The highlight region's largest angle (degrees) between the segment's nearest point and
+    /// the mirror direction.
+    pub highlight_cap: f64,
     /// Every line, for the CSV.
     pub rows: Vec<Row>,
     /// Every entry's lobe errors.
@@ -136,11 +139,6 @@ fn group(label: String, lines: &[&Line]) -> Group {
 fn slice_label(run: &Run, i: [usize; 4]) -> String {
     let p = crate::input::ltc::aniso::entry_point(run.size, i);
     format!("φ {:.1}°, r {:.3}", p[1].to_degrees(), p[3])
-}
-
-/// A short number for sentences.
-fn s(x: Option<f64>) -> String {
-    x.map_or("—".into(), |v| format!("{v:.2e}"))
 }
 
 pub fn analyse(run: &Run) -> Objectives {
@@ -228,107 +226,6 @@ pub fn analyse(run: &Run) -> Objectives {
         entries_sw_better.push((region.name().to_string(), c));
     }
 
-    let mut findings = Vec::new();
-    for (name, groups) in &regions {
-        let g = &groups[0];
-        let what = if name == "highlight" {
-            format!(
-                "Near the highlight (segment's nearest point within {}° of the mirror direction)",
-                crate::measure::objectives::HIGHLIGHT_CAP
-            )
-        } else {
-            "Over the natural sample (cases/ggx.toml's geometry)".to_string()
-        };
-        let verdict = match (g.median[0], g.median[1]) {
-            (Some(a), Some(b)) if b < a => "the SW fit's median line-light error is lower",
-            (Some(a), Some(b)) if b > a => "the L1 fit's median line-light error is lower",
-            _ => "the two medians are equal",
-        };
-        findings.push(format!(
-            "{what}, {verdict}: L1 {} (p90 {}), SW {} (p90 {}) over {} lines; SW is nearer the GGX truth on {} of them, L1 on {}.",
-            s(g.median[0]),
-            s(g.p90[0]),
-            s(g.median[1]),
-            s(g.p90[1]),
-            g.n,
-            g.sw_nearer,
-            g.l1_nearer
-        ));
-        // Where the SW fit wins and where it loses, by slice and by α_max.
-        let wins: Vec<String> = groups[1..]
-            .iter()
-            .filter(|g| {
-                !g.label.starts_with("highlight") && matches!((g.median[0], g.median[1]), (Some(a), Some(b)) if b < a)
-            })
-            .map(|g| g.label.clone())
-            .collect();
-        let losses: Vec<String> = groups[1..]
-            .iter()
-            .filter(|g| {
-                !g.label.starts_with("highlight") && matches!((g.median[0], g.median[1]), (Some(a), Some(b)) if b > a)
-            })
-            .map(|g| g.label.clone())
-            .collect();
-        findings.push(format!(
-            "{}: the SW fit's median is lower in {} ({}) and higher in {} ({}) of the 3 slices and the 8 α_max values (two groupings of the same lines).",
-            if name == "highlight" {
-                "Near the highlight, by slice and α_max"
-            } else {
-                "Over the natural sample, by slice and α_max"
-            },
-            wins.len(),
-            if wins.is_empty() {
-                "none".to_string()
-            } else {
-                wins.join("; ")
-            },
-            losses.len(),
-            if losses.is_empty() {
-                "none".to_string()
-            } else {
-                losses.join("; ")
-            },
-        ));
-    }
-    for (name, c) in &entries_sw_better {
-        findings.push(format!(
-            "Per entry ({name} lines): the SW fit's median line-light error is lower at {} of {} entries, higher at {}, tied or not comparable at {}.",
-            c[0],
-            run.lobes.len(),
-            c[1],
-            run.lobes.len().saturating_sub(c[0] + c[1])
-        ));
-    }
-    let l = &lobes[0];
-    findings.push(format!(
-        "Lobe errors over the {} entries: relative L1 lobe error median L1 fit {}, SW fit {} (SW lower at {} entries); SW distance median L1 fit {}, SW fit {} (SW lower at {} entries). Each fit wins on its own objective {}.",
-        l.n,
-        s(l.l1_error_median[0]),
-        s(l.l1_error_median[1]),
-        l.sw_lower_l1,
-        s(l.sw_distance_median[0]),
-        s(l.sw_distance_median[1]),
-        l.sw_lower_sw,
-        if l.sw_lower_l1 * 2 < l.n && l.sw_lower_sw * 2 > l.n {
-            "at most entries"
-        } else {
-            "not at most entries (see the table)"
-        }
-    ));
-    // Where the SW fit loses on its own objective, the descent (not the objective) is judged.
-    let unconverged: Vec<String> = lobes[1..]
-        .iter()
-        .filter(|g| g.label.starts_with("α_max") && g.sw_lower_sw * 2 < g.n)
-        .map(|g| format!("{} ({} of {})", g.label, g.n - g.sw_lower_sw, g.n))
-        .collect();
-    findings.push(if unconverged.is_empty() {
-        "The SW fit has the lower SW distance at most entries of every α_max: its descent reached below the L1 fit on its own objective everywhere.".to_string()
-    } else {
-        format!(
-            "The SW fit's own SW distance is higher than the L1 fit's at most entries of {}: there its descent stopped above the L1 matrix's SW distance (one estimate each, whose sampling floor is of the order of these values, so the count is approximate), and the comparison judges the hyperparameters more than the objective.",
-            unconverged.join(", ")
-        )
-    });
     Objectives {
         size: run.size,
         entries: run.lobes.len(),
@@ -337,7 +234,7 @@ pub fn analyse(run: &Run) -> Objectives {
         regions,
         lobes,
         entries_sw_better,
-        findings,
+        highlight_cap: crate::measure::objectives::HIGHLIGHT_CAP,
         rows: run
             .lines
             .iter()

@@ -2,7 +2,8 @@
 //! per family and region (the natural sample overall, and each bin of the case's `highlight`
 //! axis with its top-ups), the error against GGX truth of each table, its table link (against
 //! the exact fit) and the fit link, as nearest-rank medians and p90s with their counts; paired
-//! ratios between resolutions with bootstrap intervals; and the findings, computed here.
+//! ratios between resolutions with bootstrap intervals. The findings are written from these
+//! by `report::resolution`.
 
 use crate::analyse::gate::paired;
 use crate::analyse::stats::nearest_rank;
@@ -75,7 +76,6 @@ pub struct Region {
 #[derive(Clone, Debug, Serialize)]
 pub struct Resolution {
     pub regions: Vec<Region>,
-    pub findings: Vec<String>,
     pub labels: Vec<String>,
     pub configurations: usize,
     pub seconds: f64,
@@ -150,92 +150,7 @@ fn region(family: &str, name: String, points: &[&Point], labels: &[String]) -> R
     }
 }
 
-fn pct(x: f64) -> String {
-    format!("{:.1} %", 100.0 * x)
-}
-
-fn sci(x: f64) -> String {
-    format!("{x:.2e}")
-}
-
-/// The findings of one region: per table, its table link's median against the fit link's,
-/// and per ratio to the finest table, whether it is at most [`WITHIN`] worse (one-sided); then
-/// the coarsest table at which discretisation stops mattering by both.
-fn findings_of(r: &Region) -> Vec<String> {
-    let mut out = Vec::new();
-    let finest = r.tables.iter().rev().find(|t| t.error.n > 0);
-    let Some(finest) = finest else {
-        return out;
-    };
-    let mut settled = None;
-    for t in &r.tables {
-        if t.error.n == 0 {
-            continue;
-        }
-        let below = t.table_link.median < r.fit_link.median;
-        let ratio = r.ratios.iter().find(|q| q.coarse == t.table && q.fine == finest.table);
-        let within = match ratio {
-            None => Some(true),
-            Some(q) if q.error[2] <= 1.0 + WITHIN => Some(true),
-            Some(q) if q.error[0] > 1.0 + WITHIN => Some(false),
-            Some(_) => None,
-        };
-        let ratio_text = ratio.map_or(String::new(), |q| {
-            format!(
-                "; its error is {:.3}× the {}'s (geometric mean over {} paired configurations, 95 % interval [{:.3}, {:.3}]){}",
-                q.error[1],
-                q.fine,
-                q.pairs,
-                q.error[0],
-                q.error[2],
-                match within {
-                    Some(true) => format!(", at most {} worse than it (the interval's upper end below {:.2})", pct(WITHIN), 1.0 + WITHIN),
-                    Some(false) => format!(", more than {} worse than it (the interval's lower end above {:.2})", pct(WITHIN), 1.0 + WITHIN),
-                    None => format!(", undecided against {} (the interval straddles it)", pct(WITHIN)),
-                }
-            )
-        });
-        out.push(format!(
-            "`{}`, {}: the {} table's link to the exact fit has median {} (p90 {}, n = {}), {} the fit link's median {}{ratio_text}.",
-            r.family,
-            r.region,
-            t.table,
-            sci(t.table_link.median),
-            sci(t.table_link.p90),
-            t.table_link.n,
-            if below { "below" } else { "not below" },
-            sci(r.fit_link.median),
-        ));
-        if settled.is_none() && below && within == Some(true) {
-            settled = Some(t.table.clone());
-        }
-    }
-    out.push(match settled {
-        Some(t) if t == finest.table => format!(
-            "`{}`, {}: no coarser table is both below the fit link and at most {} worse than the {t}, the finest table studied, whose own table link's median is below the fit link's; whether a finer table would still help is not measured in this family.",
-            r.family,
-            r.region,
-            pct(WITHIN),
-        ),
-        Some(t) => format!(
-            "`{}`, {}: discretisation stops mattering at the {t} table, in this sense: it is the coarsest whose table link's median is below the fit link's and whose error is at most {} worse than the {}'s (one-sided: its table link may still be far above the finer table's).",
-            r.family,
-            r.region,
-            pct(WITHIN),
-            finest.table
-        ),
-        None => format!(
-            "`{}`, {}: no table of the study is both below the fit link and at most {} worse than the {}: discretisation still matters here.",
-            r.family,
-            r.region,
-            pct(WITHIN),
-            finest.table
-        ),
-    });
-    out
-}
-
-/// The regions of every family and their findings.
+/// The regions of every family.
 pub fn analyse(case: &Case, run: &ResolutionRun) -> Resolution {
     let axis = case.bins.iter().find(|b| b.axis == "highlight");
     let mut regions = Vec::new();
@@ -266,10 +181,8 @@ pub fn analyse(case: &Case, run: &ResolutionRun) -> Resolution {
             }
         }
     }
-    let findings = regions.iter().flat_map(findings_of).collect();
     Resolution {
         regions,
-        findings,
         labels: run.labels.clone(),
         configurations: run.points.len(),
         seconds: run.seconds,

@@ -1413,8 +1413,8 @@ mod tests {
         }
     }
 
-    /// Nine configurations of every kind, and three input roundings (issue 26's second
-    /// mutation pass, docs/mutation.md).
+    /// Nine configurations of every kind, and three input roundings (the second mutation
+    /// pass, docs/mutation.md).
     fn fill(acc: &mut BinAccumulator) {
         let f = 1e-6;
         // rel 0.25 (CPU f32 exact, f64 0.5), the reference's own estimate 1e-9.

@@ -105,5 +105,5 @@ fn sized(case: &Case, count: Option<usize>) -> anyhow::Result<Case> {
 /// unreadable (the report then leaves its sentence out).
 fn run_record(relative: &str) -> Option<serde_json::Value> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(relative);
-    serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()
+    crate::io::read_record(&path, crate::limits::MAX_RECORD_BYTES)
 }

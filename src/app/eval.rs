@@ -156,12 +156,10 @@ pub fn eval(options: EvalOptions) -> anyhow::Result<Status> {
     Ok(Status::Ok)
 }
 
-/// Configurations eval holds at a time: `crate::measure::eval_rows::EVAL_CHUNK`, or `LINELIGHT_EVAL_CHUNK` (tests
-/// use a small one to cover several chunks with a few lines).
+/// Configurations eval holds at a time: `crate::measure::eval_rows::EVAL_CHUNK`, or
+/// `LINELIGHT_EVAL_CHUNK` (src/tuning.rs).
 fn eval_chunk() -> usize {
-    std::env::var("LINELIGHT_EVAL_CHUNK")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .filter(|&n: &usize| n > 0)
+    crate::tuning::tuning()
+        .eval_chunk
         .unwrap_or(crate::measure::eval_rows::EVAL_CHUNK)
 }

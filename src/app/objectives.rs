@@ -6,10 +6,8 @@
 //! (report::objectives), written as one set through io.
 
 use crate::input::ltc::aniso;
+use crate::limits::MAX_LINES;
 use std::path::Path;
-
-/// The most lines per region and entry `--lines` takes (each is three adaptive references).
-pub const MAX_LINES: usize = 4096;
 
 /// Options of `linelight objectives`.
 #[derive(clap::Args)]
@@ -60,8 +58,7 @@ pub fn run(subset: &Path, out: &Path, lines: usize) -> anyhow::Result<super::Sta
     let run = crate::measure::objectives::measure(table, &entries, lines, &|| pb.inc(1))?;
     pb.finish_and_clear();
     let analysis = crate::analyse::objectives::analyse(&run);
-    let record =
-        |p: &Path| -> Option<serde_json::Value> { serde_json::from_str(&std::fs::read_to_string(p).ok()?).ok() };
+    let record = |p: &Path| crate::io::read_record(p, crate::limits::MAX_RECORD_BYTES);
     let inputs = crate::report::objectives::Inputs {
         command: format!("linelight objectives --subset {} --lines {lines}", subset.display()),
         sw_record: record(&subset.with_extension("run.json")),

@@ -13,6 +13,7 @@
 
 use crate::input::case::Case;
 use crate::input::ltc::aniso::AnisoTable;
+use crate::limits::MAX_TABLES;
 use crate::measure::resolution::StudyTable;
 use std::path::{Path, PathBuf};
 
@@ -22,9 +23,6 @@ pub const DEFAULT_TABLES: [&str; 3] = [
     "data/ltc_ggx_aniso.csv",
     "data/ltc_ggx_aniso_slice.csv",
 ];
-
-/// At most this many tables in one study (each is fed to every configuration).
-pub const MAX_TABLES: usize = 8;
 
 fn label(t: &AnisoTable) -> String {
     let [a, b, c, d] = t.size;
@@ -38,9 +36,7 @@ fn label(t: &AnisoTable) -> String {
 /// A sentence on a table: its file, size and what its run record says.
 fn describe(path: &Path, t: &AnisoTable) -> String {
     let mut s = format!("{}: `{}`, {} entries", label(t), path.display(), t.entries.len());
-    let record = std::fs::read_to_string(path.with_extension("run.json"))
-        .ok()
-        .and_then(|text| serde_json::from_str::<serde_json::Value>(&text).ok());
+    let record = crate::io::read_record(&path.with_extension("run.json"), crate::limits::MAX_RECORD_BYTES);
     if let Some(r) = record {
         if let (Some(fitted), Some(seconds), Some(threads)) =
             (r["fitted"].as_u64(), r["seconds"].as_f64(), r["threads"].as_u64())

@@ -48,7 +48,7 @@ pub fn scan(options: ScanOptions) -> Result<Status> {
     if let Some(b) = bound {
         super::options::check_float("--bound", b, super::options::BOUND).map_err(anyhow::Error::msg)?;
     }
-    let max = crate::measure::scan::MAX_CAPTURE;
+    let max = crate::limits::MAX_CAPTURE;
     anyhow::ensure!(
         capture <= max,
         "--capture {capture}: at most {max} offending configurations are kept per method and family"
@@ -80,10 +80,10 @@ pub fn scan(options: ScanOptions) -> Result<Status> {
                 m.target()
             );
         } else {
-            eprintln!(
-                "note: `{s}` is not scanned: it approximates `{}`, and scan generates line configurations",
-                m.target()
-            );
+            crate::warnings::raise(crate::warnings::Warning::MethodNotScanned {
+                method: s.to_string(),
+                target: m.target().to_string(),
+            });
         }
     }
     if chosen.is_empty() {
@@ -95,10 +95,10 @@ pub fn scan(options: ScanOptions) -> Result<Status> {
             let family = &case.materials[f];
             let ok = crate::measure::scan::generated_on_device(family.kind);
             if !ok {
-                eprintln!(
-                    "note: family `{}` ({:?}) is not scanned: its M⁻¹ comes from a fitted table",
-                    family.name, family.kind
-                );
+                crate::warnings::raise(crate::warnings::Warning::FamilyNotScanned {
+                    family: family.name.clone(),
+                    kind: format!("{:?}", family.kind),
+                });
             }
             ok
         })

@@ -4,7 +4,7 @@
 
 use crate::input::geometry::{v3, DVec3};
 use crate::input::scene::{Config, Material, Rect, Roughness, Vec3};
-use anyhow::Context;
+use crate::limits::MAX_PIXELS;
 use serde::Deserialize;
 use std::path::Path;
 
@@ -136,9 +136,6 @@ pub struct FloorPixel {
     pub config: Config,
 }
 
-/// Pixels a render may have (memory: a few configurations' worth of values each).
-pub const MAX_PIXELS: u64 = 4096 * 4096;
-
 /// The view's elevation below which a floor pixel is in the grazing band (reported apart).
 pub const GRAZING_DEG: f64 = 5.0;
 
@@ -149,7 +146,7 @@ fn unit_from(a: Vec3, b: Vec3) -> Vec3 {
 
 impl RenderScene {
     pub fn load(path: &Path) -> anyhow::Result<RenderScene> {
-        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+        let text = crate::io::read_text(path, "scene file", crate::limits::MAX_TEXT_INPUT)?;
         Self::parse(&path.display().to_string(), &text)
     }
 
@@ -165,7 +162,7 @@ impl RenderScene {
         let mut chars = raw.name.chars();
         let ok = chars.next().is_some_and(|c| c.is_ascii_alphanumeric())
             && chars.all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-'))
-            && raw.name.len() <= 100;
+            && raw.name.len() <= crate::limits::MAX_NAME;
         if !ok {
             return Err(format!(
                 "`name` = \"{}\": it becomes the output folder's name, so it must be 1–100 letters, digits, \

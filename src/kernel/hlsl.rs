@@ -53,7 +53,7 @@ const METHOD: &str = "hlsl_method";
 const MINV: &str = "hlsl_Minv";
 
 /// The environment variable that names the glslang binary (default `glslangValidator`).
-pub const GLSLANG_ENV: &str = "LINELIGHT_GLSLANG";
+pub use crate::tuning::GLSLANG as GLSLANG_ENV;
 
 /// The WGSL kernel text of an HLSL kernel and, for each of its lines, the kernel line it came
 /// from; with the constants whose written digits are lost (src/kernel/written.rs).
@@ -180,7 +180,7 @@ fn declaration_line(text: &str, name: &str) -> usize {
 
 /// Runs glslang on `source`; its errors are mapped to file:line by `locate(composed line)`.
 fn compile(path: &str, source: &str, locate: &dyn Fn(usize) -> (String, usize)) -> Result<Vec<u32>, HeaderError> {
-    let tool = std::env::var(GLSLANG_ENV).unwrap_or_else(|_| "glslangValidator".to_string());
+    let tool = &crate::tuning::tuning().glslang;
     let dir = crate::io::Scratch::new("linelight-hlsl").map_err(|e| HeaderError {
         path: path.to_string(),
         line: 1,
@@ -189,7 +189,7 @@ fn compile(path: &str, source: &str, locate: &dyn Fn(usize) -> (String, usize)) 
     let output = dir.path.join("kernel.spv");
     let input = dir.path.join("kernel.hlsl");
     let run = dir.write("kernel.hlsl", source.as_bytes()).and_then(|_| {
-        std::process::Command::new(&tool)
+        std::process::Command::new(tool)
             .args(["--quiet", "-D", "-V", "-Od", "-g", "-e", "main", "-S", "comp", "-o"])
             .arg(&output)
             .arg(&input)
@@ -248,10 +248,12 @@ fn compile(path: &str, source: &str, locate: &dyn Fn(usize) -> (String, usize)) 
             ),
         });
     }
-    let bytes = std::fs::read(&output).map_err(|e| HeaderError {
-        path: path.to_string(),
-        line: 1,
-        message: format!("glslang wrote no SPIR-V: {e}"),
+    let bytes = crate::io::read_regular(&output, "glslang's SPIR-V", crate::limits::MAX_TEXT_INPUT).map_err(|e| {
+        HeaderError {
+            path: path.to_string(),
+            line: 1,
+            message: format!("glslang wrote no SPIR-V: {e}"),
+        }
     })?;
     if bytes.len() % 4 != 0 || bytes.len() < 20 {
         return Err(HeaderError {

@@ -178,7 +178,7 @@ pub fn measure(case: &Case, gpu: &Gpu, chunk: usize) -> anyhow::Result<ChainRun>
         Ok(_) => true,
         Err(e) => {
             // Never dropped in silence: the report's table loses a row.
-            eprintln!("WARNING: the `published` feed is left out of this chain: {e}");
+            crate::warnings::raise(crate::warnings::Warning::PublishedFeedLeftOut { reason: e.to_string() });
             false
         }
     };

@@ -7,6 +7,7 @@ use crate::eval::interp::CpuColumns;
 use crate::input::scene::Config;
 use crate::input::target::Target;
 use crate::kernel::methods::Method;
+use crate::limits::MAX_ERRORS;
 use crate::reference::Estimate;
 use anyhow::Context;
 use serde_json::{json, Map, Value};
@@ -39,7 +40,7 @@ impl LineCount {
 /// gigabyte line costs nothing here (the estimate refuses it before it is read).
 pub fn count_lines(path: &Path) -> anyhow::Result<LineCount> {
     use std::io::Read;
-    let mut f = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut f = crate::io::open_stream(path, "configurations")?;
     let mut buf = vec![0u8; 1 << 16];
     let (mut count, mut current) = (LineCount::default(), 0u64);
     loop {
@@ -94,7 +95,7 @@ pub fn for_each_config(
     f: &mut dyn FnMut(Vec<Config>) -> anyhow::Result<()>,
 ) -> anyhow::Result<usize> {
     use std::io::BufRead;
-    let file = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let file = crate::io::open_stream(path, "configurations")?;
     let mut configs = Vec::new();
     let mut errors = Vec::new();
     let mut bad = 0usize;
@@ -156,9 +157,6 @@ pub fn for_each_config(
     Ok(total)
 }
 
-/// Bad lines listed in one message.
-pub const MAX_ERRORS: usize = 20;
-
 /// One parsed line: the rect normal made perpendicular (recorded in the output, see
 /// [`result_row`]), degenerate configurations and repeated ids refused.
 /// An id as held to find repeats: itself when short, else its length and two hashes, so the
@@ -194,7 +192,10 @@ impl IdKey {
 fn check_config(mut c: Config, at: &str, ids: &mut BTreeSet<IdKey>, notes: bool) -> Result<Config, String> {
     let id = crate::input::names::clip(&c.id);
     if c.orthonormalize_rect().is_some_and(|moved| moved > 1e-9) && notes {
-        eprintln!("note: {at}: `{id}`: rect.normal made perpendicular to the segment (docs/conventions.md); the output's `rect` records the normal used");
+        crate::warnings::raise(crate::warnings::Warning::NormalMadePerpendicular {
+            at: at.to_string(),
+            id: id.to_string(),
+        });
     }
     if let Err(d) = c.validate() {
         Err(format!("{at}: configuration `{id}` is degenerate: {d}"))

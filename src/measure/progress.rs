@@ -7,35 +7,12 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::Duration;
 
-/// The interval of plain progress lines, unless `LINELIGHT_PROGRESS_SECONDS` sets another.
-pub const INTERVAL: Duration = Duration::from_secs(10);
-
-/// The environment variable that sets the interval of plain progress lines, in seconds.
-pub const INTERVAL_VARIABLE: &str = "LINELIGHT_PROGRESS_SECONDS";
-
 /// The bar template of every step but the scan's: what, bar, count, rate, time left.
 pub const TEMPLATE: &str = "{msg:>28} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})";
 
-static CHOSEN: std::sync::OnceLock<Duration> = std::sync::OnceLock::new();
-
-/// Reads [`INTERVAL_VARIABLE`] once, before any work (main.rs): a value that is not a number
-/// of seconds from 0.001 to 86400 is bad input.
-pub fn init_interval() -> Result<Duration, String> {
-    let chosen = match std::env::var(INTERVAL_VARIABLE) {
-        Err(_) => INTERVAL,
-        Ok(text) => text
-            .trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|s| (0.001..=86400.0).contains(s))
-            .map(Duration::from_secs_f64)
-            .ok_or_else(|| format!("{INTERVAL_VARIABLE}=`{text}`: need a number of seconds from 0.001 to 86400"))?,
-    };
-    Ok(*CHOSEN.get_or_init(|| chosen))
-}
-
+/// The interval of plain progress lines (`LINELIGHT_PROGRESS_SECONDS`, src/tuning.rs).
 fn interval() -> Duration {
-    CHOSEN.get().copied().unwrap_or(INTERVAL)
+    crate::tuning::tuning().progress_interval
 }
 
 /// A bar of `len` steps named `what` in [`TEMPLATE`]'s style, with plain lines off-terminal.

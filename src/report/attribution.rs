@@ -3,8 +3,7 @@
 //! `markdown/`, which only calls [`render`].
 
 use crate::analyse::summary::Attribution;
-use crate::report::markup::{Align, Table};
-use std::fmt::Write;
+use crate::report::markup::{Align, Doc as _, Table};
 
 /// Lines shown per method.
 const TOP: usize = 5;
@@ -14,18 +13,17 @@ pub fn render(methods: &[Attribution]) -> String {
     if methods.is_empty() {
         return o;
     }
-    let _ = writeln!(o, "## Where the bits go\n");
-    let _ = writeln!(
-        o,
+    o.heading(2, "Where the bits go");
+    o.para(format_args!(
         "Local f32 rounding error per kernel source line (the CPU evaluator in f32 with an f64 shadow; each \
          operation in f32 on the shadow's arguments rounded to f32, against the exact operation; bits = \
          log2(1 + ULP distance)). Per configuration a line's bits are the mean and the max over its operations; \
          the table gives the mean of the means and the p99 of the maxima over the configurations the line ran \
          on. The {TOP} lines with the most bits per method, on an evenly spread subset of the configurations \
-         (count per method).\n"
-    );
+         (count per method)."
+    ));
     for m in methods {
-        let _ = writeln!(o, "`{}` ({} configurations):\n", m.label, m.configurations);
+        o.para(format_args!("`{}` ({} configurations):", m.label, m.configurations));
         let mut table = Table::new(&[
             ("file:line", Align::Left),
             ("source", Align::Left),
@@ -40,7 +38,8 @@ pub fn render(methods: &[Attribution]) -> String {
                 format!("{:.2}", l.p99),
             ]);
         }
-        let _ = writeln!(o, "{}", table.markdown());
+        o.table(&table);
+        o.blank();
     }
     o
 }

@@ -2,7 +2,7 @@
 
 use crate::analyse::bench::{cpu_time_ratio, gpu_time_ratio, Spread};
 use crate::analyse::bench::{BenchRun, Cost};
-use std::fmt::Write as _;
+use crate::report::markup::Doc as _;
 
 /// The report: a header, one row per method, a note on the op counts, and a ratio line
 /// per compared pair (everything after the adapter line `run` prints).
@@ -11,23 +11,21 @@ pub fn render(bench: &BenchRun) -> String {
     let Some(first) = bench.costs.first() else {
         return "no methods measured\n".to_string();
     };
-    let _ = writeln!(
-        out,
+    out.line(format_args!(
         "case {}: {} configurations per dispatch ({} material(s)); {} warm-up + {} timed rounds, \
          methods interleaved in rotated order",
         bench.case, first.configurations, bench.materials, bench.warmup, first.repeats
-    );
+    ));
     let clock = if first.wall_clock() {
         "wall clock of submit + wait (this adapter has no timestamp queries)"
     } else {
         "GPU timestamps at the beginning and end of the compute pass"
     };
-    let _ = writeln!(
-        out,
+    out.para(format_args!(
         "GPU: {clock}; CPU: the kernel in f32 on the CPU evaluator (src/eval/interp: compiled to native code where \
-         the compiler handles the kernel, else interpreted), {} thread(s) (rayon)\n",
+         the compiler handles the kernel, else interpreted), {} thread(s) (rayon)",
         bench.cpu_threads
-    );
+    ));
 
     let header = [
         "method",
@@ -114,8 +112,7 @@ pub fn render(bench: &BenchRun) -> String {
     for r in &rows {
         out.push_str(&line(&r.iter().map(String::as_str).collect::<Vec<_>>()));
     }
-    let _ = writeln!(
-        out,
+    out.line(format_args!(
         "\nGPU/CPU speed: median of the per-round CPU ns / GPU ns (above 1: the dispatch is faster).\n\
          compiled/interpreter speed: median [min–max] of the per-round interpreter ns / compiled ns, the \
          interpreter timed on the same configurations in the same rounds (the values are bit-identical: \
@@ -123,32 +120,29 @@ pub fn render(bench: &BenchRun) -> String {
          ops: one invocation's operation count from the naga IR (src/eval/cost.rs); \
          total = arithmetic + other math + {}×transcendental + branches.",
         crate::eval::cost::TRANSCENDENTAL_WEIGHT
-    );
+    ));
     if open_loops {
         out.push_str("* a loop without a static trip count, its body counted once.\n");
     }
     for c in bench.costs.iter().filter(|c| c.ops_error.is_some()) {
-        let _ = writeln!(
-            out,
+        out.line(format_args!(
             "ops of {}: {}",
             c.label,
             c.ops_error.as_deref().unwrap_or_default()
-        );
+        ));
     }
 
     if let Some(n) = bench.costs.iter().find_map(|c| c.envelope_configurations) {
-        let _ = writeln!(
-            out,
+        out.line(format_args!(
             "\nEnvelope (docs/envelope.md): one interval walk of the kernel's IR per configuration, on {n} \
              configurations spread over the dispatch's, all cores (rayon), timed in the same rounds; ns per \
              configuration, median [min–max], and its cost over the CPU f32 column's (median of the per-round \
              ratios):"
-        );
+        ));
         for c in &bench.costs {
             match (c.envelope_ns_per_config, &c.envelope_error) {
                 (Some([median, min, max]), _) => {
-                    let _ = writeln!(
-                        out,
+                    out.line(format_args!(
                         "  {}: {} [{}–{}] ns per configuration{}",
                         c.label,
                         sig(median),
@@ -156,13 +150,13 @@ pub fn render(bench: &BenchRun) -> String {
                         sig(max),
                         c.envelope_over_cpu_f32
                             .map_or(String::new(), |r| format!(", {}× the CPU f32 column", sig(r)))
-                    );
+                    ));
                 }
                 (None, Some(e)) => {
-                    let _ = writeln!(out, "  {}: not timed ({e})", c.label);
+                    out.line(format_args!("  {}: not timed ({e})", c.label));
                 }
                 (None, None) => {
-                    let _ = writeln!(out, "  {}: not timed", c.label);
+                    out.line(format_args!("  {}: not timed", c.label));
                 }
             }
         }
@@ -186,8 +180,7 @@ pub fn render(bench: &BenchRun) -> String {
         let Some(g) = gpu_time_ratio(a, b) else {
             continue;
         };
-        let _ = write!(
-            out,
+        out.put(format_args!(
             "  {} / {}: GPU {} [{}–{}] over {} rounds",
             a.label,
             b.label,
@@ -195,9 +188,14 @@ pub fn render(bench: &BenchRun) -> String {
             sig3(g.min),
             sig3(g.max),
             g.rounds
-        );
+        ));
         if let Some(c) = cpu_time_ratio(a, b) {
-            let _ = write!(out, ", CPU f32 {} [{}–{}]", sig3(c.median), sig3(c.min), sig3(c.max));
+            out.put(format_args!(
+                ", CPU f32 {} [{}–{}]",
+                sig3(c.median),
+                sig3(c.min),
+                sig3(c.max)
+            ));
         }
         // The noise rule: a ratio whose per-round range includes 1 is no measurable difference.
         let verdict = if g.min <= 1.0 && 1.0 <= g.max {
@@ -207,7 +205,7 @@ pub fn render(bench: &BenchRun) -> String {
         } else {
             format!("on the GPU {} is faster in every round", a.label)
         };
-        let _ = writeln!(out, ": {verdict}");
+        out.line(format_args!(": {verdict}"));
     }
     out
 }

@@ -15,28 +15,10 @@
 //! scale; such a method is never on the front). A point whose cost is not a positive finite
 //! number has no x position: it is named in a note under the chart instead.
 
-use std::fmt::Write;
+use crate::analyse::pareto::{pareto_front, valid_cost};
+use crate::report::markup::{xml_escape as escape, Doc as _};
 
 pub use crate::analyse::summary::ChartPoint;
-
-/// Indices (ascending) of the points on the Pareto front of cost against error (the p99 when
-/// `by_p99`, else the median): those that no other point dominates, i.e. no other point is
-/// both cheaper-or-equal and more-accurate-or-equal while strictly better in one of the two.
-/// Exact ties are all on the front. A point whose cost is not a positive finite number or whose
-/// error is not a finite non-negative number is never on the front, and dominates nothing.
-pub fn pareto_front(points: &[ChartPoint], by_p99: bool) -> Vec<usize> {
-    let keys: Vec<Option<(f64, f64)>> = points
-        .iter()
-        .map(|p| {
-            let error = if by_p99 { p.p99 } else { p.median };
-            (valid_cost(p.cost) && error.is_finite() && error >= 0.0).then_some((p.cost, error))
-        })
-        .collect();
-    let dominates = |(cj, ej): (f64, f64), (ci, ei): (f64, f64)| cj <= ci && ej <= ei && (cj < ci || ej < ei);
-    (0..points.len())
-        .filter(|&i| keys[i].is_some_and(|ki| !keys.iter().any(|kj| kj.is_some_and(|kj| dominates(kj, ki)))))
-        .collect()
-}
 
 /// Renders the chart as a standalone SVG document (about 900×600, taller when the legend
 /// needs it). `x_label` names the cost axis, e.g. "cost (ns per evaluation)".
@@ -75,10 +57,6 @@ enum Shape {
 }
 
 const SHAPES: [Shape; 3] = [Shape::Circle, Shape::Square, Shape::Diamond];
-
-fn valid_cost(cost: f64) -> bool {
-    cost.is_finite() && cost > 0.0
-}
 
 /// Where an error value goes on the log y axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -205,13 +183,6 @@ fn value_text(v: f64) -> String {
     } else {
         format!("{v:.2e}")
     }
-}
-
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
 }
 
 /// Estimated rendered width of `text` (DejaVu/Helvetica-like sans-serif metrics).
@@ -423,22 +394,17 @@ impl<'a> Chart<'a> {
     fn render(&self, title: &str, subtitle: &str, x_label: &str) -> String {
         let mut s = String::new();
         let (w, h) = (WIDTH, self.height);
-        let _ = writeln!(
-            s,
-            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="DejaVu Sans, Helvetica, Arial, sans-serif" font-size="{FONT}">"#
-        );
-        let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
-        let _ = writeln!(
-            s,
+        s.line(format_args!(r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="DejaVu Sans, Helvetica, Arial, sans-serif" font-size="{FONT}">"#));
+        s.line(format_args!(r#"<rect width="100%" height="100%" fill="white"/>"#));
+        s.line(format_args!(
             r##"<text x="{PLOT_LEFT}" y="24" font-size="16" font-weight="bold" fill="#111">{}</text>"##,
             escape(title)
-        );
+        ));
         if !subtitle.is_empty() {
-            let _ = writeln!(
-                s,
+            s.line(format_args!(
                 r##"<text x="{PLOT_LEFT}" y="43" font-size="12" fill="#555">{}</text>"##,
                 escape(subtitle)
-            );
+            ));
         }
         self.axes(&mut s, x_label);
         self.front_line(&mut s);
@@ -449,21 +415,11 @@ impl<'a> Chart<'a> {
         self.labels(&mut s);
         self.legend(&mut s);
         if self.placed.is_empty() {
-            let _ = writeln!(
-                s,
-                r##"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="13" fill="#777">no method with a cost to plot</text>"##,
-                0.5 * (self.plot.x0 + self.plot.x1),
-                0.5 * (self.plot.y0 + self.plot.y1)
-            );
+            s.line(format_args!(r##"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="13" fill="#777">no method with a cost to plot</text>"##, 0.5 * (self.plot.x0 + self.plot.x1), 0.5 * (self.plot.y0 + self.plot.y1)));
         }
         if !self.unplotted.is_empty() {
             let names: Vec<String> = self.unplotted.iter().map(|p| escape(&p.label)).collect();
-            let _ = writeln!(
-                s,
-                r##"<text x="{PLOT_LEFT}" y="{:.1}" font-size="10" fill="#a00">Not plotted (cost is not a positive number): {}</text>"##,
-                h - 8.0,
-                names.join(", ")
-            );
+            s.line(format_args!(r##"<text x="{PLOT_LEFT}" y="{:.1}" font-size="10" fill="#a00">Not plotted (cost is not a positive number): {}</text>"##, h - 8.0, names.join(", ")));
         }
         s.push_str("</svg>\n");
         s
@@ -473,124 +429,109 @@ impl<'a> Chart<'a> {
     /// labels, frame and axis titles.
     fn axes(&self, s: &mut String, x_label: &str) {
         let p = self.plot;
-        let _ = writeln!(s, r#"<g stroke="{GRID}" stroke-width="1">"#);
+        s.line(format_args!(r#"<g stroke="{GRID}" stroke-width="1">"#));
         for (v, labelled, decade) in self.x.ticks(40.0) {
             if decade || labelled {
                 let x = self.x.px(v);
-                let _ = writeln!(
-                    s,
+                s.line(format_args!(
                     r#"<line x1="{x:.1}" y1="{:.1}" x2="{x:.1}" y2="{:.1}"/>"#,
                     p.y0, p.y1
-                );
+                ));
             }
         }
         for (v, labelled, decade) in self.y.ticks(22.0) {
             if decade || labelled {
                 let y = self.y.px(v);
-                let _ = writeln!(
-                    s,
+                s.line(format_args!(
                     r#"<line x1="{:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}"/>"#,
                     p.x0, p.x1
-                );
+                ));
             }
         }
         s.push_str("</g>\n");
         // Edge bands for off-scale values, set off by a dotted line.
         if self.any_zero {
             let y = p.y1 - 2.0 * EDGE_INSET;
-            let _ = writeln!(
-                s,
+            s.line(format_args!(
                 r##"<line x1="{:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#bbb" stroke-dasharray="1 3"/>"##,
                 p.x0, p.x1
-            );
-            let _ = writeln!(
-                s,
+            ));
+            s.line(format_args!(
                 r##"<text x="{:.1}" y="{:.1}" text-anchor="end" fill="#444">0</text>"##,
                 p.x0 - 7.0,
                 p.y1 - EDGE_INSET + 4.0
-            );
+            ));
         }
         if self.any_invalid {
             let y = p.y0 + 2.0 * EDGE_INSET;
-            let _ = writeln!(
-                s,
+            s.line(format_args!(
                 r##"<line x1="{:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#bbb" stroke-dasharray="1 3"/>"##,
                 p.x0, p.x1
-            );
-            let _ = writeln!(
-                s,
+            ));
+            s.line(format_args!(
                 r##"<text x="{:.1}" y="{:.1}" text-anchor="end" font-size="10" fill="#a00">not finite</text>"##,
                 p.x0 - 7.0,
                 p.y0 + EDGE_INSET + 4.0
-            );
+            ));
         }
-        let _ = writeln!(
-            s,
+        s.line(format_args!(
             r##"<rect x="{:.1}" y="{:.1}" width="{:.1}" height="{:.1}" fill="none" stroke="#888"/>"##,
             p.x0,
             p.y0,
             p.x1 - p.x0,
             p.y1 - p.y0
-        );
+        ));
         // Ticks and labels.
-        let _ = writeln!(s, r##"<g stroke="#888">"##);
+        s.line(format_args!(r##"<g stroke="#888">"##));
         for (v, _, decade) in self.x.ticks(40.0) {
             let x = self.x.px(v);
             let len = if decade { 5.0 } else { 3.0 };
-            let _ = writeln!(
-                s,
+            s.line(format_args!(
                 r#"<line x1="{x:.1}" y1="{:.1}" x2="{x:.1}" y2="{:.1}"/>"#,
                 p.y1,
                 p.y1 + len
-            );
+            ));
         }
         for (v, _, decade) in self.y.ticks(22.0) {
             let y = self.y.px(v);
             let len = if decade { 5.0 } else { 3.0 };
-            let _ = writeln!(
-                s,
+            s.line(format_args!(
                 r#"<line x1="{:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}"/>"#,
                 p.x0 - len,
                 p.x0
-            );
+            ));
         }
         s.push_str("</g>\n");
-        let _ = writeln!(s, r##"<g fill="#333">"##);
+        s.line(format_args!(r##"<g fill="#333">"##));
         for (v, labelled, _) in self.x.ticks(40.0) {
             if labelled {
-                let _ = writeln!(
-                    s,
+                s.line(format_args!(
                     r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
                     self.x.px(v),
                     p.y1 + 18.0,
                     tick_label(v)
-                );
+                ));
             }
         }
         for (v, labelled, _) in self.y.ticks(22.0) {
             if labelled {
-                let _ = writeln!(
-                    s,
+                s.line(format_args!(
                     r#"<text x="{:.1}" y="{:.1}" text-anchor="end">{}</text>"#,
                     p.x0 - 8.0,
                     self.y.px(v) + 4.0,
                     tick_label(v)
-                );
+                ));
             }
         }
         s.push_str("</g>\n");
-        let _ = writeln!(
-            s,
+        s.line(format_args!(
             r##"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="12" fill="#111">{}</text>"##,
             0.5 * (p.x0 + p.x1),
             p.y1 + 38.0,
             escape(x_label)
-        );
+        ));
         let cy = 0.5 * (p.y0 + p.y1);
-        let _ = writeln!(
-            s,
-            r##"<text x="18" y="{cy:.1}" text-anchor="middle" font-size="12" fill="#111" transform="rotate(-90 18 {cy:.1})">relative error, no floor, reference ≠ 0 (● median, ○ p99; lower is better)</text>"##
-        );
+        s.line(format_args!(r##"<text x="18" y="{cy:.1}" text-anchor="middle" font-size="12" fill="#111" transform="rotate(-90 18 {cy:.1})">relative error, no floor, reference ≠ 0 (● median, ○ p99; lower is better)</text>"##));
     }
 
     /// The Pareto front by p99 as a step line: the best p99 attainable for a given cost.
@@ -598,17 +539,13 @@ impl<'a> Chart<'a> {
         let Some(&first) = self.front.first() else { return };
         let mut d = format!("M{:.1} {:.1}", self.placed[first].x, self.placed[first].p99.1);
         for &k in &self.front[1..] {
-            let _ = write!(d, " H{:.1} V{:.1}", self.placed[k].x, self.placed[k].p99.1);
+            d.put(format_args!(" H{:.1} V{:.1}", self.placed[k].x, self.placed[k].p99.1));
         }
-        let _ = write!(d, " H{:.1}", self.plot.x1);
-        let _ = writeln!(
-            s,
-            r#"<path d="{d}" fill="none" stroke="{FRONT_STROKE}" stroke-opacity="0.28" stroke-width="7" stroke-linejoin="round" stroke-linecap="round"/>"#
-        );
-        let _ = writeln!(
-            s,
+        d.put(format_args!(" H{:.1}", self.plot.x1));
+        s.line(format_args!(r#"<path d="{d}" fill="none" stroke="{FRONT_STROKE}" stroke-opacity="0.28" stroke-width="7" stroke-linejoin="round" stroke-linecap="round"/>"#));
+        s.line(format_args!(
             r#"<path d="{d}" fill="none" stroke="{FRONT_STROKE}" stroke-width="1" stroke-linejoin="round"/>"#
-        );
+        ));
     }
 
     /// Curves through the medians (solid) and p99s (dashed) of groups with several points,
@@ -628,12 +565,7 @@ impl<'a> Chart<'a> {
                 }
                 for run in runs.iter().filter(|r| r.len() > 1) {
                     let pts: Vec<String> = run.iter().map(|(x, y)| format!("{x:.1},{y:.1}")).collect();
-                    let _ = writeln!(
-                        s,
-                        r#"<polyline points="{}" fill="none" stroke="{}" stroke-width="{width}" stroke-opacity="0.85"{dash}/>"#,
-                        pts.join(" "),
-                        g.colour
-                    );
+                    s.line(format_args!(r#"<polyline points="{}" fill="none" stroke="{}" stroke-width="{width}" stroke-opacity="0.85"{dash}/>"#, pts.join(" "), g.colour));
                 }
             }
         }
@@ -642,8 +574,7 @@ impl<'a> Chart<'a> {
     /// One method: spread line, p99 marker (hollow), median marker (filled), with a tooltip.
     fn point(&self, s: &mut String, p: &Placed) {
         let g = &self.groups[p.group];
-        let _ = writeln!(
-            s,
+        s.line(format_args!(
             "<g><title>{}: cost {} ns, median error {}, p99 error {}{}</title>",
             escape(&p.point.label),
             value_text(p.point.cost),
@@ -654,15 +585,14 @@ impl<'a> Chart<'a> {
             } else {
                 ""
             }
-        );
-        let _ = writeln!(
-            s,
+        ));
+        s.line(format_args!(
             r#"<line x1="{x:.1}" y1="{:.1}" x2="{x:.1}" y2="{:.1}" stroke="{}" stroke-width="1.2"/>"#,
             p.median.1,
             p.p99.1,
             g.colour,
             x = p.x
-        );
+        ));
         marker(s, g.shape, p.p99.0, p.x, p.p99.1, g.colour, false);
         marker(s, g.shape, p.median.0, p.x, p.median.1, g.colour, true);
         s.push_str("</g>\n");
@@ -744,26 +674,23 @@ impl<'a> Chart<'a> {
                 } else {
                     (r.x0 - 1.0, cx + 5.0)
                 };
-                let _ = writeln!(
-                    leaders,
+                leaders.line(format_args!(
                     r##"<line x1="{ex:.1}" y1="{cy:.1}" x2="{lx:.1}" y2="{:.1}" stroke="#999" stroke-width="0.7"/>"##,
                     cy + dy
-                );
+                ));
             }
             let (tx, anchor) = if left { (r.x1, "end") } else { (r.x0, "start") };
-            let _ = writeln!(
-                out,
+            out.line(format_args!(
                 r#"<text x="{tx:.1}" y="{:.1}" text-anchor="{anchor}" fill="{colour}"{weight}>{}</text>"#,
                 cy + dy + 4.0,
                 escape(&p.text)
-            );
+            ));
         }
         s.push_str(&leaders);
         // A white halo keeps labels legible over gridlines and curves.
-        let _ = writeln!(
-            s,
+        s.line(format_args!(
             r#"<g stroke="white" stroke-width="3" stroke-linejoin="round" paint-order="stroke">"#
-        );
+        ));
         s.push_str(&out);
         s.push_str("</g>\n");
     }
@@ -772,20 +699,18 @@ impl<'a> Chart<'a> {
     fn legend(&self, s: &mut String) {
         let x0 = self.plot.x1 + 22.0;
         let mut y = self.plot.y0 + 4.0;
-        let _ = writeln!(
-            s,
+        s.line(format_args!(
             r##"<text x="{x0:.1}" y="{y:.1}" font-weight="bold" fill="#111">Methods</text>"##
-        );
+        ));
         y += ROW;
         for g in &self.groups {
             let my = y - 4.0;
             if g.members.len() > 1 {
-                let _ = writeln!(
-                    s,
+                s.line(format_args!(
                     r#"<line x1="{x0:.1}" y1="{my:.1}" x2="{:.1}" y2="{my:.1}" stroke="{}" stroke-width="1.6"/>"#,
                     x0 + 22.0,
                     g.colour
-                );
+                ));
             }
             marker(s, g.shape, Level::OnScale(1.0), x0 + 11.0, my, g.colour, true);
             // A name too long for the column is set smaller rather than cut off.
@@ -796,34 +721,31 @@ impl<'a> Chart<'a> {
             } else {
                 String::new()
             };
-            let _ = writeln!(
-                s,
+            s.line(format_args!(
                 r#"<text x="{:.1}" y="{y:.1}"{squeeze}>{}</text>"#,
                 x0 + 30.0,
                 escape(g.name)
-            );
+            ));
             y += ROW;
         }
         y += 0.6 * ROW;
-        let _ = writeln!(
-            s,
+        s.line(format_args!(
             r##"<text x="{x0:.1}" y="{y:.1}" font-weight="bold" fill="#111">Key</text>"##
-        );
+        ));
         y += ROW;
         let grey = "#555555";
         let text = |s: &mut String, y: f64, t: &str| {
-            let _ = writeln!(s, r#"<text x="{:.1}" y="{y:.1}">{t}</text>"#, x0 + 30.0);
+            s.line(format_args!(r#"<text x="{:.1}" y="{y:.1}">{t}</text>"#, x0 + 30.0));
         };
         // Median and p99 with their spread.
         let my = y - 4.0;
-        let _ = writeln!(
-            s,
+        s.line(format_args!(
             r#"<line x1="{:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="{grey}" stroke-width="1.2"/>"#,
             x0 + 11.0,
             my + ROW,
             x0 + 11.0,
             my
-        );
+        ));
         marker(s, Shape::Circle, Level::OnScale(1.0), x0 + 11.0, my, grey, false);
         marker(s, Shape::Circle, Level::OnScale(1.0), x0 + 11.0, my + ROW, grey, true);
         text(s, y, "p99 relative error");
@@ -839,11 +761,10 @@ impl<'a> Chart<'a> {
         };
         for &(t, dash) in curves {
             let my = y - 4.0;
-            let _ = writeln!(
-                s,
+            s.line(format_args!(
                 r#"<line x1="{x0:.1}" y1="{my:.1}" x2="{:.1}" y2="{my:.1}" stroke="{grey}" stroke-width="1.4"{dash}/>"#,
                 x0 + 22.0
-            );
+            ));
             text(s, y, t);
             y += ROW;
         }
@@ -855,25 +776,19 @@ impl<'a> Chart<'a> {
             my + 4.0,
             x0 + 22.0
         );
-        let _ = writeln!(
-            s,
-            r#"<path d="{d}" fill="none" stroke="{FRONT_STROKE}" stroke-opacity="0.28" stroke-width="7" stroke-linejoin="round" stroke-linecap="round"/>"#
-        );
-        let _ = writeln!(
-            s,
+        s.line(format_args!(r#"<path d="{d}" fill="none" stroke="{FRONT_STROKE}" stroke-opacity="0.28" stroke-width="7" stroke-linejoin="round" stroke-linecap="round"/>"#));
+        s.line(format_args!(
             r#"<path d="{d}" fill="none" stroke="{FRONT_STROKE}" stroke-width="1"/>"#
-        );
-        let _ = writeln!(
-            s,
+        ));
+        s.line(format_args!(
             r##"<text x="{:.1}" y="{y:.1}" font-weight="bold" fill="#000">Pareto front by p99</text>"##,
             x0 + 30.0
-        );
+        ));
         y += 0.85 * ROW;
-        let _ = writeln!(
-            s,
+        s.line(format_args!(
             r##"<text x="{:.1}" y="{y:.1}" font-size="10" fill="#555">(bold label: on the front)</text>"##,
             x0 + 30.0
-        );
+        ));
         y += ROW;
         if self.any_zero {
             marker(s, Shape::Circle, Level::Zero, x0 + 11.0, y - 4.0, grey, true);
@@ -1043,28 +958,6 @@ mod tests {
         assert!(check_xml("<svg><text>a < b</text></svg>").is_err());
         assert!(check_xml("<svg><rect x=1/></svg>").is_err());
         assert!(check_xml("<svg/><svg/>").is_err());
-    }
-
-    #[test]
-    fn pareto_front_excludes_dominated_points_and_keeps_ties() {
-        let points = vec![
-            pt("a", 1.0, 1e-3, 1e-2),         // 0: cheapest
-            pt("b", 1.0, 1e-3, 2e-2),         // 1: same cost as a, worse p99: dominated
-            pt("c", 2.0, 1e-4, 1e-3),         // 2: front
-            pt("d", 2.0, 1e-4, 1e-3),         // 3: exact tie with c: both on the front
-            pt("e", 3.0, 1e-5, 5e-3),         // 4: dearer and worse p99 than c: dominated (best median)
-            pt("f", 5.0, 1e-6, 1e-3),         // 5: same p99 as c, dearer: dominated
-            pt("g", 4.0, 1e-5, f64::NAN),     // 6: no p99: never on the front
-            pt("h", 8.0, 1e-7, 0.0),          // 7: exact: front
-            pt("i", f64::NAN, 0.0, 0.0),      // 8: no cost: never, and dominates nothing
-            pt("j", 9.0, 0.0, 0.0),           // 9: dominated by h (same error, dearer)
-            pt("k", 0.5, 0.5, f64::INFINITY), // 10: cheapest but infinite p99: never
-        ];
-        assert_eq!(pareto_front(&points, true), vec![0, 2, 3, 7]);
-        // By median: a and b tie, e and f are now the best for their cost, g is dominated by
-        // e, j (exact) beats h, and k is cheapest with a finite median.
-        assert_eq!(pareto_front(&points, false), vec![0, 1, 2, 3, 4, 5, 7, 9, 10]);
-        assert_eq!(pareto_front(&[], true), Vec::<usize>::new());
     }
 
     #[test]

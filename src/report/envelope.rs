@@ -3,8 +3,7 @@
 //! where the freedom goes. Rendered only when the case asks (`envelope = { sample = N }`).
 
 use crate::analyse::envelope::AnyDriver;
-use crate::report::markup::{Align, Table};
-use std::fmt::Write;
+use crate::report::markup::{Align, Doc as _, Table};
 
 /// Lines shown per method in "where the freedom goes".
 const TOP: usize = 5;
@@ -15,9 +14,8 @@ fn sig(x: f64) -> String {
 
 pub fn render(a: &AnyDriver) -> String {
     let mut o = String::new();
-    let _ = writeln!(o, "## Any conforming driver\n");
-    let _ = writeln!(
-        o,
+    o.heading(2, "Any conforming driver");
+    o.para(format_args!(
         "The envelope: every f32 result a WGSL implementation within the spec's accuracy rules may \
          return when it evaluates the kernel in its written order (interval arithmetic with outward \
          rounding over the kernel's IR; reassociation excluded; docs/envelope.md). An outer bound, \
@@ -30,12 +28,12 @@ pub fn render(a: &AnyDriver) -> String {
          driver that assumes finite math), an operation leaves the range the spec bounds, or the \
          interval is too wide to inform. \"GPU outside\": configurations whose GPU value (this run's \
          adapter) lies outside its finite envelope, of those with one: the driver left the written \
-         order or broke the spec (a finding, listed below).\n",
+         order or broke the spec (a finding, listed below).",
         a.sample,
         a.seconds,
         a.budget_target,
         sig(a.budget_value)
-    );
+    ));
     let mut columns: Vec<(&str, Align)> = ["method", "material", "target"].map(|c| (c, Align::Left)).to_vec();
     columns.extend(
         [
@@ -72,53 +70,53 @@ pub fn render(a: &AnyDriver) -> String {
             format!("{}/{}", r.gpu_outside, r.gpu_checked),
         ]);
     }
-    let _ = writeln!(o, "{}", table.markdown());
+    o.table(&table);
+    o.blank();
     let outside: Vec<_> = a.rows.iter().filter(|r| r.gpu_outside > 0).collect();
     if !outside.is_empty() {
-        let _ = writeln!(
-            o,
+        o.para(format_args!(
             "GPU values outside their envelope (the first {} per method and material; each line \
-             replayable with `linelight eval`):\n",
+             replayable with `linelight eval`):",
             crate::analyse::envelope::OUTSIDE_SHOWN
-        );
+        ));
         for r in outside {
             for (config, value, lo, hi) in &r.outside {
-                let _ = writeln!(
-                    o,
+                o.line(format_args!(
                     "- `{}` ({}): GPU {value:e} outside [{lo:e}, {hi:e}]: `{}`",
                     r.label,
                     r.material,
                     serde_json::to_string(config).unwrap_or_default()
-                );
+                ));
             }
         }
-        let _ = writeln!(o);
+        o.blank();
     }
     let named: Vec<_> = a.rows.iter().filter(|r| !r.lines.is_empty()).collect();
     if !named.is_empty() {
-        let _ = writeln!(
-            o,
-            "Where the envelope has no finite bound (configurations, per method and material):\n"
-        );
+        o.para("Where the envelope has no finite bound (configurations, per method and material):");
         for r in named {
             for (at, k) in &r.lines {
-                let _ = writeln!(o, "- `{}` ({}): {k} × {}", r.label, r.material, at.replace('|', "\\|"));
+                o.line(format_args!(
+                    "- `{}` ({}): {k} × {}",
+                    r.label,
+                    r.material,
+                    at.replace('|', "\\|")
+                ));
             }
         }
-        let _ = writeln!(o);
+        o.blank();
     }
-    let _ = writeln!(
-        o,
+    o.para(
         "### Where the freedom goes\n\nPer method, the source lines whose allowed error (beyond correct \
          rounding) widens the envelope most: the mean over the configurations of log2(envelope width / \
          width with that line's operations held to correct rounding), in bits, on an evenly spread part \
-         of the subsample (count per method).\n"
+         of the subsample (count per method).",
     );
     for f in &a.freedom {
         if f.lines.is_empty() {
             continue;
         }
-        let _ = writeln!(o, "`{}` ({} configurations):\n", f.label, f.configurations);
+        o.para(format_args!("`{}` ({} configurations):", f.label, f.configurations));
         let mut table = Table::new(&[
             ("file:line", Align::Left),
             ("source", Align::Left),
@@ -131,7 +129,8 @@ pub fn render(a: &AnyDriver) -> String {
                 format!("{bits:.2}"),
             ]);
         }
-        let _ = writeln!(o, "{}", table.markdown());
+        o.table(&table);
+        o.blank();
     }
     o
 }

@@ -1,7 +1,7 @@
 //! Measured findings, written as sentences from the statistics: where two methods
 //! differ, by how much, and whether f64 says it is the formula or the rounding.
 
-use super::sci;
+use super::markup::sci;
 use crate::analyse::analysis::{Analysis, Comparison, MethodStats, PairMaterial};
 
 /// Below this, two formulas evaluated in f64 are taken to be the same function.

@@ -12,24 +12,7 @@
 use crate::analyse::analysis::Check;
 use crate::analyse::gate::{Change, GateReport};
 
-/// Text safe inside an XML attribute or element: the five special characters escaped, and
-/// the control characters XML 1.0 cannot hold at all replaced by `?`.
-fn escape(text: &str) -> String {
-    let mut o = String::with_capacity(text.len());
-    for c in text.chars() {
-        match c {
-            '&' => o.push_str("&amp;"),
-            '<' => o.push_str("&lt;"),
-            '>' => o.push_str("&gt;"),
-            '"' => o.push_str("&quot;"),
-            '\'' => o.push_str("&apos;"),
-            '\t' | '\n' | '\r' => o.push(c),
-            c if (c as u32) < 0x20 || c == '\u{FFFE}' || c == '\u{FFFF}' => o.push('?'),
-            c => o.push(c),
-        }
-    }
-    o
-}
+use crate::report::markup::xml_escape as escape;
 
 /// What a testcase found.
 enum Status {
@@ -77,8 +60,7 @@ fn timestamp(t: std::time::SystemTime) -> String {
 
 /// The machine's name, `localhost` when it cannot be read (the schema requires one).
 fn hostname() -> String {
-    std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .ok()
+    crate::io::read_system("/proc/sys/kernel/hostname", crate::limits::MAX_SYSTEM_FILE)
         .or_else(|| std::env::var("HOSTNAME").ok())
         .map(|h| h.trim().to_string())
         .filter(|h| !h.is_empty())

@@ -28,16 +28,7 @@ use std::path::{Path, PathBuf};
 
 pub use crate::analyse::summary::Stages;
 pub use crate::input::names::{chart_file, map_file};
-
-/// Formats a non-negative statistic compactly: `3.1e-07`, `0`, or `—` when absent.
-pub fn sci(x: Option<f64>) -> String {
-    match x {
-        None => "—".into(),
-        Some(0.0) => "0".into(),
-        Some(v) if v.is_nan() => "NaN".into(),
-        Some(v) => format!("{v:.1e}"),
-    }
-}
+pub use markup::sci;
 
 /// The report header's line on degenerate draws: how many were redrawn, per family.
 pub fn draws_line(draws: &[crate::input::sampler::Draws]) -> String {

@@ -2,7 +2,7 @@
 //! error in the bands the reports state (≤0.1 %, ≤1 %, ≤5 %, ≤10 %, more), value printed.
 
 use crate::analyse::analysis::MapStats;
-use std::fmt::Write;
+use crate::report::markup::{xml_escape as escape, Doc as _};
 
 /// Upper edges of the colour bands and their colours (colour-blind-safe sequential).
 pub const BANDS: [(f64, &str, &str); 5] = [
@@ -28,10 +28,6 @@ fn edge(x: f64) -> String {
     }
 }
 
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
-}
-
 pub fn heat_map(map: &MapStats, title: &str) -> String {
     let (nx, ny) = (map.x.edges.len() - 1, map.y.edges.len() - 1);
     let (cw, ch) = (74.0, 34.0);
@@ -39,20 +35,15 @@ pub fn heat_map(map: &MapStats, title: &str) -> String {
     let width = left + cw * nx as f64 + 150.0;
     let height = top + ch * ny as f64 + 70.0;
     let mut s = String::new();
-    let _ = writeln!(
-        s,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" font-family="sans-serif" font-size="11">"#
-    );
-    let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    let _ = writeln!(
-        s,
+    s.line(format_args!(r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" font-family="sans-serif" font-size="11">"#));
+    s.line(format_args!(r#"<rect width="100%" height="100%" fill="white"/>"#));
+    s.line(format_args!(
         r#"<text x="{left}" y="20" font-size="13" font-weight="bold">{}</text>"#,
         escape(title)
-    );
-    let _ = writeln!(
-        s,
+    ));
+    s.line(format_args!(
         r#"<text x="{left}" y="36">p99 relative error per cell (count below); grey: no sample</text>"#
-    );
+    ));
     // Rows: y grows upwards, as on a chart.
     for (ky, row) in map.cells.iter().enumerate() {
         let y = top + ch * (ny - 1 - ky) as f64;
@@ -65,69 +56,68 @@ pub fn heat_map(map: &MapStats, title: &str) -> String {
                 .map(|q| q.p99)
                 .map(|p| if stats.nan + stats.inf > 0 { f64::INFINITY } else { p });
             let fill = p99.map_or("#dddddd", colour);
-            let _ = writeln!(
-                s,
+            s.line(format_args!(
                 r#"<rect x="{x}" y="{y}" width="{cw}" height="{ch}" fill="{fill}" stroke="white"/>"#
-            );
+            ));
             let label = match stats.rel {
                 Some(q) if stats.nan + stats.inf > 0 => format!("{:.0e} +NaN", q.p99),
                 Some(q) => format!("{:.1e}", q.p99),
                 None => "—".into(),
             };
-            let _ = writeln!(
-                s,
+            s.line(format_args!(
                 r#"<text x="{}" y="{}" text-anchor="middle">{label}</text>"#,
                 x + cw / 2.0,
                 y + 15.0
-            );
-            let _ = writeln!(
-                s,
+            ));
+            s.line(format_args!(
                 r##"<text x="{}" y="{}" text-anchor="middle" font-size="9" fill="#333">n={n}</text>"##,
                 x + cw / 2.0,
                 y + 28.0
-            );
+            ));
         }
     }
     // Axes: bin edges.
     for (k, e) in map.x.edges.iter().enumerate() {
         let x = left + cw * k as f64;
-        let _ = writeln!(
-            s,
+        s.line(format_args!(
             r#"<text x="{x}" y="{}" text-anchor="middle">{}</text>"#,
             top + ch * ny as f64 + 14.0,
             edge(*e)
-        );
+        ));
     }
-    let _ = writeln!(
-        s,
+    s.line(format_args!(
         r#"<text x="{}" y="{}" text-anchor="middle" font-weight="bold">{}</text>"#,
         left + cw * nx as f64 / 2.0,
         top + ch * ny as f64 + 34.0,
         escape(&map.x.axis)
-    );
+    ));
     for (k, e) in map.y.edges.iter().enumerate() {
         let y = top + ch * (ny - k) as f64;
-        let _ = writeln!(
-            s,
+        s.line(format_args!(
             r#"<text x="{}" y="{}" text-anchor="end">{}</text>"#,
             left - 6.0,
             y + 4.0,
             edge(*e)
-        );
+        ));
     }
-    let _ = writeln!(
-        s,
+    s.line(format_args!(
         r#"<text x="20" y="{}" font-weight="bold" transform="rotate(-90 20 {})" text-anchor="middle">{}</text>"#,
         top + ch * ny as f64 / 2.0,
         top + ch * ny as f64 / 2.0,
         escape(&map.y.axis)
-    );
+    ));
     // Legend.
     let lx = left + cw * nx as f64 + 20.0;
     for (k, (_, fill, text)) in BANDS.iter().enumerate() {
         let ly = top + 20.0 * k as f64;
-        let _ = writeln!(s, r#"<rect x="{lx}" y="{ly}" width="14" height="14" fill="{fill}"/>"#);
-        let _ = writeln!(s, r#"<text x="{}" y="{}">{text}</text>"#, lx + 20.0, ly + 11.0);
+        s.line(format_args!(
+            r#"<rect x="{lx}" y="{ly}" width="14" height="14" fill="{fill}"/>"#
+        ));
+        s.line(format_args!(
+            r#"<text x="{}" y="{}">{text}</text>"#,
+            lx + 20.0,
+            ly + 11.0
+        ));
     }
     s.push_str("</svg>\n");
     s

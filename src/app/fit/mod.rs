@@ -6,6 +6,7 @@
 
 use crate::input::ltc::{aniso, fit, table};
 use crate::io::OutputPlan;
+use crate::limits::MAX_SW_STEPS;
 use std::path::Path;
 
 mod options;
@@ -343,6 +344,3 @@ pub fn aniso_sw(out: &Path, size: [usize; 4], steps: usize) -> anyhow::Result<()
     );
     Ok(())
 }
-
-/// The most SGD steps `--sw-steps` takes (each about a millisecond per entry).
-pub const MAX_SW_STEPS: usize = 1_000_000;

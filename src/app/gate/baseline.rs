@@ -2,6 +2,7 @@
 //! errors file per method and material, saved as one set by `sweep --save-baseline DIR` and
 //! loaded, checked against this run's case and configurations, by `sweep --baseline DIR`.
 
+use crate::limits::MAX_TOKEN_LINE;
 use super::{observed, sample_digest, Obs, Observations};
 use crate::analyse::stats::nearest_rank;
 use crate::measure::sweep::{Measured, Setup};
@@ -180,9 +181,6 @@ fn natural_counts(setup: &Setup) -> Vec<MaterialCount> {
         })
         .collect()
 }
-
-/// Bytes a line of an errors file may take (a token is at most about a dozen).
-const MAX_TOKEN_LINE: u64 = 32;
 
 /// A loaded baseline with its errors files.
 pub struct Loaded {

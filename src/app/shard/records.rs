@@ -33,7 +33,7 @@ impl Recorded {
 
     /// Reads the file `path` and records it.
     pub fn read(path: &Path, out: &Path) -> anyhow::Result<Recorded> {
-        let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+        let bytes = crate::io::read_bounded(path, "input", crate::limits::MAX_TEXT_INPUT)?;
         Ok(Recorded::new(path, &bytes, out))
     }
 
@@ -52,8 +52,8 @@ impl Recorded {
                     self.absolute.display()
                 )
             })?;
-        let bytes =
-            std::fs::read(&path).with_context(|| format!("merge: cannot read the {what} {}", path.display()))?;
+        let bytes = crate::io::read_regular(&path, what, crate::limits::MAX_TEXT_INPUT)
+            .with_context(|| format!("merge: cannot read the {what} {}", path.display()))?;
         let now = sha256(&bytes);
         anyhow::ensure!(
             now == self.sha256,

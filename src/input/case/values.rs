@@ -6,11 +6,8 @@
 use crate::input::case::{Case, Dist, Geometry, MaterialFamily};
 pub use crate::input::names::clip;
 use crate::input::names::{chart_file, map_file};
+use crate::limits::MAX_NAME;
 use std::collections::BTreeMap;
-
-/// A case name becomes a folder under `--out`: letters, digits, `.`, `_`, `-`, starting
-/// with a letter or digit, at most this long.
-pub const MAX_NAME: usize = 100;
 
 // The caps on counts live with every other cap, in `crate::limits`.
 pub use crate::limits::{MAX_SEARCH_BATCH, MAX_STEPS, MAX_TOPUP_DRAWS};

@@ -584,7 +584,7 @@ impl AnisoTable {
     }
 
     /// Reads a table written by [`AnisoTable::to_csv`], checked as an input: every entry once,
-    /// at most `fit::MAX_TABLE_ENTRIES` of them, every number finite, M invertible
+    /// at most `crate::limits::MAX_TABLE_ENTRIES` of them, every number finite, M invertible
     /// and the magnitude positive, and the (θ, φ, α_max, r) columns the grid's own (to 1e-12):
     /// a table of one entry on φ and on r is a slice (its fixed φ and r read from those
     /// columns, the same on every row, inside the table's domain).
@@ -597,10 +597,10 @@ impl AnisoTable {
             }
         }
         let cells = size.iter().try_fold(1usize, |n, &k| n.checked_mul(k));
-        if cells.is_none_or(|n| n > fit::MAX_TABLE_ENTRIES) {
+        if cells.is_none_or(|n| n > crate::limits::MAX_TABLE_ENTRIES) {
             return Err(format!(
                 "{source}: a {size:?} table, more than the {} entries a table may have",
-                fit::MAX_TABLE_ENTRIES
+                crate::limits::MAX_TABLE_ENTRIES
             ));
         }
         if rows.len() != size.iter().product::<usize>() || rows.is_empty() {

@@ -13,6 +13,7 @@
 
 use super::ggx::{Ggx, V3};
 use crate::input::geometry::{cross, det, dot, inverse, mat_mul, mat_vec, normalize};
+use crate::limits::MAX_TABLE_ENTRIES;
 use std::f64::consts::PI;
 
 pub type M3 = [[f64; 3]; 3];
@@ -53,11 +54,6 @@ impl Ltc {
 pub const OBJECTIVE_GRID: usize = 32;
 /// Samples per axis for the magnitude, Fresnel term and mean direction.
 pub const MOMENT_GRID: usize = 512;
-
-/// The most entries `linelight fit` makes a table of (256 × 256, or 16⁴ anisotropic): a fit
-/// takes about a quarter of a second per core, so this is already hours, and larger sizes
-/// would overflow the table's size or memory. The published tables are 64 × 64.
-pub const MAX_TABLE_ENTRIES: usize = 1 << 16;
 
 /// Refuses a table size (entries per axis, given as `flag`) of more than [`MAX_TABLE_ENTRIES`].
 pub fn check_table_size(flag: &str, sizes: &[usize]) -> anyhow::Result<()> {

@@ -256,12 +256,11 @@ impl Gpu {
     }
 }
 
-/// Test-only hook (tests/promises.rs), not for users: with `LINELIGHT_TEST_FAIL_DISPATCH=N` set,
-/// every chunk dispatch after the first N of the process fails as a lost device would, so that
-/// a real CLI run ends in exit 4 (N = 1 lets the driver's loop-limit probe through).
+/// The test hook `LINELIGHT_TEST_FAIL_DISPATCH=N` (src/tuning.rs), not for users: every chunk
+/// dispatch after the first N of the process fails as a lost device would.
 fn injected_failure() -> Option<String> {
     static DISPATCHED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let pass: usize = std::env::var("LINELIGHT_TEST_FAIL_DISPATCH").ok()?.parse().ok()?;
+    let pass = crate::tuning::tuning().fail_dispatch?;
     let n = DISPATCHED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     (n >= pass).then(|| {
         format!(

@@ -12,6 +12,7 @@ use crate::input::scene::{Config, Material};
 use crate::input::target::Target;
 use crate::kernel::compose_with;
 use crate::kernel::methods::Method;
+use crate::limits::MAX_CAPTURE;
 use crate::measure::gpu::{count_trips, override_constants, scoped, truncated, Gpu};
 use anyhow::Context;
 use bytemuck::{Pod, Zeroable};
@@ -24,9 +25,6 @@ const WORKGROUP: u64 = 64;
 const PER_DISPATCH: u64 = 1 << 22;
 /// Dispatches per submit (one readback of the counts each).
 const PER_SUBMIT: u64 = 8;
-/// The most offending configurations `--capture` keeps per method and family: a buffer of
-/// 5 MiB on the device, well inside every device's storage binding.
-pub const MAX_CAPTURE: usize = 1 << 16;
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]

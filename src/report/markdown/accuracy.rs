@@ -2,20 +2,17 @@
 //! convergence of methods run at several sample counts, false light (reference 0), missed
 //! light (the method 0 where light arrives) and the light from below the horizon.
 
-use super::{pct, q3, share};
+use super::q3;
 use crate::analyse::stats::ACCURACY_MARGIN;
 use crate::analyse::summary::Summary;
-use crate::report::markup::{Align, Table};
-use crate::report::sci;
-use std::fmt::Write;
+use crate::report::markup::{percent as pct, sci, share, Align, Doc as _, Table};
 
 /// Per material: every method's error statistics (f32 GPU, CPU f32, f64, bits, floored), then
 /// its per-axis view.
 pub(super) fn error_tables(w: &mut String, input: &Summary) {
     let (case, a) = (&input.case, &input.analysis);
-    let _ = writeln!(w, "## Error against the reference\n");
-    let _ = writeln!(
-        w,
+    w.heading(2, "Error against the reference");
+    w.para(
         "Each method is judged against what the surface receives: its target's surface view (`line_upper` \
          for `line`, `cylinder_upper` for `cylinder`, `caps_upper`, `tube_upper`, `rectangle_upper`; \
          column \"judged\"), where a quit test's 0 for a light wholly below the surface is right and a \
@@ -23,10 +20,9 @@ pub(super) fn error_tables(w: &mut String, input: &Summary) {
          the reference at the configuration rounded to f32 (what an f32 kernel could at best return), the \
          f64 columns against the exact reference; \"input rounding p99\" is the gap between the two \
          references (no f32 kernel can do better). The formula's own error (against its own target, leak \
-         included) is in *The formula's own error*.\n"
+         included) is in *The formula's own error*.",
     );
-    let _ = writeln!(
-        w,
+    w.para(format_args!(
         "Relative error of each method's f32 GPU result, no floor, over the configurations whose reference \
          is not 0 (n); its absolute error (units where d = 1); the relative error of the same formula in \
          f32 on the CPU (correctly rounded libm: the gap to the GPU column is the driver's arithmetic) and \
@@ -34,10 +30,10 @@ pub(super) fn error_tables(w: &mut String, input: &Summary) {
          (more columns in `stats.csv`). Beside them, labelled, the floored variant \
          |value − reference| / max(|reference|, floor) and how many configurations it changes (reference \
          below the floor). `ref!` marks a row whose reference error estimate is not {ACCURACY_MARGIN}× \
-         below the method's median error. Configurations whose reference is exactly 0 are in *False light*.\n"
-    );
+         below the method's median error. Configurations whose reference is exactly 0 are in *False light*."
+    ));
     for (k, family) in case.materials.iter().enumerate() {
-        let _ = writeln!(w, "### Material `{}`\n", family.name);
+        w.heading(3, format_args!("Material `{}`", family.name));
         let floored = format!(
             "floored p99 (floor {})",
             sci(Some(
@@ -120,7 +116,8 @@ pub(super) fn error_tables(w: &mut String, input: &Summary) {
                 mark,
             ]);
         }
-        let _ = writeln!(w, "{}", table.markdown());
+        w.table(&table);
+        w.blank();
         axis_tables(w, input, k);
     }
 }
@@ -142,20 +139,19 @@ fn axis_tables(w: &mut String, input: &Summary, k: usize) {
             continue; // an axis this material has no values on (alpha for diffuse)
         }
         let min = axis.min_per_bin(case.min_per_bin);
-        let _ = writeln!(
-            w,
+        w.para(format_args!(
             "p99 relative error by `{}` (f32 / f64; the headline view, as above), material `{}`; n counts \
              every configuration in the bin, \"ref 0\" those whose reference is 0 (left out of the \
              quantiles); \"input rounding\" is the gap between the reference at the f32-rounded inputs \
              and the exact one ({} over the bin), and a bin where it alone breaks the budget ({} ≤ {}) is \
-             marked **unattainable in f32**; a bin below {} configurations is marked thin:\n",
+             marked **unattainable in f32**; a bin below {} configurations is marked thin:",
             axis.axis,
             family.name,
             quantile,
             quantile,
             sci(Some(budget.value)),
             min
-        );
+        ));
         let mut columns = vec![(axis.axis.clone(), Align::Left)];
         columns.extend(["n", "ref 0", "input rounding"].map(|c| (c.to_string(), Align::Right)));
         columns.extend(a.methods.iter().map(|ms| (format!("`{}`", ms.label), Align::Right)));
@@ -201,7 +197,8 @@ fn axis_tables(w: &mut String, input: &Summary, k: usize) {
             row.extend(cells);
             table.row(row);
         }
-        let _ = writeln!(w, "{}", table.markdown());
+        w.table(&table);
+        w.blank();
     }
 }
 
@@ -219,11 +216,10 @@ pub(super) fn convergence(w: &mut String, input: &Summary) {
         if runs.len() < 2 {
             continue;
         }
-        let _ = writeln!(w, "## Convergence of `{id}`\n");
-        let _ = writeln!(
-            w,
+        w.heading(2, format_args!("Convergence of `{id}`"));
+        w.para(
             "Relative error against the reference as the sample count grows: median / p99 / max of the GPU \
-             f32 result, and p99 of the same rule in f64 (its discretisation error alone).\n"
+             f32 result, and p99 of the same rule in f64 (its discretisation error alone).",
         );
         let mut columns = vec![("method".to_string(), Align::Left)];
         columns.extend(
@@ -249,7 +245,8 @@ pub(super) fn convergence(w: &mut String, input: &Summary) {
                 .collect::<Vec<String>>();
             table.row([vec![format!("`{}`", ms.label)], cells].concat());
         }
-        let _ = writeln!(w, "{}", table.markdown());
+        w.table(&table);
+        w.blank();
     }
 }
 
@@ -264,13 +261,12 @@ pub(super) fn false_light(w: &mut String, input: &Summary) {
     if !any {
         return;
     }
-    let _ = writeln!(w, "## False light\n");
-    let _ = writeln!(
-        w,
+    w.heading(2, "False light");
+    w.para(
         "Configurations whose reference is exactly 0 (no light arrives: the light is wholly outside D's \
          support) are not averaged into any error statistic. Here is how often each method returns light \
          there anyway (f32 GPU, and the same formula in f64), how much (|value|, units where d = 1), and \
-         its NaN/inf there.\n"
+         its NaN/inf there.",
     );
     let mut table = Table::new(&[
         ("method", Align::Left),
@@ -300,7 +296,8 @@ pub(super) fn false_light(w: &mut String, input: &Summary) {
             ]);
         }
     }
-    let _ = writeln!(w, "{}", table.markdown());
+    w.table(&table);
+    w.blank();
 }
 
 /// Missed light: configurations whose reference is not 0 where a method returns exactly 0.
@@ -316,17 +313,15 @@ pub(super) fn missed_light(w: &mut String, input: &Summary) {
     if rows.is_empty() {
         return;
     }
-    let _ = writeln!(
-        w,
+    w.line(
         "## Missed light
-"
+",
     );
-    let _ = writeln!(
-        w,
+    w.para(
         "Configurations whose reference is not 0 (light arrives) where the method returns exactly 0. \
          They are in every error statistic above, each a relative error of exactly 1, so a quantile \
          that reads exactly 1.0 is usually them. \"0 in f64\" counts those where the same formula in \
-         f64 returns 0 too: the light is lost by the formula, not by rounding.\n"
+         f64 returns 0 too: the light is lost by the formula, not by rounding.",
     );
     let mut table = Table::new(&[
         ("method", Align::Left),
@@ -346,7 +341,8 @@ pub(super) fn missed_light(w: &mut String, input: &Summary) {
             s.dark_f64.to_string(),
         ]);
     }
-    let _ = writeln!(w, "{}", table.markdown());
+    w.table(&table);
+    w.blank();
 }
 
 /// `line` against `line_upper`: the share of light from below the horizon; and every method
@@ -355,11 +351,10 @@ pub(super) fn below_horizon(w: &mut String, input: &Summary) {
     let a = &input.analysis;
     let leaks = &input.leak;
     if !leaks.is_empty() {
-        let _ = writeln!(w, "## Light from below the horizon (`line` − `line_upper`)\n");
-        let _ = writeln!(
-            w,
+        w.heading(2, "Light from below the horizon (`line` − `line_upper`)");
+        w.para(
             "`line` integrates the whole lobe; a real surface receives only `line_upper`. The share of \
-             `line` that comes from below the horizon is what every `line` method leaks.\n"
+             `line` that comes from below the horizon is what every `line` method leaks.",
         );
         let mut table = Table::new(&[
             ("material", Align::Left),
@@ -377,7 +372,8 @@ pub(super) fn below_horizon(w: &mut String, input: &Summary) {
                 sci(Some(l.max_fraction)),
             ]);
         }
-        let _ = writeln!(w, "{}", table.markdown());
+        w.table(&table);
+        w.blank();
     }
     let rows: Vec<_> = a
         .methods
@@ -386,16 +382,15 @@ pub(super) fn below_horizon(w: &mut String, input: &Summary) {
         .filter(|(_, mat)| mat.own_target.is_some())
         .collect();
     if !rows.is_empty() {
-        let _ = writeln!(w, "## The formula's own error (against its own target)\n");
-        let _ = writeln!(
-            w,
+        w.heading(2, "The formula's own error (against its own target)");
+        w.para(
             "The headline judges each method against what the surface receives. Here the same results \
              are judged against the method's own target (`line`, `cylinder`, `caps`, `tube`, `rectangle`: \
              the lobe as the LTC defines it, leak below the horizon included), which is what the formula \
              models: p99 / max relative error, and its configurations whose own target is 0. Beside them, \
              against the surface view: how many lights are wholly below the surface (both end points, and \
              for a tube or rectangle the whole shape, at z ≤ 0), of the configurations the surface receives \
-             nothing from, and how many of those wholly below the method lights.\n"
+             nothing from, and how many of those wholly below the method lights.",
         );
         let mut table = Table::new(&[
             ("method", Align::Left),
@@ -423,6 +418,7 @@ pub(super) fn below_horizon(w: &mut String, input: &Summary) {
                 below,
             ]);
         }
-        let _ = writeln!(w, "{}", table.markdown());
+        w.table(&table);
+        w.blank();
     }
 }

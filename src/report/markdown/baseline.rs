@@ -3,24 +3,22 @@
 
 use crate::analyse::gate::Change;
 use crate::analyse::summary::Summary;
-use crate::report::markup::{Align, Table};
-use std::fmt::Write;
+use crate::report::markup::{share, Align, Doc as _, Table};
 
 pub(super) fn against_baseline(w: &mut String, input: &Summary) {
     let Some(g) = &input.baseline else {
         return;
     };
     let o = &g.share_options;
-    let _ = writeln!(w, "## Against the baseline\n");
-    let _ = writeln!(w, "**{}**\n", g.summary());
-    let _ = writeln!(
-        w,
+    w.heading(2, "Against the baseline");
+    w.para(format_args!("**{}**", g.summary()));
+    w.para(format_args!(
         "Baseline saved on {}; this run on {}. The rules (docs/ci/README.md): `error`, the paired \
          bootstrap of the error ratios (geometric mean and p99, noise ±{} %); `share`, a \
          configuration is worse when its error ratio exceeds {} and its error grew by more \
          than {} ULPs of the reference, and a material or bin fails when more than {} % got \
          worse (one-sided binomial test, P < {}, at least {} worse); `nan` and `false_light`, \
-         any new one; `ops`, op-count growth. Timings are not gated.\n",
+         any new one; `ops`, op-count growth. Timings are not gated.",
         g.baseline_adapter,
         g.adapter,
         100.0 * o.noise,
@@ -29,7 +27,7 @@ pub(super) fn against_baseline(w: &mut String, input: &Summary) {
         100.0 * o.share,
         o.alpha,
         o.min_worse
-    );
+    ));
     let mut table = Table::new(&[
         ("method", Align::Left),
         ("material", Align::Left),
@@ -50,11 +48,9 @@ pub(super) fn against_baseline(w: &mut String, input: &Summary) {
             r.message.replace('|', "\\|"),
         ]);
     }
-    let _ = writeln!(w, "{}", table.markdown());
-    let _ = writeln!(
-        w,
-        "Configurations worse and better than the baseline, per material and bin (the share rule):\n"
-    );
+    w.table(&table);
+    w.blank();
+    w.para("Configurations worse and better than the baseline, per material and bin (the share rule):");
     let mut table = Table::new(&[
         ("method", Align::Left),
         ("material", Align::Left),
@@ -74,25 +70,22 @@ pub(super) fn against_baseline(w: &mut String, input: &Summary) {
                 t.scope.to_string(),
                 t.pairs.to_string(),
                 t.worse.to_string(),
-                super::share(t.worse, t.pairs),
+                share(t.worse, t.pairs),
                 t.better.to_string(),
                 t.p_text(),
                 (if t.regressed { "**regressed**" } else { "within" }).to_string(),
             ]);
         }
     }
-    let _ = writeln!(w, "{}", table.markdown());
+    w.table(&table);
+    w.blank();
     if g.replay.is_empty() {
-        let _ = writeln!(
-            w,
-            "No configuration got worse, and none has a new NaN or false light.\n"
-        );
+        w.para("No configuration got worse, and none has a new NaN or false light.");
     } else {
-        let _ = writeln!(
-            w,
+        w.para(format_args!(
             "`regressed.jsonl` holds the {} configurations that got worse, or have a NaN or false \
-             light the baseline did not, in the eval input format: replay them with `linelight eval`.\n",
+             light the baseline did not, in the eval input format: replay them with `linelight eval`.",
             g.replay.len()
-        );
+        ));
     }
 }

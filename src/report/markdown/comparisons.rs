@@ -2,21 +2,19 @@
 //! per compared pair, and the search for where compared methods disagree most.
 
 use crate::analyse::summary::Summary;
-use crate::report::markup::{Align, Table};
-use crate::report::sci;
-use std::fmt::Write;
+use crate::report::markup::{sci, Align, Doc as _, Table};
 
 /// One sentence per compared pair and material.
 pub(super) fn measured_differences(w: &mut String, input: &Summary) {
     let a = &input.analysis;
     if !a.comparisons.is_empty() {
-        let _ = writeln!(w, "## Measured differences\n");
+        w.heading(2, "Measured differences");
         for c in &a.comparisons {
             for mat in &c.materials {
-                let _ = writeln!(w, "{}", crate::report::findings::comparison(a, c, mat));
+                w.line(crate::report::findings::comparison(a, c, mat));
             }
         }
-        let _ = writeln!(w);
+        w.blank();
     }
 }
 
@@ -24,14 +22,11 @@ pub(super) fn measured_differences(w: &mut String, input: &Summary) {
 pub(super) fn comparison_tables(w: &mut String, input: &Summary) {
     let a = &input.analysis;
     for c in &a.comparisons {
-        let _ = writeln!(w, "## `{}` against `{}`\n", c.a, c.b);
-        let _ = writeln!(
-            w,
-            "|a − b| / reference, configuration by configuration (p99 and max; f32 GPU / f64 CPU).\n"
-        );
+        w.heading(2, format_args!("`{}` against `{}`", c.a, c.b));
+        w.para("|a − b| / reference, configuration by configuration (p99 and max; f32 GPU / f64 CPU).");
         for mat in &c.materials {
             for axis in &mat.axes {
-                let _ = writeln!(w, "Material `{}`, by `{}`:\n", mat.material, axis.axis);
+                w.para(format_args!("Material `{}`, by `{}`:", mat.material, axis.axis));
                 let mut columns = vec![(axis.axis.to_string(), Align::Left)];
                 columns
                     .extend(["n", "f32 p99", "f32 max", "f64 p99", "f64 max"].map(|c| (c.to_string(), Align::Right)));
@@ -47,7 +42,8 @@ pub(super) fn comparison_tables(w: &mut String, input: &Summary) {
                         sci(s.diff_f64.map(|q| q.max)),
                     ]);
                 }
-                let _ = writeln!(w, "{}", table.markdown());
+                w.table(&table);
+                w.blank();
             }
         }
     }
@@ -60,9 +56,8 @@ pub(super) fn disagreements(w: &mut String, input: &Summary) {
         return;
     }
     let eps = input.case.disagreements.clone().unwrap_or_default().epsilon;
-    let _ = writeln!(w, "## Where the compared methods disagree\n");
-    let _ = writeln!(
-        w,
+    w.heading(2, "Where the compared methods disagree");
+    w.para(format_args!(
         "For every compared pair (A, B) and both ways, a search (restarts from the sample's largest ratios, \
          then a hill climb in the family's dimensionless parameters) for the configurations that maximise \
          err_A / max(err_B, ε), ε = {}, relative errors with no floor. Every configuration found is in \
@@ -70,16 +65,16 @@ pub(super) fn disagreements(w: &mut String, input: &Summary) {
          the direction. Region: the configuration's axes in the transformed (diffuse) configuration; \
          subtended: the angle the segment subtends at the shading point (radians, untransformed); \
          × typical: the reference over the median reference of the family's lit configurations (how \
-         bright the light is against a typical one of the sample).\n",
+         bright the light is against a typical one of the sample).",
         sci(Some(eps))
-    );
+    ));
     for [x, y] in &input.case.compare {
         for (a, b) in [(x, y), (y, x)] {
             let mut found: Vec<_> = input.disagreements.iter().filter(|d| &d.a == a && &d.b == b).collect();
             found.sort_by(|p, q| q.ratio.total_cmp(&p.ratio));
-            let _ = writeln!(w, "### `{a}` less accurate than `{b}`\n");
+            w.heading(3, format_args!("`{a}` less accurate than `{b}`"));
             if found.is_empty() {
-                let _ = writeln!(w, "Nowhere found: in no family does `{a}` lose to `{b}`.\n");
+                w.para(format_args!("Nowhere found: in no family does `{a}` lose to `{b}`."));
                 continue;
             }
             let mut columns = vec![("family".to_string(), Align::Left)];
@@ -124,11 +119,11 @@ pub(super) fn disagreements(w: &mut String, input: &Summary) {
                     format!("{:.3}", x.tilt_o),
                 ]);
             }
-            w.push_str(&table.markdown());
+            w.table(&table);
             if found.len() > 6 {
-                let _ = writeln!(w, "\n{} more in `disagreements.jsonl`.", found.len() - 6);
+                w.line(format_args!("\n{} more in `disagreements.jsonl`.", found.len() - 6));
             }
-            let _ = writeln!(w);
+            w.blank();
         }
     }
 }

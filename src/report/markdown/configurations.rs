@@ -1,11 +1,8 @@
 //! The configurations themselves: how the sample was drawn, and the ones singled out for
 //! replay (the worst found by the search, those giving NaN or inf).
 
-use super::share;
 use crate::analyse::summary::Summary;
-use crate::report::markup::{Align, Table};
-use crate::report::sci;
-use std::fmt::Write;
+use crate::report::markup::{sci, share, Align, Doc as _, Table};
 
 /// The axes with their own `min_per_bin`, as a clause (empty when none has).
 fn own_minimum(case: &crate::input::case::Case) -> String {
@@ -24,17 +21,16 @@ fn own_minimum(case: &crate::input::case::Case) -> String {
 /// How the sample was drawn: the natural sample, the top-ups of thin bins, the bins still thin.
 pub(super) fn sampling(w: &mut String, input: &Summary) {
     let case = &input.case;
-    let _ = writeln!(w, "## Sampling\n");
-    let _ = writeln!(
-        w,
+    w.heading(2, "Sampling");
+    w.para(format_args!(
         "Every family is first drawn from the case's distributions (the natural sample: the *all* rows, \
          the maps and the verdict use only it). Then every bin of every axis that holds fewer than {} \
          configurations{} is topped up: more configurations are drawn from the same distributions and kept \
          only for the thin bins they fall in (rejection sampling), so within a bin they follow the natural \
-         distribution and need no weights; they are counted only in the bins they were kept for.\n",
+         distribution and need no weights; they are counted only in the bins they were kept for.",
         case.min_per_bin,
         own_minimum(case)
-    );
+    ));
     let mut table = Table::new(&[
         ("family", Align::Left),
         ("natural", Align::Right),
@@ -66,20 +62,20 @@ pub(super) fn sampling(w: &mut String, input: &Summary) {
             },
         ]);
     }
-    let _ = writeln!(w, "{}", table.markdown());
+    w.table(&table);
+    w.blank();
 }
 
 /// The worst-case search: worst error in the sample and after refinement, per method and family.
 pub(super) fn worst_cases(w: &mut String, input: &Summary) {
     if !input.found.is_empty() {
-        let _ = writeln!(w, "## Worst cases found\n");
-        let _ = writeln!(
-            w,
+        w.heading(2, "Worst cases found");
+        w.para(
             "For each method and family: the worst relative error in the random sample, and after the \
              search refined the worst starting points (∞: NaN or inf), with how bright the light found is: \
              its reference, the angle its segment subtends (radians) and the reference over the median \
              reference of the family's lit configurations (× typical). Every configuration is in \
-             `worst.jsonl`; replay with `linelight eval --input worst.jsonl --output out.jsonl`.\n"
+             `worst.jsonl`; replay with `linelight eval --input worst.jsonl --output out.jsonl`.",
         );
         let mut table = Table::new(&[
             ("method", Align::Left),
@@ -107,7 +103,8 @@ pub(super) fn worst_cases(w: &mut String, input: &Summary) {
                 format!("`{}`", f.config.id),
             ]);
         }
-        let _ = writeln!(w, "{}", table.markdown());
+        w.table(&table);
+        w.blank();
     }
 }
 
@@ -115,18 +112,17 @@ pub(super) fn worst_cases(w: &mut String, input: &Summary) {
 pub(super) fn nonfinite(w: &mut String, input: &Summary) {
     let nonfinite = &input.nonfinite;
     if !nonfinite.is_empty() {
-        let _ = writeln!(w, "## NaN and inf\n");
-        let _ = writeln!(
-            w,
+        w.heading(2, "NaN and inf");
+        w.para(format_args!(
             "{} configurations gave NaN or ±inf from at least one method; {} are in `nonfinite.jsonl` \
-             (replay with `linelight eval`).\n",
+             (replay with `linelight eval`).",
             input.nonfinite_total,
             if nonfinite.len() == input.nonfinite_total {
                 "all".to_string()
             } else {
                 format!("the first {}", nonfinite.len())
             }
-        );
+        ));
         let mut table = Table::new(&[("configuration", Align::Left), ("methods", Align::Left)]);
         for (c, methods) in nonfinite.iter().take(40) {
             let names: Vec<String> = methods.iter().map(|m| format!("`{m}`")).collect();
@@ -138,6 +134,7 @@ pub(super) fn nonfinite(w: &mut String, input: &Summary) {
                 String::new(),
             ]);
         }
-        let _ = writeln!(w, "{}", table.markdown());
+        w.table(&table);
+        w.blank();
     }
 }

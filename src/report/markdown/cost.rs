@@ -2,8 +2,7 @@
 //! ratios and Pareto fronts, and the wall-clock split of this sweep.
 
 use crate::analyse::summary::Summary;
-use crate::report::markup::{Align, Table};
-use std::fmt::Write;
+use crate::report::markup::{Align, Doc as _, Table};
 
 /// Cost per evaluation and speed against accuracy (nothing when costs were not measured).
 pub(super) fn speed_against_accuracy(w: &mut String, input: &Summary) {
@@ -11,7 +10,7 @@ pub(super) fn speed_against_accuracy(w: &mut String, input: &Summary) {
         return;
     }
     let c0 = &input.costs[0];
-    let _ = writeln!(w, "## Speed against accuracy\n");
+    w.heading(2, "Speed against accuracy");
     let cpu_min = input.costs.iter().map(|c| c.cpu_configurations).min().unwrap_or(0);
     let cpu_max = input.costs.iter().map(|c| c.cpu_configurations).max().unwrap_or(0);
     let (r_min, r_max) = (
@@ -23,15 +22,14 @@ pub(super) fn speed_against_accuracy(w: &mut String, input: &Summary) {
     } else {
         format!(" Timing rule: {}.", input.timing.cost_rule)
     };
-    let _ = writeln!(
-        w,
+    w.para(format_args!(
         "Cost per evaluation on {} ({} clock), {} configurations per dispatch, {} interleaved repeats \
          after warm-up (per method: the rounds column); median [min–max].{rule} CPU f32: the kernel on the CPU \
          evaluator on all cores, in the same rounds, on a \
          spread subset of {} configurations per method sized from a first warm-up run to about 50 ms. \
          ops: one invocation's operation count from the naga IR (a deterministic cost; \
          total = arithmetic + other + 8 × transcendental + branches). Timings are measured in this run, \
-         on this machine: compare ratios, not absolute numbers, across machines.\n",
+         on this machine: compare ratios, not absolute numbers, across machines.",
         input.timing.adapter,
         c0.clock,
         c0.configurations,
@@ -45,7 +43,7 @@ pub(super) fn speed_against_accuracy(w: &mut String, input: &Summary) {
         } else {
             format!("{cpu_min}–{cpu_max}")
         }
-    );
+    ));
     let mut table = Table::new(&[
         ("method", Align::Left),
         ("GPU ns/eval", Align::Right),
@@ -71,7 +69,8 @@ pub(super) fn speed_against_accuracy(w: &mut String, input: &Summary) {
             format!("{}{}", c.repeats, if c.settled { " (settled)" } else { "" }),
         ]);
     }
-    let _ = writeln!(w, "{}", table.markdown());
+    w.table(&table);
+    w.blank();
     speed_notes(w, input);
 }
 
@@ -86,52 +85,52 @@ fn speed_notes(w: &mut String, input: &Summary) {
             continue;
         };
         // The noise rule: a ratio whose per-round range includes 1 is no measurable difference.
-        let _ = writeln!(
-            w,
+        w.line(format_args!(
             "- `{x}` against `{y}`, measured in this run: {}.",
             crate::analyse::claims::speed_sentence(x, y, cx, cy)
-        );
+        ));
     }
-    let _ = writeln!(w);
+    w.blank();
     for family in &case.materials {
-        let _ = writeln!(
-            w,
-            "![speed against accuracy, {}]({})\n",
+        w.para(format_args!(
+            "![speed against accuracy, {}]({})",
             family.name,
             crate::report::chart_file(&family.name)
-        );
+        ));
     }
     for (k, family) in case.materials.iter().enumerate() {
         let points = &input.charts[k];
-        let front = crate::report::chart::pareto_front(points, true);
+        let front = crate::analyse::pareto::pareto_front(points, true);
         let names: Vec<String> = front.iter().map(|&i| format!("`{}`", points[i].label)).collect();
-        let _ = writeln!(w, "- Pareto front by p99 on `{}`: {}.", family.name, names.join(", "));
+        w.line(format_args!(
+            "- Pareto front by p99 on `{}`: {}.",
+            family.name,
+            names.join(", ")
+        ));
     }
-    let _ = writeln!(w);
+    w.blank();
 }
 
 /// Wall-clock time per method and of the references in this run.
 pub(super) fn timing(w: &mut String, input: &Summary) {
     let t = &input.timing;
-    let _ = writeln!(w, "## Timing (this run)\n");
-    let _ = writeln!(
-        w,
+    w.heading(2, "Timing (this run)");
+    w.para(format_args!(
         "Wall-clock time of one run on {} ({} configurations): GPU time includes upload, dispatch \
          and readback; the CPU evaluator (the kernel's f32 and f64 columns: compiled to native code, or \
          interpreted where the compiler does not handle the kernel, as the last column says) runs on all CPU \
          cores. Cost per method as measured by GPU timestamps is `linelight bench`'s job; these numbers say \
-         what the sweep itself spent.\n",
+         what the sweep itself spent.",
         t.adapter, t.configurations
-    );
+    ));
     if t.shards > 1 {
-        let _ = writeln!(
-            w,
+        w.para(format_args!(
             "Merged from {} shards (`linelight merge`, which used no GPU): the times below, the searches' and the \
              split's are the sum over the shards, each on its own machine. The timing of methods (\"Speed against \
              accuracy\", the cost measurement) and the attribution ran in shard 0 of {} alone, on its adapter \
-             and its own configurations: those numbers are shard 0's.\n",
+             and its own configurations: those numbers are shard 0's.",
             t.shards, t.shards
-        );
+        ));
     }
     let mut table = Table::new(&[
         ("method", Align::Left),
@@ -158,14 +157,8 @@ pub(super) fn timing(w: &mut String, input: &Summary) {
             engine.replace('|', "\\|"),
         ]);
     }
-    w.push_str(&table.markdown());
-    let _ = writeln!(
-        w,
-        "\nReferences: {} values (a target at a configuration; what targets share, `tube`'s `cylinder` and `caps` or a `_upper` target the clip leaves unchanged, integrated once: src/reference/mod.rs) in {:.2} s ({:.0} per second).\n",
-        t.references_evaluated,
-        t.references_seconds,
-        t.references_evaluated as f64 / t.references_seconds,
-    );
+    w.table(&table);
+    w.para(format_args!("\nReferences: {} values (a target at a configuration; what targets share, `tube`'s `cylinder` and `caps` or a `_upper` target the clip leaves unchanged, integrated once: src/reference/mod.rs) in {:.2} s ({:.0} per second).", t.references_evaluated, t.references_seconds, t.references_evaluated as f64 / t.references_seconds));
 }
 
 /// Harness throughput (where the measuring time went) and the whole sweep's time.
@@ -186,49 +179,17 @@ pub(super) fn throughput(w: &mut String, input: &Summary) {
         - t.statistics_seconds)
         .max(0.0);
     let pct = |x: f64| 100.0 * x / t.total_seconds;
-    let _ = writeln!(
-        w,
-        "Harness throughput: {} configurations × {} methods measured in {:.2} s, {:.0} configurations per \
+    w.para(format_args!("Harness throughput: {} configurations × {} methods measured in {:.2} s, {:.0} configurations per \
          second end to end (finishing the statistics and the claims, and writing the report, excluded). Split: drawing the configurations {:.2} s ({:.0} %, on \
          all threads, each from its own stream), GPU runs {:.2} s ({:.0} %), CPU evaluator (f64 and f32) {:.2} s ({:.0} %), references {:.2} s ({:.0} %), references at the f32-rounded inputs {:.2} s ({:.0} %), \
          attribution (\"where the bits go\", interpreted) {:.2} s ({:.0} %), worst-case search {:.2} s ({:.0} %), \
          disagreement search {:.2} s ({:.0} %, {} candidates), cost measurement {:.2} s ({:.0} %, budget {:.2} s), folding into the \
-         statistics {:.2} s ({:.0} %), set-up and the rest {:.2} s ({:.0} %).\n",
-        t.configurations,
-        t.gpu.len(),
-        t.total_seconds,
-        t.configurations as f64 / t.total_seconds,
-        t.sampling_seconds,
-        pct(t.sampling_seconds),
-        gpu,
-        pct(gpu),
-        evaluator,
-        pct(evaluator),
-        t.references_seconds,
-        pct(t.references_seconds),
-        t.references_f32_seconds,
-        pct(t.references_f32_seconds),
-        t.attribution_seconds,
-        pct(t.attribution_seconds),
-        t.search_seconds,
-        pct(t.search_seconds),
-        t.disagree_seconds,
-        pct(t.disagree_seconds),
-        t.disagree_evaluations,
-        t.cost_seconds,
-        pct(t.cost_seconds),
-        t.cost_budget_seconds,
-        t.statistics_seconds,
-        pct(t.statistics_seconds),
-        other,
-        pct(other),
-    );
+         statistics {:.2} s ({:.0} %), set-up and the rest {:.2} s ({:.0} %).", t.configurations, t.gpu.len(), t.total_seconds, t.configurations as f64 / t.total_seconds, t.sampling_seconds, pct(t.sampling_seconds), gpu, pct(gpu), evaluator, pct(evaluator), t.references_seconds, pct(t.references_seconds), t.references_f32_seconds, pct(t.references_f32_seconds), t.attribution_seconds, pct(t.attribution_seconds), t.search_seconds, pct(t.search_seconds), t.disagree_seconds, pct(t.disagree_seconds), t.disagree_evaluations, t.cost_seconds, pct(t.cost_seconds), t.cost_budget_seconds, t.statistics_seconds, pct(t.statistics_seconds), other, pct(other)));
 
-    let _ = writeln!(
-        w,
+    w.para(format_args!(
         "The whole sweep, from the command's start to this report (sampling, top-ups, GPU runs, CPU \
          evaluations, references, searches, statistics and claims; writing the files excluded): {:.1} s, of \
-         which statistics and claims {:.2} s.\n",
+         which statistics and claims {:.2} s.",
         input.stages.until_report_seconds, input.stages.analysis_seconds
-    );
+    ));
 }

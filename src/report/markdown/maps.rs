@@ -2,29 +2,26 @@
 //! relative error stays under each threshold.
 
 use crate::analyse::summary::Summary;
-use crate::report::markup::{Align, Table};
-use std::fmt::Write;
+use crate::report::markup::{Align, Doc as _, Table};
 
 /// Every validity map of the case, for the methods it shows.
 pub(super) fn validity_maps(w: &mut String, input: &Summary) {
     let (case, a) = (&input.case, &input.analysis);
     for (k, map) in case.maps.iter().enumerate() {
-        let _ = writeln!(w, "## Validity map: `{}` × `{}`\n", map.x.axis, map.y.axis);
+        w.heading(2, format_args!("Validity map: `{}` × `{}`", map.x.axis, map.y.axis));
         for ms in a.methods.iter().filter(|m| map.shows(&m.label)) {
             for mat in &ms.materials {
                 let stats = &mat.maps[k];
                 let file = crate::report::map_file(&ms.label, &mat.material, &map.x.axis, &map.y.axis);
-                let _ = writeln!(
-                    w,
-                    "### `{}` on `{}`\n\n![{} on {}]({file})\n",
+                w.para(format_args!(
+                    "### `{}` on `{}`\n\n![{} on {}]({file})",
                     ms.label, mat.material, ms.label, mat.material
-                );
-                let _ = writeln!(
-                    w,
+                ));
+                w.para(format_args!(
                     "Where the relative error stays under each threshold, from the smallest `{}` up: for 99 % \
-                     of configurations (p99), and for half of them (median):\n",
+                     of configurations (p99), and for half of them (median):",
                     map.x.axis
-                );
+                ));
                 let mut columns = vec![(map.y.axis.to_string(), Align::Left), ("n".to_string(), Align::Right)];
                 columns.extend(
                     ["p99 ≤ 1 %", "p99 ≤ 5 %", "p99 ≤ 10 %", "median ≤ 1 %", "median ≤ 10 %"]
@@ -52,7 +49,8 @@ pub(super) fn validity_maps(w: &mut String, input: &Summary) {
                     row.extend(cells);
                     table.row(row);
                 }
-                let _ = writeln!(w, "{}", table.markdown());
+                w.table(&table);
+                w.blank();
             }
         }
     }

@@ -15,7 +15,7 @@ mod verdict;
 
 use crate::analyse::stats::BinStats;
 use crate::analyse::summary::Summary;
-use std::fmt::Write;
+use crate::report::markup::{sci, Doc as _, ABSENT};
 
 /// The report, section by section, in reading order.
 pub fn render(input: &Summary) -> String {
@@ -44,9 +44,9 @@ pub fn render(input: &Summary) -> String {
     accuracy::below_horizon(w, input);
     // What it cost, where the bits go, how long the run took.
     cost::speed_against_accuracy(w, input);
-    let _ = write!(w, "{}", super::attribution::render(&input.attribution));
+    w.put(super::attribution::render(&input.attribution));
     if let Some(a) = &input.any_driver {
-        let _ = write!(w, "{}", super::envelope::render(a));
+        w.put(super::envelope::render(a));
     }
     cost::timing(w, input);
     cost::throughput(w, input);
@@ -64,7 +64,7 @@ fn q3(s: &BinStats, f: impl Fn(&BinStats) -> Option<crate::analyse::stats::Quant
         q.map(|q| q.p99),
         q.map(|q| q.max),
     ]
-    .map(super::sci)
+    .map(sci)
 }
 
 /// How bright a light of reference `reference` is against the family's typical light: over
@@ -80,25 +80,7 @@ fn brightness(input: &Summary, method: &str, family: &str, reference: f64) -> St
         .and_then(|x| x.all.reference)
         .map(|q| q.median);
     match median {
-        Some(m) if m > 0.0 => super::sci(Some(reference.abs() / m)),
-        _ => "—".into(),
-    }
-}
-
-/// `part` as a percentage of `whole`.
-fn share(part: usize, whole: usize) -> String {
-    if whole == 0 {
-        "—".into()
-    } else {
-        format!("{:.1} %", 100.0 * part as f64 / whole as f64)
-    }
-}
-
-/// A fraction as a percentage with one decimal (`—` for NaN).
-fn pct(x: f64) -> String {
-    if x.is_nan() {
-        "—".into()
-    } else {
-        format!("{:.1}", 100.0 * x)
+        Some(m) if m > 0.0 => sci(Some(reference.abs() / m)),
+        _ => ABSENT.into(),
     }
 }

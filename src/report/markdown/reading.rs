@@ -2,8 +2,7 @@
 //! quantile kinds, references) and each method's source.
 
 use crate::analyse::summary::Summary;
-use crate::report::sci;
-use std::fmt::Write;
+use crate::report::markup::{sci, Doc as _};
 
 /// The definitions and the methods with their sources.
 pub(super) fn how_to_read(w: &mut String, input: &Summary) {
@@ -16,9 +15,8 @@ pub(super) fn how_to_read(w: &mut String, input: &Summary) {
         .into_iter()
         .map(|t| format!("`{t}` {}", sci(Some(case.floor(t)))))
         .collect();
-    let _ = writeln!(w, "## How to read this\n");
-    let _ = writeln!(
-        w,
+    w.heading(2, "How to read this");
+    w.line(format_args!(
         "- Relative error = |value − reference| / |reference|, with no floor, over the configurations whose \
          reference is not 0; those whose reference is exactly 0 are counted under *False light*. The floored \
          variant, labelled wherever it appears, divides by max(|reference|, floor); floor per target (units \
@@ -31,18 +29,14 @@ pub(super) fn how_to_read(w: &mut String, input: &Summary) {
          - Methods and their sources:",
         floors.join(", "),
         quantile_kinds(a)
-    );
+    ));
     for ms in &a.methods {
-        let _ = writeln!(
-            w,
+        w.line(format_args!(
             "  - `{}` ({}): {} — `{}`",
             ms.describe, ms.target, ms.source, ms.kernel
-        );
+        ));
     }
-    let _ = writeln!(
-        w,
-        "- Full tables: `stats.csv` (every method × material × bin), `comparisons.csv`, `summary.json`."
-    );
+    w.line("- Full tables: `stats.csv` (every method × material × bin), `comparisons.csv`, `summary.json`.");
 }
 
 /// Which kind of quantile the tables show: exact nearest-rank, or read from a sketch (bins

@@ -5,21 +5,19 @@
 use crate::analyse::ship::{Judgement, Meets, Price, Ship, ShipBudget, ShipMaterial};
 use crate::analyse::stats::Bound;
 use crate::analyse::summary::Summary;
-use crate::report::markup::{Align, Table};
-use crate::report::sci;
-use std::fmt::Write;
+use crate::report::markup::{sci, Align, Doc as _, Table};
 
 /// Regions listed per material before the rest are counted (all are in summary.json `ship`).
 const REGIONS_SHOWN: usize = 8;
 
 /// The section, or a line saying why there is no answer.
 pub(super) fn what_to_ship(w: &mut String, input: &Summary) {
-    let _ = writeln!(w, "## What to ship\n");
+    w.heading(2, "What to ship");
     let Some(ship) = &input.ship else {
-        let _ = writeln!(w, "No method was run, so there is nothing to ship.\n");
+        w.para("No method was run, so there is nothing to ship.");
         return;
     };
-    let _ = writeln!(w, "{}\n", budget_line(&ship.budget, &input.timing.adapter));
+    w.para(budget_line(&ship.budget, &input.timing.adapter));
     for m in &ship.materials {
         material(w, ship, m);
     }
@@ -76,46 +74,43 @@ fn price(p: &Price) -> String {
 fn material(w: &mut String, ship: &Ship, m: &ShipMaterial) {
     let q = ship.budget.quantile_name();
     let find = |label: &str| m.candidates.iter().find(|c| c.label == label);
-    let _ = write!(w, "**`{}`**: ", m.material);
+    w.put(format_args!("**`{}`**: ", m.material));
     match (&m.meets_everywhere, &m.ship) {
         (Some(s), _) => {
             let c = find(s).expect("shipped is a candidate");
-            let _ = write!(
-                w,
+            w.put(format_args!(
                 "ship `{s}` ({}): meets the budget over the whole material, {q} {}",
                 price(&c.price),
                 bound(&c.whole)
-            );
+            ));
         }
         (None, Some(s)) => {
             let c = find(s).expect("shipped is a candidate");
-            let _ = write!(
-                w,
+            w.put(format_args!(
                 "no method meets the budget over the whole material. Ship `{s}` ({}), which meets it in the \
                  most regions ({} of {}); whole material {q} {}",
                 price(&c.price),
                 c.regions_met,
                 c.regions_met + c.regions_broken + c.regions_too_few,
                 bound(&c.whole)
-            );
+            ));
         }
         (None, None) if m.candidates.is_empty() => {
-            let _ = write!(
-                w,
+            w.put(format_args!(
                 "no method of this run is judged against `{}`, so none can be shipped",
                 ship.budget.target
-            );
+            ));
         }
         (None, None) => {
-            let _ = write!(w, "no method meets the budget over the whole material or in any region");
+            w.put("no method meets the budget over the whole material or in any region");
         }
     }
     let broken: Vec<_> = m.regions.iter().filter(|r| r.shipped.meets == Meets::Breaks).collect();
     let few = m.regions.len() - broken.len();
     if m.ship.is_some() && broken.is_empty() {
-        let _ = write!(w, ", and in every region with enough configurations");
+        w.put(", and in every region with enough configurations");
     }
-    let _ = writeln!(w, ".\n");
+    w.para(".");
     if !broken.is_empty() {
         let s = m.ship.as_deref().unwrap_or_default();
         let mut table = Table::with_columns(vec![
@@ -145,15 +140,14 @@ fn material(w: &mut String, ship: &Ship, m: &ShipMaterial) {
                 rounding,
             ]);
         }
-        w.push_str(&table.markdown());
+        w.table(&table);
         if broken.len() > REGIONS_SHOWN {
-            let _ = writeln!(
-                w,
+            w.line(format_args!(
                 "\n{} more regions break it (summary.json `ship`).",
                 broken.len() - REGIONS_SHOWN
-            );
+            ));
         }
-        let _ = writeln!(w);
+        w.blank();
     }
     let ranked: Vec<String> = m
         .candidates
@@ -189,10 +183,9 @@ fn material(w: &mut String, ship: &Ship, m: &ShipMaterial) {
         )
     };
     if few > 0 {
-        let _ = write!(
-            tail,
+        tail.put(format_args!(
             " {few} regions have too few configurations to judge the shipped method."
-        );
+        ));
     }
     if !m.not_candidates.is_empty() {
         // A long list is in summary.json; the section stays short.
@@ -205,11 +198,10 @@ fn material(w: &mut String, ship: &Ship, m: &ShipMaterial) {
         } else {
             format!("{} methods (summary.json `ship`)", m.not_candidates.len())
         };
-        let _ = write!(
-            tail,
+        tail.put(format_args!(
             " Not judged against `{}` here (another target, or a material they do not claim): {names}.",
             ship.budget.target
-        );
+        ));
     }
-    let _ = writeln!(w, "{}\n", tail.trim_start());
+    w.para(tail.trim_start());
 }

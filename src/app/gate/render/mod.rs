@@ -13,6 +13,7 @@
 //! flip_visible_pixels, nonfinite}]}`.
 
 use super::{file_name, GateReport};
+use crate::limits::MAX_IMAGE_BYTES;
 use crate::report::format::{Bytes, Format, Json, Layout};
 use crate::report::image::Rgb;
 use anyhow::Context;
@@ -28,8 +29,6 @@ pub use compare::compare;
 pub const FORMAT: u32 = 1;
 /// The index file of a render baseline.
 pub const INDEX: &str = "render-baseline.json";
-/// Bytes an image of a render baseline may take (a 4096 × 4096 RGB image is 48 MiB raw).
-const MAX_IMAGE_BYTES: u64 = 64 << 20;
 
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
