@@ -1,4 +1,4 @@
-//! The pilot behind `sw::PARAMS` (issue 24): five entries of the 8⁴ table fitted with the SW
+//! The pilot behind `sw::PARAMS` (the anisotropic table's SW fit): five entries of the 8⁴ table fitted with the SW
 //! objective from diag(αx, αy, 1), with the learning rate, steps and samples per step given on the
 //! command line (default 0.5, 2000, 128), beside the committed L1 entries: time, the L1 lobe error
 //! (32² grid) and the SW distance (4096 samples × 256 directions) of both.

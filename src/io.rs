@@ -876,6 +876,20 @@ impl Scratch {
         fs::write(&p, bytes)?;
         Ok(p)
     }
+
+    /// Makes `name` a file of `len` bytes that holds none (sparse: a size check's input).
+    pub fn sized(&self, name: &str, len: u64) -> std::io::Result<PathBuf> {
+        let p = self.path.join(name);
+        fs::File::create(&p)?.set_len(len)?;
+        Ok(p)
+    }
+
+    /// Makes `name` an empty folder in the folder; its path.
+    pub fn folder(&self, name: &str) -> std::io::Result<PathBuf> {
+        let p = self.path.join(name);
+        fs::create_dir(&p)?;
+        Ok(p)
+    }
 }
 
 impl Drop for Scratch {

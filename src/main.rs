@@ -53,13 +53,13 @@ enum Command {
     Fit(app::fit::FitOptions),
     /// Seed 004's fitting objective (sliced Wasserstein, SGD) beside ours (L1) on the SW-fitted
     /// subset of the anisotropic table: line-light error against GGX truth near the highlight and
-    /// overall, and the lobe errors (issue 24). Writes OUT/objectives.{md,json}, lines.csv, entries.csv.
+    /// overall, and the lobe errors. Writes OUT/objectives.{md,json}, lines.csv, entries.csv.
     Objectives(app::objectives::ObjectivesOptions),
     /// The GGX error chain (fit, table, storage, formula, rounding, driver) of a case of ggx
     /// materials, beside the published table: writes OUT/chain.{md,csv,json}
     /// (OUT: reports/<case name>-chain).
     Chain(app::chain::ChainOptions),
-    /// The anisotropic table's resolution study (issue 24, seed 004 Fig. 12): tables of other
+    /// The anisotropic table's resolution study (seed 004 Fig. 12): tables of other
     /// resolutions fed to a case of anisotropic ggx families, error against GGX truth near the
     /// highlight and overall; writes OUT/resolution.{md,csv,json} (OUT: reports/ggx-resolution).
     Resolution(app::resolution::ResolutionOptions),

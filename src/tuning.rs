@@ -2,8 +2,8 @@
 //! [`Tuning`] the first time any part asks ([`tuning`]), and checked before any work
 //! ([`init`], from main.rs), so a bad value is refused up front and no part reads the
 //! environment on its own. The evaluator's switches (`LINELIGHT_EVALUATOR`,
-//! `LINELIGHT_LANES`, `LINELIGHT_F64_PATH`, `LINELIGHT_VECTORS`) are read by src/eval, which
-//! documents them.
+//! `LINELIGHT_LANES`, `LINELIGHT_F64_PATH`, `LINELIGHT_VECTORS`) are read here too and obeyed by
+//! src/eval, which documents what each path is.
 
 use std::time::Duration;
 
@@ -26,6 +26,18 @@ pub const GLSLANG: &str = "LINELIGHT_GLSLANG";
 /// (N = 1 lets the driver's loop-limit probe through).
 pub const TEST_FAIL_DISPATCH: &str = "LINELIGHT_TEST_FAIL_DISPATCH";
 
+/// `interpreter`: every CPU value on the interpreter (src/eval/interp).
+pub const EVALUATOR: &str = "LINELIGHT_EVALUATOR";
+
+/// 1 to 4: vectors per call on the compiled SIMD path (src/eval/interp/compiled).
+pub const VECTORS: &str = "LINELIGHT_VECTORS";
+
+/// `lanes`: compiled f64 on 4 interleaved scalar lanes instead of F64X2 vectors.
+pub const F64_PATH: &str = "LINELIGHT_F64_PATH";
+
+/// 1 to 16: configurations per call on the compiled interleaved lane path, no SIMD.
+pub const LANES: &str = "LINELIGHT_LANES";
+
 /// What the environment asks of this process.
 #[derive(Clone, Debug)]
 pub struct Tuning {
@@ -37,6 +49,14 @@ pub struct Tuning {
     pub glslang: String,
     /// [`TEST_FAIL_DISPATCH`], when set to a count.
     pub fail_dispatch: Option<usize>,
+    /// [`EVALUATOR`] `= interpreter`.
+    pub interpreter_forced: bool,
+    /// [`VECTORS`], when a count from 1 to 4.
+    pub vectors: Option<usize>,
+    /// [`F64_PATH`] `= lanes`.
+    pub f64_lanes: bool,
+    /// [`LANES`], when a count from 1 to 16.
+    pub lanes: Option<usize>,
 }
 
 impl Tuning {
@@ -57,12 +77,21 @@ impl Tuning {
             eval_chunk: var(EVAL_CHUNK).and_then(|v| v.parse().ok()).filter(|&n: &usize| n > 0),
             glslang: var(GLSLANG).unwrap_or_else(|| "glslangValidator".to_string()),
             fail_dispatch: var(TEST_FAIL_DISPATCH).and_then(|v| v.parse().ok()),
+            interpreter_forced: var(EVALUATOR).is_some_and(|v| v == "interpreter"),
+            vectors: count(var(VECTORS), 4),
+            f64_lanes: var(F64_PATH).is_some_and(|v| v == "lanes"),
+            lanes: count(var(LANES), 16),
         })
     }
 
     fn from_env() -> Result<Tuning, String> {
         Tuning::read(|name| std::env::var(name).ok())
     }
+}
+
+/// A count from 1 to `most`, or None.
+fn count(text: Option<String>, most: usize) -> Option<usize> {
+    text.and_then(|v| v.parse().ok()).filter(|n| (1..=most).contains(n))
 }
 
 static TUNING: std::sync::OnceLock<Result<Tuning, String>> = std::sync::OnceLock::new();

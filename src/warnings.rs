@@ -22,6 +22,9 @@ pub enum Warning {
     MethodNotScanned { method: String, target: String },
     /// A family `scan` leaves out because its M⁻¹ comes from a fitted table.
     FamilyNotScanned { family: String, kind: String },
+    /// A method the CPU evaluator cannot run: its f64 and cpu_f32 columns stay empty (the
+    /// first reason found is kept, once per method).
+    NoCpuValues { method: String, reason: String },
 }
 
 impl fmt::Display for Warning {
@@ -49,6 +52,9 @@ impl fmt::Display for Warning {
                 f,
                 "note: family `{family}` ({kind}) is not scanned: its M⁻¹ comes from a fitted table"
             ),
+            Warning::NoCpuValues { method, reason } => {
+                write!(f, "note: `{method}` has no f64/cpu_f32 values: {reason}")
+            }
         }
     }
 }
@@ -62,7 +68,11 @@ fn raised() -> std::sync::MutexGuard<'static, Vec<Warning>> {
 /// Records `w` for this run, unless it is already recorded.
 pub fn raise(w: Warning) {
     let mut all = raised();
-    if !all.contains(&w) {
+    let known = |x: &Warning| match (x, &w) {
+        (Warning::NoCpuValues { method: a, .. }, Warning::NoCpuValues { method: b, .. }) => a == b,
+        _ => *x == w,
+    };
+    if !all.iter().any(known) {
         all.push(w);
     }
 }

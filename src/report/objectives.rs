@@ -62,7 +62,7 @@ pub fn outputs(o: &Objectives, inputs: &Inputs) -> Vec<Box<dyn Format>> {
     let mut md = String::new();
     md.para(format_args!(
         "# Seed 004's objective beside ours: sliced Wasserstein (SGD) against L1 (Nelder–Mead)\n\n\
-         `{}` (issue 24; docs/ggx.md). {} entries of the {}×{}×{}×{} anisotropic table, each fitted twice: \
+         `{}` (docs/ggx.md). {} entries of the {}×{}×{}×{} anisotropic table, each fitted twice: \
          by our L1 lobe error (Nelder–Mead, `data/ltc_ggx_aniso.csv`) and by seed 004's sliced-Wasserstein loss \
          (SGD, `{}`, src/input/ltc/sw.rs), both aligned and post-processed alike. \
          Each entry is judged at its own node (its lobe exactly, no look-up): {} lines per region drawn from the \

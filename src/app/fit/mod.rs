@@ -222,7 +222,7 @@ pub fn aniso(out: &Path, size: [usize; 4], slice: aniso::Slice, checkpoint: &Pat
     let header = match slice {
         None => header,
         Some([phi, r]) => format!(
-            "{header}\nA fine slice (issue 24's resolution study): φ = {phi} and r = {r} fixed (the phi and ratio columns), θ and α_max as above."
+            "{header}\nA fine slice (the anisotropic table's resolution study): φ = {phi} and r = {r} fixed (the phi and ratio columns), θ and α_max as above."
         ),
     };
     let l1: Vec<f64> = table.entries.iter().map(|e| e.l1).collect();

@@ -2,9 +2,9 @@
 //! errors file per method and material, saved as one set by `sweep --save-baseline DIR` and
 //! loaded, checked against this run's case and configurations, by `sweep --baseline DIR`.
 
-use crate::limits::MAX_TOKEN_LINE;
 use super::{observed, sample_digest, Obs, Observations};
 use crate::analyse::stats::nearest_rank;
+use crate::limits::MAX_TOKEN_LINE;
 use crate::measure::sweep::{Measured, Setup};
 use crate::report::format::{Format, Json, Layout, Plain};
 use anyhow::Context;

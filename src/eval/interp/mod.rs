@@ -57,8 +57,7 @@ impl Engine {
 /// timings, or to rule the compiler out); otherwise the compiled evaluator runs every
 /// kernel it compiles.
 fn interpreter_forced() -> bool {
-    static FORCED: OnceLock<bool> = OnceLock::new();
-    *FORCED.get_or_init(|| std::env::var("LINELIGHT_EVALUATOR").is_ok_and(|v| v == "interpreter"))
+    crate::tuning::tuning().interpreter_forced
 }
 
 /// A method's prepared kernel and its compiled forms: what the evaluator runs.
@@ -153,12 +152,10 @@ impl CpuColumns for Method {
         match self.cpu_column(configs, mode) {
             Ok(v) => v,
             Err(e) => {
-                static NOTED: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
-                let mut noted = NOTED.lock().unwrap_or_else(|p| p.into_inner());
-                if !noted.contains(&self.label) {
-                    noted.push(self.label.clone());
-                    eprintln!("note: `{}` has no f64/cpu_f32 values: {e:#}", self.label);
-                }
+                crate::warnings::raise(crate::warnings::Warning::NoCpuValues {
+                    method: self.label.clone(),
+                    reason: format!("{e:#}"),
+                });
                 vec![None; configs.len()]
             }
         }

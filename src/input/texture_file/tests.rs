@@ -51,17 +51,16 @@ fn assert_texels(got: &[f32], want: &[f32]) {
     }
 }
 
-struct Dir(tempfile::TempDir);
+/// Test files in a scratch folder, written through io (as every file is).
+struct Dir(crate::io::Scratch);
 
 impl Dir {
     fn new() -> Dir {
-        Dir(tempfile::tempdir().expect("temp dir"))
+        Dir(crate::io::Scratch::new("linelight-lut-test").expect("temp dir"))
     }
 
     fn write(&self, name: &str, bytes: &[u8]) -> PathBuf {
-        let p = self.0.path().join(name);
-        std::fs::write(&p, bytes).expect("write");
-        p
+        self.0.write(name, bytes).expect("write")
     }
 }
 
@@ -725,14 +724,9 @@ fn files_are_refused_by_extension_length_and_kind() {
     let e = read(&dir.write("t.png", b"")).expect_err("extension").to_string();
     assert!(e.contains("unknown extension"), "{e}");
     // Larger than the file cap: refused from its length (a sparse file), nothing read.
-    let p = dir.0.path().join("big.dds");
-    std::fs::File::create(&p)
-        .unwrap()
-        .set_len(MAX_LUT_FILE_BYTES + 1)
-        .unwrap();
+    let p = dir.0.sized("big.dds", MAX_LUT_FILE_BYTES + 1).unwrap();
     refused(&p, &[&format!("more than the {MAX_LUT_FILE_BYTES}")]);
     // A folder is not a file.
-    let p = dir.0.path().join("folder.npy");
-    std::fs::create_dir(&p).unwrap();
+    let p = dir.0.folder("folder.npy").unwrap();
     refused(&p, &["not a regular file"]);
 }

@@ -20,31 +20,20 @@ pub const LANES: usize = 4;
 /// `LINELIGHT_VECTORS=K` (1 to 4): K vectors per call on the SIMD path, in both modes (to
 /// time the choice); unset: one F32X4 in f32, two F64X2 in f64 (4 configurations each).
 fn vectors_wanted() -> Option<usize> {
-    static WANTED: std::sync::OnceLock<Option<usize>> = std::sync::OnceLock::new();
-    *WANTED.get_or_init(|| count_var("LINELIGHT_VECTORS", 4))
-}
-
-/// The environment variable `name` as a count from 1 to `most`, or None.
-fn count_var(name: &str, most: usize) -> Option<usize> {
-    std::env::var(name)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .filter(|n| (1..=most).contains(n))
+    crate::tuning::tuning().vectors
 }
 
 /// `LINELIGHT_F64_PATH=lanes`: f64 on the previous path, 4 interleaved scalar lanes per
 /// call, f32 untouched (to time the F64X2 path against it in one build).
 fn f64_lanes_wanted() -> bool {
-    static WANTED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *WANTED.get_or_init(|| std::env::var("LINELIGHT_F64_PATH").is_ok_and(|v| v == "lanes"))
+    crate::tuning::tuning().f64_lanes
 }
 
 /// `LINELIGHT_LANES=N` (1 to 16): N configurations per call on the interleaved lane path,
 /// no SIMD; 1 is the one-configuration path (to time the paths, or to rule one out).
 /// `LINELIGHT_LANES=4` is the f64 path before F64X2.
 fn lanes_wanted() -> Option<usize> {
-    static WANTED: std::sync::OnceLock<Option<usize>> = std::sync::OnceLock::new();
-    *WANTED.get_or_init(|| count_var("LINELIGHT_LANES", 16))
+    crate::tuning::tuning().lanes
 }
 
 /// How a compiled kernel runs its configurations.
