@@ -367,7 +367,9 @@ fn the_envelope_gate_checks_fail_a_sweep_only_where_they_should() {
 /// different kinds, so a row's configuration tells which family drew it.
 #[test]
 fn each_envelope_row_names_the_material_its_configuration_was_drawn_for() {
-    use linelight::app::sweep::{measure, prepare_with, Holds};
+    use linelight::app::prepare_with;
+    use linelight::app::swept::measure;
+    use linelight::measure::setup::Holds;
     use linelight::measure::sweep::MeasureOptions;
     let text = common::case("envelope_materials")
         .title("envelope materials")

@@ -403,6 +403,6 @@ fn missed_light_has_its_own_column_apart_from_the_error() {
     let r = row("test.misses");
     assert!(r.contains(&format!("| {dark} of {lit} (f64 {dark_f64}) |")), "{r}");
     assert!(!r.contains("1.0e0 /"), "the error column leaves missed light out: {r}");
-    assert!(r.contains(&linelight::report::sci(Some(p99_lit))), "{r}");
+    assert!(r.contains(&linelight::report::markup::sci(Some(p99_lit))), "{r}");
     assert!(row("line.numeric").ends_with("| 0 |"), "{}", row("line.numeric"));
 }

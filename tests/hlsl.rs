@@ -236,7 +236,7 @@ fn hlsl_attribution_and_errors_name_the_hlsl_files_lines() {
 #[test]
 fn a_missing_glslang_is_a_clear_error() {
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_linelight"))
-        .env(linelight::kernel::hlsl::GLSLANG_ENV, "/nonexistent/glslangValidator")
+        .env(linelight::tuning::GLSLANG, "/nonexistent/glslangValidator")
         .args(["check", HLSL])
         .output()
         .unwrap();

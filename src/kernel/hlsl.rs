@@ -53,7 +53,7 @@ const METHOD: &str = "hlsl_method";
 const MINV: &str = "hlsl_Minv";
 
 /// The environment variable that names the glslang binary (default `glslangValidator`).
-pub use crate::tuning::GLSLANG as GLSLANG_ENV;
+use crate::tuning::GLSLANG as GLSLANG_ENV;
 
 /// The WGSL kernel text of an HLSL kernel and, for each of its lines, the kernel line it came
 /// from; with the constants whose written digits are lost (src/kernel/written.rs).

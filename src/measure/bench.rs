@@ -429,7 +429,7 @@ mod tests {
         )))
         .expect("the line_fwt case loads");
         let materials = case.materials.len();
-        let setup = crate::app::sweep::prepare(case, &[], Some(n.div_ceil(materials))).unwrap();
+        let setup = crate::app::prepare(case, &[], Some(n.div_ceil(materials))).unwrap();
         split_evenly(&setup.samples, materials, n)
     }
 
@@ -605,7 +605,7 @@ mod tests {
         )))
         .unwrap();
         let materials = case.materials.len();
-        let setup = crate::app::sweep::prepare(case, &[], Some(4)).unwrap();
+        let setup = crate::app::prepare(case, &[], Some(4)).unwrap();
         let picked = split_evenly(&setup.samples, materials, 10);
         assert_eq!(picked.len(), 10);
         // 3 + 3 + 4 over three families, 2 + 3 + 2 + 3 over four, 2 each over five: the

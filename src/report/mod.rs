@@ -28,7 +28,6 @@ use std::path::{Path, PathBuf};
 
 pub use crate::analyse::summary::Stages;
 pub use crate::input::names::{chart_file, map_file};
-pub use markup::sci;
 
 /// The report header's line on degenerate draws: how many were redrawn, per family.
 pub fn draws_line(draws: &[crate::input::sampler::Draws]) -> String {

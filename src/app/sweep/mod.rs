@@ -11,9 +11,9 @@ use crate::measure::sweep::{self, Setup};
 use std::path::{Path, PathBuf};
 
 // Reached here by the tests and examples that set a sweep up.
-pub use super::swept::{finish, measure, measure_part, Swept};
-pub use super::{check_memory, prepare, prepare_with};
-pub use crate::measure::setup::Holds;
+use super::prepare_with;
+use super::swept::{measure, measure_part, Swept};
+use crate::measure::setup::Holds;
 
 /// The verdict of a measured sweep: analysed, reported, gated.
 mod report;

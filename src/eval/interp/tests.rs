@@ -213,7 +213,7 @@ fn the_vectorised_attribution_gives_the_straightforward_ones_bits() {
     let mut sample = Vec::new();
     for path in paths {
         let case = crate::input::case::Case::load(&path).unwrap();
-        let setup = crate::app::sweep::prepare(case, &[], Some(12)).unwrap();
+        let setup = crate::app::prepare(case, &[], Some(12)).unwrap();
         sample.extend(setup.samples.into_iter().map(|s| s.config));
     }
     // Odd inputs in each material kind of the sample.
