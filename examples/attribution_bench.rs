@@ -29,7 +29,7 @@ fn main() -> anyhow::Result<()> {
         let case = Case::load(std::path::Path::new(&path))?;
         let expected: usize = case.materials.iter().map(|m| m.count).sum();
         let step = expected.div_ceil(ATTRIBUTION_CONFIGURATIONS).max(1);
-        let setup = linelight::app::prepare(case, &[], None)?;
+        let setup = linelight::app::prepare(case, &[], &linelight::kernel::Includes::none(), None)?;
         let (mut wall, mut cpu) = (0.0, 0.0);
         for m in &setup.methods {
             let subset: Vec<&Config> = setup

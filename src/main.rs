@@ -4,6 +4,7 @@
 
 use clap::{Parser, Subcommand};
 use linelight::app::{self, bounded, status_of, Status};
+use linelight::kernel::Includes;
 use linelight::limits;
 use linelight::measure::gpu;
 use std::path::PathBuf;
@@ -76,7 +77,6 @@ enum Command {
 fn main() -> ExitCode {
     gpu::quiet_driver_environment();
     let cli = Cli::parse();
-    linelight::kernel::set_include_dirs(cli.include.clone());
     let result = run(cli);
     // What the run warned of, in one place, before its error if it failed.
     linelight::warnings::print();
@@ -102,19 +102,21 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
     if let Some(limit) = cli.max_memory {
         limits::set_max_memory(limit);
     }
+    // The `--include` folders, passed to every command that reads a kernel file.
+    let includes = &Includes::new(cli.include);
     match cli.command {
-        Command::Sweep(o) => app::sweep::sweep(o),
-        Command::Merge(o) => app::sweep::merge(o),
-        Command::Render(o) => app::render::render(o),
-        Command::Eval(o) => app::eval::eval(o),
-        Command::Bench(o) => app::bench(&o).map(|_| Status::Ok),
-        Command::Scan(o) => app::scan(o),
+        Command::Sweep(o) => app::sweep::sweep(o, includes),
+        Command::Merge(o) => app::sweep::merge(o, includes),
+        Command::Render(o) => app::render::render(o, includes),
+        Command::Eval(o) => app::eval::eval(o, includes),
+        Command::Bench(o) => app::bench(&o, includes).map(|_| Status::Ok),
+        Command::Scan(o) => app::scan(o, includes),
         Command::Fit(o) => app::fit::run(o),
         Command::Objectives(o) => app::objectives::run(&o.subset, &o.out, o.lines),
         Command::Chain(o) => app::chain::run(&o.case, o.out, o.count, &o.gpu),
         Command::Resolution(o) => app::resolution::run(&o.case, o.tables, o.out),
-        Command::Diff(o) => app::diff::run(&o).map(app::diff::Outcome::status),
+        Command::Diff(o) => app::diff::run(&o, includes).map(app::diff::Outcome::status),
         Command::Adapters => app::adapters(),
-        Command::Check(o) => app::check(&o.kernels, o.emit),
+        Command::Check(o) => app::check(&o.kernels, o.emit, includes),
     }
 }

@@ -25,7 +25,7 @@ fn case_configs() -> Vec<Config> {
     let mut out = Vec::new();
     for path in paths {
         let case = Case::load(&path).unwrap_or_else(|e| panic!("{}: {e:#}", path.display()));
-        let setup = linelight::app::prepare(case, &[], Some(PER_CASE)).unwrap();
+        let setup = linelight::app::prepare(case, &[], &linelight::kernel::Includes::none(), Some(PER_CASE)).unwrap();
         out.extend(setup.samples.into_iter().map(|s| s.config));
     }
     out

@@ -21,7 +21,7 @@ fn user(id: &str, body: &str) -> (Method, tempfile::TempDir) {
     let path = dir.path().join("k.wgsl");
     let text = format!("//! id: {id}\n//! target: line\n\nfn method(scene: Scene) -> f32 {{\n{body}\n}}\n");
     std::fs::write(&path, text).unwrap();
-    let kernels = kernel_set(&[path]).unwrap();
+    let kernels = kernel_set(&[path], &linelight::kernel::Includes::none()).unwrap();
     (resolve(id, &kernels).unwrap(), dir)
 }
 
@@ -160,7 +160,7 @@ fn held_out(n: usize, seed: u64) -> Vec<Config> {
 
 #[test]
 fn every_builtin_cpu_f32_value_lies_inside_its_envelope_on_held_out_lights() {
-    let kernels = kernel_set(&[]).unwrap();
+    let kernels = kernel_set(&[], &linelight::kernel::Includes::none()).unwrap();
     let configs = held_out(90, 2222);
     let (mut inside, mut undefined) = (0, 0);
     for k in &kernels {
@@ -236,7 +236,7 @@ fn lavapipe_values_lie_inside_the_envelope_on_held_out_lights() {
 
 #[test]
 fn on_the_dimmest_lights_the_2023_listings_envelope_is_wider_than_2017s() {
-    let kernels = kernel_set(&[]).unwrap();
+    let kernels = kernel_set(&[], &linelight::kernel::Includes::none()).unwrap();
     let m2017 = resolve("line.ltc2017", &kernels).unwrap();
     let m2023 = resolve("line.ltc2023", &kernels).unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1717);
@@ -386,7 +386,7 @@ fn each_envelope_row_names_the_material_its_configuration_was_drawn_for() {
         )
         .to_string();
     let case = linelight::input::case::Case::parse("envelope_materials.toml", &text).unwrap();
-    let setup = prepare_with(case, &[], None, Holds::default()).unwrap();
+    let setup = prepare_with(case, &[], &linelight::kernel::Includes::none(), None, Holds::default()).unwrap();
     assert!(setup.samples.is_empty(), "a streamed sweep draws chunk by chunk");
     let gpu = crate::common::gpu();
     let options = MeasureOptions {

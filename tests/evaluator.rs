@@ -46,7 +46,7 @@ fn small_angle_configs(n: usize, max_angle: f64) -> Vec<Config> {
 
 #[test]
 fn a_user_copy_of_a_builtin_gets_f64_agreeing_with_the_reference() {
-    let builtin = kernel_set(&[]).unwrap();
+    let builtin = kernel_set(&[], &linelight::kernel::Includes::none()).unwrap();
     let text = builtin
         .iter()
         .find(|k| k.id == "line.ltc2017")
@@ -56,7 +56,7 @@ fn a_user_copy_of_a_builtin_gets_f64_agreeing_with_the_reference() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("copy.wgsl");
     std::fs::write(&path, text).unwrap();
-    let kernels = kernel_set(&[path]).unwrap();
+    let kernels = kernel_set(&[path], &linelight::kernel::Includes::none()).unwrap();
     let m = resolve("user.copy2017", &kernels).unwrap();
     // Well conditioned: above the surface, length and distance of the same order.
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
@@ -97,7 +97,7 @@ fn a_user_copy_of_a_builtin_gets_f64_agreeing_with_the_reference() {
 }
 
 fn top_line(spec: &str, configs: &[Config]) -> linelight::eval::interp::LineSummary {
-    let kernels = kernel_set(&[]).unwrap();
+    let kernels = kernel_set(&[], &linelight::kernel::Includes::none()).unwrap();
     let p = program(&resolve(spec, &kernels).unwrap()).unwrap();
     let refs: Vec<&Config> = configs.iter().collect();
     let a = p.attribute(&refs).unwrap();

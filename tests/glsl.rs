@@ -46,7 +46,7 @@ fn glsl_port_agrees_with_the_wgsl_port_on_the_gpu() {
         .into_iter()
         .map(|s| s.config)
         .collect();
-    let kernels = kernel_set(&[PathBuf::from(GLSL)]).unwrap();
+    let kernels = kernel_set(&[PathBuf::from(GLSL)], &linelight::kernel::Includes::none()).unwrap();
     let gpu = common::gpu();
     let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
     let run = |spec: &str| {
@@ -105,7 +105,7 @@ fn glsl_specialization_constants_are_the_header_params() {
          float method(Scene scene) {\n    return SCALE * scene.p1.x + float(N);\n}\n",
     )
     .unwrap();
-    let kernels = kernel_set(&[path]).unwrap();
+    let kernels = kernel_set(&[path], &linelight::kernel::Includes::none()).unwrap();
     let gpu = common::gpu();
     let scenes: Vec<GpuScene> = [1.0f32, 3.0]
         .iter()
@@ -141,7 +141,11 @@ fn glsl_composite_takes_any_line_method() {
         .map(|s| s.config)
         .collect();
     let cyl = concat!(env!("CARGO_MANIFEST_DIR"), "/kernels/glsl/cylinder_line.glsl");
-    let kernels = kernel_set(&[PathBuf::from(cyl), PathBuf::from(GLSL)]).unwrap();
+    let kernels = kernel_set(
+        &[PathBuf::from(cyl), PathBuf::from(GLSL)],
+        &linelight::kernel::Includes::none(),
+    )
+    .unwrap();
     let gpu = common::gpu();
     let scenes: Vec<GpuScene> = configs.iter().map(GpuScene::from).collect();
     let run = |spec: &str| {
@@ -180,7 +184,7 @@ fn steep_configs() -> Vec<linelight::input::scene::Config> {
 #[test]
 fn glsl_attribution_names_the_glsl_files_own_lines() {
     let glsl_text = std::fs::read_to_string(GLSL).unwrap();
-    let kernels = kernel_set(&[PathBuf::from(GLSL)]).unwrap();
+    let kernels = kernel_set(&[PathBuf::from(GLSL)], &linelight::kernel::Includes::none()).unwrap();
     let configs = steep_configs();
     let refs: Vec<_> = configs.iter().collect();
     let lines = |spec: &str| {
@@ -240,7 +244,7 @@ fn an_error_found_after_translation_names_the_glsl_line() {
          //! params: SAMPLES=4\nfloat method(Scene scene) {\n    return twice(scene.p1.z);\n}\n",
     )
     .unwrap();
-    let kernel = linelight::kernel::KernelFile::read(&path).unwrap();
+    let kernel = linelight::kernel::KernelFile::read(&path, &linelight::kernel::Includes::none()).unwrap();
     let Err(e) = linelight::kernel::compose(&kernel) else {
         panic!("a header param without its specialization constant is refused");
     };

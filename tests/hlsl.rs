@@ -72,7 +72,7 @@ fn held_out(n: usize) -> Vec<Config> {
 fn hlsl_port_evaluates_in_every_column_and_agrees_with_the_reference_and_the_wgsl_port() {
     let configs = held_out(600);
     assert!(configs.len() > 300);
-    let kernels = kernel_set(&[PathBuf::from(HLSL)]).unwrap();
+    let kernels = kernel_set(&[PathBuf::from(HLSL)], &linelight::kernel::Includes::none()).unwrap();
     let hlsl = resolve("line.ltc2017_hlsl", &kernels).unwrap();
     let wgsl = resolve("line.ltc2017", &kernels).unwrap();
 
@@ -162,7 +162,7 @@ fn mul_minv_is_minv_times_v_as_written() {
          float3 b = mul(scene.minv, float3(1.0, 2.0, 3.0));\n    \
          return dot(a, float3(1.0, 10.0, 100.0)) + 1000.0 * Minv[0][1] + 10000.0 * (b.x - a.x) + 100000.0 * scene.minv[0][1];\n}\n",
     );
-    let kernels = kernel_set(&[path]).unwrap();
+    let kernels = kernel_set(&[path], &linelight::kernel::Includes::none()).unwrap();
     let m = resolve("line.mul", &kernels).unwrap();
     // Non-symmetric, exact in binary: M⁻¹ = [[1, 2, 0], [0, 1, 4], [0.5, 0, 1]].
     let minv = [[1.0, 2.0, 0.0], [0.0, 1.0, 4.0], [0.5, 0.0, 1.0]];
@@ -186,7 +186,7 @@ fn mul_minv_is_minv_times_v_as_written() {
 #[test]
 fn hlsl_attribution_and_errors_name_the_hlsl_files_lines() {
     let text = std::fs::read_to_string(HLSL).unwrap();
-    let kernels = kernel_set(&[PathBuf::from(HLSL)]).unwrap();
+    let kernels = kernel_set(&[PathBuf::from(HLSL)], &linelight::kernel::Includes::none()).unwrap();
     let configs = held_out(300);
     let refs: Vec<&Config> = configs.iter().collect();
     let p = linelight::eval::interp::program(&resolve("line.ltc2017_hlsl", &kernels).unwrap()).unwrap();
@@ -275,12 +275,9 @@ fn glsl_and_hlsl_f64_columns_keep_a_constants_written_digits() {
              return {TWENTY} * scene.p1.z + (PI / 4.0) * scene.p2.z;\n}}\n"
         ),
     );
-    // The folders are the process's (set once by the command line): emptied again at once, so
-    // that no other test of this binary sees a temporary folder.
-    linelight::kernel::set_include_dirs(vec![inc.clone()]);
-    let kernels = kernel_set(&[glsl.clone(), hlsl]);
-    linelight::kernel::set_include_dirs(Vec::new());
-    let kernels = kernels.unwrap();
+    // The folders are a value passed with the files (as the command line passes `--include`).
+    let includes = linelight::kernel::Includes::new(vec![inc.clone()]);
+    let kernels = kernel_set(&[glsl.clone(), hlsl], &includes).unwrap();
     let c = config([0.1, 0.2, 1.0], [0.3, -0.1, 3.0], Material::Diffuse);
     let quarter: f64 = TWENTY.parse().unwrap();
     let g = resolve("line.twenty_glsl", &kernels).unwrap();
@@ -322,7 +319,7 @@ fn a_folded_constant_that_cannot_be_recovered_refuses_the_f64_column() {
         "f.hlsl",
         "//! id: line.folded\n//! target: line\nfloat method(Scene scene)\n{\n    return sqrt(2.0) * scene.p1.z;\n}\n",
     );
-    let kernels = kernel_set(std::slice::from_ref(&k)).unwrap();
+    let kernels = kernel_set(std::slice::from_ref(&k), &linelight::kernel::Includes::none()).unwrap();
     let m = resolve("line.folded", &kernels).unwrap();
     let c = config([0.1, 0.2, 1.0], [0.3, -0.1, 3.0], Material::Diffuse);
     let e = m.cpu_column(std::slice::from_ref(&c), Mode::F64).unwrap_err();
@@ -351,7 +348,7 @@ fn glsl_as_engines_write_it_and_the_language_header() {
         "k.txt",
         "//! id: line.txt\n//! target: line\n//! language: hlsl\nfloat method(Scene scene) { return scene.p1.z; }\n",
     );
-    let kernels = kernel_set(&[frag, txt]).unwrap();
+    let kernels = kernel_set(&[frag, txt], &linelight::kernel::Includes::none()).unwrap();
     let c = config([0.1, 0.2, 1.5], [0.3, -0.1, 3.0], Material::Diffuse);
     let v = |id: &str| {
         resolve(id, &kernels)

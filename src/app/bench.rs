@@ -38,7 +38,10 @@ pub struct BenchOptions {
 
 /// `linelight bench`: samples the case's configurations, measures, prints the report to
 /// stdout (progress on stderr) and writes the JSON if asked.
-pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::analyse::bench::BenchRun> {
+pub fn bench(
+    options: &BenchOptions,
+    includes: &crate::kernel::Includes,
+) -> anyhow::Result<crate::analyse::bench::BenchRun> {
     use crate::limits::{check_count, check_rounds, MAX_ROUNDS};
     check_count("--count", options.count as u64).map_err(anyhow::Error::msg)?;
     check_rounds("--repeats", options.repeats as u64, MAX_ROUNDS, false).map_err(anyhow::Error::msg)?;
@@ -69,7 +72,12 @@ pub fn bench(options: &BenchOptions) -> anyhow::Result<crate::analyse::bench::Be
     // The methods measured decide which pairs are compared (and `prepare` checks them).
     case.compare
         .retain(|pair| pair.iter().all(|l| case.methods.contains(l)));
-    let setup = crate::app::prepare(case, &options.kernels, Some(options.count.div_ceil(materials)))?;
+    let setup = crate::app::prepare(
+        case,
+        &options.kernels,
+        includes,
+        Some(options.count.div_ceil(materials)),
+    )?;
     let configs = crate::measure::bench::split_evenly(&setup.samples, materials, options.count);
     for m in &setup.methods {
         let missing = configs.iter().filter(|c| !m.applies(c)).count();

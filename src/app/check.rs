@@ -39,14 +39,14 @@ pub fn adapters() -> Result<Status> {
 /// `linelight check`: each kernel file validated as every command validates a `--kernel`
 /// file, and its loops held against the driver's loop limit as eval holds them; `emit` prints
 /// the composed modules. Bad input (2) when one does not validate or loops past the limit.
-pub fn check(kernels: &[PathBuf], emit: bool) -> Result<Status> {
+pub fn check(kernels: &[PathBuf], emit: bool, includes: &crate::kernel::Includes) -> Result<Status> {
     let mut bad = 0;
     let mut known = crate::kernel::builtin_kernels();
     // Opened for the first kernel with loops: the limit is the device's (gpu/loops.rs).
     let mut device: Option<std::result::Result<Gpu, String>> = None;
     for path in kernels {
         // The same validation eval, sweep and bench give a --kernel file.
-        match methods::validate_kernel(path, &known) {
+        match methods::validate_kernel(path, &known, includes) {
             Ok(k) => {
                 // The CPU evaluator gives the kernel its f64 and cpu_f32 columns.
                 // (A composite with the default line method, as it is composed here.)

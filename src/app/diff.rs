@@ -5,7 +5,7 @@
 use crate::app::gate::{self, Change, Obs};
 use crate::input::case::Case;
 use crate::kernel::methods::{self, Method};
-use crate::kernel::KernelFile;
+use crate::kernel::{Includes, KernelFile};
 use crate::measure::gpu::Gpu;
 use std::path::{Path, PathBuf};
 
@@ -42,9 +42,9 @@ fn is_kernel_file(spec: &str) -> bool {
 
 /// A method spec, or a kernel file (a path ending `.wgsl`): a file is labelled with its path,
 /// so two revisions of one kernel (same id) stay apart.
-fn method_of(spec: &str) -> anyhow::Result<Method> {
+fn method_of(spec: &str, includes: &Includes) -> anyhow::Result<Method> {
     if is_kernel_file(spec) {
-        let k = KernelFile::read(Path::new(spec))?;
+        let k = KernelFile::read(Path::new(spec), includes)?;
         let mut kernels = crate::kernel::builtin_kernels();
         kernels.retain(|b| b.id != k.id);
         kernels.push(k.clone());
@@ -83,7 +83,7 @@ impl Outcome {
 }
 
 /// Runs the diff and prints it, ending with the verdict line.
-pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
+pub fn run(options: &DiffOptions, includes: &Includes) -> anyhow::Result<Outcome> {
     crate::app::options::check_float("--noise", options.noise, crate::app::options::FRACTION)
         .map_err(anyhow::Error::msg)?;
     // The output is checked before any work: not the case file, not a kernel file given
@@ -98,8 +98,8 @@ pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
         }
         plan.file("--output", path).check()?;
     }
-    let a = method_of(&options.a)?;
-    let b = method_of(&options.b)?;
+    let a = method_of(&options.a, includes)?;
+    let b = method_of(&options.b, includes)?;
     if a.label == b.label {
         anyhow::bail!("diff: A and B are the same method `{}`", a.label);
     }
@@ -124,7 +124,7 @@ pub fn run(options: &DiffOptions) -> anyhow::Result<Outcome> {
         observations: true,
         ..Default::default()
     };
-    let mut setup = crate::app::prepare_with(case, &[], options.count, holds)?;
+    let mut setup = crate::app::prepare_with(case, &[], includes, options.count, holds)?;
     setup.methods = vec![a.clone(), b.clone()];
     crate::app::check_memory(&setup, holds)?;
     let gpu = Gpu::new(options.adapter.as_deref())?;

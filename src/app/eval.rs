@@ -29,7 +29,7 @@ pub struct EvalOptions {
     pub gpu: GpuOptions,
 }
 
-pub fn eval(options: EvalOptions) -> anyhow::Result<Status> {
+pub fn eval(options: EvalOptions, includes: &crate::kernel::Includes) -> anyhow::Result<Status> {
     let EvalOptions {
         input,
         output,
@@ -53,7 +53,7 @@ pub fn eval(options: EvalOptions) -> anyhow::Result<Status> {
         plan.input(what, path);
     }
     plan.file("--output", &output).check()?;
-    let kernels = crate::kernel::methods::kernel_set(&gpu.kernels)?;
+    let kernels = crate::kernel::methods::kernel_set(&gpu.kernels, includes)?;
     let specs = if specs.is_empty() {
         kernels.iter().map(|k| k.id.clone()).collect()
     } else {

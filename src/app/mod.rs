@@ -26,6 +26,7 @@ pub use scan::{scan, ScanOptions};
 
 pub use status::{status_of, Status};
 
+use crate::kernel::Includes;
 use crate::measure::gpu::Gpu;
 use anyhow::Result;
 use std::path::{Path, PathBuf};
@@ -49,10 +50,11 @@ pub struct GpuOptions {
 pub fn prepare_with(
     case: crate::input::case::Case,
     user_kernels: &[PathBuf],
+    includes: &Includes,
     count: Option<usize>,
     holds: crate::measure::setup::Holds,
 ) -> Result<crate::measure::sweep::Setup> {
-    let setup = crate::measure::setup::resolve(case, user_kernels, count)?;
+    let setup = crate::measure::setup::resolve(case, user_kernels, includes, count)?;
     check_memory(&setup, holds)?;
     Ok(setup)
 }
@@ -62,13 +64,14 @@ pub fn prepare_with(
 pub fn prepare(
     case: crate::input::case::Case,
     user_kernels: &[PathBuf],
+    includes: &Includes,
     count: Option<usize>,
 ) -> Result<crate::measure::sweep::Setup> {
     let holds = crate::measure::setup::Holds {
         all_samples: true,
         ..Default::default()
     };
-    let mut setup = prepare_with(case, user_kernels, count, holds)?;
+    let mut setup = prepare_with(case, user_kernels, includes, count, holds)?;
     crate::measure::setup::draw_all(&mut setup)?;
     Ok(setup)
 }

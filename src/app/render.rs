@@ -54,13 +54,13 @@ const TONE_MAP: &str = "radiance of a unit-intensity light × exposure, then Rei
 /// What the OpenEXR files hold (render.json's `hdr`).
 const HDR: &str = "OpenEXR (lossless ZIP), channel Y the radiance of a unit-intensity light before exposure and tone map, as f32 (a method's GPU values exactly, the reference rounded once; NaN/inf kept), channel A 1 on the floor and 0 on the background: reference.exr (reference_<target>.exr when the methods judge different targets) and each method's `hdr`";
 
-pub fn render(options: RenderOptions) -> anyhow::Result<Status> {
+pub fn render(options: RenderOptions, includes: &crate::kernel::Includes) -> anyhow::Result<Status> {
     let gpu = &options.gpu;
     let total = Instant::now();
     let command_line = shell_words::join(std::env::args());
     let scene = RenderScene::load(&options.scene)?;
     let at = options.scene.display().to_string();
-    let kernels = crate::kernel::methods::kernel_set(&gpu.kernels)?;
+    let kernels = crate::kernel::methods::kernel_set(&gpu.kernels, includes)?;
     crate::kernel::methods::check_unique(&scene.methods, &format!("{at}: methods"))?;
     let methods = scene
         .methods

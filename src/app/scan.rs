@@ -33,7 +33,7 @@ pub struct ScanOptions {
 }
 
 /// `linelight scan`: the stability scan on the device (docs/scan.md).
-pub fn scan(options: ScanOptions) -> Result<Status> {
+pub fn scan(options: ScanOptions, includes: &crate::kernel::Includes) -> Result<Status> {
     let ScanOptions {
         case,
         count,
@@ -62,7 +62,7 @@ pub fn scan(options: ScanOptions) -> Result<Status> {
         plan.input(what, path);
     }
     plan.set("--out", &dir, SetKind::Scan).check()?;
-    let kernels = methods::kernel_set(&gpu.kernels)?;
+    let kernels = methods::kernel_set(&gpu.kernels, includes)?;
     let given = !specs.is_empty();
     let specs: Vec<String> = if given { specs } else { case.methods.clone() };
     let mut chosen = Vec::new();

@@ -215,7 +215,7 @@ pub fn builtin_kernels() -> Vec<KernelFile> {
                     let ready = derive_of(text).is_none_or(|base| done.iter().any(|k| k.id == base));
                     if ready {
                         let lookup = |id: &str| done.iter().find(|k| k.id == id).cloned();
-                        let k = KernelFile::parse_with(path, text, &lookup, false)
+                        let k = KernelFile::parse_with(path, text, &lookup, None)
                             .unwrap_or_else(|e| panic!("built-in kernel header is valid: {e}"));
                         done.push(k);
                     } else {
@@ -243,7 +243,9 @@ fn derive_of(text: &str) -> Option<&str> {
 }
 
 impl KernelFile {
-    pub fn read(path: &Path) -> anyhow::Result<KernelFile> {
+    /// Reads the kernel file `path`; its `#include`s search `includes` after the including
+    /// file's own folder (GLSL, HLSL) or `kernels/lib/` (WGSL).
+    pub fn read(path: &Path, includes: &super::Includes) -> anyhow::Result<KernelFile> {
         let bytes = crate::io::read_bounded(path, "kernel", crate::limits::MAX_TEXT_INPUT)?;
         let text = String::from_utf8(bytes)
             .map_err(|e| anyhow::anyhow!("cannot read kernel {}: not UTF-8 text ({e})", path.display()))?;
@@ -255,11 +257,11 @@ impl KernelFile {
         let shown = path.display().to_string();
         let language = Language::of(path, &text)?;
         if language == Language::Wgsl {
-            return Ok(KernelFile::parse(&shown, &text)?);
+            return Ok(KernelFile::parse_including(&shown, &text, includes)?);
         }
         // The header is checked on the file itself (its lines), then the translation is the text.
         KernelFile::parse(&shown, &text)?;
-        let expanded = super::include::expand(path, &shown, &text)?;
+        let expanded = super::include::expand(path, &shown, &text, includes)?;
         let (wgsl, lines, lost_digits) = match language {
             Language::Glsl => super::glsl::translate_expanded(&shown, &expanded)?,
             _ => super::hlsl::translate(&shown, &expanded)?,
@@ -281,12 +283,18 @@ impl KernelFile {
     }
 
     /// Parses a kernel file; a derived one (`//! derive:`) is derived from a built-in kernel.
+    /// Its `#include`s name only `kernels/lib/` ([`KernelFile::parse_including`]: folders too).
     pub fn parse(path: &str, text: &str) -> Result<KernelFile, HeaderError> {
+        KernelFile::parse_including(path, text, &super::Includes::none())
+    }
+
+    /// [`KernelFile::parse`], a WGSL kernel's `#include`s searching `includes` too.
+    pub fn parse_including(path: &str, text: &str, includes: &super::Includes) -> Result<KernelFile, HeaderError> {
         KernelFile::parse_with(
             path,
             text,
             &|id| builtin_kernels().into_iter().find(|k| k.id == id),
-            true,
+            Some(includes),
         )
     }
 
@@ -310,12 +318,13 @@ impl KernelFile {
         parts
     }
 
-    /// `user`: a user's kernel, whose `#include`s may name files in the `--include` folders.
+    /// `user`: a user's kernel with its `--include` folders, whose `#include`s may name files
+    /// in them; None: a built-in kernel.
     fn parse_with(
         path: &str,
         text: &str,
         base_of: &dyn Fn(&str) -> Option<KernelFile>,
-        user: bool,
+        user: Option<&super::Includes>,
     ) -> Result<KernelFile, HeaderError> {
         let err = |line: usize, message: String| HeaderError {
             path: path.to_string(),

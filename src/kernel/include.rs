@@ -8,18 +8,31 @@
 
 use super::HeaderError;
 use std::path::{Path, PathBuf};
-use std::sync::RwLock;
 
-/// The `--include` folders, set once by the command line.
-static DIRS: RwLock<Vec<PathBuf>> = RwLock::new(Vec::new());
-
-/// Sets the folders `#include` searches after the including file's own.
-pub fn set_include_dirs(dirs: Vec<PathBuf>) {
-    *DIRS.write().unwrap_or_else(|p| p.into_inner()) = dirs;
+/// The `--include` folders `#include` searches after the including file's own, in order: a
+/// value made where the command line is parsed and passed down to every kernel file read
+/// (`KernelFile::read`, `methods::kernel_set`). None: a kernel includes only what lies beside
+/// it (GLSL, HLSL) or in `kernels/lib/` (WGSL).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Includes {
+    dirs: Vec<PathBuf>,
 }
 
-pub(super) fn include_dirs() -> Vec<PathBuf> {
-    DIRS.read().unwrap_or_else(|p| p.into_inner()).clone()
+impl Includes {
+    /// The folders, searched in the order given.
+    pub fn new(dirs: Vec<PathBuf>) -> Includes {
+        Includes { dirs }
+    }
+
+    /// No folders.
+    pub fn none() -> Includes {
+        Includes::default()
+    }
+
+    /// The folders, in search order.
+    pub fn dirs(&self) -> &[PathBuf] {
+        &self.dirs
+    }
 }
 
 /// Where one line of an expansion came from.
@@ -66,17 +79,18 @@ impl Expanded {
     }
 }
 
-/// Expands the `#include`s of `text`, the kernel file `path` (shown as `shown`).
-pub fn expand(path: &Path, shown: &str, text: &str) -> Result<Expanded, HeaderError> {
+/// Expands the `#include`s of `text`, the kernel file `path` (shown as `shown`), searching
+/// beside each including file and then in `includes`.
+pub fn expand(path: &Path, shown: &str, text: &str, includes: &Includes) -> Result<Expanded, HeaderError> {
     let mut out = Expanded {
         text: String::new(),
         lines: Vec::new(),
         files: vec![(shown.to_string(), text.to_string())],
     };
-    let dirs = include_dirs();
+    let dirs = includes.dirs();
     let mut total = text.len() as u64;
     let canonical = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
-    walk(&mut out, 0, path, text, &mut vec![canonical], None, &dirs, &mut total)?;
+    walk(&mut out, 0, path, text, &mut vec![canonical], None, dirs, &mut total)?;
     Ok(out)
 }
 

@@ -4,7 +4,7 @@
 
 use crate::input::scene::Config;
 use crate::input::target::Target;
-use crate::kernel::{KernelFile, MinvSupport};
+use crate::kernel::{Includes, KernelFile, MinvSupport};
 use anyhow::Context;
 
 pub use crate::kernel::{DEFAULT_INNER, DEFAULT_INNER_ISOTROPIC};
@@ -237,13 +237,14 @@ pub fn check_unique(specs: &[String], flag: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// All kernels a run can name: the built-ins and the user's `--kernel` files.
-/// A user kernel may not reuse a built-in id (results would be ambiguous). Every file is
-/// validated whole ([`validate_kernel`]), whether a method uses it or not.
-pub fn kernel_set(user: &[std::path::PathBuf]) -> anyhow::Result<Vec<KernelFile>> {
+/// All kernels a run can name: the built-ins and the user's `--kernel` files (their
+/// `#include`s searching `includes`). A user kernel may not reuse a built-in id (results
+/// would be ambiguous). Every file is validated whole ([`validate_kernel`]), whether a method
+/// uses it or not.
+pub fn kernel_set(user: &[std::path::PathBuf], includes: &Includes) -> anyhow::Result<Vec<KernelFile>> {
     let mut kernels = crate::kernel::builtin_kernels();
     for path in user {
-        let k = validate_kernel(path, &kernels)?;
+        let k = validate_kernel(path, &kernels, includes)?;
         kernels.push(k);
     }
     Ok(kernels)
@@ -252,8 +253,12 @@ pub fn kernel_set(user: &[std::path::PathBuf]) -> anyhow::Result<Vec<KernelFile>
 /// Reads a kernel file and validates it the one way every command does (`check`, `eval`,
 /// `sweep`, `bench`): its header, an id no other kernel has, and the composed module
 /// through naga with every shader capability linelight asks a device for.
-pub fn validate_kernel(path: &std::path::Path, others: &[KernelFile]) -> anyhow::Result<KernelFile> {
-    let k = KernelFile::read(path)?;
+pub fn validate_kernel(
+    path: &std::path::Path,
+    others: &[KernelFile],
+    includes: &Includes,
+) -> anyhow::Result<KernelFile> {
+    let k = KernelFile::read(path, includes)?;
     // A built-in's own file (`linelight check kernels/x.wgsl`) is that built-in, not a clash.
     let same_file = |o: &KernelFile| {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));

@@ -34,7 +34,7 @@ pub use compose::{compose, compose_with, entry_point, Composed, GLUE_PATH, WORKG
 pub(crate) use compose::{inner_name, ENTRY_NAME};
 pub use diagnostic::{KernelError, ENTRY_PATH};
 pub use file::*;
-pub use include::set_include_dirs;
+pub use include::Includes;
 pub use pieces::lib_pieces;
 
 /// The line method a composite uses when its spec names none: it handles every M⁻¹.

@@ -9,6 +9,7 @@
 //! so an include stays inside `kernels/` and those folders. Cycles, nesting deeper than
 //! `limits::MAX_INCLUDE_DEPTH` and a total above `limits::MAX_INCLUDE_BYTES` are refused.
 
+use super::include::Includes;
 use super::HeaderError;
 use std::path::{Component, Path};
 
@@ -22,9 +23,9 @@ pub fn lib_pieces() -> &'static [(&'static str, &'static str)] {
 
 /// The parts of the WGSL kernel `path` with text `text`: its own lines, with each `#include`
 /// replaced by the included file's parts. A kernel without includes is one part, its text as
-/// it is. `user`: a user's kernel, which may include from the `--include` folders too (a
-/// built-in kernel includes only `kernels/lib/`).
-pub(super) fn expand(path: &str, text: &str, user: bool) -> Result<Vec<(String, String)>, HeaderError> {
+/// it is. `user`: a user's kernel, which may include from its `--include` folders too (a
+/// built-in kernel, None, includes only `kernels/lib/`).
+pub(super) fn expand(path: &str, text: &str, user: Option<&Includes>) -> Result<Vec<(String, String)>, HeaderError> {
     if !text.lines().any(|l| super::include::directive(l).is_some()) {
         return Ok(vec![(path.to_string(), text.to_string())]);
     }
@@ -39,7 +40,7 @@ fn walk(
     shown: &str,
     text: &str,
     stack: &mut Vec<String>,
-    user: bool,
+    user: Option<&Includes>,
     total: &mut u64,
 ) -> Result<(), HeaderError> {
     // The current run of this file's lines, from its line 1 (lines given to includes blank).
@@ -96,7 +97,7 @@ fn push_run(out: &mut Vec<(String, String)>, shown: &str, run: String) {
 }
 
 /// The file `name` names, as (path shown, text), or why not.
-fn find(name: &str, user: bool) -> Result<(String, String), String> {
+fn find(name: &str, user: Option<&Includes>) -> Result<(String, String), String> {
     let shown = crate::input::names::clip(name);
     let relative = Path::new(name).components().all(|c| matches!(c, Component::Normal(_)));
     if !relative {
@@ -109,11 +110,7 @@ fn find(name: &str, user: bool) -> Result<(String, String), String> {
     if let Some((path, text)) = LIB.iter().find(|(p, _)| *p == builtin) {
         return Ok((path.to_string(), text.to_string()));
     }
-    let dirs = if user {
-        super::include::include_dirs()
-    } else {
-        Vec::new()
-    };
+    let dirs = user.map_or(&[][..], Includes::dirs);
     let Some(found) = dirs.iter().map(|d| d.join(name)).find(|p| p.is_file()) else {
         let pieces: Vec<&str> = LIB.iter().map(|(p, _)| p.trim_start_matches("kernels/")).collect();
         let looked = if dirs.is_empty() {
@@ -125,7 +122,11 @@ fn find(name: &str, user: bool) -> Result<(String, String), String> {
         return Err(format!(
             "cannot find included file `{shown}` (the built-in pieces: {}{looked}{})",
             pieces.join(", "),
-            if user { "; add folders with --include DIR" } else { "" }
+            if user.is_some() {
+                "; add folders with --include DIR"
+            } else {
+                ""
+            }
         ));
     };
     let bytes =

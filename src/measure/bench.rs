@@ -429,13 +429,14 @@ mod tests {
         )))
         .expect("the line_fwt case loads");
         let materials = case.materials.len();
-        let setup = crate::app::prepare(case, &[], Some(n.div_ceil(materials))).unwrap();
+        let setup =
+            crate::app::prepare(case, &[], &crate::kernel::Includes::none(), Some(n.div_ceil(materials))).unwrap();
         split_evenly(&setup.samples, materials, n)
     }
 
     #[test]
     fn one_cost_per_method_in_input_order() {
-        let kernels = crate::kernel::methods::kernel_set(&[]).unwrap();
+        let kernels = crate::kernel::methods::kernel_set(&[], &crate::kernel::Includes::none()).unwrap();
         let specs = ["line.numeric@8", "line.ltc2023", "line.ltc2017"];
         let methods: Vec<Method> = specs
             .iter()
@@ -495,7 +496,7 @@ mod tests {
     }
     #[test]
     fn a_spent_budget_stops_every_method_at_the_same_round_and_the_cpu_column_is_sized() {
-        let kernels = crate::kernel::methods::kernel_set(&[]).unwrap();
+        let kernels = crate::kernel::methods::kernel_set(&[], &crate::kernel::Includes::none()).unwrap();
         let methods: Vec<Method> = ["line.numeric@64", "line.ltc2017"]
             .iter()
             .map(|s| crate::kernel::methods::resolve(s, &kernels).unwrap())
@@ -564,7 +565,7 @@ mod tests {
         // Any spread is settled under a huge share: every method stops after the minimum of
         // rounds, marked settled, its GPU and CPU rounds paired; a zero share never settles
         // two different values, so the methods run every round.
-        let kernels = crate::kernel::methods::kernel_set(&[]).unwrap();
+        let kernels = crate::kernel::methods::kernel_set(&[], &crate::kernel::Includes::none()).unwrap();
         let methods: Vec<Method> = ["line.numeric@8", "line.ltc2017"]
             .iter()
             .map(|s| crate::kernel::methods::resolve(s, &kernels).unwrap())
@@ -605,7 +606,7 @@ mod tests {
         )))
         .unwrap();
         let materials = case.materials.len();
-        let setup = crate::app::prepare(case, &[], Some(4)).unwrap();
+        let setup = crate::app::prepare(case, &[], &crate::kernel::Includes::none(), Some(4)).unwrap();
         let picked = split_evenly(&setup.samples, materials, 10);
         assert_eq!(picked.len(), 10);
         // 3 + 3 + 4 over three families, 2 + 3 + 2 + 3 over four, 2 each over five: the

@@ -162,7 +162,7 @@ fn run_method(gpu: &Gpu, m: &Method, configs: &[Config], chunk: usize) -> anyhow
 /// Measures the chain for every configuration of the case and every method in it.
 pub fn measure(case: &Case, gpu: &Gpu, chunk: usize) -> anyhow::Result<ChainRun> {
     let start = Instant::now();
-    let kernels = methods::kernel_set(&[])?;
+    let kernels = methods::kernel_set(&[], &crate::kernel::Includes::none())?;
     let methods: Vec<Method> = case
         .methods
         .iter()

@@ -19,9 +19,15 @@ pub struct Holds {
     pub all_samples: bool,
 }
 
-/// Loads and checks everything a sweep needs, without touching the GPU. Nothing is sampled
-/// here (a streamed sweep draws chunk by chunk): `samples`, `draws` and `topups` stay empty.
-pub fn resolve(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> anyhow::Result<Setup> {
+/// Loads and checks everything a sweep needs, without touching the GPU (the `--kernel` files'
+/// `#include`s search `includes`). Nothing is sampled here (a streamed sweep draws chunk by
+/// chunk): `samples`, `draws` and `topups` stay empty.
+pub fn resolve(
+    case: Case,
+    user_kernels: &[PathBuf],
+    includes: &crate::kernel::Includes,
+    count: Option<usize>,
+) -> anyhow::Result<Setup> {
     let mut case = case;
     if let Some(n) = count {
         crate::limits::check_count("--count", n as u64).map_err(anyhow::Error::msg)?;
@@ -38,14 +44,14 @@ pub fn resolve(case: Case, user_kernels: &[PathBuf], count: Option<usize>) -> an
             m.count = n;
         }
     }
-    let kernels = crate::kernel::methods::kernel_set(user_kernels)?;
+    let kernels = crate::kernel::methods::kernel_set(user_kernels, includes)?;
     let mut methods = Vec::new();
     for spec in &case.methods {
         methods.push(crate::kernel::methods::resolve(spec, &kernels).with_context(|| format!("case `{}`", case.name))?);
     }
     // `--kernel FILE`: the case's methods plus every kernel given (unless the case names it).
     for path in user_kernels {
-        let k = crate::kernel::KernelFile::read(path)?;
+        let k = crate::kernel::KernelFile::read(path, includes)?;
         if !methods.iter().any(|m| m.id() == k.id) {
             methods.push(crate::kernel::methods::resolve(&k.id, &kernels)?);
         }

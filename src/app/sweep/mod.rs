@@ -7,6 +7,7 @@ use super::shard::{read_shards, shard_path, write_shard, Partial, Recorded};
 use super::{kernel_inputs, open_gpu, GpuOptions, Status};
 use crate::input::case::Case;
 use crate::io::{stage_output, OutputPlan, SetKind};
+use crate::kernel::Includes;
 use crate::measure::sweep::{self, Setup};
 use std::path::{Path, PathBuf};
 
@@ -84,7 +85,7 @@ pub struct MergeOptions {
 
 /// `linelight sweep`: the case's inputs checked, measured (or one shard of it), analysed,
 /// reported, and the verdict's status.
-pub fn sweep(options: SweepOptions) -> anyhow::Result<Status> {
+pub fn sweep(options: SweepOptions, includes: &Includes) -> anyhow::Result<Status> {
     let SweepOptions {
         case,
         out,
@@ -152,7 +153,7 @@ pub fn sweep(options: SweepOptions) -> anyhow::Result<Status> {
         observations: gate.save_baseline.is_some() || gate.baseline.is_some(),
         all_samples: false,
     };
-    let setup = prepare_with(loaded, &gpu.kernels, count, holds)?;
+    let setup = prepare_with(loaded, &gpu.kernels, includes, count, holds)?;
     check_budget_target(&setup)?;
     // A claim that names what the case does not have is bad input, found before measuring.
     let labels = setup.methods.iter().map(|m| m.label.clone()).collect();
@@ -305,7 +306,7 @@ impl Named<'_> {
 /// sweep writes. No GPU: the shards climbed the searches and shard 0 timed the methods; the
 /// merge adds the statistics, settles the top-ups and keeps the climbs of the whole sample's
 /// best starts (`measure::sweep::assemble`).
-pub fn merge(options: MergeOptions) -> anyhow::Result<Status> {
+pub fn merge(options: MergeOptions, includes: &Includes) -> anyhow::Result<Status> {
     let (dirs, out) = (&options.shards[..], options.out.as_path());
     let started = std::time::Instant::now();
     let command_line = shell_words::join(std::env::args());
@@ -326,6 +327,7 @@ pub fn merge(options: MergeOptions) -> anyhow::Result<Status> {
     let setup = prepare_with(
         loaded,
         &shards.kernels,
+        includes,
         shards.records[0].1.count_override,
         Holds::default(),
     )?;

@@ -64,7 +64,7 @@ fn configs(n: usize) -> Vec<Config> {
 #[test]
 #[allow(clippy::approx_constant)] // the listing's own digits are the point
 fn f64_keeps_written_digits() {
-    let mut kernels = kernel_set(&[]).unwrap();
+    let mut kernels = kernel_set(&[], &crate::kernel::Includes::none()).unwrap();
     let base = kernels.iter().find(|k| k.id == "line.ltc2023").unwrap().clone();
     let text = base
         .text
@@ -213,7 +213,7 @@ fn the_vectorised_attribution_gives_the_straightforward_ones_bits() {
     let mut sample = Vec::new();
     for path in paths {
         let case = crate::input::case::Case::load(&path).unwrap();
-        let setup = crate::app::prepare(case, &[], Some(12)).unwrap();
+        let setup = crate::app::prepare(case, &[], &crate::kernel::Includes::none(), Some(12)).unwrap();
         sample.extend(setup.samples.into_iter().map(|s| s.config));
     }
     // Odd inputs in each material kind of the sample.
