@@ -10,6 +10,7 @@ pub mod gate;
 pub mod measured;
 pub mod objectives;
 pub mod observations;
+pub mod partial;
 pub mod pareto;
 pub mod render;
 pub mod render_gate;

@@ -6,8 +6,8 @@
 
 use crate::analyse::analysis::{Accumulators, Fold, Leak, LeakAccumulator};
 use crate::analyse::observations::Observations;
+use crate::analyse::partial::{Partial, SHARD_FORMAT};
 use crate::analyse::stats::{add_to_each, Accumulate};
-use crate::app::shard::{Partial, SHARD_FORMAT};
 use crate::measure::gpu::Gpu;
 use crate::measure::sweep::{self, MeasureOptions, Measured, Setup};
 use std::time::Instant;

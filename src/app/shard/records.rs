@@ -2,7 +2,8 @@
 //! `linelight merge` with the case and kernel files they ran, found beside the records and
 //! checked by their SHA-256.
 
-use super::{sha256, short, source_sha256, Header, Partial, SHARD_FORMAT};
+use super::{sha256, short, source_sha256};
+use crate::analyse::partial::{Header, Partial, SHARD_FORMAT};
 use crate::kernel::methods::Method;
 use anyhow::Context;
 use std::path::{Path, PathBuf};

@@ -3,7 +3,7 @@
 //! shard of it written as a shard state (`--shard`, docs/scale.md), or the shard states merged;
 //! then the verdict (`report`: analysed, reported, gated).
 
-use super::shard::{read_shards, shard_path, write_shard, Partial, Recorded};
+use super::shard::{merge_records, read_shards, shard_path, write_shard, Recorded};
 use super::{kernel_inputs, open_gpu, GpuOptions, Status};
 use crate::input::case::Case;
 use crate::io::{stage_output, OutputPlan, SetKind};
@@ -333,7 +333,7 @@ pub fn merge(options: MergeOptions, includes: &Includes) -> anyhow::Result<Statu
     )?;
     check_budget_target(&setup)?;
     shards.check_sources(&setup.methods)?;
-    let part = Partial::merge_records(&setup, &shards)?;
+    let part = merge_records(&setup, &shards)?;
     let gate = crate::app::gate::GateRun::prepare(None, None, None, Default::default(), &setup)?;
     let measured = Swept {
         measured: sweep::assemble(&setup, part.measured)?,
