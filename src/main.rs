@@ -115,7 +115,7 @@ fn run(cli: Cli) -> anyhow::Result<Status> {
         Command::Objectives(o) => app::objectives::run(&o.subset, &o.out, o.lines),
         Command::Chain(o) => app::chain::run(&o.case, o.out, o.count, &o.gpu),
         Command::Resolution(o) => app::resolution::run(&o.case, o.tables, o.out),
-        Command::Diff(o) => app::diff::run(&o, includes).map(app::diff::Outcome::status),
+        Command::Diff(o) => app::diff::run(&o, includes).map(app::diff::status),
         Command::Adapters => app::adapters(),
         Command::Check(o) => app::check(&o.kernels, o.emit, includes),
     }

@@ -1,8 +1,9 @@
 //! `linelight diff CASE A B`: two methods, or two revisions of one kernel file, on a case's
-//! configurations. Paired statistics (the gate's, src/app/gate/mod.rs, with A as the baseline),
-//! the regions where they disagree (the disagreement search, src/measure/search.rs) and a verdict.
+//! configurations. This file chains the stages: the sweep's measuring with the disagreement
+//! search (app::swept, measure::search), the paired statistics (analyse::diff, the gate's
+//! comparison with A as the baseline), the printed lines and the replay file (report::diff).
 
-use crate::app::gate::{self, Change, Obs};
+use crate::analyse::diff::Outcome;
 use crate::input::case::Case;
 use crate::kernel::methods::{self, Method};
 use crate::kernel::{Includes, KernelFile};
@@ -56,29 +57,13 @@ fn method_of(spec: &str, includes: &Includes) -> anyhow::Result<Method> {
     }
 }
 
-/// What a diff found, over all materials: the exit code follows it (B regressed on any
-/// material: exit 1, as the gate's).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Outcome {
-    Unchanged,
-    Improved,
-    Regressed,
-    /// B more accurate on some materials and less on others (a regression too).
-    Mixed,
-}
-
-impl Outcome {
-    pub fn regressed(self) -> bool {
-        matches!(self, Outcome::Regressed | Outcome::Mixed)
-    }
-
-    /// As the gate: B less accurate than A on any material is exit 1.
-    pub fn status(self) -> super::Status {
-        if self.regressed() {
-            super::Status::ToleranceFail
-        } else {
-            super::Status::Ok
-        }
+/// The exit status of a diff's outcome: as the gate, B less accurate than A on any material
+/// is exit 1.
+pub fn status(outcome: Outcome) -> super::Status {
+    if outcome.regressed() {
+        super::Status::ToleranceFail
+    } else {
+        super::Status::Ok
     }
 }
 
@@ -140,103 +125,12 @@ pub fn run(options: &DiffOptions, includes: &Includes) -> anyhow::Result<Outcome
         true,
     )?;
     let observations = swept.observations.as_ref().expect("measured with observe");
-    let observed = gate::observed(&setup, &swept.measured, observations);
-    println!(
-        "diff on case {}: A = {}, B = {} (ratios are B / A)",
-        setup.case.name, a.label, b.label
-    );
-    let mut changes = Vec::new();
-    for (m, family) in setup.case.materials.iter().enumerate() {
-        let (sa, oa) = &observed[0].materials[m];
-        let (sb, ob) = &observed[1].materials[m];
-        if !(sa & sb) {
-            println!(
-                "  {}: not compared (unsupported by {})",
-                family.name,
-                if *sa { &b.label } else { &a.label }
-            );
-            continue;
-        }
-        let pairs: Vec<(f64, f64)> = oa
-            .iter()
-            .zip(ob)
-            .filter_map(|(x, y)| match (x, y) {
-                (Obs::Lit(x), Obs::Lit(y)) => Some((*x, *y)),
-                _ => None,
-            })
-            .collect();
-        let count = |o: &[Obs], what: Obs| o.iter().filter(|v| **v == what).count();
-        let p = gate::paired(&pairs, 1000, options.noise);
-        let change = p.change(options.noise);
-        changes.push(change);
-        let verdict = match change {
-            Change::Regressed => "B is less accurate",
-            Change::Improved => "B is more accurate",
-            _ => "no difference beyond the noise",
-        };
-        let [gl, gm, gh] = p.geomean;
-        let [pl, pm, ph] = p.p99_ratio;
-        println!(
-            "  {}: {verdict}: over {} paired configurations, error ratio geometric mean ×{gm:.4} [{gl:.4}–{gh:.4}], \
-             p99 ×{pm:.4} [{pl:.4}–{ph:.4}] (95 % bootstrap, noise ±{} %); B worse on {}, better on {}; \
-             NaN/inf A {} B {}; false light A {} B {}",
-            family.name,
-            p.pairs,
-            options.noise * 100.0,
-            p.worse,
-            p.better,
-            count(oa, Obs::NonFinite),
-            count(ob, Obs::NonFinite),
-            count(oa, Obs::FalseLight),
-            count(ob, Obs::FalseLight),
-        );
-    }
-    println!("  where they disagree most (disagreement search, both ways):");
-    for d in &swept.measured.disagreements {
-        let who = if d.a == a.label { "A" } else { "B" };
-        println!(
-            "    {who} worse on {}: err {who} {:.3e} against {:.3e} (×{:.3e}; the sample's largest ×{:.3e}) at {}",
-            d.family,
-            d.err_a,
-            d.err_b,
-            d.ratio,
-            d.sample_ratio,
-            where_(&d.axes)?
-        );
-    }
+    let summary = crate::analyse::diff::analyse(&setup, &swept.measured, observations, options.noise)?;
+    print!("{}", crate::report::diff::body(&summary));
     if let Some(path) = &options.output {
-        let rows: Vec<_> = swept
-            .measured
-            .disagreements
-            .iter()
-            .map(|d| serde_json::to_value(&d.config))
-            .collect::<Result<_, _>>()?;
-        crate::report::format::write_file(path, &crate::report::format::Jsonl::new("disagreements", rows))?;
+        crate::report::format::write_file(path, &crate::report::diff::replay(&summary)?)?;
         eprintln!("wrote {} (replay with linelight eval)", path.display());
     }
-    let (regressed, improved) = (
-        changes.contains(&Change::Regressed),
-        changes.contains(&Change::Improved),
-    );
-    let (outcome, verdict) = match (regressed, improved) {
-        (true, true) => (
-            Outcome::Mixed,
-            "mixed (B is more accurate on some materials and less on others)",
-        ),
-        (true, false) => (Outcome::Regressed, "B is less accurate than A"),
-        (false, true) => (Outcome::Improved, "B is more accurate than A"),
-        (false, false) => (Outcome::Unchanged, "no difference beyond the noise"),
-    };
-    println!("verdict: {verdict}");
-    Ok(outcome)
-}
-
-/// The sampled parameters of a configuration (the derived axes are in the JSONL output).
-fn where_(axes: &crate::input::sampler::Axes) -> anyhow::Result<String> {
-    let v = serde_json::to_value(axes)?;
-    Ok(["length", "center", "elevation", "tilt", "alpha"]
-        .iter()
-        .filter_map(|k| Some(format!("{k} {:.4}", v.get(*k)?.as_f64()?)))
-        .collect::<Vec<_>>()
-        .join(", "))
+    println!("{}", crate::report::diff::verdict(summary.outcome));
+    Ok(summary.outcome)
 }

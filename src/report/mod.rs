@@ -7,6 +7,7 @@ mod attribution;
 pub mod bench;
 pub mod chain;
 pub mod chart;
+pub mod diff;
 mod csv;
 mod envelope;
 mod findings;
