@@ -7,6 +7,7 @@ pub mod chain;
 pub mod claims;
 pub mod diff;
 pub mod envelope;
+pub mod fit;
 pub mod gate;
 pub mod measured;
 pub mod objectives;

@@ -6,6 +6,7 @@ pub mod bench;
 pub mod chain;
 pub mod envelope;
 pub mod eval_rows;
+pub mod fit;
 pub mod gpu;
 pub mod objectives;
 pub mod progress;
