@@ -32,10 +32,11 @@ fn collect(dir: &Path, root: &Path, out: &mut Vec<String>) {
 fn write_list(root: &Path, files: &[String], name: &str) {
     let mut text = String::from("&[\n");
     for rel in files {
-        let abs = root.join(rel);
+        // Relative to the manifest at compile time, so a target/ copied to another checkout
+        // reads that checkout's kernels, not the ones it was first built from.
+        debug_assert!(root.join(rel).is_file());
         text.push_str(&format!(
-            "    (\"kernels/{rel}\", include_str!({:?})),\n",
-            abs.display().to_string()
+            "    (\"kernels/{rel}\", include_str!(concat!(env!(\"CARGO_MANIFEST_DIR\"), \"/kernels/{rel}\"))),\n"
         ));
     }
     text.push_str("]\n");
