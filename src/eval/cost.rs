@@ -1313,6 +1313,51 @@ mod tests {
         assert_eq!(default, method_cost_of(&method("test.composite")).unwrap());
     }
 
+    /// Every built-in kernel at its header's defaults and, with params, at 16, 64 and 256;
+    /// each composite with two inner line methods (an analytic one and a loop).
+    fn pinned_methods() -> Vec<(String, OpCount)> {
+        let kernels = builtin_kernels();
+        let mut rows = Vec::new();
+        for k in &kernels {
+            rows.push((k.id.clone(), method_cost(k, &[]).unwrap()));
+            if !k.params.is_empty() {
+                for n in [16u32, 64, 256] {
+                    let label = format!("{}@{n}", k.id);
+                    rows.push((label, method_cost(k, &vec![f64::from(n); k.params.len()]).unwrap()));
+                }
+            }
+            if k.uses_line {
+                // The first analytic inner method of its target and the first with a loop.
+                let of_target = || kernels.iter().filter(|i| i.target == k.uses_target && !i.uses_line);
+                let analytic = of_target().find(|i| i.params.is_empty()).map(|i| i.id.clone());
+                let looped = of_target()
+                    .find(|i| !i.params.is_empty())
+                    .map(|i| format!("{}@16", i.id));
+                for inner in analytic.into_iter().chain(looped) {
+                    let spec = format!("{}[{inner}]", k.id);
+                    let m = crate::kernel::methods::resolve(&spec, &kernels).unwrap();
+                    rows.push((spec, method_cost_of(&m).unwrap()));
+                }
+            }
+        }
+        rows
+    }
+
+    /// The counts of every built-in method, pinned: a change of the counter that moves one
+    /// shows here, with the new table to compare.
+    #[test]
+    fn op_counts_are_the_pinned_ones() {
+        let pinned = include_str!("../../tests/data/op_counts.jsonl");
+        let now: String = pinned_methods()
+            .into_iter()
+            .map(|(method, count)| serde_json::json!({ "method": method, "count": count }).to_string() + "\n")
+            .collect();
+        if now != pinned {
+            let first = now.lines().zip(pinned.lines()).find(|(a, b)| a != b);
+            panic!("the op counts moved; first difference (now, pinned): {first:?}\nthe table now:\n{now}");
+        }
+    }
+
     /// `cargo test --release --lib cost::tests::builtin_table -- --nocapture`
     #[test]
     fn builtin_table() {
