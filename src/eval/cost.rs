@@ -2,6 +2,12 @@
 //! composed kernel (prelude + method + the harness entry point `ll_main`), beside the
 //! measured GPU timings, which depend on the machine. A cost model, not a measurement.
 //!
+//! The count is a value domain of the one walker (`walk.rs`): the walker gives the IR its
+//! meaning and decomposes the composite built-ins into scalar operations; this domain's
+//! values carry no number, its operations count, and its control flow follows the
+//! costliest path (below) instead of lanes. What the walker does not decompose is charged
+//! by the table of [`math_work`].
+//!
 //! # What is counted
 //!
 //! The operations **one invocation** of the entry point executes: its body and, at every
@@ -65,8 +71,7 @@
 //!   bound read from the scene) counts its body **once** and makes `loop_trips` `None`.
 //! - `override` constants: [`method_cost`] resolves them with the method's parameters as
 //!   the pipeline does (naga's `process_overrides`, which also folds what depends only on
-//!   them, as the driver would). [`op_count`] on a module with unresolved overrides takes
-//!   their declared defaults for loop bounds.
+//!   them, as the driver would: `Program::folded`).
 //!
 //! # The single number
 //!
@@ -79,10 +84,10 @@
 //! Every count includes the harness entry point's own work (the bounds check `ll_i >=
 //! ll_count`: 1 arithmetic, 1 branch, and the call of `method`), the same for every method.
 
+use crate::eval::program::Program;
+use crate::eval::walk::{Arms, Domain, Frame, Looping, Walker, R};
 use crate::kernel::methods::Method;
 use crate::kernel::KernelFile;
-use anyhow::Context;
-use naga::valid::{FunctionInfo, ModuleInfo};
 use naga::{
     BinaryOperator, Block, Expression, Function, Handle, Literal, MathFunction, RelationalFunction, ScalarKind,
     Statement, TypeInner, UnaryOperator,
@@ -120,87 +125,54 @@ pub struct OpCount {
 /// given keep the header's defaults): the kernel is composed as the GPU runs it (a
 /// composite with the default line method), its overrides resolved, and `ll_main` counted.
 pub fn method_cost(kernel: &KernelFile, params: &[f64]) -> anyhow::Result<OpCount> {
-    count_composed(kernel, params, None)
+    count(&Program::folded(kernel, params, None)?)
 }
 
 /// The cost of a resolved method: its kernel with its params and, for a composite
 /// (`//! uses: line`), its inner line method with the inner's params.
 pub fn method_cost_of(method: &Method) -> anyhow::Result<OpCount> {
     let inner = method.inner.as_deref().map(|m| (&m.kernel, m.params.as_slice()));
-    count_composed(&method.kernel, &method.params, inner)
+    count(&Program::folded(&method.kernel, &method.params, inner)?)
 }
 
-use crate::kernel::{inner_name, ENTRY_NAME};
-
-fn count_composed(
-    kernel: &KernelFile,
-    params: &[f64],
-    inner: Option<(&KernelFile, &[f64])>,
-) -> anyhow::Result<OpCount> {
-    // Every capability: the count should not refuse a kernel a device accepts.
-    let composed = crate::kernel::compose_with(kernel, inner.map(|(k, _)| k), naga::valid::Capabilities::all())?;
-    let mut constants = naga::back::PipelineConstants::default();
-    for (name, value) in param_values(kernel, params)? {
-        constants.insert(name, value);
+/// What `ll_main` (compose.rs) does before it calls `method`: the bounds check `ll_i >=
+/// ll_count` (1 arithmetic) and its `if` (1 branch), whose early `return` is the other way
+/// out. The call itself is counted where the walker makes it.
+fn entry_check() -> Work {
+    Work {
+        arithmetic: 1,
+        branches: 1,
+        ..Work::default()
     }
-    // A composite without an explicit inner method was composed with the default one.
-    let inner = match (inner, &composed.inner) {
-        (Some((k, p)), _) => Some((k, p)),
-        (None, Some(default)) => Some((default, &[][..])),
-        (None, None) => None,
-    };
-    if let Some((inner, inner_params)) = inner {
-        for (name, value) in param_values(inner, inner_params)? {
-            constants.insert(inner_name(&name), value);
-        }
-    }
-    let entry = ENTRY_NAME;
-    let (module, info) = naga::back::pipeline_constants::process_overrides(
-        &composed.module,
-        &composed.info,
-        Some((naga::ShaderStage::Compute, entry)),
-        &constants,
-    )
-    .with_context(|| format!("{}: cannot resolve the overrides", kernel.path))?;
-    op_count(&module, &info, entry)
 }
 
-/// The header's params with `values` in order, defaults for the rest.
-fn param_values(kernel: &KernelFile, values: &[f64]) -> anyhow::Result<Vec<(String, f64)>> {
-    if values.len() > kernel.params.len() {
-        anyhow::bail!(
-            "{} takes {} param(s), {} given",
-            kernel.id,
-            kernel.params.len(),
-            values.len()
-        );
+/// Counts one invocation of the entry point of `p`: `method` walked by [`Walker`] over the
+/// counting domain, after the entry point's own check.
+fn count(p: &Program) -> anyhow::Result<OpCount> {
+    let mut trips = HashMap::new();
+    for (h, f) in p.module.functions.iter() {
+        loop_trips(&p.module, f, &f.body, false, &mut Vec::new(), &mut |body, n| {
+            trips.insert((h.index(), body as *const Block), n);
+        });
     }
-    Ok(kernel
-        .params
-        .iter()
-        .enumerate()
-        .map(|(i, p)| (p.name.clone(), values.get(i).copied().unwrap_or(p.default)))
-        .collect())
-}
-
-/// Counts one invocation of `entry_point` of a validated `module` (`info` is its
-/// validation result: it gives each expression's type).
-pub fn op_count(module: &naga::Module, info: &ModuleInfo, entry_point: &str) -> anyhow::Result<OpCount> {
-    let (index, entry) = module
-        .entry_points
-        .iter()
-        .enumerate()
-        .find(|(_, e)| e.name == entry_point)
-        .ok_or_else(|| anyhow::anyhow!("the module has no entry point `{entry_point}`"))?;
-    let mut counter = Counter {
-        module,
-        info,
-        functions: HashMap::new(),
+    let cost = Cost {
+        p,
+        emitted: false,
+        flow: Flow {
+            normal: Some(entry_check()),
+            ret: Some(entry_check()),
+            ..Flow::default()
+        },
+        trips,
         dynamic_loop: false,
-        path: Vec::new(),
     };
-    let work = counter.function(&entry.function, info.get_entry_point(index));
-    Ok(work.into_count(counter.dynamic_loop))
+    let scene = vec![(); p.scene.iter().map(|(_, _, len)| len).sum()];
+    let mut walker = Walker::new(p, cost);
+    walker.run(scene, Vec::new(), |_| Vec::new())?;
+    let Cost { flow, dynamic_loop, .. } = walker.d;
+    Ok(costlier(flow.normal, flow.ret)
+        .unwrap_or_default()
+        .into_count(dynamic_loop))
 }
 
 /// The work along one path; adds and scales field by field.
@@ -321,14 +293,10 @@ fn costlier(a: Option<Work>, b: Option<Work>) -> Option<Work> {
     }
 }
 
-fn then(a: &Option<Work>, b: &Option<Work>) -> Option<Work> {
-    Some(a.clone()?.plus(b.as_ref()?))
-}
-
-/// The most expensive path through a block to each way out of it.
+/// The most expensive path to each way out of the statements walked so far.
 #[derive(Clone, Debug, Default)]
 struct Flow {
-    /// Falling off the end.
+    /// Falling through to the next statement.
     normal: Option<Work>,
     /// `return` (or `discard`).
     ret: Option<Work>,
@@ -339,20 +307,10 @@ struct Flow {
 }
 
 impl Flow {
-    fn straight(work: Work) -> Flow {
+    fn straight(work: Option<Work>) -> Flow {
         Flow {
-            normal: Some(work),
+            normal: work,
             ..Flow::default()
-        }
-    }
-
-    /// `self` followed by `next` (which is only reached by falling off `self`).
-    fn then(self, next: Flow) -> Flow {
-        Flow {
-            ret: costlier(self.ret, then(&self.normal, &next.ret)),
-            brk: costlier(self.brk, then(&self.normal, &next.brk)),
-            cont: costlier(self.cont, then(&self.normal, &next.cont)),
-            normal: then(&self.normal, &next.normal),
         }
     }
 
@@ -376,178 +334,69 @@ impl Flow {
             cont: before(self.cont),
         }
     }
+
+    /// `self` (the statements before) followed by `next`, a statement walked from where
+    /// `self` falls through (its paths include `self.normal`).
+    fn then(self, next: Flow) -> Flow {
+        Flow {
+            normal: next.normal,
+            ret: costlier(self.ret, next.ret),
+            brk: costlier(self.brk, next.brk),
+            cont: costlier(self.cont, next.cont),
+        }
+    }
 }
 
-struct Counter<'a> {
-    module: &'a naga::Module,
-    info: &'a ModuleInfo,
-    /// Each function's cost, counted once and inlined at every call.
-    functions: HashMap<Handle<Function>, Work>,
+/// The counting domain: each of the walker's scalar operations counted where an `Emit`
+/// evaluates it, along the costliest path to each way out (module doc). Values carry no
+/// number, only their components; a pointer is the component count it points at.
+struct Cost<'p> {
+    p: &'p Program,
+    /// Whether the current expression is one an `Emit` evaluates (only those count).
+    emitted: bool,
+    /// The paths through the current function so far.
+    flow: Flow,
+    /// Each loop's static trip count, by function and loop body ([`static_trips`]).
+    trips: HashMap<(usize, *const Block), Option<u64>>,
     /// A loop without a static trip count was reached.
     dynamic_loop: bool,
-    /// Where the walk is in the current function: each enclosing block, the index of the
-    /// statement being walked in it, and whether the block is a loop's body or continuing.
-    path: Vec<(&'a Block, usize, bool)>,
 }
 
-/// The function being walked and its expression types.
-#[derive(Clone, Copy)]
-struct Scope<'a> {
-    fun: &'a Function,
-    info: &'a FunctionInfo,
-}
-
-impl<'a> Counter<'a> {
-    fn function(&mut self, fun: &'a Function, info: &'a FunctionInfo) -> Work {
-        let caller = std::mem::take(&mut self.path);
-        let flow = self.block(Scope { fun, info }, &fun.body, false);
-        self.path = caller;
-        costlier(flow.normal, flow.ret).unwrap_or_default()
-    }
-
-    fn block(&mut self, s: Scope<'a>, block: &'a Block, in_loop: bool) -> Flow {
-        let mut flow = Flow::straight(Work::default());
-        for (i, statement) in block.iter().enumerate() {
-            if flow.normal.is_none() {
-                break; // the rest is unreachable
-            }
-            self.path.push((block, i, in_loop));
-            let next = self.statement(s, statement);
-            self.path.pop();
-            flow = flow.then(next);
+impl Cost<'_> {
+    /// `w` on the current path, if the current expression is counted.
+    fn count(&mut self, w: Work) -> R<Vec<()>, Self> {
+        if self.emitted {
+            self.flow.normal = self.flow.normal.take().map(|n| n.plus(&w));
         }
-        flow
+        Ok(Vec::new())
     }
 
-    fn statement(&mut self, s: Scope<'a>, statement: &'a Statement) -> Flow {
-        let branch = Work {
-            branches: 1,
-            ..Work::default()
-        };
-        match statement {
-            Statement::Emit(range) => Flow::straight(
-                range
-                    .clone()
-                    .fold(Work::default(), |w, h| w.plus(&self.expression(s, h))),
-            ),
-            Statement::Block(inner) => self.block(s, inner, false),
-            Statement::If { accept, reject, .. } => {
-                let accept = self.block(s, accept, false);
-                let reject = self.block(s, reject, false);
-                accept.or(reject).after(&branch)
+    fn op(&mut self, w: Work) -> R<(), Self> {
+        self.count(w).map(drop)
+    }
+
+    /// The components of a value of type `ty`.
+    fn size(&self, ty: &TypeInner) -> usize {
+        match ty {
+            TypeInner::Struct { members, .. } => members.iter().map(|m| self.p.flat[m.ty.index()]).sum(),
+            TypeInner::Array { .. } => {
+                let (n, stride) = self.p.elements(ty);
+                n.max(1) * stride
             }
-            Statement::Switch { cases, .. } => {
-                let mut flow: Option<Flow> = None;
-                for case in cases {
-                    // A `break` in a case leaves the switch.
-                    let mut case = self.block(s, &case.body, false);
-                    case.normal = costlier(case.normal, case.brk.take());
-                    flow = Some(match flow {
-                        Some(f) => f.or(case),
-                        None => case,
-                    });
-                }
-                flow.unwrap_or_else(|| Flow::straight(Work::default())).after(&branch)
-            }
-            Statement::Loop {
-                body,
-                continuing,
-                break_if,
-            } => self.loop_flow(s, body, continuing, *break_if),
-            Statement::Break => Flow {
-                brk: Some(Work::default()),
-                ..Flow::default()
-            },
-            Statement::Continue => Flow {
-                cont: Some(Work::default()),
-                ..Flow::default()
-            },
-            Statement::Return { .. } | Statement::Kill => Flow {
-                ret: Some(Work::default()),
-                ..Flow::default()
-            },
-            Statement::Call { function, .. } => {
-                let callee = match self.functions.get(function) {
-                    Some(work) => work.clone(),
-                    None => {
-                        let (module, info) = (self.module, self.info);
-                        let work = self.function(&module.functions[*function], &info[*function]);
-                        self.functions.insert(*function, work.clone());
-                        work
-                    }
-                };
-                Flow::straight(
-                    Work {
-                        calls: 1,
-                        ..Work::default()
-                    }
-                    .plus(&callee),
-                )
-            }
-            // Memory, barriers, atomics, images, subgroups: not modelled.
-            _ => Flow::straight(Work::default()),
+            other => components(other) as usize,
         }
     }
 
-    fn loop_flow(
-        &mut self,
-        s: Scope<'a>,
-        body: &'a Block,
-        continuing: &'a Block,
-        break_if: Option<Handle<Expression>>,
-    ) -> Flow {
-        let trips = match break_if {
-            None => static_trips(self.module, s.fun, &self.path, body, continuing),
-            Some(_) => None,
-        };
-        self.dynamic_loop |= trips.is_none();
-        let n = trips.unwrap_or(1);
-
-        let b = self.block(s, body, true);
-        let c = self.block(s, continuing, true);
-        // One whole trip: the body to its end or a `continue`, then the continuing block.
-        let trip = then(&costlier(b.normal, b.cont), &c.normal);
-        // Leaving: the `break` (the failed loop condition) after the last trip, or a
-        // `break if` at the end of one.
-        let exit = costlier(b.brk, break_if.and(c.normal.as_ref().map(|_| Work::default())));
-        let trips_work = trip.clone().unwrap_or_default().times(n);
-        let entered = Work {
-            loops: 1,
-            loop_trips: n,
-            ..Work::default()
-        };
-        Flow {
-            normal: exit.map(|e| trips_work.plus(&e).plus(&entered)),
-            // The most expensive return: in the last trip.
-            ret: match n {
-                0 => None,
-                n => b
-                    .ret
-                    .map(|r| trip.clone().unwrap_or_default().times(n - 1).plus(&r).plus(&entered)),
-            },
-            brk: None,
-            cont: None,
-        }
-    }
-
-    fn expression(&self, s: Scope<'a>, h: Handle<Expression>) -> Work {
-        let ty = |e: Handle<Expression>| s.info[e].ty.inner_with(&self.module.types);
-        let n = |e: Handle<Expression>| components(ty(e));
-        match s.fun.expressions[h] {
-            Expression::Binary { op, left, right } => {
-                Work::arithmetic(binary_ops(op, ty(left), ty(right)).unwrap_or_else(|| n(h)))
-            }
-            Expression::Unary { .. } | Expression::Select { .. } | Expression::Derivative { .. } => {
-                Work::arithmetic(n(h))
-            }
-            Expression::Relational { fun, argument } => Work::arithmetic(match fun {
-                RelationalFunction::All | RelationalFunction::Any => n(argument).saturating_sub(1).max(1),
-                RelationalFunction::IsNan | RelationalFunction::IsInf => n(argument),
-            }),
-            Expression::As { convert: Some(_), .. } => Work::arithmetic(n(h)),
-            Expression::Math { fun, arg, .. } => math_work(fun, ty(arg), ty(h)),
-            _ => Work::default(),
-        }
+    /// The flow walked by `walk` from `start`, the current flow put aside meanwhile.
+    fn from(
+        w: &mut Walker<'_, Self>,
+        start: Option<Work>,
+        walk: impl FnOnce(&mut Walker<'_, Self>) -> R<(), Self>,
+    ) -> R<Flow, Self> {
+        let outer = std::mem::replace(&mut w.d.flow, Flow::straight(start));
+        let r = walk(w);
+        let inner = std::mem::replace(&mut w.d.flow, outer);
+        r.map(|()| inner)
     }
 }
 
@@ -560,30 +409,318 @@ fn components(ty: &TypeInner) -> u64 {
     }
 }
 
-/// Multiply-adds of the linear-algebra products; `None` for a componentwise operator.
-fn binary_ops(op: BinaryOperator, left: &TypeInner, right: &TypeInner) -> Option<u64> {
-    if op != BinaryOperator::Multiply {
-        return None;
+fn unit(n: usize) -> Vec<()> {
+    vec![(); n]
+}
+
+impl<'p> Domain for Cost<'p> {
+    type V = ();
+    type P = usize;
+    /// The components of the function's return value.
+    type Ret = Option<usize>;
+    type Err = anyhow::Error;
+    /// The caller's flow.
+    type Saved = Flow;
+
+    fn at(&mut self, _line: u32, emitted: bool) {
+        self.emitted = emitted;
     }
-    // An m-term dot product is m multiplies and m−1 adds.
-    let dot = |m: u64| 2 * m - 1;
-    match (left, right) {
-        // (c columns × r rows) · vec(c) → vec(r)
-        (&TypeInner::Matrix { columns, rows, .. }, TypeInner::Vector { .. }) => Some(rows as u64 * dot(columns as u64)),
-        // vec(r) · (c × r) → vec(c)
-        (TypeInner::Vector { .. }, &TypeInner::Matrix { columns, rows, .. }) => Some(columns as u64 * dot(rows as u64)),
-        // (k × r) · (c × k) → (c × r)
-        (&TypeInner::Matrix { columns: k, rows, .. }, &TypeInner::Matrix { columns, .. }) => {
-            Some(rows as u64 * columns as u64 * dot(k as u64))
+    fn fail(&self, msg: String) -> anyhow::Error {
+        anyhow::anyhow!("op count: {msg}")
+    }
+    fn fail_statement(&self, msg: String) -> anyhow::Error {
+        anyhow::anyhow!("op count: {msg}")
+    }
+    fn live(&self) -> bool {
+        self.flow.normal.is_some()
+    }
+
+    fn literal(&mut self, _lit: Literal, _written: &Result<f64, String>) -> R<(), Self> {
+        Ok(())
+    }
+    fn constant(&mut self, c: &crate::eval::program::Const, _ty: Handle<naga::Type>) -> R<Vec<()>, Self> {
+        Ok(unit(c.0.len()))
+    }
+    fn override_value(&mut self, _v: f64, _ty: &TypeInner) -> R<(), Self> {
+        Ok(())
+    }
+    fn zero(&mut self, ty: Handle<naga::Type>) -> R<Vec<()>, Self> {
+        Ok(unit(self.p.flat[ty.index()]))
+    }
+    fn float(&mut self, _x: f64) {}
+
+    fn add(&mut self, _a: &(), _b: &()) -> R<(), Self> {
+        self.op(Work::arithmetic(1))
+    }
+    fn sub(&mut self, _a: &(), _b: &()) -> R<(), Self> {
+        self.op(Work::arithmetic(1))
+    }
+    fn mul(&mut self, _a: &(), _b: &()) -> R<(), Self> {
+        self.op(Work::arithmetic(1))
+    }
+    fn div(&mut self, _a: &(), _b: &()) -> R<(), Self> {
+        self.op(Work::arithmetic(1))
+    }
+    fn rem(&mut self, _a: &(), _b: &()) -> R<(), Self> {
+        self.op(Work::arithmetic(1))
+    }
+    fn int(&mut self, _op: BinaryOperator, _a: &(), _b: &(), _kind: Option<ScalarKind>) -> R<(), Self> {
+        self.op(Work::arithmetic(1))
+    }
+    fn compare(&mut self, _op: BinaryOperator, _a: &(), _b: &(), _kind: Option<ScalarKind>) -> R<(), Self> {
+        self.op(Work::arithmetic(1))
+    }
+    fn logical(&mut self, _op: BinaryOperator, _a: &(), _b: &()) -> R<(), Self> {
+        self.op(Work::arithmetic(1))
+    }
+    fn unary(&mut self, _op: UnaryOperator, _a: &(), _kind: Option<ScalarKind>) -> R<(), Self> {
+        self.op(Work::arithmetic(1))
+    }
+    fn select(&mut self, _c: &(), _a: &(), _b: &()) -> R<(), Self> {
+        self.op(Work::arithmetic(1))
+    }
+    fn relational(&mut self, f: RelationalFunction, a: &[()]) -> R<Vec<()>, Self> {
+        let n = a.len() as u64;
+        Ok(match f {
+            RelationalFunction::All | RelationalFunction::Any => {
+                self.op(Work::arithmetic(n.saturating_sub(1).max(1)))?;
+                unit(1)
+            }
+            RelationalFunction::IsNan | RelationalFunction::IsInf => {
+                self.op(Work::arithmetic(n))?;
+                unit(a.len())
+            }
+        })
+    }
+    fn convert(&mut self, _to: ScalarKind, _from: Option<ScalarKind>, _a: &()) -> R<(), Self> {
+        self.op(Work::arithmetic(1))
+    }
+    fn math1(&mut self, f: MathFunction, _a: &(), _kind: Option<ScalarKind>) -> R<(), Self> {
+        self.op(math_work(f, 1, 1))
+    }
+    fn math2(&mut self, f: MathFunction, _a: &(), _b: &(), _kind: Option<ScalarKind>) -> R<(), Self> {
+        self.op(math_work(f, 1, 1))
+    }
+    fn math3(&mut self, f: MathFunction, _a: &(), _b: &(), _c: &(), _kind: Option<ScalarKind>) -> R<(), Self> {
+        self.op(math_work(f, 1, 1))
+    }
+    /// The built-ins the walker does not decompose, and those whose decomposition is not
+    /// what the table charges (`mix` is one op per component, not four), by
+    /// [`math_work`]'s table.
+    fn math_special(
+        &mut self,
+        f: MathFunction,
+        at: &TypeInner,
+        ty: &TypeInner,
+        _args: [Option<&[()]>; 3],
+    ) -> Option<R<Vec<()>, Self>> {
+        use MathFunction as M;
+        let n = components(at);
+        let walked = match f {
+            M::Distance | M::Length => n > 1,
+            M::Determinant => matches!(at, TypeInner::Matrix { columns, .. } if (*columns as u8) < 4),
+            M::Abs
+            | M::Sqrt
+            | M::InverseSqrt
+            | M::Sin
+            | M::Cos
+            | M::Tan
+            | M::Asin
+            | M::Acos
+            | M::Atan
+            | M::Exp
+            | M::Exp2
+            | M::Log
+            | M::Log2
+            | M::Floor
+            | M::Ceil
+            | M::Trunc
+            | M::Round
+            | M::Fract
+            | M::Saturate
+            | M::Sign
+            | M::Min
+            | M::Max
+            | M::Atan2
+            | M::Pow
+            | M::Step
+            | M::Clamp
+            | M::Fma
+            | M::Dot
+            | M::Cross
+            | M::Normalize
+            | M::Transpose => true,
+            _ => false,
+        };
+        if walked {
+            return None;
         }
-        _ => None,
+        let out = self.size(ty);
+        Some(self.op(math_work(f, n, components(ty))).map(|()| unit(out)))
+    }
+
+    fn opaque(&mut self, e: &Expression, ty: &TypeInner) -> Option<R<Vec<()>, Self>> {
+        let n = self.size(ty);
+        Some(match e {
+            Expression::Derivative { .. } => self.op(Work::arithmetic(n as u64)).map(|()| unit(n)),
+            // Bitcasts, images, atomics' and subgroups' results, array lengths: not modelled.
+            _ => Ok(unit(n)),
+        })
+    }
+
+    fn opaque_statement(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, st: &Statement) -> Option<R<(), Self>> {
+        Some(match st {
+            Statement::Kill => w.d.return_(&mut fr.ret, None),
+            // Memory barriers, atomics, image stores, subgroups: not modelled.
+            _ => Ok(()),
+        })
+    }
+
+    fn local(&mut self, ty: Handle<naga::Type>) -> R<usize, Self> {
+        Ok(self.p.flat[ty.index()])
+    }
+    fn bind(&mut self, _g: Handle<naga::GlobalVariable>, _v: Vec<()>) {}
+    fn global(&mut self, _g: Handle<naga::GlobalVariable>, len: usize) -> R<usize, Self> {
+        Ok(len)
+    }
+    fn child(&mut self, _p: &usize, _off: usize, len: usize) -> usize {
+        len
+    }
+    fn held(&self, p: &usize) -> usize {
+        *p
+    }
+    fn index(&mut self, _p: &usize, _idx: &(), _count: usize, stride: usize, _signed: bool) -> R<usize, Self> {
+        Ok(stride)
+    }
+    fn index_value(&mut self, _v: &[()], _idx: &(), _count: usize, stride: usize, _signed: bool) -> R<Vec<()>, Self> {
+        Ok(unit(stride))
+    }
+    fn load(&mut self, p: &usize) -> R<Vec<()>, Self> {
+        Ok(unit(*p))
+    }
+    fn store(&mut self, _p: &usize, _v: &[()]) -> R<(), Self> {
+        Ok(())
+    }
+    fn init(&mut self, _p: &usize, _v: Vec<()>) {}
+
+    fn enter(&mut self, result: Option<Handle<naga::Type>>) -> R<(Flow, Option<usize>), Self> {
+        let caller = std::mem::replace(&mut self.flow, Flow::straight(Some(Work::default())));
+        Ok((caller, result.map(|t| self.p.flat[t.index()])))
+    }
+    /// The callee's costlier way out, inlined at the call with the call itself.
+    fn leave(&mut self, caller: Flow, ret: Option<usize>) -> Option<Vec<()>> {
+        let callee = std::mem::replace(&mut self.flow, caller);
+        let work = costlier(callee.normal, callee.ret).unwrap_or_default();
+        let call = Work {
+            calls: 1,
+            ..Work::default()
+        };
+        self.flow.normal = self.flow.normal.take().map(|n| n.plus(&call).plus(&work));
+        ret.map(unit)
+    }
+
+    /// Both arms, from the branch; each way out the costlier of the two.
+    fn if_(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, _cond: &(), arms: Arms) -> R<(), Self> {
+        let start = w.d.flow.normal.clone().map(|n| n.plus(&branch()));
+        let accept = Cost::from(w, start.clone(), |w| w.block(fr, arms.accept))?;
+        let reject = Cost::from(w, start, |w| w.block(fr, arms.reject))?;
+        let before = std::mem::take(&mut w.d.flow);
+        w.d.flow = before.then(accept.or(reject));
+        Ok(())
+    }
+
+    /// The costliest case, from the branch (a `break` in a case leaves the switch).
+    fn switch(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, _sel: &(), cases: &[naga::SwitchCase]) -> R<(), Self> {
+        let start = w.d.flow.normal.clone().map(|n| n.plus(&branch()));
+        let mut all: Option<Flow> = None;
+        for case in cases {
+            let mut flow = Cost::from(w, start.clone(), |w| w.block(fr, &case.body))?;
+            flow.normal = costlier(flow.normal, flow.brk.take());
+            all = Some(match all {
+                Some(f) => f.or(flow),
+                None => flow,
+            });
+        }
+        let before = std::mem::take(&mut w.d.flow);
+        w.d.flow = before.then(all.unwrap_or_else(|| Flow::straight(start)));
+        Ok(())
+    }
+
+    /// The body and the continuing block once each, from zero, scaled by the static trip
+    /// count (once where there is none).
+    fn loop_(w: &mut Walker<'_, Self>, fr: &mut Frame<Self>, l: Looping) -> R<(), Self> {
+        let trips = match l.break_if {
+            None => {
+                w.d.trips
+                    .get(&(fr.fun.index(), l.body as *const Block))
+                    .copied()
+                    .flatten()
+            }
+            Some(_) => None,
+        };
+        w.d.dynamic_loop |= trips.is_none();
+        let n = trips.unwrap_or(1);
+        let b = Cost::from(w, Some(Work::default()), |w| w.block(fr, l.body))?;
+        let c = Cost::from(w, Some(Work::default()), |w| w.block(fr, l.continuing))?;
+        // One whole trip: the body to its end or a `continue`, then the continuing block.
+        let trip = then(&costlier(b.normal, b.cont), &c.normal);
+        // Leaving: the `break` (the failed loop condition) after the last trip, or a
+        // `break if` at the end of one.
+        let exit = costlier(b.brk, l.break_if.and(c.normal.as_ref().map(|_| Work::default())));
+        let trips_work = trip.clone().unwrap_or_default().times(n);
+        let entered = Work {
+            loops: 1,
+            loop_trips: n,
+            ..Work::default()
+        };
+        let flow = Flow {
+            normal: exit.map(|e| trips_work.plus(&e).plus(&entered)),
+            // The most expensive return: in the last trip.
+            ret: match n {
+                0 => None,
+                n => b
+                    .ret
+                    .map(|r| trip.clone().unwrap_or_default().times(n - 1).plus(&r).plus(&entered)),
+            },
+            brk: None,
+            cont: None,
+        };
+        let mut before = std::mem::take(&mut w.d.flow);
+        let prefix = before.normal.take().unwrap_or_default();
+        w.d.flow = before.then(flow.after(&prefix));
+        Ok(())
+    }
+
+    fn break_(&mut self) -> R<(), Self> {
+        self.flow.brk = costlier(self.flow.brk.take(), self.flow.normal.take());
+        Ok(())
+    }
+    fn continue_(&mut self) -> R<(), Self> {
+        self.flow.cont = costlier(self.flow.cont.take(), self.flow.normal.take());
+        Ok(())
+    }
+    fn return_(&mut self, _ret: &mut Option<usize>, _v: Option<&[()]>) -> R<(), Self> {
+        self.flow.ret = costlier(self.flow.ret.take(), self.flow.normal.take());
+        Ok(())
     }
 }
 
-/// A built-in's cost; `arg` is the type of its first argument, `result` its result's.
-fn math_work(fun: MathFunction, arg: &TypeInner, result: &TypeInner) -> Work {
+fn branch() -> Work {
+    Work {
+        branches: 1,
+        ..Work::default()
+    }
+}
+
+fn then(a: &Option<Work>, b: &Option<Work>) -> Option<Work> {
+    Some(a.clone()?.plus(b.as_ref()?))
+}
+
+/// A built-in's cost, `n` the components of its first argument, `out` of its result: the
+/// table of the module doc, per component (what the walker's decompositions make of the
+/// geometric ones is the same count).
+fn math_work(fun: MathFunction, n: u64, out: u64) -> Work {
     use MathFunction as M;
-    let n = components(arg);
     let dot = 2 * n - 1;
     let determinant = |size: u64| match size {
         2 => 3,
@@ -620,23 +757,18 @@ fn math_work(fun: MathFunction, arg: &TypeInner, result: &TypeInner) -> Work {
         M::Distance if n == 1 => Work::arithmetic(1).plus(&Work::other(1)),
         M::Distance => Work::arithmetic(n + dot).plus(&Work::transcendental("sqrt", 1)),
         M::Normalize => Work::arithmetic(dot + n).plus(&Work::transcendental("inverseSqrt", 1)),
-        M::Outer => Work::arithmetic(components(result)),
+        M::Outer => Work::arithmetic(out),
         M::FaceForward => Work::arithmetic(3 * n),
         M::Reflect => Work::arithmetic(4 * n),
         M::Refract => Work::arithmetic(6 * n + 4).plus(&Work::transcendental("sqrt", 1)),
         M::Transpose => Work::default(),
-        M::Determinant => Work::arithmetic(match *arg {
-            TypeInner::Matrix { columns, .. } => determinant(columns as u64),
-            _ => 1,
-        }),
+        // `n` is the matrix's components: its side is their square root.
+        M::Determinant => Work::arithmetic(determinant(n.isqrt())),
         // Not produced from WGSL: cofactors, their dot with a row, a reciprocal, a scale.
-        M::Inverse => Work::arithmetic(match *arg {
-            TypeInner::Matrix { columns, .. } => {
-                let c = columns as u64;
-                let cofactor = if c == 2 { 0 } else { determinant(c - 1) };
-                c * c * cofactor + (2 * c - 1) + 1 + c * c
-            }
-            _ => 1,
+        M::Inverse => Work::arithmetic({
+            let c = n.isqrt();
+            let cofactor = if c == 2 { 0 } else { determinant(c - 1) };
+            c * c * cofactor + (2 * c - 1) + 1 + c * c
         }),
 
         M::Pack4x8snorm
@@ -687,6 +819,39 @@ fn math_work(fun: MathFunction, arg: &TypeInner, result: &TypeInner) -> Work {
         | M::InsertBits
         | M::FirstTrailingBit
         | M::FirstLeadingBit => Work::other(n),
+    }
+}
+
+/// Calls `found` with every loop's body in `block` and its static trip count, `path` the
+/// enclosing blocks with the index of the statement walked in each and whether the block
+/// is a loop's (what [`static_trips`] searches back through for the counter's start).
+fn loop_trips<'b>(
+    module: &naga::Module,
+    fun: &'b Function,
+    block: &'b Block,
+    in_loop: bool,
+    path: &mut Vec<(&'b Block, usize, bool)>,
+    found: &mut dyn FnMut(&'b Block, Option<u64>),
+) {
+    for (i, st) in block.iter().enumerate() {
+        path.push((block, i, in_loop));
+        match st {
+            Statement::Loop {
+                body,
+                continuing,
+                break_if,
+            } => {
+                let n = match break_if {
+                    None => static_trips(module, fun, path, body, continuing),
+                    Some(_) => None,
+                };
+                found(body, n);
+                loop_trips(module, fun, body, true, path, found);
+                loop_trips(module, fun, continuing, true, path, found);
+            }
+            other => each_block(other, &mut |b| loop_trips(module, fun, b, false, path, found)),
+        }
+        path.pop();
     }
 }
 
@@ -1073,6 +1238,7 @@ fn value(module: &naga::Module, exprs: &naga::Arena<Expression>, h: Handle<Expre
 mod tests {
     use super::*;
     use crate::kernel::builtin_kernels;
+    use crate::kernel::ENTRY_NAME;
 
     /// A kernel with the given body of `method` (and declarations before it).
     fn kernel(decls: &str, body: &str, params: &str) -> KernelFile {
@@ -1244,6 +1410,72 @@ mod tests {
             "return f(scene.p1.x) + f(scene.p1.y);",
         ));
         assert_eq!((c.calls, c.transcendental, c.arithmetic), (2, 2, 3));
+    }
+
+    #[test]
+    fn bitcasts_are_free_and_the_built_ins_the_walker_leaves_count_by_the_table() {
+        let c = body(
+            "let m = mat4x4<f32>(vec4(scene.p1, 1.0), vec4(scene.p2, 1.0), vec4(scene.p1, 0.0), vec4(scene.p2, 0.0));\n\
+             return f32(bitcast<u32>(scene.p1.x) >> 1u) + smoothstep(0.0, 1.0, scene.p1.y) + determinant(m);",
+        );
+        // The shift, the conversion, two adds and the 4×4 determinant's 63; smoothstep is one.
+        assert_eq!((c.arithmetic, c.other_math, c.transcendental), (1 + 1 + 2 + 63, 1, 0));
+    }
+
+    /// `entry_check` is what compose.rs's entry point does around the call: one counted
+    /// expression (a comparison), one `if` whose accept arm returns, one call, no loop.
+    #[test]
+    fn the_entry_point_is_what_entry_check_counts() {
+        let k = kernel("", "return 0.0;", "");
+        let c = crate::kernel::compose_with(&k, None, naga::valid::Capabilities::all()).unwrap();
+        let ep = c.module.entry_points.iter().find(|e| e.name == ENTRY_NAME).unwrap();
+        let f = &ep.function;
+        #[derive(Default, Debug, PartialEq)]
+        struct Seen {
+            counted: Vec<String>,
+            ifs: usize,
+            returns_in_if: usize,
+            calls: usize,
+            loops: usize,
+        }
+        fn walk(f: &Function, b: &Block, in_if: bool, seen: &mut Seen) {
+            for st in b.iter() {
+                match st {
+                    Statement::Emit(r) => {
+                        for h in r.clone() {
+                            let e = &f.expressions[h];
+                            let counted = matches!(
+                                e,
+                                Expression::Binary { .. }
+                                    | Expression::Unary { .. }
+                                    | Expression::Select { .. }
+                                    | Expression::Relational { .. }
+                                    | Expression::Math { .. }
+                                    | Expression::As { convert: Some(_), .. }
+                            );
+                            if counted {
+                                seen.counted.push(format!("{e:?}"));
+                            }
+                        }
+                    }
+                    Statement::If { accept, reject, .. } => {
+                        seen.ifs += 1;
+                        walk(f, accept, true, seen);
+                        walk(f, reject, true, seen);
+                    }
+                    Statement::Return { .. } if in_if => seen.returns_in_if += 1,
+                    Statement::Call { .. } => seen.calls += 1,
+                    Statement::Loop { .. } => seen.loops += 1,
+                    other => each_block(other, &mut |b| walk(f, b, in_if, seen)),
+                }
+            }
+        }
+        let mut seen = Seen::default();
+        walk(f, &f.body, false, &mut seen);
+        assert_eq!(seen.counted.len(), 1, "{seen:?}");
+        assert!(seen.counted[0].contains("GreaterEqual"), "{seen:?}");
+        assert_eq!((seen.ifs, seen.returns_in_if, seen.calls, seen.loops), (1, 1, 1, 0));
+        assert_eq!((entry_check().arithmetic, entry_check().branches), (1, 1));
     }
 
     fn builtin(id: &str) -> KernelFile {

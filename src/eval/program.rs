@@ -6,8 +6,9 @@
 use crate::eval::digits;
 use crate::input::scene::Config;
 use crate::kernel::methods::Method;
+use crate::kernel::KernelFile;
 use crate::kernel::{compose_with, Composed};
-use anyhow::{anyhow, Result};
+use anyhow::{anyhow, Context, Result};
 use naga::{Expression as E, Handle, TypeInner};
 use std::collections::HashMap;
 
@@ -99,6 +100,34 @@ impl Program {
             }
         }
         Ok(program)
+    }
+
+    /// The program as the pipeline compiles it, for the operation count: composed with
+    /// every capability (the count refuses no kernel a device accepts), its overrides set
+    /// to `params` (header order, the header's defaults for the rest) and folded by naga's
+    /// `process_overrides`, which makes what depends only on them a constant, as the
+    /// driver does. `inner`: a composite's line method and its params (else the default).
+    pub fn folded(kernel: &KernelFile, params: &[f64], inner: Option<(&KernelFile, &[f64])>) -> Result<Program> {
+        let composed = compose_with(kernel, inner.map(|(k, _)| k), naga::valid::Capabilities::all())?;
+        let default = composed.inner.clone();
+        let inner = inner.or(default.as_ref().map(|k| (k, &[][..])));
+        for (k, given) in std::iter::once((kernel, params)).chain(inner) {
+            if given.len() > k.params.len() {
+                anyhow::bail!("{} takes {} param(s), {} given", k.id, k.params.len(), given.len());
+            }
+        }
+        let mut values = param_values(kernel, params);
+        if let Some((k, given)) = inner {
+            let named = param_values(k, given).into_iter();
+            values.extend(named.map(|(n, v)| (crate::kernel::inner_name(&n), v)));
+        }
+        let constants: naga::back::PipelineConstants = values.iter().cloned().collect();
+        let entry = Some((naga::ShaderStage::Compute, crate::kernel::ENTRY_NAME));
+        let (module, info) =
+            naga::back::pipeline_constants::process_overrides(&composed.module, &composed.info, entry, &constants)
+                .with_context(|| format!("{}: cannot resolve the overrides", kernel.path))?;
+        let (module, info) = (module.into_owned(), info.into_owned());
+        Program::prepare(composed.with_module(module, info), &values)
     }
 
     fn prepare(c: Composed, params: &[(String, f64)]) -> Result<Program> {

@@ -144,13 +144,25 @@ pub trait Domain: Sized {
     fn math3(&mut self, f: M, a: &Self::V, b: &Self::V, c: &Self::V, kind: Option<ScalarKind>) -> R<Self::V, Self>;
 
     /// A built-in the domain evaluates in its own way (not by the walker's decomposition),
-    /// or None. `at`: its first argument's type.
+    /// or None. `at`: its first argument's type; `ty`: its result's.
     fn math_special(
         &mut self,
         _f: M,
         _at: &TypeInner,
+        _ty: &TypeInner,
         _args: [Option<&[Self::V]>; 3],
     ) -> Option<R<Vec<Self::V>, Self>> {
+        None
+    }
+    /// An expression the walker gives no meaning to (a bitcast, a derivative, an image
+    /// read, an atomic's result), for a domain that can stand for its value of type `ty`
+    /// without one (the cost); None: the walk stops, unsupported.
+    fn opaque(&mut self, _e: &E, _ty: &TypeInner) -> Option<R<Vec<Self::V>, Self>> {
+        None
+    }
+    /// A statement the walker does not run (`discard`, barriers, atomics, image stores),
+    /// likewise.
+    fn opaque_statement(_w: &mut Walker<'_, Self>, _fr: &mut Frame<Self>, _st: &S) -> Option<R<(), Self>> {
         None
     }
     /// `dot(x, x)`.
@@ -463,7 +475,10 @@ impl<'p, D: Domain> Walker<'p, D> {
                         fr.vals[h.index()] = Some(Slot::Val(r));
                     }
                 }
-                other => return Err(self.d.fail_statement(format!("unsupported statement {other:?}"))),
+                other => match D::opaque_statement(self, fr, other) {
+                    Some(r) => r?,
+                    None => return Err(self.d.fail_statement(format!("unsupported statement {other:?}"))),
+                },
             }
         }
         Ok(())
@@ -594,7 +609,7 @@ impl<'p, D: Domain> Walker<'p, D> {
                 if *mf == M::Dot && *arg1 == Some(*arg) {
                     vec![self.d.dot_self(a)?]
                 } else {
-                    self.math(*mf, at, a, b, c)?
+                    self.math(*mf, at, ty, a, b, c)?
                 }
             }
             E::As {
@@ -603,16 +618,23 @@ impl<'p, D: Domain> Walker<'p, D> {
                 convert,
             } => {
                 if convert.is_none() {
-                    return Err(self.d.fail("bitcast is not supported".into()));
+                    match self.d.opaque(&f.expressions[h], ty) {
+                        Some(v) => v?,
+                        None => return Err(self.d.fail("bitcast is not supported".into())),
+                    }
+                } else {
+                    let from = self.inner(fun, *expr).scalar_kind();
+                    let a = self.val(fr, *expr)?;
+                    a.iter()
+                        .map(|x| self.d.convert(*to, from, x))
+                        .collect::<Result<_, _>>()?
                 }
-                let from = self.inner(fun, *expr).scalar_kind();
-                let a = self.val(fr, *expr)?;
-                a.iter()
-                    .map(|x| self.d.convert(*to, from, x))
-                    .collect::<Result<_, _>>()?
             }
             E::CallResult(_) => return Err(self.d.fail("call result read before the call".into())),
-            other => return Err(self.d.fail(format!("unsupported expression {other:?}"))),
+            other => match self.d.opaque(other, ty) {
+                Some(v) => v?,
+                None => return Err(self.d.fail(format!("unsupported expression {other:?}"))),
+            },
         };
         let mut vals = vals;
         self.d.settle(&mut vals, float);
@@ -688,10 +710,18 @@ impl<'p, D: Domain> Walker<'p, D> {
         Ok(out)
     }
 
-    fn math(&mut self, f: M, at: &TypeInner, a: &[D::V], b: Option<&[D::V]>, c: Option<&[D::V]>) -> R<Vec<D::V>, D> {
+    fn math(
+        &mut self,
+        f: M,
+        at: &TypeInner,
+        ty: &TypeInner,
+        a: &[D::V],
+        b: Option<&[D::V]>,
+        c: Option<&[D::V]>,
+    ) -> R<Vec<D::V>, D> {
         let kind = at.scalar_kind();
         let d = &mut self.d;
-        if let Some(v) = d.math_special(f, at, [Some(a), b, c]) {
+        if let Some(v) = d.math_special(f, at, ty, [Some(a), b, c]) {
             return v;
         }
         fn need<'v, D: Domain>(d: &D, f: M, v: Option<&'v [D::V]>) -> R<&'v [D::V], D> {

@@ -96,6 +96,12 @@ pub struct Composed {
 }
 
 impl Composed {
+    /// The same composition with its module replaced (by one naga derived from it: overrides
+    /// processed), the source and its map kept.
+    pub fn with_module(self, module: naga::Module, info: naga::valid::ModuleInfo) -> Composed {
+        Composed { module, info, ..self }
+    }
+
     /// The file, line and line text of byte `offset` of [`Composed::source`].
     pub fn locate(&self, offset: usize) -> (String, usize, String) {
         self.map.locate(offset)

@@ -1312,7 +1312,7 @@ impl<'p, 'b> Domain for Lower<'p, 'b> {
     }
 
     /// Integer built-ins, from the interpreter's exact integer values.
-    fn math_special(&mut self, f: M, at: &TypeInner, args: [Option<&[Lv]>; 3]) -> Option<R<Vec<Lv>>> {
+    fn math_special(&mut self, f: M, at: &TypeInner, _ty: &TypeInner, args: [Option<&[Lv]>; 3]) -> Option<R<Vec<Lv>>> {
         let kind = at.scalar_kind();
         (kind != Some(ScalarKind::Float)).then(|| self.int_math(f, kind, args))
     }
