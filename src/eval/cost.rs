@@ -85,7 +85,7 @@
 //! ll_count`: 1 arithmetic, 1 branch, and the call of `method`), the same for every method.
 
 use crate::eval::program::Program;
-use crate::eval::walk::{Arms, Domain, Frame, Looping, Walker, R};
+use crate::eval::walk::{evaluates, Arms, Domain, Frame, Looping, Walker, R};
 use crate::kernel::methods::Method;
 use crate::kernel::KernelFile;
 use naga::{
@@ -516,42 +516,9 @@ impl<'p> Domain for Cost<'p> {
     ) -> Option<R<Vec<()>, Self>> {
         use MathFunction as M;
         let n = components(at);
-        let walked = match f {
-            M::Distance | M::Length => n > 1,
-            M::Determinant => matches!(at, TypeInner::Matrix { columns, .. } if (*columns as u8) < 4),
-            M::Abs
-            | M::Sqrt
-            | M::InverseSqrt
-            | M::Sin
-            | M::Cos
-            | M::Tan
-            | M::Asin
-            | M::Acos
-            | M::Atan
-            | M::Exp
-            | M::Exp2
-            | M::Log
-            | M::Log2
-            | M::Floor
-            | M::Ceil
-            | M::Trunc
-            | M::Round
-            | M::Fract
-            | M::Saturate
-            | M::Sign
-            | M::Min
-            | M::Max
-            | M::Atan2
-            | M::Pow
-            | M::Step
-            | M::Clamp
-            | M::Fma
-            | M::Dot
-            | M::Cross
-            | M::Normalize
-            | M::Transpose => true,
-            _ => false,
-        };
+        // `mix` is one op per component in the table, not its four; `distance` of scalars
+        // a subtraction and an `abs`.
+        let walked = evaluates(f, at) && f != M::Mix && !(f == M::Distance && n == 1);
         if walked {
             return None;
         }

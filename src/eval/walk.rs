@@ -10,7 +10,10 @@
 //! - the interpreter's lanes (`interp/exec.rs`): one component over a chunk of
 //!   configurations in f32 or f64, execution masks for divergent control flow;
 //! - the envelope's intervals (`interp/envelope.rs`): f32 intervals widened by the WGSL
-//!   accuracy rules, both ways taken where a condition straddles.
+//!   accuracy rules, both ways taken where a condition straddles;
+//! - the compiled code (`interp/compiled/lower.rs`): Cranelift values;
+//! - the op count (`cost.rs`): values with no number, each operation counted, both arms
+//!   walked and the costlier kept, each loop body once and scaled by its trip count.
 //!
 //! Control flow is a domain capability ([`Domain::if_`], [`Domain::switch`],
 //! [`Domain::loop_`], `break`, `continue`, `return`): masks and forked states are what
@@ -252,6 +255,51 @@ pub fn dot<D: Domain>(d: &mut D, a: &[D::V], b: &[D::V]) -> R<D::V, D> {
         acc = d.add(&acc, &t)?;
     }
     Ok(acc)
+}
+
+/// The component-wise built-ins of one argument the walker evaluates through
+/// [`Domain::math1`].
+pub const MATH1: &[M] = &[
+    M::Abs,
+    M::Sqrt,
+    M::InverseSqrt,
+    M::Sin,
+    M::Cos,
+    M::Tan,
+    M::Asin,
+    M::Acos,
+    M::Atan,
+    M::Exp,
+    M::Exp2,
+    M::Log,
+    M::Log2,
+    M::Floor,
+    M::Ceil,
+    M::Trunc,
+    M::Round,
+    M::Fract,
+    M::Saturate,
+    M::Sign,
+];
+/// Of two, through [`Domain::math2`].
+pub const MATH2: &[M] = &[M::Min, M::Max, M::Atan2, M::Pow, M::Step];
+/// Of three, through [`Domain::math3`].
+pub const MATH3: &[M] = &[M::Clamp, M::Fma];
+
+/// Whether the walker evaluates built-in `f` (first argument of type `at`): component-wise
+/// ([`MATH1`], [`MATH2`], [`MATH3`]) or by its decomposition into them and the operators
+/// (`mix`, `dot`, `cross`, `length`, `distance`, `normalize`, `determinant` of 2×2 and 3×3,
+/// `transpose`). The others reach [`Domain::math_special`] only.
+pub fn evaluates(f: M, at: &TypeInner) -> bool {
+    let small = matches!(at, TypeInner::Matrix { columns, .. } if (*columns as u8) <= 3);
+    MATH1.contains(&f)
+        || MATH2.contains(&f)
+        || MATH3.contains(&f)
+        || matches!(
+            f,
+            M::Mix | M::Dot | M::Cross | M::Length | M::Distance | M::Normalize | M::Transpose
+        )
+        || (f == M::Determinant && small)
 }
 
 /// Component `i` of an argument, a scalar standing for every component.
@@ -728,33 +776,14 @@ impl<'p, D: Domain> Walker<'p, D> {
             v.ok_or_else(|| d.fail(format!("{f:?}: missing argument")))
         }
         Ok(match f {
-            M::Abs
-            | M::Sqrt
-            | M::InverseSqrt
-            | M::Sin
-            | M::Cos
-            | M::Tan
-            | M::Asin
-            | M::Acos
-            | M::Atan
-            | M::Exp
-            | M::Exp2
-            | M::Log
-            | M::Log2
-            | M::Floor
-            | M::Ceil
-            | M::Trunc
-            | M::Round
-            | M::Fract
-            | M::Saturate
-            | M::Sign => a.iter().map(|x| d.math1(f, x, kind)).collect::<Result<_, _>>()?,
-            M::Min | M::Max | M::Atan2 | M::Pow | M::Step => {
+            f if MATH1.contains(&f) => a.iter().map(|x| d.math1(f, x, kind)).collect::<Result<_, _>>()?,
+            f if MATH2.contains(&f) => {
                 let b = need(d, f, b)?;
                 (0..a.len())
                     .map(|i| d.math2(f, pick(a, i), pick(b, i), kind))
                     .collect::<Result<_, _>>()?
             }
-            M::Clamp | M::Fma => {
+            f if MATH3.contains(&f) => {
                 let (b, c) = (need(d, f, b)?, need(d, f, c)?);
                 (0..a.len())
                     .map(|i| d.math3(f, pick(a, i), pick(b, i), pick(c, i), kind))

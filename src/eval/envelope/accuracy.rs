@@ -59,17 +59,37 @@ pub const DOMAIN_MAX: f64 = 8.507059173023462e37;
 /// `sin`/`cos`'s bounded range: [−π, π].
 pub const TRIG_RANGE: f64 = std::f64::consts::PI;
 
+/// A rule of a correctly rounded operation, with no domain or policy.
+const fn exact(op: &'static str) -> Rule {
+    Rule {
+        op,
+        bound: Bound::CorrectlyRounded,
+        domain: "",
+        policy: "",
+    }
+}
+
+/// A rule of an operation whose accuracy is inherited from `formula`.
+const fn inherited(op: &'static str, formula: &'static str) -> Rule {
+    Rule {
+        op,
+        bound: Bound::Inherited(formula),
+        domain: "",
+        policy: "",
+    }
+}
+
 pub const TABLE: &[Rule] = &[
-    Rule { op: "x + y", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
-    Rule { op: "x - y", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
-    Rule { op: "x * y", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    exact("x + y"),
+    exact("x - y"),
+    exact("x * y"),
     Rule {
         op: "x / y",
         bound: Bound::Ulp(2.5),
         domain: "|y| in [2^-126, 2^126]",
         policy: "outside the range the result is unbounded: flagged, never bounded",
     },
-    Rule { op: "x % y", bound: Bound::Inherited("x - y * trunc(x / y)"), domain: "", policy: "" },
+    inherited("x % y", "x - y * trunc(x / y)"),
     Rule { op: "-x", bound: Bound::CorrectlyRounded, domain: "", policy: "exact" },
     Rule { op: "comparisons", bound: Bound::CorrectlyRounded, domain: "", policy: "correct result" },
     Rule {
@@ -78,8 +98,8 @@ pub const TABLE: &[Rule] = &[
         domain: "",
         policy: "a literal (and a folded constant) is its written value rounded either way",
     },
-    Rule { op: "f32(int)", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
-    Rule { op: "abs", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    exact("f32(int)"),
+    exact("abs"),
     Rule {
         op: "acos",
         bound: Bound::AbsoluteOrInherited(6.77e-5, "atan2(sqrt(1.0 - x * x), x)"),
@@ -99,7 +119,7 @@ pub const TABLE: &[Rule] = &[
         domain: "|x| in [2^-126, 2^126], y finite and normal",
         policy: "a zero y is taken as in the domain (beyond the spec: the spec's \"normal\" excludes zero); an x outside the range is flagged",
     },
-    Rule { op: "ceil", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    exact("ceil"),
     Rule { op: "clamp", bound: Bound::CorrectlyRounded, domain: "", policy: "min(max(x, lo), hi)" },
     Rule {
         op: "cos",
@@ -107,14 +127,14 @@ pub const TABLE: &[Rule] = &[
         domain: "x in [-π, π]",
         policy: "outside [-π, π] unbounded; the envelope keeps only [-1 - 2^-11, 1 + 2^-11] (beyond the spec)",
     },
-    Rule { op: "cross", bound: Bound::Inherited("x[i] * y[j] - x[j] * y[i]"), domain: "", policy: "" },
+    inherited("cross", "x[i] * y[j] - x[j] * y[i]"),
     Rule {
         op: "determinant",
         bound: Bound::Infinite,
         domain: "",
         policy: "beyond the spec: inherited from the cofactor expansion along the first column (the evaluator's order)",
     },
-    Rule { op: "distance", bound: Bound::Inherited("length(x - y)"), domain: "", policy: "" },
+    inherited("distance", "length(x - y)"),
     Rule {
         op: "dot",
         bound: Bound::Inherited("sum of x[i] * y[i]"),
@@ -123,21 +143,21 @@ pub const TABLE: &[Rule] = &[
     },
     Rule { op: "exp", bound: Bound::UlpAffine(3.0, 2.0), domain: "", policy: "" },
     Rule { op: "exp2", bound: Bound::UlpAffine(3.0, 2.0), domain: "", policy: "" },
-    Rule { op: "floor", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    exact("floor"),
     Rule {
         op: "fma",
         bound: Bound::Inherited("x * y + z"),
         domain: "",
         policy: "a fused result lies inside the two-rounding interval",
     },
-    Rule { op: "fract", bound: Bound::Inherited("x - floor(x)"), domain: "", policy: "" },
+    inherited("fract", "x - floor(x)"),
     Rule {
         op: "inverseSqrt",
         bound: Bound::Ulp(2.0),
         domain: "x > 0",
         policy: "x ≤ 0 gives an infinity or NaN: flagged",
     },
-    Rule { op: "length", bound: Bound::Inherited("sqrt(dot(x, x))"), domain: "", policy: "" },
+    inherited("length", "sqrt(dot(x, x))"),
     Rule {
         op: "log",
         bound: Bound::AbsoluteInsideUlpOutside { abs: 4.76837158203125e-7, lo: 0.5, hi: 2.0, ulp: 3.0 },
@@ -150,14 +170,14 @@ pub const TABLE: &[Rule] = &[
         domain: "x > 0",
         policy: "",
     },
-    Rule { op: "max", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
-    Rule { op: "min", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
-    Rule { op: "mix", bound: Bound::Inherited("x * (1.0 - z) + y * z"), domain: "", policy: "" },
-    Rule { op: "normalize", bound: Bound::Inherited("x / length(x)"), domain: "", policy: "" },
-    Rule { op: "pow", bound: Bound::Inherited("exp2(y * log2(x))"), domain: "", policy: "" },
-    Rule { op: "round", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
-    Rule { op: "saturate", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
-    Rule { op: "sign", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    exact("max"),
+    exact("min"),
+    inherited("mix", "x * (1.0 - z) + y * z"),
+    inherited("normalize", "x / length(x)"),
+    inherited("pow", "exp2(y * log2(x))"),
+    exact("round"),
+    exact("saturate"),
+    exact("sign"),
     Rule {
         op: "sin",
         bound: Bound::Absolute(0.00048828125),
@@ -170,10 +190,10 @@ pub const TABLE: &[Rule] = &[
         domain: "",
         policy: "sqrt(0) is 0 (beyond the spec: the inherited form divides by inverseSqrt(0) = inf)",
     },
-    Rule { op: "step", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
-    Rule { op: "tan", bound: Bound::Inherited("sin(x) / cos(x)"), domain: "", policy: "" },
-    Rule { op: "transpose", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
-    Rule { op: "trunc", bound: Bound::CorrectlyRounded, domain: "", policy: "" },
+    exact("step"),
+    inherited("tan", "sin(x) / cos(x)"),
+    exact("transpose"),
+    exact("trunc"),
 ];
 
 /// The row for `op` (a table entry must exist for every operation the envelope uses).

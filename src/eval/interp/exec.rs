@@ -25,6 +25,40 @@ pub(super) type Lanes = std::rc::Rc<Buf>;
 pub(super) struct Buf(Vec<f64>);
 
 /// Buffers kept per thread, and the smallest kept (a one-lane component is not).
+/// A float operation's three functions: `$name`, which runs the AVX2 build where the CPU
+/// has it (`wide`) and the portable one elsewhere; `$avx2`, that build; `$lanes`, the
+/// loop over the lanes that both inline (`$body`, with the receiver, the arguments, the
+/// f64 and f32 functions and the rounding named by the caller).
+macro_rules! float_op {
+    ($(#[$doc:meta])* fn $name:ident / $avx2:ident / $lanes:ident ($s:ident, $($arg:ident),+; $f64f:ident, $f32f:ident, $round:ident) $body:block) => {
+        float_op!(@fn [$($doc),*] $name ($s, $($arg),+; $f64f, $f32f, $round) {
+            #[cfg(target_arch = "x86_64")]
+            if $s.wide {
+                // SAFETY: `wide` is set only where the CPU has AVX2 (`avx2`).
+                return unsafe { $s.$avx2($($arg,)+ $f64f, $f32f, $round) };
+            }
+            $s.$lanes($($arg,)+ $f64f, $f32f, $round)
+        });
+        float_op!(@fn [cfg(target_arch = "x86_64"), target_feature(enable = "avx2")] $avx2 ($s, $($arg),+; $f64f, $f32f, $round) {
+            $s.$lanes($($arg,)+ $f64f, $f32f, $round)
+        });
+        float_op!(@fn [inline(always)] $lanes ($s, $($arg),+; $f64f, $f32f, $round) $body);
+    };
+    (@fn [$($attr:meta),*] $name:ident ($s:ident, $($arg:ident),+; $f64f:ident, $f32f:ident, $round:ident) $body:block) => {
+        $(#[$attr])*
+        #[allow(clippy::too_many_arguments)]
+        fn $name(
+            &mut $s,
+            $($arg: &[f64],)+
+            $f64f: impl Fn($(float_op!(@f64 $arg)),+) -> f64,
+            $f32f: impl Fn($(float_op!(@f32 $arg)),+) -> f32,
+            $round: Round,
+        ) -> Lanes $body
+    };
+    (@f64 $x:ident) => { f64 };
+    (@f32 $x:ident) => { f32 };
+}
+
 const POOL_KEPT: usize = 512;
 const POOL_MIN_LANES: usize = 16;
 
@@ -583,166 +617,63 @@ impl<'p> Exec<'p> {
         accumulate(e, &self.ulps, mask, or, &mut self.bits);
     }
 
-    /// A float operation of one argument, component by component; `rounding`: whether its
-    /// local error is recorded, and how ([`Round`]).
-    fn f1(&mut self, a: &[f64], f64f: impl Fn(f64) -> f64, f32f: impl Fn(f32) -> f32, rounding: Round) -> Lanes {
-        #[cfg(target_arch = "x86_64")]
-        if self.wide {
-            // SAFETY: `wide` is set only where the CPU has AVX2 (`avx2`).
-            return unsafe { self.f1_avx2(a, f64f, f32f, rounding) };
-        }
-        self.f1_lanes(a, f64f, f32f, rounding)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn f1_avx2(&mut self, a: &[f64], f64f: impl Fn(f64) -> f64, f32f: impl Fn(f32) -> f32, rounding: Round) -> Lanes {
-        self.f1_lanes(a, f64f, f32f, rounding)
-    }
-
+    /// The lanes of a float operation: the f32 lanes' arguments `low` through `f32f` (each
+    /// argument rounded to f32 in it), the f64 lanes' `high` through `f64f`, and the local
+    /// error of the f64 lanes recorded as `rounding` says ([`Exec::local_error`]).
     #[inline(always)]
-    fn f1_lanes(&mut self, a: &[f64], f64f: impl Fn(f64) -> f64, f32f: impl Fn(f32) -> f32, rounding: Round) -> Lanes {
-        let (s, n) = (self.split, self.n);
-        let mut v = buffer(n);
-        v.extend(a[..s].iter().map(|&x| f32f(x as f32) as f64));
-        v.extend(a[s..n].iter().map(|&x| f64f(x)));
+    fn lanes_of<T>(
+        &mut self,
+        low: impl Iterator<Item = T>,
+        high: impl Iterator<Item = T> + Clone,
+        f64f: impl Fn(T) -> f64,
+        f32f: impl Fn(T) -> f32,
+        rounding: Round,
+        reference: impl Fn(usize) -> f32,
+    ) -> Lanes {
+        let mut v = buffer(self.n);
+        v.extend(low.map(|t| f32f(t) as f64));
+        v.extend(high.clone().map(&f64f));
         if rounding != Round::Exact {
-            self.local_error(a[s..n].iter(), &v, rounding, |&x| f32f(x as f32), |i| f32f(a[i] as f32));
+            self.local_error(high, &v, rounding, f32f, reference);
         }
         lanes(v)
     }
 
-    /// A float operation of two arguments (as [`Exec::f1`]).
-    fn f2(
-        &mut self,
-        a: &[f64],
-        b: &[f64],
-        f64f: impl Fn(f64, f64) -> f64,
-        f32f: impl Fn(f32, f32) -> f32,
-        rounding: Round,
-    ) -> Lanes {
-        #[cfg(target_arch = "x86_64")]
-        if self.wide {
-            // SAFETY: `wide` is set only where the CPU has AVX2 (`avx2`).
-            return unsafe { self.f2_avx2(a, b, f64f, f32f, rounding) };
+    float_op! {
+        /// A float operation of one argument, component by component; `rounding`: whether its
+        /// local error is recorded, and how ([`Round`]).
+        fn f1 / f1_avx2 / f1_lanes (self, a; f64f, f32f, rounding) {
+            let (s, n) = (self.split, self.n);
+            let one = |lo: usize, hi: usize| a[lo..hi].iter().copied();
+            let f32t = |x: f64| f32f(x as f32);
+            self.lanes_of(one(0, s), one(s, n), f64f, f32t, rounding, |i| f32f(a[i] as f32))
         }
-        self.f2_lanes(a, b, f64f, f32f, rounding)
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn f2_avx2(
-        &mut self,
-        a: &[f64],
-        b: &[f64],
-        f64f: impl Fn(f64, f64) -> f64,
-        f32f: impl Fn(f32, f32) -> f32,
-        rounding: Round,
-    ) -> Lanes {
-        self.f2_lanes(a, b, f64f, f32f, rounding)
-    }
-
-    #[inline(always)]
-    fn f2_lanes(
-        &mut self,
-        a: &[f64],
-        b: &[f64],
-        f64f: impl Fn(f64, f64) -> f64,
-        f32f: impl Fn(f32, f32) -> f32,
-        rounding: Round,
-    ) -> Lanes {
-        let (s, n) = (self.split, self.n);
-        let mut v = buffer(n);
-        v.extend(
-            a[..s]
-                .iter()
-                .zip(&b[..s])
-                .map(|(&x, &y)| f32f(x as f32, y as f32) as f64),
-        );
-        v.extend(a[s..n].iter().zip(&b[s..n]).map(|(&x, &y)| f64f(x, y)));
-        if rounding != Round::Exact {
-            self.local_error(
-                a[s..n].iter().zip(&b[s..n]),
-                &v,
-                rounding,
-                |(&x, &y)| f32f(x as f32, y as f32),
-                |i| f32f(a[i] as f32, b[i] as f32),
-            );
+    float_op! {
+        /// A float operation of two arguments (as [`Exec::f1`]).
+        fn f2 / f2_avx2 / f2_lanes (self, a, b; f64f, f32f, rounding) {
+            let (s, n) = (self.split, self.n);
+            let two = |lo: usize, hi: usize| a[lo..hi].iter().zip(&b[lo..hi]).map(|(&x, &y)| (x, y));
+            let f64t = |(x, y): (f64, f64)| f64f(x, y);
+            let f32t = |(x, y): (f64, f64)| f32f(x as f32, y as f32);
+            self.lanes_of(two(0, s), two(s, n), f64t, f32t, rounding, |i| f32f(a[i] as f32, b[i] as f32))
         }
-        lanes(v)
     }
 
-    /// A float operation of three arguments (as [`Exec::f1`]).
-    #[allow(clippy::too_many_arguments)]
-    fn f3(
-        &mut self,
-        a: &[f64],
-        b: &[f64],
-        c: &[f64],
-        f64f: impl Fn(f64, f64, f64) -> f64,
-        f32f: impl Fn(f32, f32, f32) -> f32,
-        rounding: Round,
-    ) -> Lanes {
-        #[cfg(target_arch = "x86_64")]
-        if self.wide {
-            // SAFETY: `wide` is set only where the CPU has AVX2 (`avx2`).
-            return unsafe { self.f3_avx2(a, b, c, f64f, f32f, rounding) };
+    float_op! {
+        /// A float operation of three arguments (as [`Exec::f1`]).
+        fn f3 / f3_avx2 / f3_lanes (self, a, b, c; f64f, f32f, rounding) {
+            let (s, n) = (self.split, self.n);
+            let three = |lo: usize, hi: usize| {
+                let ab = a[lo..hi].iter().zip(&b[lo..hi]);
+                ab.zip(&c[lo..hi]).map(|((&x, &y), &z)| (x, y, z))
+            };
+            let f64t = |(x, y, z): (f64, f64, f64)| f64f(x, y, z);
+            let f32t = |(x, y, z): (f64, f64, f64)| f32f(x as f32, y as f32, z as f32);
+            let reference = |i: usize| f32f(a[i] as f32, b[i] as f32, c[i] as f32);
+            self.lanes_of(three(0, s), three(s, n), f64t, f32t, rounding, reference)
         }
-        self.f3_lanes(a, b, c, f64f, f32f, rounding)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)]
-    fn f3_avx2(
-        &mut self,
-        a: &[f64],
-        b: &[f64],
-        c: &[f64],
-        f64f: impl Fn(f64, f64, f64) -> f64,
-        f32f: impl Fn(f32, f32, f32) -> f32,
-        rounding: Round,
-    ) -> Lanes {
-        self.f3_lanes(a, b, c, f64f, f32f, rounding)
-    }
-
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn f3_lanes(
-        &mut self,
-        a: &[f64],
-        b: &[f64],
-        c: &[f64],
-        f64f: impl Fn(f64, f64, f64) -> f64,
-        f32f: impl Fn(f32, f32, f32) -> f32,
-        rounding: Round,
-    ) -> Lanes {
-        let (s, n) = (self.split, self.n);
-        let mut v = buffer(n);
-        v.extend(
-            a[..s]
-                .iter()
-                .zip(&b[..s])
-                .zip(&c[..s])
-                .map(|((&x, &y), &z)| f32f(x as f32, y as f32, z as f32) as f64),
-        );
-        v.extend(
-            a[s..n]
-                .iter()
-                .zip(&b[s..n])
-                .zip(&c[s..n])
-                .map(|((&x, &y), &z)| f64f(x, y, z)),
-        );
-        if rounding != Round::Exact {
-            self.local_error(
-                a[s..n].iter().zip(&b[s..n]).zip(&c[s..n]),
-                &v,
-                rounding,
-                |((&x, &y), &z)| f32f(x as f32, y as f32, z as f32),
-                |i| f32f(a[i] as f32, b[i] as f32, c[i] as f32),
-            );
-        }
-        lanes(v)
     }
 
     fn fadd(&mut self, a: &[f64], b: &[f64]) -> Lanes {
@@ -1033,15 +964,7 @@ impl<'p> Domain for Exec<'p> {
                 0.0
             }
         };
-        let sign32 = |x: f32| {
-            if x > 0.0 {
-                1.0
-            } else if x < 0.0 {
-                -1.0
-            } else {
-                0.0
-            }
-        };
+        let sign32 = |x: f32| sign(f64::from(x)) as f32;
         Ok(match f {
             M::Abs => self.f1(l, f64::abs, f32::abs, Round::Exact),
             M::Sqrt => self.f1(l, f64::sqrt, f32::sqrt, Round::Cheap),
