@@ -5,7 +5,8 @@
 
 use crate::common;
 
-use linelight::eval::interp::CpuColumns;
+use linelight::eval::interp::{CpuColumns, Engine};
+use linelight::eval::program::Mode;
 use linelight::input::case::Case;
 use linelight::input::scene::GpuScene;
 use linelight::kernel::methods::{kernel_set, resolve};
@@ -250,4 +251,36 @@ fn an_error_found_after_translation_names_the_glsl_line() {
     };
     assert_eq!(e.location.map(|l| l.0), Some(8), "{}", e.report);
     assert!(e.report.contains("p.glsl:8"), "{}", e.report);
+}
+
+/// A GLSL local matrix built from nine constants: naga emits its columns in the body and
+/// makes the matrix the variable's initialiser, which the CPU evaluator needs before the
+/// body runs. Every CPU column is there and is the product's value, on both engines.
+#[test]
+fn a_local_matrix_of_constants_is_evaluated_on_the_cpu() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("mat3_local.glsl");
+    std::fs::write(
+        &path,
+        "//! id: test.mat3_local\n//! target: line\n//! minv: full\n\n\
+         float method(Scene scene) {\n    mat3 m = mat3(1.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 3.0);\n    \
+         vec3 v = m * scene.p1;\n    return v.x + v.y + v.z;\n}\n",
+    )
+    .unwrap();
+    let kernels = kernel_set(&[path], &linelight::kernel::Includes::none()).unwrap();
+    let configs = steep_configs();
+    let refs: Vec<_> = configs.iter().take(64).collect();
+    let p = linelight::eval::interp::program(&resolve("test.mat3_local", &kernels).unwrap()).unwrap();
+    for engine in [Engine::Interpreter, Engine::Compiled] {
+        let got = p.eval_on(&refs, Mode::F64, engine).unwrap();
+        for (c, v) in refs.iter().zip(&got) {
+            let want = c.p1[0] + 2.0 * c.p1[1] + 3.0 * c.p1[2];
+            assert!(
+                (v - want).abs() <= 1e-6 * want.abs().max(1.0),
+                "{engine:?}: {v} against {want}"
+            );
+        }
+        let f32s = p.eval_on(&refs, Mode::F32, engine).unwrap();
+        assert_eq!(f32s.len(), refs.len());
+    }
 }

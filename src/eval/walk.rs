@@ -438,17 +438,68 @@ impl<'p, D: Domain> Walker<'p, D> {
         });
         for (lv, v) in f.local_variables.iter() {
             if let Some(init) = v.init {
-                // naga may leave a constant initializer (`var c = vec3<f32>(0.0);`) inside an
-                // `Emit` of the body: it is needed now, before the body runs.
-                if fr.vals[init.index()].is_none() {
-                    self.d.at(fp.line[init.index()], false);
-                    self.expr(fr, init)?;
-                }
+                // naga may leave a constant initializer (`var c = vec3<f32>(0.0);`, GLSL's
+                // `mat3 m = mat3(…)` with its columns) inside an `Emit` of the body: it is
+                // needed now, before the body runs.
+                self.expr_with_operands(fr, init)?;
                 let val = self.val(fr, init)?.to_vec();
                 self.d.init(&locals[lv.index()], val);
             }
         }
         self.block(fr, &f.body)
+    }
+
+    /// Evaluates `h`, after the operands it reads that are not computed yet (in handle
+    /// order, which naga keeps operands-first), without recursion.
+    fn expr_with_operands(&mut self, fr: &mut Frame<D>, h: Handle<naga::Expression>) -> R<(), D> {
+        let p = self.p;
+        let f = &p.module.functions[fr.fun];
+        let mut needed = vec![false; h.index() + 1];
+        needed[h.index()] = true;
+        let upto: Vec<_> = f.expressions.iter().take(h.index() + 1).collect();
+        for &(i, e) in upto.iter().rev() {
+            if !needed[i.index()] || fr.vals[i.index()].is_some() {
+                continue;
+            }
+            let mut read = |o: Handle<naga::Expression>| {
+                if o.index() < i.index() {
+                    needed[o.index()] = true;
+                }
+            };
+            match e {
+                E::Compose { components, .. } => components.iter().for_each(|c| read(*c)),
+                E::Splat { value: x, .. }
+                | E::Swizzle { vector: x, .. }
+                | E::AccessIndex { base: x, .. }
+                | E::Unary { expr: x, .. }
+                | E::As { expr: x, .. }
+                | E::Load { pointer: x } => read(*x),
+                E::Access { base: a, index: b } | E::Binary { left: a, right: b, .. } => {
+                    read(*a);
+                    read(*b);
+                }
+                E::Select {
+                    condition,
+                    accept,
+                    reject,
+                } => [condition, accept, reject].into_iter().for_each(|x| read(*x)),
+                E::Math {
+                    arg, arg1, arg2, arg3, ..
+                } => [Some(arg), arg1.as_ref(), arg2.as_ref(), arg3.as_ref()]
+                    .into_iter()
+                    .flatten()
+                    .for_each(|x| read(*x)),
+                _ => {}
+            }
+        }
+        let lines = &p.funs[fr.fun.index()].line;
+        for &(i, _) in &upto {
+            if needed[i.index()] && fr.vals[i.index()].is_none() {
+                self.d.at(lines[i.index()], false);
+                self.expr(fr, i)?;
+            }
+        }
+        Ok(())
     }
 
     /// Runs `block` while some lane or path is live.
