@@ -284,3 +284,37 @@ fn a_local_matrix_of_constants_is_evaluated_on_the_cpu() {
         assert_eq!(f32s.len(), refs.len());
     }
 }
+
+/// three.js writes `const in` parameters (`LTC_Evaluate(const in vec3 N, …)`): such a kernel
+/// is read as with `in`, and gives the same values as the same kernel without `const`.
+#[test]
+fn const_in_parameters_are_accepted_as_engines_write_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let kernel = |id: &str, qualifier: &str| {
+        let text = format!(
+            "//! id: {id}\n//! target: line\n//! minv: full\n\n\
+             float twice(const {qualifier} vec3 v) {{\n    return 2.0 * (v.x + v.y);\n}}\n\n\
+             float method(Scene scene) {{\n    return twice(scene.p1);\n}}\n"
+        );
+        let path = dir.path().join(format!("{id}.glsl"));
+        std::fs::write(&path, text.replace(&format!("const {qualifier}"), qualifier)).unwrap();
+        let with_const = dir.path().join(format!("{id}_const.glsl"));
+        std::fs::write(
+            &with_const,
+            text.replace(&format!("//! id: {id}"), &format!("//! id: {id}_const")),
+        )
+        .unwrap();
+        (path, with_const)
+    };
+    let (plain, with_const) = kernel("test.param_in", "in");
+    let kernels = kernel_set(&[plain, with_const], &linelight::kernel::Includes::none()).unwrap();
+    let configs = steep_configs();
+    let refs: Vec<_> = configs.iter().take(32).collect();
+    let values = |spec: &str| {
+        let p = linelight::eval::interp::program(&resolve(spec, &kernels).unwrap()).unwrap();
+        p.eval(&refs, Mode::F32).unwrap()
+    };
+    let (a, b) = (values("test.param_in"), values("test.param_in_const"));
+    assert_eq!(a, b);
+    assert!(a.iter().any(|v| *v != 0.0));
+}

@@ -70,7 +70,7 @@ pub fn translate_expanded(path: &str, expanded: &Expanded) -> Result<(String, Ve
             body.push('\n');
             continue;
         }
-        body.push_str(l);
+        body.push_str(&const_in_as_in(l));
         body.push('\n');
     }
     let source = format!("{GLSL_PRELUDE}\n#line 1\n{body}\nvoid main() {{}}\n");
@@ -172,6 +172,27 @@ pub fn translate_expanded(path: &str, expanded: &Expanded) -> Result<(String, Ve
     }
     let (out, lost) = written.restore(&out, &lines, path);
     Ok((out, lines, lost))
+}
+
+/// `line` with each parameter qualifier `const in` read as `in` (three.js writes
+/// `const in vec3 N`; naga's GLSL front end has no `const` parameters, and a value
+/// parameter is read-only either way): `const` becomes as many spaces, so columns keep.
+fn const_in_as_in(line: &str) -> std::borrow::Cow<'_, str> {
+    let word = |c: char| c.is_ascii_alphanumeric() || c == '_';
+    let mut out: Option<String> = None;
+    let mut from = 0;
+    while let Some(i) = line[from..].find("const").map(|i| i + from) {
+        let before = line[..i].chars().next_back();
+        let rest = &line[i + 5..];
+        let gap = rest.len() - rest.trim_start().len();
+        let is_in = gap > 0 && rest[gap..].starts_with("in") && !rest[gap + 2..].starts_with(word);
+        if !before.is_some_and(word) && is_in {
+            out.get_or_insert_with(|| line.to_string())
+                .replace_range(i..i + 5, "     ");
+        }
+        from = i + 5;
+    }
+    out.map_or(std::borrow::Cow::Borrowed(line), std::borrow::Cow::Owned)
 }
 
 /// The first character outside GLSL's character set that is not in a comment: its 1-based
@@ -348,6 +369,21 @@ fn item_name(line: &str) -> Option<&str> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn const_in_parameters_read_as_in_with_their_columns() {
+        assert_eq!(
+            const_in_as_in("float f(const in vec3 n, in float x)"),
+            "float f(      in vec3 n, in float x)"
+        );
+        assert_eq!(const_in_as_in("const int N = 3;"), "const int N = 3;");
+        assert_eq!(const_in_as_in("const inout_t x;"), "const inout_t x;");
+        assert_eq!(const_in_as_in("myconst in"), "myconst in");
+        assert_eq!(
+            const_in_as_in("f(const\tin float a, const in float b)"),
+            "f(     \tin float a,       in float b)"
+        );
+    }
 
     #[test]
     fn prelude_names_are_restored_and_errors_name_the_glsl_line() {
