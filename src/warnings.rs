@@ -32,7 +32,7 @@ impl fmt::Display for Warning {
         match self {
             Warning::LostDigits { kernel, constants } => write!(
                 f,
-                "warning: {kernel}: the f64 column is refused, {} constant(s) lost their written digits:\n  {}",
+                "warning: {kernel}: {} constant(s) lost their written digits (the f64 column of a method that reaches one is refused):\n  {}",
                 constants.len(),
                 constants.join("\n  ")
             ),
@@ -104,7 +104,7 @@ mod tests {
         assert_eq!(collected().iter().filter(|x| **x == w).count(), 1);
         assert_eq!(
             w.to_string(),
-            "warning: k.glsl: the f64 column is refused, 2 constant(s) lost their written digits:\n  PI\n  E"
+            "warning: k.glsl: 2 constant(s) lost their written digits (the f64 column of a method that reaches one is refused):\n  PI\n  E"
         );
     }
 }

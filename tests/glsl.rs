@@ -318,3 +318,35 @@ fn const_in_parameters_are_accepted_as_engines_write_them() {
     assert_eq!(a, b);
     assert!(a.iter().any(|v| *v != 0.0));
 }
+
+/// An engine's own `#define PI 3.14159265` gives the f64 column its digits (not the prelude's
+/// π, which rounds to the same f32), and a folded constant that lost its digits refuses the
+/// f64 column only of a method that reaches it.
+#[test]
+fn lost_digits_refuse_only_the_methods_that_reach_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let kernel = |id: &str, ret: &str| {
+        let text = format!(
+            "//! id: {id}\n//! target: line\n//! minv: full\n#define PI 3.14159265\n\n\
+             float unused_fn(float x) {{\n    return x * log(3.0);\n}}\n\n\
+             float method(Scene scene) {{\n    return {ret};\n}}\n"
+        );
+        common::write(dir.path(), &format!("{id}.glsl"), &text)
+    };
+    let files = [
+        kernel("test.pi_define", "scene.p1.x / PI"),
+        kernel("test.pi_reached", "scene.p1.x / PI + unused_fn(1.0)"),
+    ];
+    let kernels = kernel_set(&files, &linelight::kernel::Includes::none()).unwrap();
+    let configs = steep_configs();
+    let refs: Vec<_> = configs.iter().take(16).collect();
+    let program = |spec: &str| linelight::eval::interp::program(&resolve(spec, &kernels).unwrap()).unwrap();
+    let f64s = program("test.pi_define").eval(&refs, Mode::F64).unwrap();
+    for (c, v) in refs.iter().zip(&f64s) {
+        #[allow(clippy::approx_constant)] // the kernel's own #define, not π
+        let want = c.p1[0] / 3.14159265;
+        assert!((v - want).abs() <= 1e-14 * want.abs(), "{v} against {want}");
+    }
+    let e = program("test.pi_reached").eval(&refs, Mode::F64).unwrap_err();
+    assert!(format!("{e:#}").contains(":7: the constant 1.0986123"), "{e:#}");
+}

@@ -94,11 +94,32 @@ impl Program {
             (None, None) => {}
         }
         let mut program = Program::prepare(composed, &params)?;
-        for k in std::iter::once(&method.kernel).chain(inner.map(|m| &m.kernel)) {
-            if let Some(o) = &k.origin {
-                program.lost_digits.extend(o.lost_digits.iter().cloned());
+        // A constant that lost its digits refuses the f64 column only where the method
+        // reaches it: one in a function it never calls does not (one at module scope, or in a
+        // function the composition does not name as the translation did, does).
+        let reached = reached_functions(&program.module, program.method);
+        let named = |n: &str| {
+            program
+                .module
+                .functions
+                .iter()
+                .any(|(_, f)| f.name.as_deref() == Some(n))
+        };
+        let mut lost = Vec::new();
+        let kernels = [(&method.kernel, false)].into_iter();
+        for (k, is_inner) in kernels.chain(inner.map(|m| (&m.kernel, true))) {
+            for l in k.origin.iter().flat_map(|o| &o.lost_digits) {
+                let name = match l.function.as_deref() {
+                    Some("method") if is_inner => Some(crate::kernel::INNER_METHOD),
+                    other => other,
+                };
+                let unreached = name.is_some_and(|n| named(n) && !reached.contains(n));
+                if !unreached {
+                    lost.push(l.message.clone());
+                }
             }
         }
+        program.lost_digits = lost;
         Ok(program)
     }
 
@@ -451,29 +472,54 @@ fn local_consts(source: &str, name: &str) -> Vec<String> {
     out
 }
 
-fn mark_emitted(block: &naga::Block, out: &mut [bool]) {
+/// Calls `f` on every statement of `block` and of the blocks nested in it.
+fn each_statement<'b>(block: &'b naga::Block, f: &mut impl FnMut(&'b naga::Statement)) {
+    use naga::Statement as S;
     for st in block.iter() {
+        f(st);
         match st {
-            naga::Statement::Emit(r) => {
-                for h in r.clone() {
-                    out[h.index()] = true;
-                }
+            S::Block(b) => each_statement(b, f),
+            S::If { accept, reject, .. } => {
+                each_statement(accept, f);
+                each_statement(reject, f);
             }
-            naga::Statement::Block(b) => mark_emitted(b, out),
-            naga::Statement::If { accept, reject, .. } => {
-                mark_emitted(accept, out);
-                mark_emitted(reject, out);
-            }
-            naga::Statement::Switch { cases, .. } => {
-                for c in cases {
-                    mark_emitted(&c.body, out);
-                }
-            }
-            naga::Statement::Loop { body, continuing, .. } => {
-                mark_emitted(body, out);
-                mark_emitted(continuing, out);
+            S::Switch { cases, .. } => cases.iter().for_each(|c| each_statement(&c.body, f)),
+            S::Loop { body, continuing, .. } => {
+                each_statement(body, f);
+                each_statement(continuing, f);
             }
             _ => {}
         }
     }
+}
+
+fn mark_emitted(block: &naga::Block, out: &mut [bool]) {
+    each_statement(block, &mut |st| {
+        if let naga::Statement::Emit(r) = st {
+            for h in r.clone() {
+                out[h.index()] = true;
+            }
+        }
+    });
+}
+
+/// The names of the functions `from` calls, directly or through others, and its own.
+fn reached_functions(m: &naga::Module, from: Handle<naga::Function>) -> std::collections::HashSet<String> {
+    let mut seen = vec![false; m.functions.len()];
+    let mut todo = vec![from];
+    seen[from.index()] = true;
+    while let Some(f) = todo.pop() {
+        each_statement(&m.functions[f].body, &mut |st| {
+            if let naga::Statement::Call { function, .. } = st {
+                if !std::mem::replace(&mut seen[function.index()], true) {
+                    todo.push(*function);
+                }
+            }
+        });
+    }
+    m.functions
+        .iter()
+        .filter(|(h, _)| seen[h.index()])
+        .filter_map(|(_, f)| f.name.clone())
+        .collect()
 }

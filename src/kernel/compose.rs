@@ -68,7 +68,7 @@ fn I_line(p1: vec3<f32>, p2: vec3<f32>) -> f32 {
 
 /// What the inner line method's names become in a composite; its overrides are set
 /// under their new names (runner.rs).
-const INNER_METHOD: &str = "ll_line_method";
+pub(crate) const INNER_METHOD: &str = "ll_line_method";
 pub(crate) fn inner_name(name: &str) -> String {
     format!("ll_inner_{name}")
 }

@@ -66,8 +66,9 @@ pub struct Origin {
     /// The language it was written in.
     pub language: Language,
     /// Constants of the translation whose written digits could not be recovered
-    /// (src/kernel/written.rs), each `path:line: why`: the f64 column of the kernel is refused.
-    pub lost_digits: Vec<String>,
+    /// (src/kernel/written.rs), each with its function and `path:line: why`: the f64 column
+    /// of a method that reaches one is refused.
+    pub lost_digits: Vec<super::written::LostDigits>,
 }
 
 /// The language of a kernel file: by its `//! language:` header, else by its extension
@@ -270,7 +271,7 @@ impl KernelFile {
         if !lost_digits.is_empty() {
             crate::warnings::raise(crate::warnings::Warning::LostDigits {
                 kernel: kernel.path.clone(),
-                constants: lost_digits.clone(),
+                constants: lost_digits.iter().map(|l| l.message.clone()).collect(),
             });
         }
         kernel.origin = Some(Arc::new(Origin {

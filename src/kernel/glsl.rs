@@ -42,7 +42,10 @@ pub fn translate(path: &str, text: &str) -> Result<(String, Vec<u32>), HeaderErr
 /// then its translated declarations; for each line of that text, the kernel line it came
 /// from ([`crate::kernel::Origin::lines`]); and the constants whose written digits are lost
 /// (src/kernel/written.rs).
-pub fn translate_expanded(path: &str, expanded: &Expanded) -> Result<(String, Vec<u32>, Vec<String>), HeaderError> {
+pub fn translate_expanded(
+    path: &str,
+    expanded: &Expanded,
+) -> Result<(String, Vec<u32>, Vec<super::written::LostDigits>), HeaderError> {
     let err = |line: usize, message: String| HeaderError {
         path: path.to_string(),
         line,

@@ -57,7 +57,10 @@ use crate::tuning::GLSLANG as GLSLANG_ENV;
 
 /// The WGSL kernel text of an HLSL kernel and, for each of its lines, the kernel line it came
 /// from; with the constants whose written digits are lost (src/kernel/written.rs).
-pub fn translate(path: &str, expanded: &Expanded) -> Result<(String, Vec<u32>, Vec<String>), HeaderError> {
+pub fn translate(
+    path: &str,
+    expanded: &Expanded,
+) -> Result<(String, Vec<u32>, Vec<super::written::LostDigits>), HeaderError> {
     let err = |line: usize, message: String| HeaderError {
         path: path.to_string(),
         line,

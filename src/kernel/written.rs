@@ -13,6 +13,15 @@
 
 use std::collections::HashMap;
 
+/// A float constant of a translation whose written digits are lost.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LostDigits {
+    /// The translation's function it stands in (None: at module scope).
+    pub function: Option<String>,
+    /// `path:line: why`.
+    pub message: String,
+}
+
 /// A float literal written in a source file.
 #[derive(Clone, Debug)]
 pub struct Literal {
@@ -138,11 +147,17 @@ impl Written {
     /// `wgsl` (a translation; `lines[i]` is the kernel line of its line i + 1) with each f32
     /// literal replaced by its written digits; and a message for each constant that matches
     /// no written literal and is not a short exact decimal.
-    pub fn restore(&self, wgsl: &str, lines: &[u32], path: &str) -> (String, Vec<String>) {
+    pub fn restore(&self, wgsl: &str, lines: &[u32], path: &str) -> (String, Vec<LostDigits>) {
         let mut out = String::with_capacity(wgsl.len());
         let mut lost = Vec::new();
+        // The translation's function the line is in (naga's WGSL back end writes `fn NAME(`
+        // and the closing `}` at the start of a line).
+        let mut function: Option<String> = None;
         for (i, line) in wgsl.lines().enumerate() {
             let at = lines.get(i).copied().unwrap_or(0);
+            if let Some(rest) = line.strip_prefix("fn ") {
+                function = rest.split('(').next().map(|n| n.trim().to_string());
+            }
             if line.trim_start().starts_with("//") {
                 out.push_str(line);
                 out.push('\n');
@@ -181,13 +196,19 @@ impl Written {
                             } else {
                                 path.to_string()
                             };
-                            lost.push(format!("{place}: {message}"));
+                            lost.push(LostDigits {
+                                function: function.clone(),
+                                message: format!("{place}: {message}"),
+                            });
                         }
                     },
                     None => out.push_str(word),
                 }
             }
             out.push('\n');
+            if line.starts_with('}') {
+                function = None;
+            }
         }
         (out, lost)
     }
@@ -205,9 +226,14 @@ impl Written {
             }
         }
         let here: Vec<&&Literal> = values.iter().filter(|c| c.top == at && at > 0).collect();
-        match (values.as_slice(), here.as_slice()) {
-            ([one], _) => return Ok(one.digits.clone()),
-            (_, [one]) => return Ok(one.digits.clone()),
+        // A literal in a translated line of the kernel is the kernel's own text (its
+        // `#define PI 3.14159265`): the prelude's constants keep their names in the
+        // translation, so the prelude's literals yield to the kernel's.
+        let own: Vec<&&Literal> = values.iter().filter(|c| c.top > 0).collect();
+        match (values.as_slice(), here.as_slice(), own.as_slice()) {
+            ([one], _, _) => return Ok(one.digits.clone()),
+            (_, [one], _) => return Ok(one.digits.clone()),
+            (_, _, [one]) if at > 0 => return Ok(one.digits.clone()),
             _ => {}
         }
         if values.len() > 1 {
@@ -417,14 +443,16 @@ mod tests {
         assert!(lost.is_empty());
         let (_, lost) = w.restore("let c = 0.7853982f;\n", &[7], "k");
         assert!(
-            lost[0].starts_with("k:7: the constant 0.7853982 (f32) may be any of"),
+            lost[0]
+                .message
+                .starts_with("k:7: the constant 0.7853982 (f32) may be any of"),
             "{lost:?}"
         );
         // A folded constant with no literal is reported; a short exact decimal is not.
         let (s, lost) = w.restore("let d = 1.5707964f + 2f + 0.5f + 1e-7u;\n", &[3], "k");
         assert_eq!(s, "let d = 1.5707964f + 2.0f + 0.5f + 1e-7u;\n");
         assert_eq!(lost.len(), 1);
-        assert!(lost[0].contains("folded"), "{lost:?}");
+        assert!(lost[0].message.contains("folded"), "{lost:?}");
         // A constant expression of the source is folded in f64 where the front end folded it.
         let mut w = Written::default();
         w.add(
