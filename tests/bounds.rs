@@ -52,3 +52,62 @@ fn a_claim_on_a_bin_lower_edge_that_does_not_exist_is_bad_input() {
     let o = sweep(dir.path(), &with_claim("edge", expect), &[]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
+
+/// Every file of a report folder, by name, with its bytes, and the folder's inode (a set
+/// swapped in is a new folder).
+fn snapshot(dir: &std::path::Path) -> (u64, Vec<(String, Vec<u8>)>) {
+    use std::os::unix::fs::MetadataExt;
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (
+                e.file_name().into_string().unwrap(),
+                std::fs::read(e.path()).unwrap_or_default(),
+            )
+        })
+        .collect();
+    files.sort();
+    (std::fs::metadata(dir).unwrap().ino(), files)
+}
+
+#[test]
+fn an_output_that_cannot_be_a_file_is_refused_before_any_work_and_any_swap() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = sweep(d, CASE, &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let set = d.join("reports/tiny");
+    let before = snapshot(&set);
+    std::fs::create_dir(d.join("existing")).unwrap();
+    let raw_dir = d.join("raw_out/");
+    let existing = d.join("existing");
+    let dot = d.join("existing/.");
+    for (flag, path) in [
+        ("--raw", format!("{}/", d.join("raw_out").display())),
+        ("--junit", format!("{}/", d.join("junit_out").display())),
+        ("--raw", existing.display().to_string()),
+        ("--junit", dot.display().to_string()),
+        // A parent that cannot be made: the case file stands where a folder would be.
+        ("--raw", d.join("case.toml/raw.jsonl").display().to_string()),
+    ] {
+        let o = sweep(d, CASE, &[flag, &path]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{flag} {path}: {e}");
+        assert!(
+            e.contains(&format!("{flag} {path}")) && e.contains("directory"),
+            "{flag} {path}: {e}"
+        );
+        assert!(!e.contains("adapter"), "refused before any work: {e}");
+        assert_eq!(snapshot(&set), before, "{flag} {path}: the old report set is untouched");
+    }
+    assert!(!raw_dir.exists() && !d.join("junit_out").exists());
+    // eval refuses the same before it evaluates anything.
+    let input = common::write(d, "in.jsonl", &format!("{}\n", common::CONFIG));
+    let out = format!("{}/", d.join("eval_out").display());
+    let o = common::eval(&input, std::path::Path::new(&out), &["--methods", "line.ltc2023"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains(&format!("--output {out}")) && e.contains("directory"), "{e}");
+    assert!(!d.join("eval_out").exists());
+}
