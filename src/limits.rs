@@ -182,6 +182,12 @@ pub const MAX_CLAIM_DEPTH: usize = 64;
 /// The deepest chain of function calls a claim may make.
 pub const MAX_CLAIM_CALLS: usize = 32;
 
+/// The fewest configurations a quantile check, a region of What to ship (the default of a
+/// case's `budget.min_count`) or a paired comparison (`diff`) is judged from: fewer give no
+/// verdict, never a pass, and no bootstrap interval is printed from them. At 300 the p99 rests
+/// on its three largest values.
+pub const MIN_JUDGED: usize = 300;
+
 /// A light texture's longest side, in texels (`texture.size` of `[materials.texture]`).
 pub const MAX_TEXTURE_SIDE: u32 = 4096;
 

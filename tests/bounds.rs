@@ -111,3 +111,64 @@ fn an_output_that_cannot_be_a_file_is_refused_before_any_work_and_any_swap() {
     assert!(e.contains(&format!("--output {out}")) && e.contains("directory"), "{e}");
     assert!(!d.join("eval_out").exists());
 }
+
+#[test]
+fn a_quantile_of_one_configuration_gives_no_verdict_not_a_pass() {
+    let one = CASE.replace("count = 20", "count = 1");
+    // A p99 limit that passes and one that fails alike give no verdict from one configuration.
+    for limit in ["1e6", "1e-12"] {
+        let dir = tempfile::tempdir().unwrap();
+        let case = format!("{one}\n[tolerances.\"line.ltc2023\"]\np99 = {limit}\n");
+        let o = sweep(dir.path(), &case, &[]);
+        let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert_eq!(o.status.code(), Some(0), "p99 = {limit}: {stdout}{}", stderr(&o));
+        assert!(
+            stdout.contains("verdict: no verdict") && !stdout.contains("PASS") && !stdout.contains("FAIL"),
+            "p99 = {limit}: {stdout}"
+        );
+        assert!(
+            stdout.contains("from 1 configurations, fewer than the 300"),
+            "p99 = {limit}: {stdout}"
+        );
+        let report = std::fs::read_to_string(dir.path().join("reports/tiny/report.md")).unwrap();
+        assert!(
+            report.contains("**No verdict**") && report.contains("NO VERDICT `line.ltc2023` on `diffuse`"),
+            "{report}"
+        );
+        let summary = common::json(&dir.path().join("reports/tiny/summary.json"));
+        assert_eq!(summary["analysis"]["verdict"], "no_verdict");
+    }
+    // A maximum is what was seen, judged from any number: one configuration fails it.
+    let dir = tempfile::tempdir().unwrap();
+    let o = sweep(
+        dir.path(),
+        &format!("{one}\n[tolerances.\"line.ltc2023\"]\nmax = 1e-12\n"),
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+}
+
+#[test]
+fn diff_of_one_configuration_gives_no_verdict_and_no_interval() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = common::write(dir.path(), "case.toml", CASE);
+    let o = common::linelight(&[
+        "diff",
+        case.to_str().unwrap(),
+        "line.ltc2017",
+        "line.ltc2023",
+        "--count",
+        "1",
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert_eq!(o.status.code(), Some(0), "{stdout}{}", stderr(&o));
+    assert!(
+        stdout.contains("diffuse: no verdict: 1 paired configurations, fewer than the 300"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("verdict: none"), "{stdout}");
+    assert!(
+        !stdout.contains("bootstrap") && !stdout.contains("accurate"),
+        "no interval and no verdict from one value: {stdout}"
+    );
+}
