@@ -172,3 +172,93 @@ fn diff_of_one_configuration_gives_no_verdict_and_no_interval() {
         "no interval and no verdict from one value: {stdout}"
     );
 }
+
+/// CRC-32 (ISO-HDLC, PNG's) of `bytes`.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = !0u32;
+    for &b in bytes {
+        c ^= u32::from(b);
+        for _ in 0..8 {
+            c = if c & 1 == 1 { (c >> 1) ^ 0xEDB8_8320 } else { c >> 1 };
+        }
+    }
+    !c
+}
+
+/// A PNG chunk: length, type, data, CRC of type and data.
+fn chunk(kind: &[u8; 4], data: &[u8]) -> Vec<u8> {
+    let mut body = kind.to_vec();
+    body.extend_from_slice(data);
+    let mut out = (data.len() as u32).to_be_bytes().to_vec();
+    out.extend_from_slice(&body);
+    out.extend_from_slice(&crc32(&body).to_be_bytes());
+    out
+}
+
+/// A 74-byte PNG whose header declares `width` × `height` 8-bit RGB pixels (its data is a
+/// fragment of a zlib stream: nothing that could be decoded to that size).
+fn declared_png(width: u32, height: u32) -> Vec<u8> {
+    let mut ihdr = width.to_be_bytes().to_vec();
+    ihdr.extend_from_slice(&height.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend(chunk(b"IHDR", &ihdr));
+    png.extend(chunk(
+        b"IDAT",
+        &[
+            0x78, 0x9c, 0xed, 0xc1, 0x01, 0x0d, 0x00, 0x00, 0x00, 0xc2, 0xa0, 0xf7, 0x4f, 0x6d, 0x0e, 0x37, 0xa0,
+        ],
+    ));
+    png.extend(chunk(b"IEND", &[]));
+    png
+}
+
+#[test]
+fn a_render_baseline_image_declaring_a_huge_size_is_refused_before_decoding() {
+    let png = declared_png(60000, 60000);
+    assert_eq!(png.len(), 74);
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = common::write(
+        d,
+        "scene.toml",
+        r#"name = "gate_floor"
+methods = ["my.line", "line.ltc2023_fix"]
+[render]
+width = 48
+height = 40
+camera = { position = [0.3, -3.0, 1.4], look_at = [0.0, 0.4, 0.0], fov_deg = 55.0 }
+light = { p1 = [-0.7, 0.5, 0.35], p2 = [0.8, 0.3, 0.6] }
+material = { kind = "diffuse" }
+"#,
+    );
+    let kernel = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/ci/example/my_line.wgsl");
+    let render = |extra: &[&str]| {
+        let out = d.join("out");
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--kernel",
+            kernel,
+        ];
+        args.extend(extra);
+        common::linelight(&args)
+    };
+    let base = d.join("base");
+    let o = render(&["--save-baseline", base.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    std::fs::remove_dir_all(d.join("out")).unwrap();
+    std::fs::write(base.join("images/my.line.png"), &png).unwrap();
+    let t = Instant::now();
+    let o = render(&["--baseline", base.to_str().unwrap()]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("method `my.line`") && e.contains("60000 × 60000") && e.contains("not decoded"),
+        "{e}"
+    );
+    assert!(t.elapsed() < Duration::from_secs(60), "{:?}", t.elapsed());
+    assert!(!d.join("out").exists(), "nothing written");
+}
