@@ -262,3 +262,73 @@ material = { kind = "diffuse" }
     assert!(t.elapsed() < Duration::from_secs(60), "{:?}", t.elapsed());
     assert!(!d.join("out").exists(), "nothing written");
 }
+
+#[test]
+fn includes_stay_inside_the_kernel_folder_and_the_include_folders() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let kernels = d.join("kernels");
+    let inc = d.join("inc");
+    std::fs::create_dir_all(&kernels).unwrap();
+    std::fs::create_dir_all(&inc).unwrap();
+    // A file outside both folders whose first token would show in a front end's error.
+    common::write(d, "secret.glsl", "TOPSECRET_TOKEN = 1;\n");
+    std::os::unix::fs::symlink(d.join("secret.glsl"), kernels.join("link.glsl")).unwrap();
+    std::os::unix::fs::symlink(d.join("secret.glsl"), inc.join("ilink.glsl")).unwrap();
+    let secret = d.join("secret.glsl");
+    let absolute = format!("\"{}\"", secret.display());
+    for (name, says) in [
+        (absolute.as_str(), "not an absolute path"),
+        ("\"/etc/passwd\"", "not an absolute path"),
+        ("\"../secret.glsl\"", "outside"),
+        ("\"link.glsl\"", "outside"),
+        ("<ilink.glsl>", "outside"),
+        ("<../secret.glsl>", "outside"),
+    ] {
+        let k = common::write(
+            &kernels,
+            "k.glsl",
+            &format!(
+                "//! id: line.inc\n//! target: line\n#include {name}\nfloat method(Scene scene) {{ return 1.0; }}\n"
+            ),
+        );
+        let o = common::linelight(&["check", k.to_str().unwrap(), "--include", inc.to_str().unwrap()]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{name}: {e}");
+        assert!(e.contains("k.glsl:3:") && e.contains(says), "{name}: {e}");
+        assert!(
+            !e.contains("TOPSECRET") && !e.contains("root:"),
+            "{name}: nothing read is echoed: {e}"
+        );
+    }
+    // A WGSL kernel's --include folder is confined the same way (a symlink out is refused).
+    let k = common::write(
+        &kernels,
+        "k.wgsl",
+        "//! id: line.inc_wgsl\n//! target: line\n#include \"ilink.glsl\"\nfn method(scene: Scene) -> f32 { return 1.0; }\n",
+    );
+    let o = common::linelight(&["check", k.to_str().unwrap(), "--include", inc.to_str().unwrap()]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("outside") && !e.contains("TOPSECRET"), "{e}");
+    // Inside stays allowed: beside the kernel, in a subfolder, `..` that stays inside, and
+    // a symlink whose target is inside.
+    std::fs::create_dir_all(kernels.join("sub")).unwrap();
+    common::write(&kernels, "two.glsl", "float two() { return 2.0; }\n");
+    common::write(&kernels.join("sub"), "one.glsl", "#include \"../two.glsl\"\n");
+    std::os::unix::fs::symlink(kernels.join("two.glsl"), inc.join("two_link.glsl")).unwrap();
+    let k = common::write(
+        &kernels,
+        "ok.glsl",
+        "//! id: line.inc_ok\n//! target: line\n#include \"sub/one.glsl\"\nfloat method(Scene scene) { return two(); }\n",
+    );
+    let o = common::linelight(&["check", k.to_str().unwrap(), "--include", inc.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let k = common::write(
+        &kernels,
+        "ok2.glsl",
+        "//! id: line.inc_ok2\n//! target: line\n#include <two_link.glsl>\nfloat method(Scene scene) { return two(); }\n",
+    );
+    let o = common::linelight(&["check", k.to_str().unwrap(), "--include", inc.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
