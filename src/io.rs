@@ -390,12 +390,24 @@ fn check_file(flag: &str, path: &Path, target: &Path, inputs: &[(&Input, PathBuf
             )));
         }
     }
+    if names_a_directory(path) {
+        return Err(fail(format!(
+            "{flag} {shown} names a directory (it ends with `/`, `.` or `..`), not a file: give a file name"
+        )));
+    }
     match fs::metadata(path) {
         Ok(m) if m.is_dir() => Err(fail(format!("{flag} {shown} is a directory, not a file"))),
         Ok(_) if !writable(path) => Err(fail(format!("{flag} {shown}: permission denied (not writable)"))),
         Ok(_) => Ok(()),
         Err(_) => check_creatable(flag, target),
     }
+}
+
+/// Whether `path` as spelled can only name a directory: it ends with `/` or its last part is
+/// `.` or `..` (`out/`, `out/.`), so no file can be written there, whether or not it exists.
+fn names_a_directory(path: &Path) -> bool {
+    let bytes = path.as_os_str().as_bytes();
+    bytes.is_empty() || bytes.ends_with(b"/") || bytes == b"." || bytes.ends_with(b"/.") || path.file_name().is_none()
 }
 
 /// A file that does not exist yet can be made when its nearest existing ancestor is a

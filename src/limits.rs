@@ -166,6 +166,28 @@ pub const MAX_INCLUDE_DEPTH: usize = 16;
 /// time it is included.
 pub const MAX_INCLUDE_BYTES: u64 = 16 << 20;
 
+/// Operations one claim expression or text placeholder may take (src/analyse/claims.rs): a
+/// claim reads a few statistics, so this is far beyond any real one and stops a `loop` at once.
+pub const MAX_CLAIM_OPERATIONS: u64 = 1_000_000;
+
+/// The longest string a claim may build, in bytes.
+pub const MAX_CLAIM_STRING: usize = 1 << 20;
+
+/// The most elements of an array or object map a claim may build.
+pub const MAX_CLAIM_ARRAY: usize = 1 << 16;
+
+/// The deepest nesting of a claim's expressions (and of a closure's body in one).
+pub const MAX_CLAIM_DEPTH: usize = 64;
+
+/// The deepest chain of function calls a claim may make.
+pub const MAX_CLAIM_CALLS: usize = 32;
+
+/// The fewest configurations a quantile check, a region of What to ship (the default of a
+/// case's `budget.min_count`) or a paired comparison (`diff`) is judged from: fewer give no
+/// verdict, never a pass, and no bootstrap interval is printed from them. At 300 the p99 rests
+/// on its three largest values.
+pub const MIN_JUDGED: usize = 300;
+
 /// A light texture's longest side, in texels (`texture.size` of `[materials.texture]`).
 pub const MAX_TEXTURE_SIDE: u32 = 4096;
 

@@ -10,6 +10,7 @@
 mod common;
 
 mod bench;
+mod bounds;
 mod cli;
 mod committed_reports;
 mod compiled;

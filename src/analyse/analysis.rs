@@ -190,6 +190,17 @@ pub struct Check {
     pub limit: f64,
     pub measured: f64,
     pub pass: bool,
+    /// A quantile judged from fewer than [`crate::limits::MIN_JUDGED`] configurations: how many
+    /// it had. Neither a pass nor a failure: the case then has no verdict.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub too_few: Option<usize>,
+}
+
+impl Check {
+    /// Measured past its limit (a check with too few configurations has not failed).
+    pub fn failed(&self) -> bool {
+        !self.pass && self.too_few.is_none()
+    }
 }
 
 /// The verdict of a case's tolerance checks; a case that sets none has no verdict.
@@ -203,7 +214,9 @@ pub enum Verdict {
 
 impl Verdict {
     pub fn of(checks: &[Check]) -> Verdict {
-        if checks.is_empty() {
+        if checks.iter().any(Check::failed) {
+            Verdict::Fail
+        } else if checks.is_empty() || checks.iter().any(|c| c.too_few.is_some()) {
             Verdict::NoVerdict
         } else if checks.iter().all(|c| c.pass) {
             Verdict::Pass
@@ -914,32 +927,39 @@ fn checks(case: &Case, methods: &[MethodStats]) -> Vec<Check> {
             let measured_any = mat.all.count > 0;
             let q = mat.all.rel;
             let quantile = |f: fn(&Quantiles) -> f64| q.as_ref().map_or(f64::NAN, f);
-            let mut check = |what: &str, limit: Option<f64>, measured: f64| {
+            // A quantile from fewer than MIN_JUDGED configurations is no evidence either way; a
+            // maximum or a count is what was seen, judged from any number.
+            let n = mat.all.count;
+            let mut check = |what: &str, limit: Option<f64>, measured: f64, quantile: bool| {
                 if let Some(limit) = limit {
                     let measured = if measured_any { measured } else { f64::NAN };
+                    let too_few = (quantile && measured_any && n < crate::limits::MIN_JUDGED).then_some(n);
                     out.push(Check {
                         method: m.label.clone(),
                         material: mat.material.clone(),
                         what: what.to_string(),
                         limit,
                         measured,
-                        pass: measured <= limit,
+                        pass: too_few.is_none() && measured <= limit,
+                        too_few,
                     });
                 }
             };
-            check("median rel. error", *median, quantile(|q| q.median));
-            check("p99 rel. error", *p99, quantile(|q| q.p99));
-            check("max rel. error", *max, quantile(|q| q.max));
+            check("median rel. error", *median, quantile(|q| q.median), true);
+            check("p99 rel. error", *p99, quantile(|q| q.p99), true);
+            check("max rel. error", *max, quantile(|q| q.max), false);
             // NaN where no light arrives is a NaN pixel all the same.
             check(
                 "NaN/inf count",
                 nan.map(|n| n as f64),
                 (mat.all.nan + mat.all.inf + mat.all.false_light.nonfinite) as f64,
+                false,
             );
             check(
                 "false light (configurations with reference 0 lit)",
                 false_light.map(|n| n as f64),
                 mat.all.false_light.lit as f64,
+                false,
             );
         }
     }
@@ -1312,20 +1332,27 @@ false_light = 1
             let c = &a.methods[1].materials[0];
             assert_eq!(c.all.configurations(), 0);
             assert_eq!(c.own_target.as_ref().unwrap().configurations(), 0);
-            // The checks: median and false light pass, max and NaN/inf (4 and 8) fail.
+            // The checks: the median is a quantile of too few configurations (no verdict, not a
+            // pass), false light passes, max and NaN/inf (4 and 8) fail.
             let checks: Vec<_> = a
                 .checks
                 .iter()
                 .filter(|c| c.material == "a")
-                .map(|c| (c.what.as_str(), c.limit, c.measured, c.pass))
+                .map(|c| (c.what.as_str(), c.limit, c.measured, c.pass, c.too_few))
                 .collect();
             assert_eq!(
                 checks,
                 [
-                    ("median rel. error", 0.1, 3.0 / 64.0, true),
-                    ("max rel. error", 0.5, 1.0, false),
-                    ("NaN/inf count", 0.0, 2.0, false),
-                    ("false light (configurations with reference 0 lit)", 1.0, 1.0, true),
+                    ("median rel. error", 0.1, 3.0 / 64.0, false, Some(s.count)),
+                    ("max rel. error", 0.5, 1.0, false, None),
+                    ("NaN/inf count", 0.0, 2.0, false, None),
+                    (
+                        "false light (configurations with reference 0 lit)",
+                        1.0,
+                        1.0,
+                        true,
+                        None
+                    ),
                 ]
             );
             // Family b is checked too, and fails: it received no configuration, so there is
@@ -1708,8 +1735,17 @@ methods = ["line.ltc2017"]
             limit: 1.0,
             measured: 0.5,
             pass,
+            too_few: None,
         };
         assert_eq!(Verdict::of(&[]), Verdict::NoVerdict);
+        // A quantile of too few configurations: no verdict, unless another check failed.
+        let few = Check {
+            pass: false,
+            too_few: Some(1),
+            ..check(true)
+        };
+        assert_eq!(Verdict::of(&[check(true), few.clone()]), Verdict::NoVerdict);
+        assert_eq!(Verdict::of(&[few, check(false)]), Verdict::Fail);
         assert_eq!(Verdict::of(&[check(true), check(true)]), Verdict::Pass);
         assert_eq!(Verdict::of(&[check(true), check(false)]), Verdict::Fail);
         assert_eq!(Verdict::of(&[check(false), check(true)]), Verdict::Fail);

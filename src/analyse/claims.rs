@@ -37,6 +37,9 @@ pub struct Facts {
     pub labels: Vec<String>,
     pub materials: Vec<String>,
     pub axes: Vec<String>,
+    /// Each bin axis's edges (`[[bins]]`), so a claim on a lower edge that no bin has is bad
+    /// input before measuring, not a stale claim after.
+    pub edges: Vec<(String, Vec<f64>)>,
     pub configurations: usize,
     pub analysis: Option<Analysis>,
     pub costs: Vec<Cost>,
@@ -87,6 +90,29 @@ impl Facts {
         Ok(())
     }
 
+    /// Refuses a bin lower edge that no bin of `axis` has (the last edge is an upper edge only).
+    fn check_lower_edge(&self, axis: &str, lo: f64) -> Result<(), Fail> {
+        let lowers: Vec<f64> = self
+            .edges
+            .iter()
+            .filter(|(a, _)| a == axis)
+            .flat_map(|(_, e)| e[..e.len().saturating_sub(1)].iter().copied())
+            .collect();
+        if lowers.contains(&lo) {
+            return Ok(());
+        }
+        let shown: Vec<String> = lowers
+            .iter()
+            .take(crate::limits::MAX_ERRORS)
+            .map(|x| x.to_string())
+            .collect();
+        let more = if lowers.len() > shown.len() { ", …" } else { "" };
+        fail(format!(
+            "no bin of `{axis}` has the lower edge {lo} in this case (its lower edges: {}{more})",
+            shown.join(", ")
+        ))
+    }
+
     /// A method's statistics on a material; None in a dry run.
     fn material(&self, label: &str, material: &str) -> Result<Option<&MaterialStats>, Fail> {
         self.check_material(material)?;
@@ -103,8 +129,9 @@ impl Facts {
         which: &BinStatsRef,
         f: &dyn Fn(&BinStats) -> Option<f64>,
     ) -> Result<f64, Fail> {
-        if let BinStatsRef::Bin { axis, .. } | BinStatsRef::OwnBin { axis, .. } = which {
+        if let BinStatsRef::Bin { axis, lo } | BinStatsRef::OwnBin { axis, lo } = which {
             self.check_axis(axis)?;
+            self.check_lower_edge(axis, *lo)?;
         }
         let Some(mat) = self.material(label, material)? else {
             return Ok(1.0);
@@ -213,8 +240,15 @@ pub fn format_number(x: f64) -> String {
 
 /// The engine with every function a claim may call, reading `facts`.
 fn engine(facts: Rc<Facts>) -> Engine {
+    use crate::limits;
     let mut e = Engine::new();
-    e.set_max_expr_depths(64, 64);
+    // Bounded: a claim that loops or builds a huge value stops with an error naming the limit.
+    e.set_max_operations(limits::MAX_CLAIM_OPERATIONS);
+    e.set_max_string_size(limits::MAX_CLAIM_STRING);
+    e.set_max_array_size(limits::MAX_CLAIM_ARRAY);
+    e.set_max_map_size(limits::MAX_CLAIM_ARRAY);
+    e.set_max_expr_depths(limits::MAX_CLAIM_DEPTH, limits::MAX_CLAIM_DEPTH);
+    e.set_max_call_levels(limits::MAX_CLAIM_CALLS);
 
     type S = ImmutableString;
     macro_rules! whole {
@@ -651,7 +685,7 @@ fn fill(engine: &Engine, text: &str) -> Result<String, String> {
         let expr = &rest[k + 1..k + 1 + end];
         let v = engine
             .eval_expression::<Dynamic>(expr)
-            .map_err(|e| format!("in `{{{expr}}}`: {e}"))?;
+            .map_err(|e| format!("in `{{{expr}}}`: {}", explain(&e)))?;
         out += &format_value(&v);
         rest = &rest[k + 2 + end..];
     }
@@ -665,6 +699,7 @@ pub fn dry_facts(case: &Case, labels: Vec<String>) -> Facts {
         labels,
         materials: case.materials.iter().map(|m| m.name.clone()).collect(),
         axes: case.bins.iter().map(|b| b.axis.clone()).collect(),
+        edges: case.bins.iter().map(|b| (b.axis.clone(), b.edges.clone())).collect(),
         configurations: 0,
         analysis: None,
         costs: Vec::new(),
@@ -675,13 +710,33 @@ pub fn dry_facts(case: &Case, labels: Vec<String>) -> Facts {
     }
 }
 
+/// An evaluation error as a message, with the limit it hit where it hit one.
+fn explain(e: &EvalAltResult) -> String {
+    use crate::limits;
+    let limit = match e {
+        EvalAltResult::ErrorTooManyOperations(..) => {
+            format!("a claim may take at most {} operations", limits::MAX_CLAIM_OPERATIONS)
+        }
+        EvalAltResult::ErrorDataTooLarge(..) => format!(
+            "a claim may build strings of at most {} bytes and arrays of at most {} elements",
+            limits::MAX_CLAIM_STRING,
+            limits::MAX_CLAIM_ARRAY
+        ),
+        EvalAltResult::ErrorStackOverflow(..) => {
+            format!("a claim may nest at most {} calls", limits::MAX_CLAIM_CALLS)
+        }
+        _ => return e.to_string(),
+    };
+    format!("{e} ({limit})")
+}
+
 /// Checks every claim's expression and text against the names of the case (a dry run).
 pub fn check(claims: &[ClaimSpec], facts: Facts) -> Result<(), String> {
     let engine = engine(Rc::new(facts));
     for c in claims {
         let v = engine
             .eval_expression::<Dynamic>(&c.expect)
-            .map_err(|e| format!("claim `{}`: expect `{}`: {e}", c.id, c.expect))?;
+            .map_err(|e| format!("claim `{}`: expect `{}`: {}", c.id, c.expect, explain(&e)))?;
         if !v.is_bool() {
             return Err(format!(
                 "claim `{}`: expect `{}` is not a comparison (it gives a {})",
@@ -703,7 +758,7 @@ pub fn evaluate(claims: &[ClaimSpec], facts: Facts) -> Vec<ClaimResult> {
         .map(|c| {
             let (holds, error) = match engine.eval_expression::<bool>(&c.expect) {
                 Ok(b) => (b, None),
-                Err(e) => (false, Some(e.to_string())),
+                Err(e) => (false, Some(explain(&e))),
             };
             let text = fill(&engine, &c.text).unwrap_or_else(|e| format!("(text not filled: {e})"));
             ClaimResult {

@@ -19,6 +19,8 @@ pub enum Outcome {
     Regressed,
     /// B more accurate on some materials and less on others (a regression too).
     Mixed,
+    /// No material had the configurations a paired verdict needs ([`crate::limits::MIN_JUDGED`]).
+    NoVerdict,
 }
 
 impl Outcome {
@@ -46,6 +48,8 @@ impl Outcome {
 pub enum MaterialDiff {
     /// A or B does not support the material (`unsupported_by`: its label).
     NotCompared { material: String, unsupported_by: String },
+    /// Fewer paired configurations than a verdict needs: no interval, no verdict.
+    TooFew { material: String, pairs: usize },
     Compared {
         material: String,
         change: Change,
@@ -120,6 +124,13 @@ pub fn analyse(
                 _ => None,
             })
             .collect();
+        if pairs.len() < crate::limits::MIN_JUDGED {
+            materials.push(MaterialDiff::TooFew {
+                material: family.name.clone(),
+                pairs: pairs.len(),
+            });
+            continue;
+        }
         let count = |o: &[Obs], what: Obs| o.iter().filter(|v| **v == what).count();
         let paired = gate::paired(&pairs, RESAMPLES, noise);
         let change = paired.change(noise);
@@ -149,6 +160,12 @@ pub fn analyse(
             config: d.config.clone(),
         });
     }
+    let too_few = materials.iter().any(|m| matches!(m, MaterialDiff::TooFew { .. }));
+    let outcome = if changes.is_empty() && too_few {
+        Outcome::NoVerdict
+    } else {
+        Outcome::of(&changes)
+    };
     Ok(DiffSummary {
         case: setup.case.name.clone(),
         a: a.clone(),
@@ -156,6 +173,6 @@ pub fn analyse(
         noise,
         materials,
         disagreements,
-        outcome: Outcome::of(&changes),
+        outcome,
     })
 }

@@ -156,6 +156,7 @@ pub fn checks(a: &AnyDriver, spec: &crate::input::case::EnvelopeSpec) -> Vec<cra
                 limit: 0.0,
                 measured: r.gpu_outside as f64,
                 pass: r.gpu_outside == 0,
+                too_few: None,
             });
         }
         if let (Some(limit), Some((k, n))) = (spec.max_past_budget, r.breaks) {
@@ -168,6 +169,7 @@ pub fn checks(a: &AnyDriver, spec: &crate::input::case::EnvelopeSpec) -> Vec<cra
                     limit,
                     measured: share,
                     pass: share <= limit,
+                    too_few: None,
                 });
             }
         }

@@ -381,7 +381,7 @@ fn default_statistic() -> String {
     BUDGET_STATISTIC.to_string()
 }
 fn default_min_count() -> usize {
-    300
+    crate::limits::MIN_JUDGED
 }
 fn default_cost_matters() -> bool {
     true

@@ -3,7 +3,10 @@
 //! one rule holds for both). `#include "f"` is looked up beside the including file, then in
 //! the `--include` folders in order; `#include <f>` in the folders only. A cycle is refused,
 //! and so are nesting deeper than `limits::MAX_INCLUDE_DEPTH` and a total above
-//! `limits::MAX_INCLUDE_BYTES`. Each line of the expansion remembers its file and line, and
+//! `limits::MAX_INCLUDE_BYTES`. An include is confined ([`confined`]): it resolves, symlinks
+//! followed, inside the kernel file's folder or an `--include` folder, never to an absolute
+//! name, a `..` out of them or a link out, and a refused file is never read, so no message can
+//! show what it holds. Each line of the expansion remembers its file and line, and
 //! the line of the kernel file that brought it in.
 
 use super::HeaderError;
@@ -90,8 +93,80 @@ pub fn expand(path: &Path, shown: &str, text: &str, includes: &Includes) -> Resu
     let dirs = includes.dirs();
     let mut total = text.len() as u64;
     let canonical = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
-    walk(&mut out, 0, path, text, &mut vec![canonical], None, dirs, &mut total)?;
+    let folder = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let roots = Roots::new(Some(folder), dirs);
+    walk(
+        &mut out,
+        0,
+        path,
+        text,
+        &mut vec![canonical],
+        None,
+        (dirs, &roots),
+        &mut total,
+    )?;
     Ok(out)
+}
+
+/// The folders an include may resolve inside, canonical (symlinks resolved), with the names a
+/// message shows them by.
+pub(super) struct Roots {
+    roots: Vec<(PathBuf, String)>,
+}
+
+impl Roots {
+    /// The kernel file's folder (`kernel`: none for a WGSL kernel, whose includes are
+    /// `kernels/lib/` or the `--include` folders) and the `--include` folders.
+    pub(super) fn new(kernel: Option<&Path>, dirs: &[PathBuf]) -> Roots {
+        let named = kernel
+            .map(|k| (k, format!("the kernel's folder {}", k.display())))
+            .into_iter()
+            .chain(dirs.iter().map(|d| (d.as_path(), format!("--include {}", d.display()))));
+        Roots {
+            roots: named
+                .filter_map(|(p, shown)| Some((std::fs::canonicalize(p).ok()?, shown)))
+                .collect(),
+        }
+    }
+}
+
+/// The refusal of an absolute include name, if `name` is one.
+fn absolute(name: &str) -> Option<String> {
+    Path::new(name).is_absolute().then(|| {
+        format!(
+            "`{}`: an include names a path relative to the kernel's folder or an --include folder, not an \
+             absolute path",
+            crate::input::names::clip(name)
+        )
+    })
+}
+
+/// The canonical path of `found` (the file include `name` resolved to), or why it is refused:
+/// an absolute name, or a file that resolves (through `..` or a symlink) outside every root.
+/// Nothing is read from a refused file.
+pub(super) fn confined(name: &str, found: &Path, roots: &Roots) -> Result<PathBuf, String> {
+    if let Some(refused) = absolute(name) {
+        return Err(refused);
+    }
+    let shown = crate::input::names::clip(name);
+    let canonical = std::fs::canonicalize(found).map_err(|e| format!("included file `{shown}`: {e}"))?;
+    if roots.roots.iter().any(|(root, _)| canonical.starts_with(root)) {
+        return Ok(canonical);
+    }
+    let inside: Vec<&str> = roots.roots.iter().map(|(_, shown)| shown.as_str()).collect();
+    Err(format!(
+        "included file `{shown}` resolves to {}, outside {}: an include stays inside the kernel's folder \
+         and the --include folders (no `..` out of them, no symlink out); it was not read",
+        crate::input::names::clip(&canonical.display().to_string()),
+        if inside.is_empty() {
+            "every folder given".to_string()
+        } else {
+            inside.join(" and ")
+        }
+    ))
 }
 
 /// The file an include directive names: (name, quoted), or None when the line is no include.
@@ -125,7 +200,7 @@ fn walk(
     text: &str,
     stack: &mut Vec<PathBuf>,
     top: Option<u32>,
-    dirs: &[PathBuf],
+    (dirs, roots): (&[PathBuf], &Roots),
     total: &mut u64,
 ) -> Result<(), HeaderError> {
     let shown = out.files[file].0.clone();
@@ -148,6 +223,9 @@ fn walk(
             continue;
         };
         let (name, quoted) = d.map_err(err)?;
+        if let Some(refused) = absolute(&name) {
+            return Err(err(refused));
+        }
         if stack.len() > crate::limits::MAX_INCLUDE_DEPTH {
             return Err(err(format!(
                 "includes nest deeper than {} files",
@@ -172,7 +250,7 @@ fn walk(
                 }
             )));
         };
-        let canonical = std::fs::canonicalize(found).unwrap_or_else(|_| found.clone());
+        let canonical = confined(&name, found, roots).map_err(err)?;
         if let Some(at) = stack.iter().position(|p| *p == canonical) {
             let chain: Vec<String> = stack[at..].iter().map(|p| p.display().to_string()).collect();
             return Err(err(format!(
@@ -197,7 +275,16 @@ fn walk(
         out.files.push((found.display().to_string(), included.clone()));
         let index = out.files.len() - 1;
         stack.push(canonical);
-        walk(out, index, found, &included, stack, Some(top_line), dirs, total)?;
+        walk(
+            out,
+            index,
+            found,
+            &included,
+            stack,
+            Some(top_line),
+            (dirs, roots),
+            total,
+        )?;
         stack.pop();
     }
     Ok(())

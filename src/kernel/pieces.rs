@@ -129,6 +129,8 @@ fn find(name: &str, user: Option<&Includes>) -> Result<(String, String), String>
             }
         ));
     };
+    // A symlink out of the --include folders is refused before it is read.
+    super::include::confined(name, &found, &super::include::Roots::new(None, dirs))?;
     let bytes =
         crate::io::read_bounded(&found, "included file", crate::limits::MAX_TEXT_INPUT).map_err(|e| e.to_string())?;
     let text = String::from_utf8(bytes).map_err(|_| format!("included file {} is not UTF-8 text", found.display()))?;

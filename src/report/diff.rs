@@ -17,6 +17,11 @@ pub fn body(s: &DiffSummary) -> String {
             } => out.push_str(&format!(
                 "  {material}: not compared (unsupported by {unsupported_by})\n"
             )),
+            MaterialDiff::TooFew { material, pairs } => out.push_str(&format!(
+                "  {material}: no verdict: {pairs} paired configurations, fewer than the {} a paired comparison \
+                 needs (raise --count)\n",
+                crate::limits::MIN_JUDGED
+            )),
             MaterialDiff::Compared {
                 material,
                 change,
@@ -71,6 +76,12 @@ pub fn verdict(outcome: Outcome) -> String {
         Outcome::Regressed => "B is less accurate than A",
         Outcome::Improved => "B is more accurate than A",
         Outcome::Unchanged => "no difference beyond the noise",
+        Outcome::NoVerdict => {
+            return format!(
+                "verdict: none (no material has the {} paired configurations a verdict needs: raise --count)",
+                crate::limits::MIN_JUDGED
+            )
+        }
     };
     format!("verdict: {verdict}")
 }

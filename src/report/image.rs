@@ -45,10 +45,25 @@ impl Rgb {
         [self.data[i], self.data[i + 1], self.data[i + 2]]
     }
 
-    /// An 8-bit RGB PNG read back (a render baseline's images), or why it is not one.
-    pub fn from_png(bytes: &[u8]) -> Result<Rgb, String> {
+    /// An 8-bit RGB PNG read back (a render baseline's images), or why it is not one. Its size
+    /// is checked from the header before anything is decoded: at most `limits::MAX_PIXELS`,
+    /// and `expect` (width, height) when given.
+    pub fn from_png(bytes: &[u8], expect: Option<(u32, u32)>) -> Result<Rgb, String> {
         let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
         let mut reader = decoder.read_info().map_err(|e| format!("not a PNG image: {e}"))?;
+        let (width, height) = (reader.info().width, reader.info().height);
+        if let Some((w, h)) = expect.filter(|&e| e != (width, height)) {
+            return Err(format!(
+                "size mismatch: the PNG declares {width} × {height} pixels, the scene {w} × {h} (not decoded)"
+            ));
+        }
+        let pixels = u64::from(width) * u64::from(height);
+        if pixels > crate::limits::MAX_PIXELS {
+            return Err(format!(
+                "the PNG declares {width} × {height} pixels, more than the {} a render may have (not decoded)",
+                crate::limits::MAX_PIXELS
+            ));
+        }
         let size = reader
             .output_buffer_size()
             .ok_or_else(|| "PNG image too large".to_string())?;
@@ -318,8 +333,11 @@ mod tests {
         assert!(flip(&a, &b).iter().any(|&e| e > 0.1));
         let png = a.png();
         assert_eq!(&png[1..4], b"PNG");
-        assert_eq!(Rgb::from_png(&b.png()), Ok(b.clone()));
-        assert!(Rgb::from_png(&png[..png.len() / 2]).is_err());
-        assert!(Rgb::from_png(b"not a png").is_err());
+        assert_eq!(Rgb::from_png(&b.png(), None), Ok(b.clone()));
+        assert_eq!(Rgb::from_png(&b.png(), Some((b.width, b.height))), Ok(b.clone()));
+        let e = Rgb::from_png(&b.png(), Some((b.width + 1, b.height))).unwrap_err();
+        assert!(e.contains("size mismatch") && e.contains("not decoded"), "{e}");
+        assert!(Rgb::from_png(&png[..png.len() / 2], None).is_err());
+        assert!(Rgb::from_png(b"not a png", None).is_err());
     }
 }

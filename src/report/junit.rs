@@ -130,12 +130,22 @@ fn suites(case: &str, checks: &[Check], gate: Option<&GateReport>, seconds: f64)
             "{} of {} on {}: measured {:e}, limit {:e}",
             c.what, c.method, c.material, c.measured, c.limit
         );
-        tol.out += &format!("{} {text}\n", if c.pass { "pass" } else { "FAIL" });
+        let word = match (c.pass, c.too_few) {
+            (true, _) => "pass",
+            (false, Some(_)) => "NO VERDICT",
+            (false, None) => "FAIL",
+        };
+        tol.out += &format!("{word} {text}\n");
         tol.cases.push(Case {
             name: name(&c.method, &c.material, &c.what),
             classname: c.method.clone(),
             status: if c.pass {
                 Status::Pass
+            } else if let Some(n) = c.too_few {
+                Status::Skipped(format!(
+                    "no verdict: {text}, from {n} configurations, fewer than the {} a quantile needs",
+                    crate::limits::MIN_JUDGED
+                ))
             } else {
                 Status::Failure {
                     kind: "tolerance",
@@ -203,6 +213,7 @@ mod tests {
             limit: 0.01,
             measured,
             pass,
+            too_few: None,
         }
     }
 

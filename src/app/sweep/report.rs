@@ -80,7 +80,7 @@ pub(super) fn report_sweep(
         started.elapsed().as_secs_f64(),
     )?;
     let regressed = gate_report.as_ref().is_some_and(|g| g.regressed());
-    let failed = analysis.checks.iter().filter(|c| !c.pass).count();
+    let passed = analysis.checks.iter().filter(|c| c.pass).count();
     let stale: Vec<&str> = claim_results
         .iter()
         .filter(|c| !c.holds)
@@ -89,7 +89,7 @@ pub(super) fn report_sweep(
     println!(
         "verdict: {} ({} of {} checks pass); claims: {} of {} hold{}; report: {}",
         analysis.verdict.name(),
-        analysis.checks.len() - failed,
+        passed,
         analysis.checks.len(),
         claim_results.len() - stale.len(),
         claim_results.len(),
@@ -100,6 +100,17 @@ pub(super) fn report_sweep(
         },
         dir.join("report.md").display()
     );
+    for c in analysis.checks.iter().filter(|c| c.too_few.is_some()) {
+        println!(
+            "no verdict: {} of {} on {} from {} configurations, fewer than the {} a quantile needs (raise the \
+             material's count)",
+            c.what,
+            c.method,
+            c.material,
+            c.too_few.unwrap_or(0),
+            crate::limits::MIN_JUDGED
+        );
+    }
     if let Some(g) = &gate_report {
         if !g.replay.is_empty() {
             eprintln!(

@@ -65,19 +65,42 @@ pub(super) fn stale_claims(w: &mut String, input: &Summary) {
 /// The verdict line and every failed tolerance check.
 pub(super) fn verdict(w: &mut String, input: &Summary) {
     let a = &input.analysis;
-    let failed: Vec<_> = a.checks.iter().filter(|c| !c.pass).collect();
+    let failed: Vec<_> = a.checks.iter().filter(|c| c.failed()).collect();
+    let too_few: Vec<_> = a.checks.iter().filter(|c| c.too_few.is_some()).collect();
     match a.verdict {
-        Verdict::NoVerdict => {
+        Verdict::NoVerdict if a.checks.is_empty() => {
             w.para("**No verdict**: the case sets no tolerances.");
+        }
+        Verdict::NoVerdict => {
+            w.para(format_args!(
+                "**No verdict**: {} of {} tolerance checks are quantiles of fewer than the {} configurations \
+                 one needs (raise the material's `count`); the others pass.",
+                too_few.len(),
+                a.checks.len(),
+                crate::limits::MIN_JUDGED
+            ));
         }
         v => {
             w.para(format_args!(
                 "**Verdict: {}** ({} of {} tolerance checks pass).",
                 v.name(),
-                a.checks.len() - failed.len(),
+                a.checks.iter().filter(|c| c.pass).count(),
                 a.checks.len()
             ));
         }
+    }
+    for c in &too_few {
+        w.line(format_args!(
+            "- NO VERDICT `{}` on `{}`: {} from {} configurations, fewer than {}",
+            c.method,
+            c.material,
+            c.what,
+            c.too_few.unwrap_or(0),
+            crate::limits::MIN_JUDGED
+        ));
+    }
+    if !too_few.is_empty() {
+        w.blank();
     }
     for c in &failed {
         // Counts read as counts, errors in scientific notation.

@@ -245,7 +245,9 @@ pub fn load(dir: &Path, scene: &SceneEntry) -> anyhow::Result<Loaded> {
         }
         let bytes = read_regular(&file, "render baseline image", MAX_IMAGE_BYTES)
             .map_err(|e| here(format!("{what}: missing or unreadable image: {e}")))?;
-        let img = Rgb::from_png(&bytes).map_err(|e| here(format!("{what}: {}: {e}", file.display())))?;
+        // The size is checked from the PNG's header, before it is decoded.
+        let img = Rgb::from_png(&bytes, Some((scene.width, scene.height)))
+            .map_err(|e| here(format!("{what}: {}: {e}", file.display())))?;
         if (img.width, img.height) != (scene.width, scene.height) {
             return Err(here(format!(
                 "{what}: size mismatch: {} is {} × {} pixels, the scene {} × {}",
