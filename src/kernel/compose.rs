@@ -368,6 +368,8 @@ fn check_contract(
         }
     }
 
+    check_bindings(map, source, &own, kernel, module)?;
+
     const SIGNATURE: &str = "fn method(scene: Scene) -> f32";
     let Some((handle, method)) = module
         .functions
@@ -465,6 +467,70 @@ fn check_contract(
                 format!("`override {name}` has no default and is not among the header's params"),
                 "no value to compile with",
             );
+        }
+    }
+    Ok(())
+}
+
+/// The kernel's texture and sampler globals against its `//! texture:` and `//! sampler:`
+/// headers: each global bound by a header, each header naming a global of its kind.
+fn check_bindings(
+    map: &SourceMap,
+    source: &str,
+    own: &dyn Fn(Span) -> bool,
+    kernel: &KernelFile,
+    module: &naga::Module,
+) -> Result<(), KernelError> {
+    let kind = |ty: naga::Handle<naga::Type>| match module.types[ty].inner {
+        TypeInner::Image { .. } => Some("texture"),
+        TypeInner::Sampler { .. } => Some("sampler"),
+        _ => None,
+    };
+    let globals: Vec<(&str, &str, Span)> = module
+        .global_variables
+        .iter()
+        .filter(|(h, _)| own(module.global_variables.get_span(*h)))
+        .filter_map(|(h, g)| Some((g.name.as_deref()?, kind(g.ty)?, module.global_variables.get_span(h))))
+        .collect();
+    for &(name, what, span) in &globals {
+        let bound = match what {
+            "texture" => kernel.textures.iter().any(|t| t.name == name),
+            _ => kernel.samplers.iter().any(|s| s.name == name),
+        };
+        if !bound {
+            let form = if what == "texture" {
+                format!("`//! texture: {name} = FILE`")
+            } else {
+                format!("`//! sampler: {name} = linear, clamp`")
+            };
+            return Err(map.diagnose(
+                &format!("{what} `{name}` is bound to nothing: add a header line {form}"),
+                vec![(first_line(source, span), "declared here".to_string())],
+                Vec::new(),
+            ));
+        }
+    }
+    let headers = kernel
+        .textures
+        .iter()
+        .map(|t| (t.name.as_str(), "texture", t.line))
+        .chain(kernel.samplers.iter().map(|s| (s.name.as_str(), "sampler", s.line)));
+    for (name, what, line) in headers {
+        if !globals.iter().any(|&(n, w, _)| n == name && w == what) {
+            let message = format!(
+                "`//! {what}: {name} = …` names no {what} global of the kernel (declare `var {name}: {}`)",
+                if what == "texture" {
+                    "texture_2d<f32>;"
+                } else {
+                    "sampler;"
+                }
+            );
+            return Err(KernelError {
+                path: kernel.path.clone(),
+                location: Some((line as u32, 1)),
+                report: format!("{}:{line}: {message}", kernel.path),
+                message,
+            });
         }
     }
     Ok(())
