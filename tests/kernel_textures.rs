@@ -168,3 +168,53 @@ fn bad_bindings_are_refused_naming_the_kernel_line() {
     let (_, stderr) = check(d, &kernel_text("//! sampler: s = linear, clamp\n", DECLS));
     assert!(stderr.contains("k.wgsl:4"), "{stderr}");
 }
+
+#[test]
+fn bindings_are_assigned_in_group_1_and_implicit_lod_samples_level_0() {
+    let dir = tempfile::tempdir().unwrap();
+    npy(dir.path(), "t.npy", &[4, 4, 1], &texels16());
+    let text = "//! id: user.tex\n//! target: line\n//! texture: lut = t.npy\n//! sampler: s = linear, clamp\n\
+                var lut: texture_2d<f32>;\n@group(1) @binding(0) var s: sampler;\n\
+                fn method(scene: Scene) -> f32 {\n    return textureSample(lut, s, vec2<f32>(0.5, 0.5)).x;\n}\n";
+    let path = dir.path().join("k.wgsl");
+    std::fs::write(&path, text).unwrap();
+    let k = KernelFile::read(&path, &Includes::none()).unwrap();
+    let composed = linelight::kernel::compose(&k).unwrap_or_else(|e| panic!("{e}"));
+    // The kernel's own binding of `s` kept; `lut` takes the next free one of group 1.
+    let binding = |name: &str| {
+        let (_, g) = composed
+            .module
+            .global_variables
+            .iter()
+            .find(|(_, g)| g.name.as_deref() == Some(name))
+            .unwrap();
+        g.binding.as_ref().map(|b| (b.group, b.binding))
+    };
+    assert_eq!(binding("s"), Some((1, 0)));
+    assert_eq!(binding("lut"), Some((1, 1)));
+    assert!(composed
+        .source
+        .contains("textureSampleLevel(lut, s, vec2<f32>(0.5, 0.5), 0.0)"));
+    // Line numbers kept: `method` is still on line 7 of the kernel.
+    let method = composed.source.find("fn method").unwrap();
+    assert_eq!(composed.locate(method).1, 7);
+
+    for (decls, expected) in [
+        (
+            "@group(0) @binding(7) var lut: texture_2d<f32>;\n@group(1) @binding(1) var s: sampler;\n",
+            "`lut` is bound in group 0, the harness's",
+        ),
+        (
+            "@group(1) @binding(1) var lut: texture_2d<f32>;\n@group(1) @binding(1) var s: sampler;\n",
+            "`s` and `lut` are both bound at @group(1) @binding(1)",
+        ),
+    ] {
+        let (code, stderr) = check(
+            dir.path(),
+            &kernel_text("//! texture: lut = t.npy\n//! sampler: s = linear, clamp\n", decls),
+        );
+        assert_eq!(code, 2, "{stderr}");
+        assert!(stderr.contains(expected), "expected `{expected}` in:\n{stderr}");
+        assert!(stderr.contains("k.wgsl:"), "{stderr}");
+    }
+}
