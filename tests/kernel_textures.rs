@@ -218,3 +218,61 @@ fn bindings_are_assigned_in_group_1_and_implicit_lod_samples_level_0() {
         assert!(stderr.contains("k.wgsl:"), "{stderr}");
     }
 }
+
+/// A 4×4 single-channel float32 texture sampled on lavapipe with a nearest and a linear sampler
+/// (both clamped) at chosen uv, against the values computed here from the texels: nearest exactly;
+/// linear within the bound 8 bits of sub-texel precision allow (lavapipe's): each axis's weight
+/// off by at most 2⁻⁸, so |error| ≤ 2 · max texel difference · 2⁻⁸.
+#[test]
+fn gpu_samples_a_kernel_texture_nearest_and_linear() {
+    use linelight::input::scene::{Config, Material};
+    use linelight::kernel::builtin_kernels;
+    use linelight::kernel::methods::resolve;
+    let dir = tempfile::tempdir().unwrap();
+    // Texel (x, y), row y first: not linear in x, so a filter off by half a texel shows.
+    let texel = |x: usize, y: usize| (x * x) as f32 * 0.25 + y as f32 * 0.75;
+    let texels: Vec<f32> = (0..16).map(|k| texel(k % 4, k / 4)).collect();
+    npy(dir.path(), "t.npy", &[4, 4, 1], &texels);
+    let text = "//! id: user.tex_sample\n//! target: line\n//! params: MODE=0.0 U=0.5 V=0.5\n\
+                //! texture: lut = t.npy\n//! sampler: near = nearest, clamp\n//! sampler: lin = linear, clamp\n\
+                var lut: texture_2d<f32>;\nvar near: sampler;\nvar lin: sampler;\n\
+                override MODE: f32 = 0.0;\noverride U: f32 = 0.5;\noverride V: f32 = 0.5;\n\
+                fn method(scene: Scene) -> f32 {\n    if (MODE == 0.0) {\n        return textureSample(lut, near, vec2<f32>(U, V)).x;\n    }\n\
+                    return textureSample(lut, lin, vec2<f32>(U, V)).x;\n}\n";
+    let path = dir.path().join("k.wgsl");
+    std::fs::write(&path, text).unwrap();
+    let mut kernels = builtin_kernels();
+    kernels.push(KernelFile::read(&path, &Includes::none()).unwrap());
+    let config = Config {
+        id: "a".into(),
+        p1: [0.3, -0.2, 1.0],
+        p2: [0.9, 0.4, 1.6],
+        radius: None,
+        rect: None,
+        material: Material::Diffuse,
+        texture: None,
+    };
+    let max_diff = texels.iter().cloned().fold(f32::MIN, f32::max) - texels.iter().cloned().fold(f32::MAX, f32::min);
+    let bound = 2.0 * f64::from(max_diff) * 2f64.powi(-8);
+    let at = |i: f64| i.clamp(0.0, 3.0) as usize;
+    for (u, v) in [(0.1, 0.1), (0.3, 0.6), (0.55, 0.2), (0.9, 0.95), (0.4375, 0.8125)] {
+        let gpu = |mode: u32| {
+            let m = resolve(&format!("user.tex_sample@{mode}.0x{u}x{v}"), &kernels).unwrap();
+            common::gpu_values(&m, std::slice::from_ref(&config))[0]
+        };
+        let nearest = texel(at((u * 4.0f64).floor()), at((v * 4.0f64).floor()));
+        assert_eq!(gpu(0), nearest, "nearest at ({u}, {v})");
+        // Bilinear between texel centres, clamped to the edge texels.
+        let (x, y) = (u * 4.0 - 0.5, v * 4.0 - 0.5);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let t = |i: f64, j: f64| f64::from(texel(at(i.max(0.0)), at(j.max(0.0))));
+        let linear = (1.0 - fy) * ((1.0 - fx) * t(x0, y0) + fx * t(x0 + 1.0, y0))
+            + fy * ((1.0 - fx) * t(x0, y0 + 1.0) + fx * t(x0 + 1.0, y0 + 1.0));
+        let got = f64::from(gpu(1));
+        assert!(
+            (got - linear).abs() <= bound,
+            "linear at ({u}, {v}): GPU {got}, exact bilinear {linear}, bound {bound}"
+        );
+    }
+}
