@@ -33,6 +33,7 @@ mod guards;
 mod hlsl;
 mod html_browser;
 mod kernel_lib;
+mod kernel_textures;
 mod layering;
 mod ltc_aniso;
 mod ltc_aniso_resolution;

@@ -14,7 +14,9 @@ pub(crate) const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_Q
     .union(wgpu::Features::SHADER_I16)
     .union(wgpu::Features::SHADER_INT64)
     .union(wgpu::Features::SUBGROUP)
-    .union(wgpu::Features::SUBGROUP_BARRIER);
+    .union(wgpu::Features::SUBGROUP_BARRIER)
+    // Linear filtering of a kernel's float32 textures (src/measure/gpu/textures.rs).
+    .union(wgpu::Features::FLOAT32_FILTERABLE);
 
 /// The shader capabilities kernels are checked with before any device is open: those of
 /// every feature linelight requests when the adapter has it. A device without one of them

@@ -154,17 +154,21 @@ pub(crate) fn compose_parts(
     //
     // WGSL wants directives (`enable f16;`) before any declaration, so the kernel's go
     // above the prelude. Both parts keep the kernel's line numbers.
-    let mut c = Composition::new(&kernel.path, capabilities);
-    if let Some(origin) = &kernel.origin {
-        c.map.translated_from(&kernel.path, origin);
-    }
-    c.push_directives(&parts);
-    c.push(PRELUDE_PATH, prelude);
-    if kernel.uses_line {
-        c.push(GLUE_PATH, STAND_IN);
-    }
-    let kernel_start = c.source.len();
-    c.push_bodies(&parts);
+    let alone = |parts: &[(String, String, String)]| {
+        let mut c = Composition::new(&kernel.path, capabilities);
+        if let Some(origin) = &kernel.origin {
+            c.map.translated_from(&kernel.path, origin);
+        }
+        c.push_directives(parts);
+        c.push(PRELUDE_PATH, prelude);
+        if kernel.uses_line {
+            c.push(GLUE_PATH, STAND_IN);
+        }
+        let kernel_start = c.source.len();
+        c.push_bodies(parts);
+        (c, kernel_start)
+    };
+    let (mut c, kernel_start) = alone(&parts);
     if let Some(name) = find_fn(&body, "I_line").filter(|_| kernel.uses_line) {
         let span = Span::from(kernel_start + name.start..kernel_start + name.end);
         return Err(c.map.diagnose(
@@ -185,6 +189,17 @@ pub(crate) fn compose_parts(
         }
     })?;
     check_contract(&c.map, &c.source, kernel_start..c.source.len(), &body, kernel, &module)?;
+    // Texture and sampler globals without `@group`/`@binding` get theirs in group 1, and
+    // implicit-LOD sampling becomes level 0; the kernel is then composed again.
+    let parts = match bind_resources(&c, kernel_start, &parts, &module)? {
+        Some(edited) => {
+            let (again, _) = alone(&edited);
+            c = again;
+            c.parse()?;
+            edited
+        }
+        None => parts,
+    };
 
     if let Some(inner) = &inner {
         c = with_inner(prelude, inner, &kernel.path, &parts, capabilities)?;
@@ -368,6 +383,8 @@ fn check_contract(
         }
     }
 
+    check_bindings(map, source, &own, kernel, module)?;
+
     const SIGNATURE: &str = "fn method(scene: Scene) -> f32";
     let Some((handle, method)) = module
         .functions
@@ -465,6 +482,176 @@ fn check_contract(
                 format!("`override {name}` has no default and is not among the header's params"),
                 "no value to compile with",
             );
+        }
+    }
+    Ok(())
+}
+
+/// A kernel source part: (path, directives, body).
+type Part = (String, String, String);
+
+/// The group a kernel's textures and samplers are bound in when they name none (group 0 is the
+/// harness's: the entry point's and the prelude's buffers).
+pub const KERNEL_GROUP: u32 = 1;
+
+/// The kernel's parts with a `@group(1) @binding(N)` before each texture or sampler global that
+/// has none (N the first binding of group 1 no other global of the kernel takes) and implicit-LOD
+/// `textureSample` rewritten to `textureSampleLevel(…, 0.0)` (rename::sample_level_zero); None
+/// when nothing changes. A kernel binding in group 0, or two globals on one binding, is refused.
+fn bind_resources(
+    c: &Composition,
+    kernel_start: usize,
+    parts: &[(String, String, String)],
+    module: &naga::Module,
+) -> Result<Option<Vec<Part>>, KernelError> {
+    let mut taken: Vec<(naga::ResourceBinding, Span, String)> = Vec::new();
+    let mut absent: Vec<usize> = Vec::new();
+    let mut arrayed: Vec<String> = Vec::new();
+    for (h, g) in module.global_variables.iter() {
+        let span = module.global_variables.get_span(h);
+        let Some(range) = span.to_range().filter(|r| r.start >= kernel_start) else {
+            continue;
+        };
+        let name = g.name.clone().unwrap_or_default();
+        if let TypeInner::Image { arrayed: true, .. } = module.types[g.ty].inner {
+            arrayed.push(name.clone());
+        }
+        let at = |message: String, label: &str| {
+            c.map.diagnose(
+                &message,
+                vec![(first_line(&c.source, span), label.to_string())],
+                Vec::new(),
+            )
+        };
+        match &g.binding {
+            Some(b) if b.group == 0 => {
+                return Err(at(
+                    format!(
+                        "`{name}` is bound in group 0, the harness's (its scenes, results and tables): \
+                         bind a kernel's textures and samplers in group {KERNEL_GROUP} or above, or drop \
+                         `@group`/`@binding` to have one assigned"
+                    ),
+                    "group 0",
+                ))
+            }
+            Some(b) => {
+                if let Some((_, _, other)) = taken.iter().find(|(t, _, _)| t == b) {
+                    return Err(at(
+                        format!(
+                            "`{name}` and `{other}` are both bound at @group({}) @binding({})",
+                            b.group, b.binding
+                        ),
+                        "second binding",
+                    ));
+                }
+                taken.push((*b, span, name));
+            }
+            None if matches!(
+                module.types[g.ty].inner,
+                TypeInner::Image { .. } | TypeInner::Sampler { .. }
+            ) =>
+            {
+                absent.push(range.start - kernel_start)
+            }
+            None => {}
+        }
+    }
+    let arrayed: Vec<&str> = arrayed.iter().map(String::as_str).collect();
+    let mut next = 0;
+    let mut inserts: Vec<(usize, String)> = Vec::new();
+    for offset in absent {
+        while taken
+            .iter()
+            .any(|(b, _, _)| b.group == KERNEL_GROUP && b.binding == next)
+        {
+            next += 1;
+        }
+        inserts.push((offset, format!("@group({KERNEL_GROUP}) @binding({next}) ")));
+        next += 1;
+    }
+    let mut edited = Vec::new();
+    let mut part_start = 0;
+    let mut changed = false;
+    for (path, directives, body) in parts {
+        let mut text = String::with_capacity(body.len());
+        let mut copied = 0;
+        for (offset, attrs) in inserts
+            .iter()
+            .filter(|(o, _)| (part_start..part_start + body.len()).contains(o))
+        {
+            let at = offset - part_start;
+            text.push_str(&body[copied..at]);
+            text.push_str(attrs);
+            copied = at;
+        }
+        text.push_str(&body[copied..]);
+        let text = super::rename::sample_level_zero(&text, &arrayed);
+        changed |= text != *body;
+        part_start += body.len();
+        edited.push((path.clone(), directives.clone(), text));
+    }
+    Ok(changed.then_some(edited))
+}
+
+/// The kernel's texture and sampler globals against its `//! texture:` and `//! sampler:`
+/// headers: each global bound by a header, each header naming a global of its kind.
+fn check_bindings(
+    map: &SourceMap,
+    source: &str,
+    own: &dyn Fn(Span) -> bool,
+    kernel: &KernelFile,
+    module: &naga::Module,
+) -> Result<(), KernelError> {
+    let kind = |ty: naga::Handle<naga::Type>| match module.types[ty].inner {
+        TypeInner::Image { .. } => Some("texture"),
+        TypeInner::Sampler { .. } => Some("sampler"),
+        _ => None,
+    };
+    let globals: Vec<(&str, &str, Span)> = module
+        .global_variables
+        .iter()
+        .filter(|(h, _)| own(module.global_variables.get_span(*h)))
+        .filter_map(|(h, g)| Some((g.name.as_deref()?, kind(g.ty)?, module.global_variables.get_span(h))))
+        .collect();
+    for &(name, what, span) in &globals {
+        let bound = match what {
+            "texture" => kernel.textures.iter().any(|t| t.name == name),
+            _ => kernel.samplers.iter().any(|s| s.name == name),
+        };
+        if !bound {
+            let form = if what == "texture" {
+                format!("`//! texture: {name} = FILE`")
+            } else {
+                format!("`//! sampler: {name} = linear, clamp`")
+            };
+            return Err(map.diagnose(
+                &format!("{what} `{name}` is bound to nothing: add a header line {form}"),
+                vec![(first_line(source, span), "declared here".to_string())],
+                Vec::new(),
+            ));
+        }
+    }
+    let headers = kernel
+        .textures
+        .iter()
+        .map(|t| (t.name.as_str(), "texture", t.line))
+        .chain(kernel.samplers.iter().map(|s| (s.name.as_str(), "sampler", s.line)));
+    for (name, what, line) in headers {
+        if !globals.iter().any(|&(n, w, _)| n == name && w == what) {
+            let message = format!(
+                "`//! {what}: {name} = …` names no {what} global of the kernel (declare `var {name}: {}`)",
+                if what == "texture" {
+                    "texture_2d<f32>;"
+                } else {
+                    "sampler;"
+                }
+            );
+            return Err(KernelError {
+                path: kernel.path.clone(),
+                location: Some((line as u32, 1)),
+                report: format!("{}:{line}: {message}", kernel.path),
+                message,
+            });
         }
     }
     Ok(())

@@ -3,8 +3,9 @@
 //! read from disk and goes through the same path (kernels/README.md).
 
 use crate::input::target::Target;
+use crate::input::texture_file::TextureData;
 use crate::limits::MAX_ID;
-use std::path::Path;
+use std::path::{Component, Path, PathBuf};
 use std::sync::Arc;
 
 /// Which LTC matrices a method handles.
@@ -53,6 +54,53 @@ pub struct KernelFile {
     /// This file's own source parts: its text, or for a WGSL kernel with `#include`s its
     /// lines and the included pieces' in their order (src/kernel/pieces.rs).
     pub own_parts: Vec<(String, String)>,
+    /// `//! texture: NAME = FILE`: the texture globals bound to files, in header order.
+    pub textures: Vec<TextureBinding>,
+    /// `//! sampler: NAME = linear|nearest, clamp|repeat`: the sampler globals, in header order.
+    pub samplers: Vec<SamplerBinding>,
+}
+
+/// A `//! texture: NAME = FILE` header: the kernel's texture global `NAME` bound to the look-up
+/// table `FILE` (relative to the kernel's folder), read when the header is parsed.
+#[derive(Clone, Debug)]
+pub struct TextureBinding {
+    pub name: String,
+    /// As the header writes it.
+    pub file: String,
+    /// The header's 1-based line in the kernel file.
+    pub line: usize,
+    /// Level 0 of the file (src/input/texture_file), shared between clones of the kernel.
+    pub data: Arc<TextureData>,
+}
+
+/// A `//! sampler: NAME = FILTER, ADDRESS` header.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SamplerSpec {
+    pub filter: Filter,
+    pub address: AddressMode,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SamplerBinding {
+    pub name: String,
+    pub spec: SamplerSpec,
+    /// The header's 1-based line in the kernel file.
+    pub line: usize,
+}
+
+/// A sampler's magnification and minification filter (a kernel's textures have one level).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Filter {
+    Nearest,
+    Linear,
+}
+
+/// A sampler's address mode, on every axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AddressMode {
+    /// Clamp to the edge texel.
+    Clamp,
+    Repeat,
 }
 
 /// The file a translated kernel came from.
@@ -339,6 +387,7 @@ impl KernelFile {
         let mut seen: Vec<(String, usize)> = Vec::new();
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut uses_target = Target::Line;
+        let (mut textures, mut samplers) = (Vec::<TextureBinding>::new(), Vec::<SamplerBinding>::new());
         for (i, raw) in text.lines().enumerate() {
             let Some(rest) = raw.trim_start().strip_prefix("//!") else {
                 continue;
@@ -353,7 +402,9 @@ impl KernelFile {
             };
             let value = value.trim();
             let key_name = key.trim();
-            if let Some((_, first)) = seen.iter().find(|(k, _)| k == key_name) {
+            // `texture` and `sampler` appear once per binding (a name twice is refused below).
+            let repeated = matches!(key_name, "texture" | "sampler");
+            if let Some((_, first)) = seen.iter().find(|(k, _)| k == key_name).filter(|_| !repeated) {
                 return Err(err(
                     lineno,
                     format!("`//! {key_name}:` appears twice (first on line {first})"),
@@ -439,6 +490,36 @@ impl KernelFile {
                         ));
                     }
                 }
+                "texture" | "sampler" => {
+                    let (name, rhs) = binding_header(key_name, value).map_err(|m| err(lineno, m))?;
+                    let first = textures
+                        .iter()
+                        .map(|t| (&t.name, t.line))
+                        .chain(samplers.iter().map(|s| (&s.name, s.line)))
+                        .find(|(n, _)| **n == name);
+                    if let Some((_, first)) = first {
+                        return Err(err(
+                            lineno,
+                            format!("`{name}` is bound twice (first on line {first})"),
+                        ));
+                    }
+                    if key_name == "texture" {
+                        let data = read_texture(path, rhs).map_err(|m| err(lineno, m))?;
+                        textures.push(TextureBinding {
+                            name,
+                            file: rhs.to_string(),
+                            line: lineno,
+                            data: Arc::new(data),
+                        });
+                    } else {
+                        let spec = sampler_spec(rhs).map_err(|m| err(lineno, m))?;
+                        samplers.push(SamplerBinding {
+                            name,
+                            spec,
+                            line: lineno,
+                        });
+                    }
+                }
                 "replace" => {
                     let names: Vec<String> = value
                         .split(|c: char| c == ',' || c.is_whitespace())
@@ -454,7 +535,7 @@ impl KernelFile {
                     return Err(err(
                         lineno,
                         format!(
-                            "unknown header key `{}` (id, target, source, minv, params, uses, derive, replace, language)",
+                            "unknown header key `{}` (id, target, source, minv, params, uses, derive, replace, language, texture, sampler)",
                             crate::input::names::clip(other)
                         ),
                     ))
@@ -545,8 +626,102 @@ impl KernelFile {
             uses_target,
             origin: None,
             derived,
+            textures,
+            samplers,
         })
     }
+}
+
+/// `NAME = REST` of a `//! texture:` or `//! sampler:` header: NAME an identifier.
+fn binding_header<'a>(key: &str, value: &'a str) -> Result<(String, &'a str), String> {
+    let form = if key == "texture" {
+        "`//! texture: NAME = FILE`"
+    } else {
+        "`//! sampler: NAME = linear|nearest, clamp|repeat`"
+    };
+    let shown = crate::input::names::clip(value);
+    let Some((name, rest)) = value.split_once('=') else {
+        return Err(format!("a {key} header is {form}, got `{shown}`"));
+    };
+    let (name, rest) = (name.trim(), rest.trim());
+    let ident = name.chars().next().is_some_and(|c| c.is_alphabetic() || c == '_')
+        && name.chars().all(|c| c.is_alphanumeric() || c == '_');
+    if !ident || rest.is_empty() {
+        return Err(format!(
+            "a {key} header is {form} (NAME the kernel's global), got `{shown}`"
+        ));
+    }
+    Ok((name.to_string(), rest))
+}
+
+/// `linear|nearest, clamp|repeat`.
+fn sampler_spec(value: &str) -> Result<SamplerSpec, String> {
+    let words: Vec<&str> = value.split(',').map(str::trim).collect();
+    let filter = match words.first() {
+        Some(&"linear") => Some(Filter::Linear),
+        Some(&"nearest") => Some(Filter::Nearest),
+        _ => None,
+    };
+    let address = match words.get(1) {
+        Some(&"clamp") => Some(AddressMode::Clamp),
+        Some(&"repeat") => Some(AddressMode::Repeat),
+        _ => None,
+    };
+    match (filter, address, words.len()) {
+        (Some(filter), Some(address), 2) => Ok(SamplerSpec { filter, address }),
+        _ => Err(format!(
+            "a sampler is `linear` or `nearest`, then `clamp` or `repeat` (`//! sampler: s = linear, clamp`), got `{}`",
+            crate::input::names::clip(value)
+        )),
+    }
+}
+
+/// The look-up table `file` of a `//! texture:` header in kernel `kernel` (as shown): a path
+/// relative to the kernel's folder that stays inside it (no absolute path, no `..`, no symlink
+/// out), read by src/input/texture_file (its size checked against src/limits.rs before its
+/// texels are read), with one mip level.
+fn read_texture(kernel: &str, file: &str) -> Result<TextureData, String> {
+    let shown = crate::input::names::clip(file);
+    let relative = Path::new(file);
+    if relative.is_absolute() || relative.has_root() {
+        return Err(format!(
+            "texture file `{shown}` is an absolute path: name it relative to the kernel's folder"
+        ));
+    }
+    if relative
+        .components()
+        .any(|c| matches!(c, Component::ParentDir | Component::Prefix(_)))
+    {
+        return Err(format!(
+            "texture file `{shown}` leaves the kernel's folder (`..`): a texture file lies in the kernel's folder or below it"
+        ));
+    }
+    let folder = match Path::new(kernel).parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let joined = folder.join(relative);
+    let real = std::fs::canonicalize(&joined)
+        .map_err(|e| format!("cannot find texture file `{shown}` ({}: {e})", joined.display()))?;
+    let real_folder = std::fs::canonicalize(&folder)
+        .map_err(|e| format!("cannot read the kernel's folder {}: {e}", folder.display()))?;
+    if !real.starts_with(&real_folder) {
+        return Err(format!(
+            "texture file `{shown}` resolves to {}, outside the kernel's folder {} (through a symlink): \
+             a texture file lies in the kernel's folder or below it",
+            real.display(),
+            real_folder.display()
+        ));
+    }
+    let data = crate::input::texture_file::read(&joined).map_err(|e| e.0)?;
+    if data.mip_levels > 1 {
+        return Err(format!(
+            "texture file `{shown}` holds {} mip levels: a kernel's texture has one (the harness samples \
+             level 0, `textureSampleLevel(…, 0.0)`); store level 0 alone",
+            data.mip_levels
+        ));
+    }
+    Ok(data)
 }
 
 /// A derived kernel's file defines exactly the functions it replaces, each one the base has.

@@ -30,7 +30,7 @@ mod written;
 pub use caps::kernel_capabilities;
 #[cfg(test)]
 pub(crate) use compose::compose_parts;
-pub use compose::{compose, compose_with, entry_point, Composed, GLUE_PATH, WORKGROUP_SIZE};
+pub use compose::{compose, compose_with, entry_point, Composed, GLUE_PATH, KERNEL_GROUP, WORKGROUP_SIZE};
 pub(crate) use compose::{inner_name, ENTRY_NAME, INNER_METHOD};
 pub use diagnostic::{KernelError, ENTRY_PATH};
 pub use file::*;

@@ -106,6 +106,63 @@ pub(crate) fn instrument_loops(text: &str, statement: &str) -> String {
     out
 }
 
+/// Implicit-LOD sampling rewritten to level 0: every `textureSample(t, s, coords[, layer][, offset])`
+/// becomes `textureSampleLevel(t, s, coords[, layer], 0.0[, offset])` (naga allows implicit
+/// LOD only in fragment shaders; a compute kernel's textures have one level). `arrayed`: the
+/// texture names whose calls carry an array layer. Lines are kept.
+pub(crate) fn sample_level_zero(text: &str, arrayed: &[&str]) -> String {
+    let tokens = tokens(text);
+    let mut out = String::with_capacity(text.len() + 32);
+    let mut copied = 0;
+    for (i, t) in tokens.iter().enumerate() {
+        let member = i > 0 && matches!(tokens[i - 1].text, "." | "@");
+        if t.kind != Kind::Ident || t.text != "textureSample" || member {
+            continue;
+        }
+        if tokens.get(i + 1).map(|t| t.text) != Some("(") {
+            continue;
+        }
+        let layer = tokens
+            .get(i + 2)
+            .is_some_and(|a| a.kind == Kind::Ident && arrayed.contains(&a.text));
+        // The end of argument `after` (0-based) at depth 1: where `, 0.0` goes.
+        let after = if layer { 3 } else { 2 };
+        let (mut depth, mut arg, mut at) = (0i32, 0usize, None);
+        for u in &tokens[i + 1..] {
+            match u.text {
+                "(" | "[" => depth += 1,
+                ")" | "]" => {
+                    depth -= 1;
+                    if depth == 0 {
+                        if arg == after {
+                            at = Some(u.start);
+                        }
+                        break;
+                    }
+                }
+                "," if depth == 1 => {
+                    if arg == after {
+                        at = Some(u.start);
+                        break;
+                    }
+                    arg += 1;
+                }
+                _ => {}
+            }
+        }
+        let Some(at) = at else {
+            continue;
+        };
+        out.push_str(&text[copied..t.start]);
+        out.push_str("textureSampleLevel");
+        out.push_str(&text[t.start + t.text.len()..at]);
+        out.push_str(", 0.0");
+        copied = at;
+    }
+    out.push_str(&text[copied..]);
+    out
+}
+
 /// Where `text` declares a function `name` (`fn name`), as the range of the name.
 pub(crate) fn find_fn(text: &str, name: &str) -> Option<Range<usize>> {
     let tokens = tokens(text);
@@ -283,6 +340,15 @@ mod tests {
         for (new_at, old_at) in [(0, 0), (3, 3), (5, 5), (17, 9), (30, 22), (31, 23), (41, 24)] {
             assert_eq!(original_offset(&edits, new_at), old_at, "{new_at}");
         }
+    }
+
+    #[test]
+    fn implicit_lod_sampling_becomes_level_zero() {
+        let text = "let a = textureSample(t, s, uv);\nlet b = textureSample(arr, s, f(uv, 1.0), 2, vec2(1, 0));\n// textureSample(t, s, uv)\nlet c = textureSampleLevel(t, s, uv, 1.0);\n";
+        assert_eq!(
+            sample_level_zero(text, &["arr"]),
+            "let a = textureSampleLevel(t, s, uv, 0.0);\nlet b = textureSampleLevel(arr, s, f(uv, 1.0), 2, 0.0, vec2(1, 0));\n// textureSample(t, s, uv)\nlet c = textureSampleLevel(t, s, uv, 1.0);\n"
+        );
     }
 
     #[test]

@@ -11,6 +11,7 @@ mod device;
 mod driver_env;
 mod loops;
 mod runner;
+mod textures;
 mod timing;
 
 #[cfg(test)]

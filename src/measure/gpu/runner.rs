@@ -29,6 +29,8 @@ pub struct MethodPipeline {
     /// For a method with loops of no static trip count on a device with a loop limit: the
     /// variant that counts loop trips, and the limit (loops.rs).
     pub(crate) counter: Option<(Box<MethodPipeline>, u64)>,
+    /// Group 1: the kernel's textures and samplers (textures.rs); None without any.
+    pub(crate) resources: Option<std::sync::Arc<super::textures::KernelResources>>,
 }
 
 /// A run's raw results, one `f32` per configuration (NaN and infinities kept), and the
@@ -69,6 +71,17 @@ impl Gpu {
         let (params, inner_params, constants) = override_constants(method, &composed)?;
         let constants: Vec<(&str, f64)> = constants.iter().map(|(n, v)| (n.as_str(), *v)).collect();
 
+        let resources = scoped(&self.device, || {
+            super::textures::kernel_resources(self, kernel, &composed.module)
+        })
+        .map_err(|e| KernelError::plain(&kernel.path, format!("wgpu rejected the kernel's textures: {e}")))??;
+        let own_layout = resources.as_ref().map(|r| {
+            self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("linelight method with textures"),
+                bind_group_layouts: &[Some(&self.bind_group_layout), Some(&r.layout)],
+                immediate_size: 0,
+            })
+        });
         let pipeline = scoped(&self.device, || {
             let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(&kernel.path),
@@ -76,7 +89,7 @@ impl Gpu {
             });
             self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(&kernel.id),
-                layout: Some(&self.pipeline_layout),
+                layout: Some(own_layout.as_ref().unwrap_or(&self.pipeline_layout)),
                 module: &module,
                 entry_point: Some(ENTRY_NAME),
                 compilation_options: wgpu::PipelineCompilationOptions {
@@ -102,6 +115,7 @@ impl Gpu {
             pipeline,
             scaled: method.scaled_by_magnitude() && !counting,
             counter: None,
+            resources: resources.map(std::sync::Arc::new),
         })
     }
 
@@ -220,6 +234,9 @@ impl Gpu {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
                 pass.set_pipeline(&pipeline.pipeline);
                 pass.set_bind_group(0, &buffers.bind_group, &[]);
+                if let Some(r) = &pipeline.resources {
+                    pass.set_bind_group(1, &r.bind_group, &[]);
+                }
                 pass.dispatch_workgroups(count.div_ceil(WORKGROUP_SIZE), 1, 1);
             }
             encoder.copy_buffer_to_buffer(&buffers.results, 0, &buffers.readback, 0, result_bytes);

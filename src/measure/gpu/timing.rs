@@ -57,6 +57,8 @@ pub struct TimedPipeline {
     /// The method with its inner line method spelled out, for messages.
     pub id: String,
     pipeline: wgpu::ComputePipeline,
+    /// Group 1: the kernel's textures and samplers, as the run binds them.
+    resources: Option<std::sync::Arc<super::textures::KernelResources>>,
 }
 
 /// One slice of the scenes that fits one dispatch and one binding.
@@ -318,6 +320,7 @@ impl DispatchTimer<'_> {
         Ok(TimedPipeline {
             id: compiled.id,
             pipeline: compiled.pipeline,
+            resources: compiled.resources,
         })
     }
 
@@ -344,6 +347,9 @@ impl DispatchTimer<'_> {
                 pass.set_pipeline(&pipeline.pipeline);
                 for chunk in &self.chunks {
                     pass.set_bind_group(0, &chunk.bind_group, &[]);
+                    if let Some(r) = &pipeline.resources {
+                        pass.set_bind_group(1, &r.bind_group, &[]);
+                    }
                     pass.dispatch_workgroups(chunk.count.div_ceil(WORKGROUP_SIZE), 1, 1);
                 }
             }
