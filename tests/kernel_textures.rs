@@ -225,7 +225,7 @@ fn bindings_are_assigned_in_group_1_and_implicit_lod_samples_level_0() {
 /// off by at most 2⁻⁸, so |error| ≤ 2 · max texel difference · 2⁻⁸.
 #[test]
 fn gpu_samples_a_kernel_texture_nearest_and_linear() {
-    use linelight::input::scene::{Config, Material};
+    use linelight::input::scene::Material;
     use linelight::kernel::builtin_kernels;
     use linelight::kernel::methods::resolve;
     let dir = tempfile::tempdir().unwrap();
@@ -243,15 +243,7 @@ fn gpu_samples_a_kernel_texture_nearest_and_linear() {
     std::fs::write(&path, text).unwrap();
     let mut kernels = builtin_kernels();
     kernels.push(KernelFile::read(&path, &Includes::none()).unwrap());
-    let config = Config {
-        id: "a".into(),
-        p1: [0.3, -0.2, 1.0],
-        p2: [0.9, 0.4, 1.6],
-        radius: None,
-        rect: None,
-        material: Material::Diffuse,
-        texture: None,
-    };
+    let config = common::segment("a", [0.3, -0.2, 1.0], [0.9, 0.4, 1.6], Material::Diffuse);
     let max_diff = texels.iter().cloned().fold(f32::MIN, f32::max) - texels.iter().cloned().fold(f32::MAX, f32::min);
     let bound = 2.0 * f64::from(max_diff) * 2f64.powi(-8);
     let at = |i: f64| i.clamp(0.0, 3.0) as usize;

@@ -92,21 +92,26 @@ pub(crate) fn kernel_resources(
             .find(|(_, g)| g.name.as_deref() == Some(name))
             .map(|(_, g)| g)
     };
+    // The global a header names and its binding, which composition put in the kernel's group.
+    let bound = |name: &str, line: usize, what: &str| {
+        let g = global(name).ok_or_else(|| refuse(line, format!("no global `{name}`")))?;
+        let binding = g.binding.expect("composition binds every texture and sampler");
+        if binding.group != KERNEL_GROUP {
+            return Err(refuse(
+                line,
+                format!(
+                    "`{name}` is bound in group {}: the harness binds a kernel's {what} in group {KERNEL_GROUP} only (so far)",
+                    binding.group
+                ),
+            ));
+        }
+        Ok((g, binding))
+    };
     let mut layout_entries = Vec::new();
     let mut textures = Vec::new();
     let mut views = Vec::new();
     for t in &kernel.textures {
-        let g = global(&t.name).ok_or_else(|| refuse(t.line, format!("no global `{}`", t.name)))?;
-        let binding = g.binding.expect("composition binds every texture");
-        if binding.group != KERNEL_GROUP {
-            return Err(refuse(
-                t.line,
-                format!(
-                    "`{}` is bound in group {}: the harness binds a kernel's textures in group {KERNEL_GROUP} only (so far)",
-                    t.name, binding.group
-                ),
-            ));
-        }
+        let (g, binding) = bound(&t.name, t.line, "textures")?;
         let TypeInner::Image { dim, arrayed, .. } = module.types[g.ty].inner else {
             unreachable!("a texture header names a texture global (compose.rs)")
         };
@@ -187,17 +192,7 @@ pub(crate) fn kernel_resources(
     }
     let mut samplers = Vec::new();
     for s in &kernel.samplers {
-        let g = global(&s.name).ok_or_else(|| refuse(s.line, format!("no global `{}`", s.name)))?;
-        let binding = g.binding.expect("composition binds every sampler");
-        if binding.group != KERNEL_GROUP {
-            return Err(refuse(
-                s.line,
-                format!(
-                    "`{}` is bound in group {}: the harness binds a kernel's samplers in group {KERNEL_GROUP} only (so far)",
-                    s.name, binding.group
-                ),
-            ));
-        }
+        let (_, binding) = bound(&s.name, s.line, "samplers")?;
         let filter = match s.spec.filter {
             Filter::Linear => wgpu::FilterMode::Linear,
             Filter::Nearest => wgpu::FilterMode::Nearest,
